@@ -1,0 +1,77 @@
+/* sombra — the one definition of every struct that crosses the host/kernel boundary.
+ * Compiles as OpenCL C 1.2 and as C++17. Every field is 4 bytes or a 16-byte vector, grouped so
+ * that no compiler inserts padding; tests/test_layout.cpp checks sizeof/offsetof against the
+ * kernel's view. */
+#ifndef SOMBRA_SHARED_TYPES_H
+#define SOMBRA_SHARED_TYPES_H
+
+#ifdef __OPENCL_C_VERSION__
+typedef float4 sb_float4;
+typedef int4 sb_int4;
+typedef uint sb_uint;
+#else
+#include <CL/cl_platform.h>
+typedef cl_float4 sb_float4;
+typedef cl_int4 sb_int4;
+typedef cl_uint sb_uint;
+#endif
+
+/* Edge length of the bricks used for empty-space skipping (Hadwiger §3: brick min/max). */
+#define SOMBRA_BRICK_SIZE 8
+/* Upper bound on volumes per scene (segment arrays are sized by it). */
+#define SOMBRA_MAX_VOLUMES 8
+#define SOMBRA_MAX_LIGHTS 8
+
+enum {
+    SOMBRA_LIGHT_DIRECTIONAL = 0,
+    SOMBRA_LIGHT_SPOT = 1,
+    SOMBRA_LIGHT_POINT = 2
+};
+
+/* One volume instance of the scene, as the kernels see it. */
+typedef struct {
+    /* voxel = (dot(row0.xyz, p) + row0.w, ...): world position → continuous voxel coordinate,
+     * voxel centres at integers 0..dims-1. Its 3×3 part is also the Jacobian used to turn a
+     * voxel-space gradient into a world-space one (g_world = Jᵀ g_voxel). */
+    sb_float4 world_to_voxel[3];
+    sb_int4 dims;        /* x, y, z, unused */
+    sb_int4 brick_dims;  /* bricks along x, y, z, unused */
+    sb_uint data_offset;   /* first voxel in the volume buffer (buffer path) */
+    sb_uint brick_offset;  /* first brick flag in the occupancy buffer */
+    sb_uint tf_offset;     /* first entry of this volume's transfer-function table */
+    sb_uint tf_size;       /* entries in the table (≥ 2) */
+    float tf_domain_min;   /* data value of table entry 0 */
+    float tf_domain_scale; /* (tf_size − 1) / (domain max − domain min) */
+    float step;            /* ray-marching step in world units */
+    float image_z_offset;  /* first z slice of this volume in the 3D image atlas (image path) */
+    float ambient, diffuse, specular, shininess; /* Phong material (Knecht Eq. 3.8) */
+} VolumeGpu;
+
+typedef struct {
+    sb_float4 position;   /* spot/point: world position */
+    sb_float4 direction;  /* directional/spot: unit vector the light travels along */
+    sb_float4 color;      /* rgb × intensity */
+    sb_uint type;         /* SOMBRA_LIGHT_* */
+    float cos_outer;      /* spot: cosine of the cone's half angle (no light outside) */
+    float cos_inner;      /* spot: cosine where the smooth edge starts (full light inside) */
+    float att_constant;   /* distance attenuation 1 / (c + l·d + q·d²) (course slides) */
+    float att_linear;
+    float att_quadratic;
+    float pad0, pad1;
+} LightGpu;
+
+typedef struct {
+    sb_float4 position;
+    sb_float4 forward;  /* unit view direction */
+    sb_float4 right;    /* scaled by tan(fov/2) · aspect */
+    sb_float4 up;       /* scaled by tan(fov/2) */
+    sb_float4 background;
+    sb_uint width, height;
+    sb_uint volume_count, light_count;
+    float ambient_intensity;       /* i_a of Knecht Eq. 3.8 */
+    float termination_transmittance; /* early ray termination below this t_acc */
+    sb_uint jitter_seed;
+    sb_uint pad0;
+} CameraGpu;
+
+#endif /* SOMBRA_SHARED_TYPES_H */

@@ -1,0 +1,38 @@
+// sombra — OpenCL platforms and devices as the library user sees them.
+#pragma once
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace sombra {
+
+struct DeviceInfo {
+    int index;             // position in list_devices(), usable as a --device value
+    std::string platform;
+    std::string name;
+    bool is_gpu;
+    std::string opencl_c_version;
+    unsigned long long global_memory_bytes;
+};
+
+std::vector<DeviceInfo> list_devices();
+
+namespace host { class Runtime; }
+
+// An OpenCL context, device, queue and program cache. Create one per process and share it.
+// selector: "" or "auto" (first GPU, else the first CPU device, i.e. PoCL), "cpu", "gpu", or an
+// index from list_devices(). Throws sombra::Error if no such device exists.
+class Context {
+public:
+    explicit Context(const std::string& selector = "auto");
+    ~Context();
+    Context(const Context&) = delete;
+    Context& operator=(const Context&) = delete;
+    const DeviceInfo& device() const;
+    host::Runtime& runtime();
+
+private:
+    std::unique_ptr<host::Runtime> runtime_;
+};
+
+}  // namespace sombra

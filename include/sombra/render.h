@@ -1,0 +1,51 @@
+// sombra — rendering a scene into an image, with per-stage statistics.
+#pragma once
+#include <map>
+#include <string>
+#include <vector>
+
+#include "sombra/device.h"
+#include "sombra/scene.h"
+
+namespace sombra {
+
+enum class GradientMethod { CentralDifferences, Sobel };
+enum class VolumeStorage { Auto, Buffer, Image };  // Auto: buffer on CPU devices, image on GPUs
+
+struct RenderOptions {
+    int width = 0, height = 0;  // 0: the scene's size
+    GradientMethod gradient = GradientMethod::CentralDifferences;
+    VolumeStorage storage = VolumeStorage::Auto;
+    bool empty_space_skipping = true;
+    float termination_transmittance = 1e-3f;  // early ray termination threshold on t_acc
+    unsigned jitter_seed = 1;
+};
+
+// Linear RGB + alpha (coverage = 1 − t_acc), background already composited into RGB.
+struct Image {
+    int width = 0, height = 0;
+    std::vector<float> rgba;  // row-major, top row first
+};
+
+struct RenderStats {
+    std::string device;
+    std::map<std::string, double> stage_ms;  // from OpenCL profiling events
+    unsigned long long samples = 0;          // volume samples taken (all volumes)
+    double msamples_per_s = 0;               // samples / camera-pass kernel time
+    int width = 0, height = 0;
+    std::string to_json() const;
+};
+
+struct RenderResult {
+    Image image;
+    RenderStats stats;
+};
+
+RenderResult render(Context& context, const Scene& scene, const RenderOptions& options = {});
+
+// PNG (8-bit sRGB) or EXR (float linear) by extension, through OpenImageIO. Writes to a temporary
+// file in the same folder and renames it, so a failed write leaves no partial file.
+void write_image(const Image& image, const std::string& path);
+Image read_image(const std::string& path);  // for tests and tools
+
+}  // namespace sombra

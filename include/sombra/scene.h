@@ -1,0 +1,73 @@
+// sombra — scene description: volumes, lights, camera, background. Loaded from JSON.
+#pragma once
+#include <array>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "sombra/transfer_function.h"
+#include "sombra/volume.h"
+
+namespace sombra {
+
+using Vec3 = std::array<float, 3>;
+
+struct Material {
+    float ambient = 0.3f, diffuse = 0.7f, specular = 0.2f, shininess = 20.f;  // Knecht Eq. 3.8
+};
+
+struct VolumeInstance {
+    std::shared_ptr<const Volume> volume;
+    // Object → world: the volume is centred at the origin of its object frame, voxel (i, j, k) at
+    // ((i − (nx−1)/2)·sx, …); then this row-major 4×4 affine matrix applies.
+    std::array<float, 16> transform{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+    std::array<float, 3> spacing{1, 1, 1};  // voxel size in object units (from the file unless set)
+    TransferFunction transfer_function;
+    float step_voxels = 0.5f;    // ray step as a fraction of the smallest world voxel size
+    float opacity_unit = 0.f;    // world length the TF opacities refer to; 0 = one (smallest) voxel
+    Material material;
+    std::string name;
+};
+
+enum class LightType { Directional, Spot, Point };
+
+struct Light {
+    LightType type = LightType::Directional;
+    Vec3 position{0, 0, 0};   // spot, point
+    Vec3 direction{0, 0, -1}; // directional, spot: direction the light travels
+    Vec3 color{1, 1, 1};
+    float intensity = 1.f;
+    float cone_angle_deg = 30.f;  // spot: half angle of the cone
+    float cone_softness = 0.1f;   // spot: fraction of the cone over which the edge fades
+    float att_constant = 1.f, att_linear = 0.f, att_quadratic = 0.f;  // point, spot
+};
+
+struct Camera {
+    Vec3 position{0, 0, 3};
+    Vec3 look_at{0, 0, 0};
+    Vec3 up{0, 1, 0};
+    float fov_y_deg = 40.f;
+};
+
+struct Scene {
+    std::vector<VolumeInstance> volumes;
+    std::vector<Light> lights;
+    Camera camera;
+    Vec3 background{0, 0, 0};
+    float ambient_intensity = 1.f;  // i_a
+    int width = 512, height = 512;  // default image size (the CLI can override)
+    std::string source;             // file it came from
+};
+
+// Loads a scene file. Volume paths are relative to the scene file's folder. Unknown keys,
+// wrong types and impossible values throw sombra::Error naming the file and the field
+// (e.g. "scene.json: lights[1].cone_angle_deg: must lie in (0, 90]").
+Scene load_scene(const std::string& path, const VolumeLoadOptions& options = {});
+
+// Checks values that make no sense (camera at its look-at point, zero-size volumes, …).
+void validate_scene(const Scene& scene, const std::string& where);
+
+// 4×4 row-major helpers for VolumeInstance::transform.
+std::array<float, 16> make_transform(const Vec3& translate, const Vec3& rotate_deg_xyz, const Vec3& scale);
+
+}  // namespace sombra

@@ -1,0 +1,8 @@
+// sombra — public API. Include this one header.
+#pragma once
+#include "sombra/device.h"
+#include "sombra/error.h"
+#include "sombra/render.h"
+#include "sombra/scene.h"
+#include "sombra/transfer_function.h"
+#include "sombra/volume.h"

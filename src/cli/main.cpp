@@ -1,0 +1,104 @@
+// sombra — command-line renderer. Thin: parses arguments and calls the public library API.
+#include <CLI/CLI.hpp>
+#include <CL/opencl.hpp>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+
+#include "sombra/sombra.h"
+
+namespace {
+
+void write_text_file(const std::string& path, const std::string& text) {
+    std::string temporary = path + ".part";
+    {
+        std::ofstream out(temporary);
+        if (!(out << text << '\n')) {
+            std::remove(temporary.c_str());
+            throw sombra::Error(path + ": cannot write file");
+        }
+    }
+    std::filesystem::rename(temporary, path);
+}
+
+int run(int argc, char** argv) {
+    CLI::App app{"sombra — volumetric shadows for scenes of volumes and translucent geometry"};
+    app.require_subcommand(1);
+
+    std::string scene_path, output, device = "auto", stats_path, gradient = "central", storage = "auto", non_finite = "reject";
+    int width = 0, height = 0;
+    unsigned seed = 1;
+    bool no_skip = false;
+    CLI::App* render = app.add_subcommand("render", "render a scene to an image (PNG or EXR)");
+    render->add_option("scene", scene_path, "scene file (JSON)")->required();
+    render->add_option("-o,--output", output, "output image, .png (sRGB) or .exr (linear float)")->required();
+    render->add_option("--width", width, "image width (default: the scene's)");
+    render->add_option("--height", height, "image height (default: the scene's)");
+    render->add_option("--device", device, "auto, cpu, gpu, or an index from `sombra devices`");
+    render->add_option("--stats", stats_path, "write per-stage times and sample counts as JSON");
+    render->add_option("--gradient", gradient, "central or sobel")->check(CLI::IsMember({"central", "sobel"}));
+    render->add_option("--volume-storage", storage, "auto (buffer on CPUs, image on GPUs), buffer or image")
+        ->check(CLI::IsMember({"auto", "buffer", "image"}));
+    render->add_option("--non-finite", non_finite, "NaN/Inf voxels: reject (error) or sanitize (set to 0, warn)")
+        ->check(CLI::IsMember({"reject", "sanitize"}));
+    render->add_flag("--no-empty-space-skipping", no_skip, "march empty bricks too (for comparisons)");
+    render->add_option("--seed", seed, "seed of the per-pixel ray jitter");
+
+    CLI::App* devices = app.add_subcommand("devices", "list OpenCL platforms and devices");
+
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::CallForHelp& e) {
+        return app.exit(e);
+    } catch (const CLI::ParseError& e) {
+        if (e.get_exit_code() == 0) return app.exit(e);
+        std::cerr << "sombra: error: " << e.what() << "\n";
+        return 2;
+    }
+
+    if (devices->parsed()) {
+        auto list = sombra::list_devices();
+        if (list.empty()) throw sombra::Error("no OpenCL device found (install pocl-opencl-icd: scripts/install-deps.sh)");
+        for (auto& d : list)
+            std::cout << d.index << ": " << d.name << " [" << d.platform << "] " << (d.is_gpu ? "GPU" : "CPU") << ", "
+                      << d.opencl_c_version << ", " << (d.global_memory_bytes >> 20) << " MiB\n";
+        return 0;
+    }
+
+    sombra::VolumeLoadOptions load;
+    load.non_finite = non_finite == "sanitize" ? sombra::NonFinitePolicy::Sanitize : sombra::NonFinitePolicy::Reject;
+    sombra::Scene scene = sombra::load_scene(scene_path, load);
+    sombra::Context context(device);
+    sombra::RenderOptions options;
+    options.width = width, options.height = height;
+    options.gradient = gradient == "sobel" ? sombra::GradientMethod::Sobel : sombra::GradientMethod::CentralDifferences;
+    options.storage = storage == "buffer" ? sombra::VolumeStorage::Buffer
+                      : storage == "image" ? sombra::VolumeStorage::Image
+                                           : sombra::VolumeStorage::Auto;
+    options.empty_space_skipping = !no_skip;
+    options.jitter_seed = seed;
+    sombra::RenderResult result = sombra::render(context, scene, options);
+    sombra::write_image(result.image, output);
+    if (!stats_path.empty()) write_text_file(stats_path, result.stats.to_json());
+    std::cerr << "sombra: wrote " << output << " (" << result.image.width << "×" << result.image.height << ", "
+              << result.stats.device << ", camera pass " << result.stats.stage_ms["camera_pass"] << " ms, "
+              << result.stats.msamples_per_s << " Msamples/s)\n";
+    return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    try {
+        return run(argc, argv);
+    } catch (const sombra::Error& e) {
+        std::cerr << "sombra: error: " << e.what() << "\n";
+    } catch (const cl::Error& e) {
+        std::cerr << "sombra: error: OpenCL: " << e.what() << " failed with error " << e.err() << "\n";
+    } catch (const std::exception& e) {
+        std::cerr << "sombra: error: " << e.what() << "\n";
+    }
+    return 1;
+}

@@ -1,0 +1,179 @@
+#include "host/runtime.h"
+
+#include <cstdlib>
+#include <set>
+#include <sstream>
+
+#include "host/embedded_kernels.h"
+#include "sombra/error.h"
+
+namespace sombra::host {
+namespace {
+
+// PoCL links kernels with `ld` and aborts the process when it is not on PATH (OPENCL-NOTES.md).
+void ensure_linker_on_path() {
+    const char* path = std::getenv("PATH");
+    std::string value = path ? path : "";
+    if (value.find("/usr/bin") == std::string::npos) {
+        value = value.empty() ? "/usr/bin:/bin" : value + ":/usr/bin:/bin";
+        setenv("PATH", value.c_str(), 1);
+    }
+}
+
+struct DeviceEntry {
+    cl::Platform platform;
+    cl::Device device;
+    DeviceInfo info;
+};
+
+std::vector<DeviceEntry> enumerate() {
+    ensure_linker_on_path();
+    std::vector<DeviceEntry> entries;
+    std::vector<cl::Platform> platforms;
+    try {
+        cl::Platform::get(&platforms);
+    } catch (const cl::Error&) {
+        return entries;  // no ICD / no platform: an empty list
+    }
+    for (auto& platform : platforms) {
+        std::vector<cl::Device> devices;
+        try {
+            platform.getDevices(CL_DEVICE_TYPE_ALL, &devices);
+        } catch (const cl::Error&) {
+            continue;
+        }
+        for (auto& device : devices) {
+            DeviceInfo info;
+            info.index = int(entries.size());
+            info.platform = platform.getInfo<CL_PLATFORM_NAME>();
+            info.name = device.getInfo<CL_DEVICE_NAME>();
+            info.is_gpu = (device.getInfo<CL_DEVICE_TYPE>() & CL_DEVICE_TYPE_GPU) != 0;
+            info.opencl_c_version = device.getInfo<CL_DEVICE_OPENCL_C_VERSION>();
+            info.global_memory_bytes = device.getInfo<CL_DEVICE_GLOBAL_MEM_SIZE>();
+            entries.push_back({platform, device, info});
+        }
+    }
+    return entries;
+}
+
+std::string describe(const std::vector<DeviceEntry>& entries) {
+    std::ostringstream out;
+    for (auto& e : entries) out << (e.info.index ? ", " : "") << e.info.index << ": " << e.info.name;
+    return entries.empty() ? "none" : out.str();
+}
+
+const DeviceEntry& choose(const std::vector<DeviceEntry>& entries, const std::string& selector) {
+    if (entries.empty())
+        throw Error("--device: no OpenCL device found (is pocl-opencl-icd installed? run scripts/install-deps.sh)");
+    if (selector.empty() || selector == "auto") {
+        for (auto& e : entries) if (e.info.is_gpu) return e;
+        return entries.front();
+    }
+    if (selector == "gpu" || selector == "cpu") {
+        for (auto& e : entries) if (e.info.is_gpu == (selector == "gpu")) return e;
+        throw Error("--device: no " + selector + " device found; devices are: " + describe(entries));
+    }
+    char* end = nullptr;
+    long index = std::strtol(selector.c_str(), &end, 10);
+    if (end == selector.c_str() || *end != '\0')
+        throw Error("--device: '" + selector + "' is not auto, cpu, gpu or a device index");
+    if (index < 0 || index >= long(entries.size()))
+        throw Error("--device: no device " + selector + "; devices are: " + describe(entries));
+    return entries[std::size_t(index)];
+}
+
+}  // namespace
+
+Runtime::Runtime(const std::string& selector) {
+    auto entries = enumerate();
+    const DeviceEntry& chosen = choose(entries, selector);
+    info_ = chosen.info;
+    device_ = chosen.device;
+    context_ = cl::Context(device_);
+    queue_ = cl::CommandQueue(context_, device_, CL_QUEUE_PROFILING_ENABLE);
+}
+
+std::string expand_kernel_source(const std::string& path) {
+    const auto& sources = embedded_kernel_sources();
+    std::set<std::string> included;
+    std::ostringstream out;
+    // Recursive textual include; each file is emitted once (the headers have guards anyway).
+    auto expand = [&](const std::string& file, auto& self) -> void {
+        if (!included.insert(file).second) return;
+        auto it = sources.find(file);
+        if (it == sources.end()) throw Error("cl/" + file + ": kernel source not embedded in this build");
+        std::istringstream in(it->second);
+        std::string line;
+        int number = 0;
+        out << "#line 1 \"" << file << "\"\n";
+        while (std::getline(in, line)) {
+            ++number;
+            auto pos = line.find("#include \"");
+            if (pos != std::string::npos && line.find_first_not_of(" \t") == pos) {
+                auto begin = pos + 10, end = line.find('"', begin);
+                self(line.substr(begin, end - begin), self);
+                out << "#line " << number + 1 << " \"" << file << "\"\n";
+            } else {
+                out << line << '\n';
+            }
+        }
+    };
+    expand(path, expand);
+    return out.str();
+}
+
+cl::Program& Runtime::program(const std::string& source, const std::vector<std::string>& defines) {
+    std::string options = "-cl-std=CL1.2";
+    for (auto& d : defines) options += " -D" + d;
+    std::lock_guard<std::mutex> lock(cache_mutex_);
+    std::string key = source + "|" + options;
+    auto found = programs_.find(key);
+    if (found != programs_.end()) return found->second;
+    cl::Program program(context_, expand_kernel_source(source));
+    try {
+        program.build(std::vector<cl::Device>{device_}, options.c_str());
+    } catch (const cl::Error&) {
+        std::string log = program.getBuildInfo<CL_PROGRAM_BUILD_LOG>(device_);
+        throw Error("cl/" + source + ": kernel build failed on " + info_.name + " with options '" + options +
+                    "':\n" + log);
+    }
+    return programs_.emplace(key, std::move(program)).first->second;
+}
+
+double Runtime::event_ms(const cl::Event& event) {
+    auto start = event.getProfilingInfo<CL_PROFILING_COMMAND_START>();
+    auto end = event.getProfilingInfo<CL_PROFILING_COMMAND_END>();
+    return double(end - start) * 1e-6;
+}
+
+cl::Buffer make_buffer(Runtime& runtime, cl_mem_flags flags, std::size_t bytes, const void* host_data,
+                       const std::string& what) {
+    if (bytes == 0) {  // OpenCL forbids empty buffers; kernels never read past their counts
+        bytes = 16;
+        host_data = nullptr;
+    }
+    try {
+        if (host_data) flags |= CL_MEM_COPY_HOST_PTR;
+        return cl::Buffer(runtime.context(), flags, bytes, const_cast<void*>(host_data));
+    } catch (const cl::Error& e) {
+        throw Error(what + ": cannot allocate " + std::to_string(bytes >> 20) + " MiB on " + runtime.info().name +
+                    " (" + e.what() + " error " + std::to_string(e.err()) + ")");
+    }
+}
+
+}  // namespace sombra::host
+
+namespace sombra {
+
+std::vector<DeviceInfo> list_devices() {
+    std::vector<DeviceInfo> out;
+    for (auto& e : host::enumerate()) out.push_back(e.info);
+    return out;
+}
+
+Context::Context(const std::string& selector) : runtime_(std::make_unique<host::Runtime>(selector)) {}
+Context::~Context() = default;
+const DeviceInfo& Context::device() const { return runtime_->info(); }
+host::Runtime& Context::runtime() { return *runtime_; }
+
+}  // namespace sombra

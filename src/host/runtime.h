@@ -1,0 +1,48 @@
+// sombra — OpenCL runtime: device choice, program build with -D feature defines and a per-process
+// program cache, kernel timing with profiling events.
+#pragma once
+#include <CL/opencl.hpp>
+
+#include <map>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "sombra/device.h"
+
+namespace sombra::host {
+
+class Runtime {
+public:
+    explicit Runtime(const std::string& selector);
+
+    const DeviceInfo& info() const { return info_; }
+    cl::Context& context() { return context_; }
+    cl::Device& device() { return device_; }
+    cl::CommandQueue& queue() { return queue_; }
+
+    // Builds (once per process) the program made of `source` (a file under cl/, its #includes
+    // resolved from the embedded sources) with the given -D defines. A compile error throws
+    // sombra::Error carrying the build log.
+    cl::Program& program(const std::string& source, const std::vector<std::string>& defines);
+
+    // Milliseconds between an event's start and end (profiling queue).
+    static double event_ms(const cl::Event& event);
+
+private:
+    DeviceInfo info_;
+    cl::Context context_;
+    cl::Device device_;
+    cl::CommandQueue queue_;
+    std::mutex cache_mutex_;
+    std::map<std::string, cl::Program> programs_;
+};
+
+// The source of a cl/ file with every #include "…" replaced by the file's text (each file once).
+std::string expand_kernel_source(const std::string& path);
+
+// Allocation helpers that turn CL_MEM_OBJECT_ALLOCATION_FAILURE and friends into one clear line.
+cl::Buffer make_buffer(Runtime& runtime, cl_mem_flags flags, std::size_t bytes, const void* host_data,
+                       const std::string& what);
+
+}  // namespace sombra::host

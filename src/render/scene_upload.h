@@ -1,0 +1,48 @@
+// sombra — a scene packed for the kernels: volume voxels (buffer or 3D image atlas), per-volume
+// brick occupancy for empty-space skipping, transfer-function tables, lights. Shared by every pass.
+#pragma once
+#include <CL/opencl.hpp>
+
+#include <array>
+#include <vector>
+
+#include "host/runtime.h"
+#include "shared/types.h"
+#include "sombra/scene.h"
+
+namespace sombra::packing {
+
+constexpr int kTransferTableSize = 1024;
+
+// Brick value ranges of a volume (Hadwiger §3): brick b covers voxels [8b, 8b + 8] per axis, one
+// voxel of overlap so that every trilinear sample inside the brick reads only its voxels.
+struct BrickRanges {
+    std::array<int, 3> brick_dims{0, 0, 0};
+    std::vector<float> min, max;
+};
+BrickRanges compute_brick_ranges(const Volume& volume);
+
+// Host-side packing, independent of OpenCL devices (the CPU references read it too).
+struct PackedScene {
+    std::vector<VolumeGpu> volumes;
+    std::vector<LightGpu> lights;
+    std::vector<cl_float4> tf_tables;
+    std::vector<cl_uchar> occupancy;  // 1: the brick may be visible under the transfer function
+    std::vector<std::array<float, 16>> voxel_to_world;  // row-major, per volume
+};
+PackedScene pack_scene(const Scene& scene);
+
+CameraGpu pack_camera(const Scene& scene, int width, int height);
+
+// The packed scene on a device. Voxels live in one float buffer, or in one 3D image whose z
+// slices stack the volumes (padded to the largest x/y), as the kernels' SOMBRA_USE_IMAGES says.
+struct DeviceScene {
+    bool uses_images = false;
+    cl::Buffer voxel_buffer;
+    cl::Image3D voxel_image;
+    cl::Buffer occupancy, tf_tables, volumes, lights;
+    double upload_ms = 0;  // sum of the upload commands' profiling times
+};
+DeviceScene upload_scene(host::Runtime& runtime, const Scene& scene, const PackedScene& packed, bool use_images);
+
+}  // namespace sombra::packing

@@ -1,0 +1,245 @@
+#include "sombra/scene.h"
+
+#include <cmath>
+#include <filesystem>
+
+#include "scene/json_fields.h"
+
+namespace sombra {
+namespace {
+
+using detail::JsonFields;
+using nlohmann::json;
+
+constexpr float kPi = 3.14159265358979f;
+
+std::array<float, 16> multiply(const std::array<float, 16>& a, const std::array<float, 16>& b) {
+    std::array<float, 16> r{};
+    for (int i = 0; i < 4; ++i)
+        for (int j = 0; j < 4; ++j)
+            for (int k = 0; k < 4; ++k) r[i * 4 + j] += a[i * 4 + k] * b[k * 4 + j];
+    return r;
+}
+
+// ParaView layout: rgb_points = [x, r, g, b, x, r, g, b, …], opacity_points = [x, a, x, a, …].
+std::vector<float> flat_numbers(JsonFields& f, const std::string& key, std::size_t group) {
+    const json& v = f.at(key);
+    if (!v.is_array() || v.empty() || v.size() % group != 0)
+        f.fail(key, "must be a flat array of " + std::to_string(group) + "-tuples");
+    std::vector<float> out;
+    for (const auto& e : v) {
+        if (!e.is_number()) f.fail(key, "must contain numbers only");
+        out.push_back(e.get<float>());
+    }
+    return out;
+}
+
+TransferFunction read_transfer_function(const json& j, const std::string& file, const std::string& path) {
+    JsonFields f(j, file, path);
+    TransferFunction tf;
+    auto rgb = flat_numbers(f, "rgb_points", 4);
+    for (std::size_t i = 0; i < rgb.size(); i += 4) tf.color_points.push_back({rgb[i], rgb[i + 1], rgb[i + 2], rgb[i + 3]});
+    auto op = flat_numbers(f, "opacity_points", 2);
+    for (std::size_t i = 0; i < op.size(); i += 2) tf.opacity_points.push_back({op[i], op[i + 1]});
+    f.finish();
+    try {
+        tf.validate(path);
+    } catch (const Error& e) {
+        throw Error(file + ": " + e.what());
+    }
+    return tf;
+}
+
+std::array<float, 16> read_transform(const json& j, const std::string& file, const std::string& path) {
+    JsonFields f(j, file, path);
+    if (f.has("matrix")) {
+        const json& m = f.at("matrix");
+        if (!m.is_array() || m.size() != 16) f.fail("matrix", "must be 16 numbers (row-major 4×4)");
+        std::array<float, 16> out{};
+        for (int i = 0; i < 16; ++i) {
+            if (!m[i].is_number()) f.fail("matrix", "must contain numbers only");
+            out[i] = m[i].get<float>();
+        }
+        f.finish();
+        return out;
+    }
+    Vec3 translate = f.vec3("translate", {0, 0, 0});
+    Vec3 rotate = f.vec3("rotate_deg", {0, 0, 0});
+    Vec3 scale{1, 1, 1};
+    if (f.has("scale")) {
+        const json& s = f.at("scale");
+        if (s.is_number()) scale = {s.get<float>(), s.get<float>(), s.get<float>()};
+        else scale = f.vec3("scale", scale);
+    }
+    for (float s : scale)
+        if (!(std::fabs(s) > 0.f)) f.fail("scale", "must be non-zero");
+    f.finish();
+    return make_transform(translate, rotate, scale);
+}
+
+std::shared_ptr<const Volume> read_generator(const json& j, const std::string& file, const std::string& path) {
+    JsonFields f(j, file, path);
+    std::string type = f.string("type");
+    int size = f.integer("size", 64);
+    if (size < 1 || size > 1024) f.fail("size", "must lie in [1, 1024]");
+    float density = f.number("density", 1.f);
+    Volume v;
+    if (type == "sphere") v = make_sphere(size, f.number("radius_fraction", 0.4f), density);
+    else if (type == "slab") {
+        int axis = f.integer("axis", 2);
+        if (axis < 0 || axis > 2) f.fail("axis", "must be 0, 1 or 2");
+        v = make_slab(size, axis, f.number("lo", 0.25f), f.number("hi", 0.75f), density);
+    } else if (type == "blobs") v = make_gaussian_blobs(size, f.integer("count", 8), std::uint32_t(f.integer("seed", 1)));
+    else if (type == "cloud") v = make_cloud_noise(size, std::uint32_t(f.integer("seed", 1)));
+    else f.fail("type", "unknown generator '" + type + "' (sphere, slab, blobs, cloud)");
+    f.finish();
+    return std::make_shared<const Volume>(std::move(v));
+}
+
+VolumeInstance read_volume(const json& j, const std::string& file, const std::string& path,
+                           const VolumeLoadOptions& options) {
+    JsonFields f(j, file, path);
+    VolumeInstance vi;
+    vi.name = f.string("name", path);
+    bool has_file = f.has("file"), has_generator = f.has("generator");
+    if (has_file == has_generator) f.fail("", "needs exactly one of 'file' and 'generator'");
+    if (has_file) {
+        std::filesystem::path p = f.string("file");
+        if (p.is_relative()) p = std::filesystem::path(file).parent_path() / p;
+        vi.volume = std::make_shared<const Volume>(load_volume(p.lexically_normal().string(), options));
+    } else {
+        vi.volume = read_generator(f.at("generator"), file, f.field("generator"));
+    }
+    vi.spacing = f.vec3("spacing", vi.volume->spacing);
+    for (float s : vi.spacing)
+        if (!(s > 0.f)) f.fail("spacing", "must be positive");
+    if (f.has("transform")) vi.transform = read_transform(f.at("transform"), file, f.field("transform"));
+    vi.transfer_function = read_transfer_function(f.at("transfer_function"), file, f.field("transfer_function"));
+    vi.step_voxels = f.number("step_voxels", vi.step_voxels);
+    if (!(vi.step_voxels >= 0.01f && vi.step_voxels <= 16.f)) f.fail("step_voxels", "must lie in [0.01, 16]");
+    vi.opacity_unit = f.number("opacity_unit", 0.f);
+    if (vi.opacity_unit < 0.f) f.fail("opacity_unit", "must be ≥ 0 (0: one voxel)");
+    if (f.has("material")) {
+        JsonFields m(f.at("material"), file, f.field("material"));
+        vi.material.ambient = m.number("ambient", vi.material.ambient);
+        vi.material.diffuse = m.number("diffuse", vi.material.diffuse);
+        vi.material.specular = m.number("specular", vi.material.specular);
+        vi.material.shininess = m.number("shininess", vi.material.shininess);
+        for (auto key : {"ambient", "diffuse", "specular", "shininess"})
+            if (m.number(key, 0.f) < 0.f) m.fail(key, "must be ≥ 0");
+        m.finish();
+    }
+    f.finish();
+    return vi;
+}
+
+Light read_light(const json& j, const std::string& file, const std::string& path) {
+    JsonFields f(j, file, path);
+    Light l;
+    std::string type = f.string("type");
+    if (type == "directional") l.type = LightType::Directional;
+    else if (type == "spot") l.type = LightType::Spot;
+    else if (type == "point" || type == "omni") l.type = LightType::Point;
+    else f.fail("type", "unknown light type '" + type + "' (directional, spot, point)");
+    if (l.type != LightType::Directional) l.position = f.vec3("position", l.position);
+    if (l.type != LightType::Point) {
+        l.direction = f.vec3("direction", l.direction);
+        float len = std::sqrt(l.direction[0] * l.direction[0] + l.direction[1] * l.direction[1] + l.direction[2] * l.direction[2]);
+        if (!(len > 1e-6f)) f.fail("direction", "must be a non-zero vector");
+        for (float& c : l.direction) c /= len;
+    }
+    l.color = f.vec3("color", l.color);
+    for (float c : l.color)
+        if (c < 0.f) f.fail("color", "must be ≥ 0");
+    l.intensity = f.number("intensity", l.intensity);
+    if (l.intensity < 0.f) f.fail("intensity", "must be ≥ 0");
+    if (l.type == LightType::Spot) {
+        l.cone_angle_deg = f.number("cone_angle_deg", l.cone_angle_deg);
+        if (!(l.cone_angle_deg > 0.f && l.cone_angle_deg < 90.f)) f.fail("cone_angle_deg", "must lie in (0, 90)");
+        l.cone_softness = f.number("cone_softness", l.cone_softness);
+        if (!(l.cone_softness >= 0.f && l.cone_softness <= 1.f)) f.fail("cone_softness", "must lie in [0, 1]");
+    }
+    if (l.type != LightType::Directional && f.has("attenuation")) {
+        Vec3 a = f.vec3("attenuation", {1, 0, 0});
+        if (a[0] < 0.f || a[1] < 0.f || a[2] < 0.f || !(a[0] + a[1] + a[2] > 0.f))
+            f.fail("attenuation", "constant, linear, quadratic must be ≥ 0 and not all 0");
+        l.att_constant = a[0], l.att_linear = a[1], l.att_quadratic = a[2];
+    }
+    f.finish();
+    return l;
+}
+
+}  // namespace
+
+std::array<float, 16> make_transform(const Vec3& t, const Vec3& r, const Vec3& s) {
+    auto rot = [](int axis, float deg) {
+        float c = std::cos(deg * kPi / 180.f), sn = std::sin(deg * kPi / 180.f);
+        std::array<float, 16> m{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+        int a = (axis + 1) % 3, b = (axis + 2) % 3;
+        m[a * 4 + a] = c, m[a * 4 + b] = -sn, m[b * 4 + a] = sn, m[b * 4 + b] = c;
+        return m;
+    };
+    std::array<float, 16> scale{s[0], 0, 0, 0, 0, s[1], 0, 0, 0, 0, s[2], 0, 0, 0, 0, 1};
+    std::array<float, 16> translate{1, 0, 0, t[0], 0, 1, 0, t[1], 0, 0, 1, t[2], 0, 0, 0, 1};
+    // world = T · Rz · Ry · Rx · S · object
+    return multiply(translate, multiply(rot(2, r[2]), multiply(rot(1, r[1]), multiply(rot(0, r[0]), scale))));
+}
+
+void validate_scene(const Scene& scene, const std::string& where) {
+    const Camera& c = scene.camera;
+    Vec3 d{c.look_at[0] - c.position[0], c.look_at[1] - c.position[1], c.look_at[2] - c.position[2]};
+    float len = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    if (!(len > 1e-6f)) throw file_error(where, "camera.look_at", "must differ from camera.position");
+    Vec3 u = c.up;
+    Vec3 cross{d[1] * u[2] - d[2] * u[1], d[2] * u[0] - d[0] * u[2], d[0] * u[1] - d[1] * u[0]};
+    float ulen = std::sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
+    if (!(std::sqrt(cross[0] * cross[0] + cross[1] * cross[1] + cross[2] * cross[2]) > 1e-6f * len * ulen))
+        throw file_error(where, "camera.up", "must not be parallel to the view direction");
+    if (!(c.fov_y_deg > 0.f && c.fov_y_deg < 180.f)) throw file_error(where, "camera.fov_y_deg", "must lie in (0, 180)");
+    if (scene.width < 1 || scene.height < 1 || scene.width > 16384 || scene.height > 16384)
+        throw file_error(where, "image", "width and height must lie in [1, 16384]");
+    if (scene.volumes.size() > 8) throw file_error(where, "volumes", "at most 8 volumes per scene");
+    if (scene.lights.size() > 8) throw file_error(where, "lights", "at most 8 lights per scene");
+    for (std::size_t i = 0; i < scene.volumes.size(); ++i)
+        if (!scene.volumes[i].volume || scene.volumes[i].volume->voxel_count() == 0)
+            throw file_error(where, "volumes[" + std::to_string(i) + "]", "volume is empty");
+}
+
+Scene load_scene(const std::string& path, const VolumeLoadOptions& options) {
+    json root = detail::parse_json_file(path);
+    JsonFields f(root, path, "");
+    Scene scene;
+    scene.source = path;
+    if (f.has("camera")) {
+        JsonFields c(f.at("camera"), path, "camera");
+        scene.camera.position = c.vec3("position", scene.camera.position);
+        scene.camera.look_at = c.vec3("look_at", scene.camera.look_at);
+        scene.camera.up = c.vec3("up", scene.camera.up);
+        scene.camera.fov_y_deg = c.number("fov_y_deg", scene.camera.fov_y_deg);
+        c.finish();
+    }
+    if (f.has("image")) {
+        JsonFields im(f.at("image"), path, "image");
+        scene.width = im.integer("width", scene.width);
+        scene.height = im.integer("height", scene.height);
+        im.finish();
+    }
+    scene.background = f.vec3("background", scene.background);
+    scene.ambient_intensity = f.number("ambient_intensity", scene.ambient_intensity);
+    if (scene.ambient_intensity < 0.f) f.fail("ambient_intensity", "must be ≥ 0");
+    const json& volumes = f.at("volumes");
+    if (!volumes.is_array() || volumes.empty()) f.fail("volumes", "must be a non-empty array");
+    for (std::size_t i = 0; i < volumes.size(); ++i)
+        scene.volumes.push_back(read_volume(volumes[i], path, "volumes[" + std::to_string(i) + "]", options));
+    if (f.has("lights")) {
+        const json& lights = f.at("lights");
+        if (!lights.is_array()) f.fail("lights", "must be an array");
+        for (std::size_t i = 0; i < lights.size(); ++i)
+            scene.lights.push_back(read_light(lights[i], path, "lights[" + std::to_string(i) + "]"));
+    }
+    f.finish();
+    validate_scene(scene, path);
+    return scene;
+}
+
+}  // namespace sombra

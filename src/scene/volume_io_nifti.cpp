@@ -1,0 +1,122 @@
+// sombra — NIfTI-1 (.nii, .nii.gz) reading and writing through niftiio.
+#include "scene/volume_io_common.h"
+
+#include <nifti1_io.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <memory>
+
+namespace sombra {
+namespace volume_io {
+namespace {
+
+struct NiftiFree {
+    void operator()(nifti_image* nim) const { nifti_image_free(nim); }
+};
+using NiftiPtr = std::unique_ptr<nifti_image, NiftiFree>;
+
+ScalarType scalar_type(const std::string& path, int datatype) {
+    switch (datatype) {
+        case NIFTI_TYPE_UINT8: return ScalarType::u8;
+        case NIFTI_TYPE_INT8: return ScalarType::i8;
+        case NIFTI_TYPE_UINT16: return ScalarType::u16;
+        case NIFTI_TYPE_INT16: return ScalarType::i16;
+        case NIFTI_TYPE_UINT32: return ScalarType::u32;
+        case NIFTI_TYPE_INT32: return ScalarType::i32;
+        case NIFTI_TYPE_FLOAT32: return ScalarType::f32;
+        case NIFTI_TYPE_FLOAT64: return ScalarType::f64;
+        default:
+            throw file_error(path, "datatype", std::string("unsupported NIfTI datatype ") +
+                                                   nifti_datatype_string(datatype) + " (" +
+                                                   std::to_string(datatype) + ")");
+    }
+}
+
+float spacing_of(float pixdim) { return std::isfinite(pixdim) && pixdim != 0.f ? std::fabs(pixdim) : 1.f; }
+
+// The header as stored: niftiio's nifti_image silently turns dimensions <= 0 into 1.
+std::array<long long, 3> stored_dims(const std::string& path) {
+    int swapped = 0;
+    std::unique_ptr<nifti_1_header, void (*)(void*)> header(nifti_read_header(path.c_str(), &swapped, 0), std::free);
+    if (!header) throw file_error(path, "header", "not a readable NIfTI-1 header");
+    return {header->dim[1], header->dim[2], header->dim[3]};
+}
+
+// Reads the voxel bytes ourselves (not nifti_image_load): niftiio neither reports a short read
+// of an uncompressed file nor keeps NaN/Inf (it silently turns them into 0).
+std::vector<unsigned char> read_voxel_bytes(const std::string& path, const nifti_image& nim, std::size_t bytes) {
+    znzFile file = znzopen(nim.iname, "rb", nifti_is_gzfile(nim.iname));
+    if (znz_isnull(file)) throw file_error(path, "", "cannot open for reading");
+    std::vector<unsigned char> data(bytes);
+    std::size_t got = 0;
+    if (znzseek(file, nim.iname_offset, SEEK_SET) == 0) got = znzread(data.data(), 1, bytes, file);
+    znzclose(file);
+    check_exact_size(path, "data", bytes, std::max(got, std::min(bytes, got)));  // only a short read can fail
+    return data;
+}
+
+}  // namespace
+
+Volume read_nifti(const std::string& path) {
+    if (!std::ifstream(path, std::ios::binary)) throw file_error(path, "", "cannot open for reading");
+    nifti_set_debug_level(0);
+    NiftiPtr nim(nifti_image_read(path.c_str(), 0));
+    if (!nim) throw file_error(path, "header", "not a readable NIfTI-1 header");
+
+    const bool one_frame = nim->ndim == 3 || (nim->ndim == 4 && nim->nt == 1);
+    if (!one_frame)
+        throw file_error(path, "dim", "expected a 3-D image (or 4-D with one frame), found " +
+                                          std::to_string(nim->ndim) + " dimensions");
+    const ScalarType type = scalar_type(path, nim->datatype);
+    const std::size_t count = checked_voxel_count(path, stored_dims(path), type_size(type));
+    if (std::size_t(nim->nvox) != count || std::size_t(nim->nbyper) != type_size(type) || nim->iname_offset < 0)
+        throw file_error(path, "dim", "header sizes are inconsistent");
+    const std::vector<unsigned char> data = read_voxel_bytes(path, *nim, count * type_size(type));
+
+    Volume volume;
+    volume.dims = {int(nim->nx), int(nim->ny), int(nim->nz)};
+    volume.spacing = {spacing_of(nim->pixdim[1]), spacing_of(nim->pixdim[2]), spacing_of(nim->pixdim[3])};
+    volume.voxels = to_float(data.data(), count, type, nim->byteorder == MSB_FIRST ? Endian::big : Endian::little);
+    const float slope = nim->scl_slope, inter = nim->scl_inter;
+    if (std::isfinite(slope) && slope != 0.f && !(slope == 1.f && inter == 0.f))
+        for (float& v : volume.voxels) v = v * slope + inter;
+    volume.source = path;
+    return volume;
+}
+
+}  // namespace volume_io
+
+void save_volume_nifti(const Volume& volume, const std::string& path) {
+    const std::size_t count = volume_io::checked_voxel_count(path, {volume.dims[0], volume.dims[1], volume.dims[2]});
+    if (volume.voxels.size() != count)
+        throw file_error(path, "voxels", "volume holds " + std::to_string(volume.voxels.size()) +
+                                             " voxels, its dims need " + std::to_string(count));
+    nifti_set_debug_level(0);
+    const int dims[8] = {3, volume.dims[0], volume.dims[1], volume.dims[2], 1, 1, 1, 1};
+    volume_io::NiftiPtr nim(nifti_make_new_nim(dims, NIFTI_TYPE_FLOAT32, 0));
+    if (!nim) throw file_error(path, "", "cannot create a NIfTI image");
+    nim->dx = nim->pixdim[1] = volume.spacing[0];
+    nim->dy = nim->pixdim[2] = volume.spacing[1];
+    nim->dz = nim->pixdim[3] = volume.spacing[2];
+    nim->xyz_units = NIFTI_UNITS_MM;
+    if (nifti_set_filenames(nim.get(), path.c_str(), 0, 1) != 0)
+        throw file_error(path, "", "not a valid NIfTI file name (use .nii or .nii.gz)");
+
+    nim->data = const_cast<float*>(volume.voxels.data());  // niftiio only reads it while writing
+    // write_opts 3 = write the data and leave the file open, so that a failure shows as NULL.
+    znzFile file = nifti_image_write_hdr_img2(nim.get(), 3, "wb", nullptr, nullptr);
+    nim->data = nullptr;  // not ours to free
+    if (file == nullptr) {
+        std::remove(path.c_str());  // leave no partial file behind
+        throw file_error(path, "", "cannot write the NIfTI file");
+    }
+    znzclose(file);
+    if (!std::ifstream(path, std::ios::binary)) throw file_error(path, "", "cannot write the NIfTI file");
+}
+
+}  // namespace sombra

@@ -1,0 +1,109 @@
+// sombra — raw voxel files described by a small JSON header (see data/README.md, "raw volumes"):
+//   {"raw": "file.raw", "dims": [x, y, z], "spacing": [sx, sy, sz], "type": "uint8",
+//    "endian": "little", "header_bytes": 0}
+#include "scene/volume_io_common.h"
+
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <filesystem>
+#include <map>
+
+namespace sombra::volume_io {
+namespace {
+
+using nlohmann::json;
+
+const std::map<std::string, ScalarType>& raw_types() {
+    static const std::map<std::string, ScalarType> types = {
+        {"uint8", ScalarType::u8},   {"int8", ScalarType::i8},   {"uint16", ScalarType::u16},
+        {"int16", ScalarType::i16},  {"uint32", ScalarType::u32}, {"int32", ScalarType::i32},
+        {"float32", ScalarType::f32}, {"float64", ScalarType::f64}};
+    return types;
+}
+
+const json& field(const std::string& path, const json& doc, const char* key, bool required) {
+    static const json absent;
+    if (doc.contains(key)) return doc[key];
+    if (required) throw file_error(path, key, "missing");
+    return absent;
+}
+
+std::string string_field(const std::string& path, const json& doc, const char* key, const char* fallback) {
+    const json& v = field(path, doc, key, fallback == nullptr);
+    if (v.is_null()) return fallback;
+    if (!v.is_string()) throw file_error(path, key, "must be a string");
+    return v.get<std::string>();
+}
+
+std::array<double, 3> triple(const std::string& path, const json& v, const char* key, bool integers) {
+    if (!v.is_array() || v.size() != 3) throw file_error(path, key, "must be an array of 3 numbers");
+    std::array<double, 3> out{};
+    for (int a = 0; a < 3; ++a) {
+        if (integers ? !v[a].is_number_integer() : !v[a].is_number())
+            throw file_error(path, key, integers ? "must hold 3 integers" : "must hold 3 numbers");
+        out[a] = v[a].get<double>();
+    }
+    return out;
+}
+
+}  // namespace
+
+Volume read_raw_json(const std::string& path) {
+    const std::vector<unsigned char> text = read_file(path);
+    json doc;
+    try {
+        doc = json::parse(text.begin(), text.end());
+    } catch (const json::parse_error& e) {
+        throw file_error(path, "json", e.what());
+    }
+    if (!doc.is_object()) throw file_error(path, "json", "the header must be a JSON object");
+    for (const auto& item : doc.items()) {
+        static const char* known[] = {"raw", "dims", "spacing", "type", "endian", "header_bytes"};
+        if (std::find(std::begin(known), std::end(known), item.key()) == std::end(known))
+            throw file_error(path, item.key(), "unknown key (expected raw, dims, spacing, type, endian, header_bytes)");
+    }
+
+    const std::string raw = string_field(path, doc, "raw", nullptr);
+    const std::array<double, 3> d = triple(path, field(path, doc, "dims", true), "dims", true);
+    const std::array<long long, 3> dims = {(long long)d[0], (long long)d[1], (long long)d[2]};
+    const std::string type_name = string_field(path, doc, "type", nullptr);
+    const auto type_it = raw_types().find(type_name);
+    if (type_it == raw_types().end())
+        throw file_error(path, "type", "unknown type '" + type_name + "' (expected uint8, int8, uint16, int16, "
+                                                                      "uint32, int32, float32 or float64)");
+    const std::string endian = string_field(path, doc, "endian", "little");
+    if (endian != "little" && endian != "big") throw file_error(path, "endian", "must be \"little\" or \"big\"");
+    const json& skip = field(path, doc, "header_bytes", false);
+    if (!skip.is_null() && !skip.is_number_unsigned()) throw file_error(path, "header_bytes", "must be an integer >= 0");
+    const std::uint64_t header_bytes = skip.is_null() ? 0 : skip.get<std::uint64_t>();
+
+    Volume volume;
+    const json& spacing = field(path, doc, "spacing", false);
+    if (!spacing.is_null()) {
+        const std::array<double, 3> s = triple(path, spacing, "spacing", false);
+        for (int a = 0; a < 3; ++a) {
+            if (!(s[a] > 0)) throw file_error(path, "spacing", "voxel size must be > 0");
+            volume.spacing[a] = float(s[a]);
+        }
+    }
+
+    const ScalarType type = type_it->second;
+    const std::size_t count = checked_voxel_count(path, dims, type_size(type));
+    const std::filesystem::path raw_path = std::filesystem::path(path).parent_path() / raw;
+    std::vector<unsigned char> bytes;
+    try {
+        bytes = read_file(raw_path.string());
+    } catch (const Error& e) {
+        throw file_error(path, "raw", e.what());
+    }
+    const std::uint64_t needed = header_bytes + std::uint64_t(count) * type_size(type);
+    check_exact_size(path, "raw '" + raw_path.string() + "'", needed, bytes.size());
+
+    volume.dims = {int(dims[0]), int(dims[1]), int(dims[2])};
+    volume.voxels = to_float(bytes.data() + header_bytes, count, type, endian == "big" ? Endian::big : Endian::little);
+    volume.source = path;
+    return volume;
+}
+
+}  // namespace sombra::volume_io
