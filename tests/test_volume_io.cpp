@@ -451,14 +451,11 @@ TEST_CASE("nifti: truncated and malformed files", "[volume_io]") {
     REQUIRE(full.size() == 352 + 16 * 16 * 16 * 4);
     require_load_error(tmp.file("cut.nii", head(full, full.size() - 100)), "data", "truncated");
     require_load_error(tmp.file("header.nii", head(full, 200)), "header");
-    require_load_error(tmp.file("junk.nii", Bytes(1000, 7)), "header");
+    require_load_error(tmp.file("junk.nii", Bytes(1000, 7)), "magic");
 
     Bytes zero = full;  // dim[2] = 0
     zero[44] = zero[45] = 0;
-    const std::string zero_path = tmp.file("zero.nii", zero);
-    const std::string message = error_of([&] { load_volume(zero_path); });
-    INFO(message);
-    CHECK(message.rfind(zero_path + ": ", 0) == 0);  // niftiio rejects it as a header error or we do as dims
+    require_load_error(tmp.file("zero.nii", zero), "dims", "empty volume");  // niftiio alone would read 16 x 1 x 16
 
     Bytes four_d = full;  // dim[0] = 4, dim[4] = 2: two frames
     four_d[40] = 4;

@@ -8,6 +8,7 @@
 #include <cstring>
 #include <fstream>
 #include <limits>
+#include <type_traits>
 
 namespace sombra::volume_io {
 
@@ -55,12 +56,13 @@ std::size_t checked_voxel_count(const std::string& file, const std::array<long l
 }
 
 void check_exact_size(const std::string& file, const std::string& field, std::uint64_t expected,
-                      std::uint64_t actual) {
+                      std::uint64_t actual, const std::string& subject) {
+    const std::string who = subject.empty() ? "" : subject + " ";
     if (actual < expected)
-        throw file_error(file, field, "truncated: expected " + std::to_string(expected) + " bytes, found " +
-                                          std::to_string(actual));
+        throw file_error(file, field, who + (subject.empty() ? "" : "is ") + "truncated: expected " +
+                                          std::to_string(expected) + " bytes, found " + std::to_string(actual));
     if (actual > expected)
-        throw file_error(file, field, "has " + std::to_string(actual - expected) + " extra bytes (expected " +
+        throw file_error(file, field, who + "has " + std::to_string(actual - expected) + " extra bytes (expected " +
                                           std::to_string(expected) + ")");
 }
 
@@ -89,6 +91,8 @@ void convert(const unsigned char* data, std::size_t count, bool swap, float* out
         for (std::size_t b = 0; b < sizeof(T); ++b) buf[b] = swap ? data[sizeof(T) - 1 - b] : data[b];
         T value;
         std::memcpy(&value, buf, sizeof(T));
+        if constexpr (std::is_same_v<T, double>)  // out of float range: Inf, for the NaN/Inf policy
+            if (std::fabs(value) > std::numeric_limits<float>::max()) value = std::copysign(HUGE_VAL, value);
         out[i] = static_cast<float>(value);
     }
 }

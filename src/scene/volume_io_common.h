@@ -25,10 +25,10 @@ std::vector<unsigned char> read_file(const std::string& path);
 std::size_t checked_voxel_count(const std::string& file, const std::array<long long, 3>& dims,
                                 std::size_t item_size = 4);
 
-// Throws "FILE: FIELD: truncated: ..." when actual < expected and
-// "FILE: FIELD: has N extra bytes ..." when actual > expected.
+// Throws "FILE: FIELD: [SUBJECT is ]truncated: ..." when actual < expected and
+// "FILE: FIELD: [SUBJECT ]has N extra bytes ..." when actual > expected.
 void check_exact_size(const std::string& file, const std::string& field, std::uint64_t expected,
-                      std::uint64_t actual);
+                      std::uint64_t actual, const std::string& subject = "");
 
 // Parse a whole token as an integer / a finite number; throw "FILE: FIELD: not ..." otherwise.
 long long parse_int(const std::string& file, const std::string& field, const std::string& text);

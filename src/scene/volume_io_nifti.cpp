@@ -3,7 +3,6 @@
 
 #include <nifti1_io.h>
 
-#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -14,6 +13,8 @@
 namespace sombra {
 namespace volume_io {
 namespace {
+
+constexpr int kMsbFirst = 2;  // nifti_image::byteorder of big-endian files (MSB_FIRST is private to niftiio)
 
 struct NiftiFree {
     void operator()(nifti_image* nim) const { nifti_image_free(nim); }
@@ -39,12 +40,19 @@ ScalarType scalar_type(const std::string& path, int datatype) {
 
 float spacing_of(float pixdim) { return std::isfinite(pixdim) && pixdim != 0.f ? std::fabs(pixdim) : 1.f; }
 
-// The header as stored: niftiio's nifti_image silently turns dimensions <= 0 into 1.
-std::array<long long, 3> stored_dims(const std::string& path) {
+// Checks the header as stored, before niftiio sees it: nifti_image_read prints to stderr on a bad
+// header whatever the debug level, and silently turns dimensions <= 0 into 1.
+std::array<long long, 3> checked_header(const std::string& path) {
     int swapped = 0;
     std::unique_ptr<nifti_1_header, void (*)(void*)> header(nifti_read_header(path.c_str(), &swapped, 0), std::free);
     if (!header) throw file_error(path, "header", "not a readable NIfTI-1 header");
-    return {header->dim[1], header->dim[2], header->dim[3]};
+    if (std::memcmp(header->magic, "n+1", 4) != 0 && std::memcmp(header->magic, "ni1", 4) != 0)
+        throw file_error(path, "magic", "not a NIfTI-1 file");
+    if (header->dim[0] < 1 || header->dim[0] > 7)
+        throw file_error(path, "dim", "dim[0] = " + std::to_string(header->dim[0]) + " is not in 1..7");
+    const std::array<long long, 3> dims = {header->dim[1], header->dim[2], header->dim[3]};
+    checked_voxel_count(path, dims);
+    return dims;
 }
 
 // Reads the voxel bytes ourselves (not nifti_image_load): niftiio neither reports a short read
@@ -54,9 +62,10 @@ std::vector<unsigned char> read_voxel_bytes(const std::string& path, const nifti
     if (znz_isnull(file)) throw file_error(path, "", "cannot open for reading");
     std::vector<unsigned char> data(bytes);
     std::size_t got = 0;
-    if (znzseek(file, nim.iname_offset, SEEK_SET) == 0) got = znzread(data.data(), 1, bytes, file);
+    if (znzseek(file, nim.iname_offset, SEEK_SET) >= 0) got = znzread(data.data(), 1, bytes, file);
     znzclose(file);
-    check_exact_size(path, "data", bytes, std::max(got, std::min(bytes, got)));  // only a short read can fail
+    if (got > bytes) throw file_error(path, "data", "unreadable voxel data (corrupt compressed stream)");  // -1
+    check_exact_size(path, "data", bytes, got);  // a short read: truncated
     return data;
 }
 
@@ -65,6 +74,7 @@ std::vector<unsigned char> read_voxel_bytes(const std::string& path, const nifti
 Volume read_nifti(const std::string& path) {
     if (!std::ifstream(path, std::ios::binary)) throw file_error(path, "", "cannot open for reading");
     nifti_set_debug_level(0);
+    const std::array<long long, 3> dims = checked_header(path);
     NiftiPtr nim(nifti_image_read(path.c_str(), 0));
     if (!nim) throw file_error(path, "header", "not a readable NIfTI-1 header");
 
@@ -73,7 +83,7 @@ Volume read_nifti(const std::string& path) {
         throw file_error(path, "dim", "expected a 3-D image (or 4-D with one frame), found " +
                                           std::to_string(nim->ndim) + " dimensions");
     const ScalarType type = scalar_type(path, nim->datatype);
-    const std::size_t count = checked_voxel_count(path, stored_dims(path), type_size(type));
+    const std::size_t count = checked_voxel_count(path, dims, type_size(type));
     if (std::size_t(nim->nvox) != count || std::size_t(nim->nbyper) != type_size(type) || nim->iname_offset < 0)
         throw file_error(path, "dim", "header sizes are inconsistent");
     const std::vector<unsigned char> data = read_voxel_bytes(path, *nim, count * type_size(type));
@@ -81,7 +91,7 @@ Volume read_nifti(const std::string& path) {
     Volume volume;
     volume.dims = {int(nim->nx), int(nim->ny), int(nim->nz)};
     volume.spacing = {spacing_of(nim->pixdim[1]), spacing_of(nim->pixdim[2]), spacing_of(nim->pixdim[3])};
-    volume.voxels = to_float(data.data(), count, type, nim->byteorder == MSB_FIRST ? Endian::big : Endian::little);
+    volume.voxels = to_float(data.data(), count, type, nim->byteorder == kMsbFirst ? Endian::big : Endian::little);
     const float slope = nim->scl_slope, inter = nim->scl_inter;
     if (std::isfinite(slope) && slope != 0.f && !(slope == 1.f && inter == 0.f))
         for (float& v : volume.voxels) v = v * slope + inter;

@@ -98,7 +98,7 @@ Volume read_raw_json(const std::string& path) {
         throw file_error(path, "raw", e.what());
     }
     const std::uint64_t needed = header_bytes + std::uint64_t(count) * type_size(type);
-    check_exact_size(path, "raw '" + raw_path.string() + "'", needed, bytes.size());
+    check_exact_size(path, "raw", needed, bytes.size(), "'" + raw_path.string() + "'");
 
     volume.dims = {int(dims[0]), int(dims[1]), int(dims[2])};
     volume.voxels = to_float(bytes.data() + header_bytes, count, type, endian == "big" ? Endian::big : Endian::little);

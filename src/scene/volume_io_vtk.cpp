@@ -25,7 +25,8 @@ public:
             std::vector<std::string> w;
             for (std::string t; in >> t;) w.push_back(t);
             if (w.empty() && skip_blank) continue;
-            if (!w.empty()) std::transform(w[0].begin(), w[0].end(), w[0].begin(), ::toupper);
+            if (!w.empty()) std::transform(w[0].begin(), w[0].end(), w[0].begin(),
+                                          [](unsigned char c) { return char(std::toupper(c)); });
             return w;
         }
     }

@@ -1,0 +1,8 @@
+#!/usr/bin/env bash
+# Second command of the README: builds and runs the whole test suite on PoCL (or any device).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+scripts/install-deps.sh
+scripts/build.sh
+cd build
+ctest --output-on-failure -j"$(nproc)" --timeout 600

@@ -1,0 +1,238 @@
+#include "reference/raycaster_ref.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include "shared/hash.h"
+
+namespace sombra::reference {
+namespace {
+
+using V3 = std::array<double, 3>;
+V3 operator+(V3 a, V3 b) { return {a[0] + b[0], a[1] + b[1], a[2] + b[2]}; }
+V3 operator-(V3 a, V3 b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
+V3 operator*(double s, V3 a) { return {s * a[0], s * a[1], s * a[2]}; }
+double dot(V3 a, V3 b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+double norm(V3 a) { return std::sqrt(dot(a, a)); }
+V3 unit(V3 a) { return (1.0 / norm(a)) * a; }
+V3 cross(V3 a, V3 b) { return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]}; }
+V3 from(const Vec3& v) { return {v[0], v[1], v[2]}; }
+
+// Affine map as 3×3 + translation.
+struct Affine {
+    double m[3][3];
+    V3 t;
+    V3 point(V3 p) const { return direction(p) + t; }
+    V3 direction(V3 d) const {
+        return {m[0][0] * d[0] + m[0][1] * d[1] + m[0][2] * d[2], m[1][0] * d[0] + m[1][1] * d[1] + m[1][2] * d[2],
+                m[2][0] * d[0] + m[2][1] * d[1] + m[2][2] * d[2]};
+    }
+    Affine inverse() const {
+        Affine r{};
+        double det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
+                     m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+        for (int i = 0; i < 3; ++i)
+            for (int j = 0; j < 3; ++j) {
+                int a = (j + 1) % 3, b = (j + 2) % 3, c = (i + 1) % 3, d = (i + 2) % 3;
+                r.m[i][j] = (m[a][c] * m[b][d] - m[a][d] * m[b][c]) / det;  // adjugate / det
+            }
+        r.t = -1.0 * r.direction(t);
+        return r;
+    }
+};
+
+struct RefVolume {
+    const VolumeInstance* instance;
+    Affine world_to_voxel;
+    double step, opacity_unit;
+};
+
+RefVolume prepare(const VolumeInstance& vi) {
+    const Volume& v = *vi.volume;
+    Affine grid{}, object{};
+    for (int i = 0; i < 3; ++i) {
+        grid.m[i][i] = vi.spacing[i];
+        grid.t[i] = -0.5 * (v.dims[i] - 1) * vi.spacing[i];
+        for (int j = 0; j < 3; ++j) object.m[i][j] = vi.transform[i * 4 + j];
+        object.t[i] = vi.transform[i * 4 + 3];
+    }
+    Affine voxel_to_world{};
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) voxel_to_world.m[i][j] = object.m[i][0] * grid.m[0][j] + object.m[i][1] * grid.m[1][j] + object.m[i][2] * grid.m[2][j];
+    voxel_to_world.t = object.point(grid.t);
+    double voxel_size = std::numeric_limits<double>::infinity();
+    for (int j = 0; j < 3; ++j)
+        voxel_size = std::min(voxel_size, norm({voxel_to_world.m[0][j], voxel_to_world.m[1][j], voxel_to_world.m[2][j]}));
+    return {&vi, voxel_to_world.inverse(), vi.step_voxels * voxel_size, vi.opacity_unit > 0 ? vi.opacity_unit : voxel_size};
+}
+
+// Extinction per world unit: σ = −ln(1 − α) / opacity_unit, α = 1 capped at T = 1e-6 (README).
+double extinction(const TransferFunction& tf, double value, double unit) {
+    double alpha = std::clamp(double(tf.opacity(float(value))), 0.0, 1.0);
+    double cap = -std::log(1e-6) / unit;
+    return alpha >= 1.0 ? cap : std::min(cap, -std::log1p(-alpha) / unit);
+}
+
+V3 gradient(const Volume& v, V3 p, bool sobel) {
+    auto s = [&](double dx, double dy, double dz) { return sample_trilinear(v, p[0] + dx, p[1] + dy, p[2] + dz); };
+    if (!sobel) return {0.5 * (s(1, 0, 0) - s(-1, 0, 0)), 0.5 * (s(0, 1, 0) - s(0, -1, 0)), 0.5 * (s(0, 0, 1) - s(0, 0, -1))};
+    V3 g{0, 0, 0};
+    for (int dz = -1; dz <= 1; ++dz)
+        for (int dy = -1; dy <= 1; ++dy)
+            for (int dx = -1; dx <= 1; ++dx) {
+                double wx = 2 - std::abs(dx), wy = 2 - std::abs(dy), wz = 2 - std::abs(dz), f = s(dx, dy, dz);
+                g = g + V3{f * dx * wy * wz, f * dy * wx * wz, f * dz * wx * wy};
+            }
+    return (1.0 / 32.0) * g;
+}
+
+// Phong with several lights and attenuation (Knecht Eq. 3.9, slides' phongShading), shadow = 1.
+V3 shade(const Scene& scene, const Material& mat, V3 color, V3 p, V3 normal, V3 to_viewer) {
+    V3 result = (mat.ambient * scene.ambient_intensity) * color;
+    bool has_normal = dot(normal, normal) > 0;
+    if (has_normal && dot(normal, to_viewer) < 0) normal = -1.0 * normal;
+    for (const Light& l : scene.lights) {
+        V3 to_light;
+        double f = 1;
+        if (l.type == LightType::Directional) {
+            to_light = -1.0 * unit(from(l.direction));
+        } else {
+            V3 d = from(l.position) - p;
+            double dist = norm(d);
+            to_light = dist > 0 ? (1.0 / dist) * d : V3{0, 0, 1};
+            f = 1.0 / (l.att_constant + l.att_linear * dist + l.att_quadratic * dist * dist);
+            if (l.type == LightType::Spot) {
+                double half = l.cone_angle_deg * M_PI / 180.0;
+                double e0 = std::cos(half), e1 = std::cos(half * (1 - l.cone_softness));
+                if (e1 <= e0) e1 = e0 + 1e-6;
+                double x = std::clamp((dot(-1.0 * to_light, unit(from(l.direction))) - e0) / (e1 - e0), 0.0, 1.0);
+                f *= x * x * (3 - 2 * x);
+            }
+        }
+        if (f <= 0) continue;
+        V3 lit;
+        if (has_normal) {
+            double n_dot_l = std::max(dot(normal, to_light), 0.0);
+            V3 r = (2 * dot(normal, to_light)) * normal - to_light;
+            double highlight = n_dot_l > 0 && mat.specular > 0 ? std::pow(std::max(dot(r, to_viewer), 0.0), mat.shininess) : 0;
+            lit = (mat.diffuse * n_dot_l) * color + (mat.specular * highlight) * V3{1, 1, 1};
+        } else {
+            lit = mat.diffuse * color;
+        }
+        V3 lc = double(l.intensity) * from(l.color);
+        result = result + f * V3{lit[0] * lc[0], lit[1] * lc[1], lit[2] * lc[2]};
+    }
+    return result;
+}
+
+}  // namespace
+
+double sample_trilinear(const Volume& v, double x, double y, double z) {
+    double p[3] = {std::clamp(x, 0.0, v.dims[0] - 1.0), std::clamp(y, 0.0, v.dims[1] - 1.0), std::clamp(z, 0.0, v.dims[2] - 1.0)};
+    int i0[3], i1[3];
+    double f[3];
+    for (int a = 0; a < 3; ++a) {
+        i0[a] = int(std::floor(p[a]));
+        i1[a] = std::min(i0[a] + 1, v.dims[a] - 1);
+        f[a] = p[a] - i0[a];
+    }
+    double result = 0;
+    for (int c = 0; c < 8; ++c) {
+        int ix = c & 1 ? i1[0] : i0[0], iy = c & 2 ? i1[1] : i0[1], iz = c & 4 ? i1[2] : i0[2];
+        double w = (c & 1 ? f[0] : 1 - f[0]) * (c & 2 ? f[1] : 1 - f[1]) * (c & 4 ? f[2] : 1 - f[2]);
+        result += w * v.at(ix, iy, iz);
+    }
+    return result;
+}
+
+Image render_reference(const Scene& scene, int width, int height, const ReferenceOptions& options) {
+    std::vector<RefVolume> volumes;
+    for (const auto& vi : scene.volumes) volumes.push_back(prepare(vi));
+    const Camera& cam = scene.camera;
+    V3 eye = from(cam.position), forward = unit(from(cam.look_at) - eye);
+    V3 right = unit(cross(forward, from(cam.up))), up = cross(right, forward);
+    double tan_half = std::tan(0.5 * cam.fov_y_deg * M_PI / 180.0), aspect = double(width) / height;
+
+    Image image;
+    image.width = width, image.height = height;
+    image.rgba.resize(std::size_t(width) * height * 4);
+    for (int y = 0; y < height; ++y)
+        for (int x = 0; x < width; ++x) {
+            double sx = ((x + 0.5) / width) * 2 - 1, sy = 1 - ((y + 0.5) / height) * 2;
+            V3 dir = unit(forward + (sx * tan_half * aspect) * right + (sy * tan_half) * up);
+            // per-volume entry/exit along the ray (slab test in voxel space; affine maps keep t)
+            std::vector<double> enter(volumes.size()), exit(volumes.size()), bounds;
+            for (std::size_t i = 0; i < volumes.size(); ++i) {
+                V3 o = volumes[i].world_to_voxel.point(eye), d = volumes[i].world_to_voxel.direction(dir);
+                double t0 = -INFINITY, t1 = INFINITY;
+                for (int a = 0; a < 3; ++a) {
+                    double lo = -0.5, hi = volumes[i].instance->volume->dims[a] - 0.5;
+                    if (std::fabs(d[a]) < 1e-30) {
+                        if (o[a] < lo || o[a] > hi) t0 = INFINITY, t1 = -INFINITY;
+                    } else {
+                        double ta = (lo - o[a]) / d[a], tb = (hi - o[a]) / d[a];
+                        t0 = std::max(t0, std::min(ta, tb));
+                        t1 = std::min(t1, std::max(ta, tb));
+                    }
+                }
+                enter[i] = std::max(t0, 0.0), exit[i] = t1;
+                if (enter[i] < exit[i]) bounds.push_back(enter[i]), bounds.push_back(exit[i]);
+            }
+            std::sort(bounds.begin(), bounds.end());
+            double jitter = sombra_pixel_jitter(std::uint32_t(x), std::uint32_t(y), options.jitter_seed);
+            V3 radiance{0, 0, 0};
+            double transmittance = 1;
+            bool done = false;
+            for (std::size_t s = 0; s + 1 < bounds.size() && !done; ++s) {
+                double a = bounds[s], b = bounds[s + 1], mid = 0.5 * (a + b), step = INFINITY;
+                std::vector<std::size_t> active;
+                for (std::size_t i = 0; i < volumes.size(); ++i)
+                    if (enter[i] <= mid && mid < exit[i]) active.push_back(i), step = std::min(step, volumes[i].step);
+                if (active.empty() || !(b > a)) continue;
+                for (double k = 0;; k += 1) {
+                    double t = a + (k + jitter) * step;
+                    if (t >= b) break;
+                    V3 p = eye + t * dir;
+                    double sigma_sum = 0;
+                    V3 color_sum{0, 0, 0};
+                    for (std::size_t i : active) {
+                        const VolumeInstance& vi = *volumes[i].instance;
+                        V3 pv = volumes[i].world_to_voxel.point(p);
+                        double value = sample_trilinear(*vi.volume, pv[0], pv[1], pv[2]);
+                        double sigma = extinction(vi.transfer_function, value, volumes[i].opacity_unit);
+                        if (sigma <= 0) continue;
+                        auto c = vi.transfer_function.color(float(value));
+                        V3 normal{0, 0, 0};
+                        if (!scene.lights.empty()) {
+                            V3 g = gradient(*vi.volume, pv, options.sobel);
+                            double range = vi.transfer_function.domain_max() - vi.transfer_function.domain_min();
+                            if (norm(g) * (range > 0 ? 1023.0 / range : 0.0) >= 1e-3) {
+                                const auto& m = volumes[i].world_to_voxel.m;  // g_world = Jᵀ g_voxel
+                                V3 gw{m[0][0] * g[0] + m[1][0] * g[1] + m[2][0] * g[2], m[0][1] * g[0] + m[1][1] * g[1] + m[2][1] * g[2],
+                                      m[0][2] * g[0] + m[1][2] * g[1] + m[2][2] * g[2]};
+                                normal = -1.0 * unit(gw);
+                            }
+                        }
+                        V3 shaded = shade(scene, vi.material, {c[0], c[1], c[2]}, p, normal, -1.0 * dir);
+                        sigma_sum += sigma;
+                        color_sum = color_sum + sigma * shaded;
+                    }
+                    if (sigma_sum > 0) {  // Knecht Eq. 3.10–3.11 with α = 1 − exp(−Σσ Δ)
+                        double alpha = 1 - std::exp(-sigma_sum * step);
+                        radiance = radiance + (alpha * transmittance / sigma_sum) * color_sum;
+                        transmittance *= 1 - alpha;
+                    }
+                    if (transmittance <= options.termination_transmittance) { done = true; break; }
+                }
+            }
+            float* px = &image.rgba[(std::size_t(y) * width + x) * 4];
+            for (int c = 0; c < 3; ++c) px[c] = float(radiance[c] + transmittance * scene.background[c]);
+            px[3] = float(1 - transmittance);
+        }
+    return image;
+}
+
+}  // namespace sombra::reference

@@ -1,0 +1,21 @@
+// sombra tests — plain C++ reference of the camera pass (render.cl), in double precision.
+// Written from the papers and the README's conventions, not from the kernel: it evaluates the
+// transfer function directly (no table), inverts transforms itself and never skips bricks.
+#pragma once
+#include "sombra/render.h"
+#include "sombra/scene.h"
+
+namespace sombra::reference {
+
+struct ReferenceOptions {
+    bool sobel = false;
+    double termination_transmittance = 1e-3;
+    unsigned jitter_seed = 1;
+};
+
+Image render_reference(const Scene& scene, int width, int height, const ReferenceOptions& options = {});
+
+// Trilinear density at a continuous voxel position, clamped to the edge (for unit tests).
+double sample_trilinear(const Volume& volume, double x, double y, double z);
+
+}  // namespace sombra::reference

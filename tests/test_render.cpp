@@ -1,0 +1,130 @@
+// Camera pass: kernel against the double-precision CPU reference, feature switches, public API.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+
+#include "reference/raycaster_ref.h"
+#include "test_support.h"
+
+using namespace sombra;
+
+namespace {
+
+RenderResult render_with(const Scene& scene, RenderOptions options = {}) {
+    return render(test::context(), scene, options);
+}
+
+void require_matches_reference(const Scene& scene, RenderOptions options, reference::ReferenceOptions ref_options) {
+    RenderResult kernel = render_with(scene, options);
+    Image ref = reference::render_reference(scene, scene.width, scene.height, ref_options);
+    auto d = test::compare(kernel.image, ref);
+    INFO("max |kernel − reference| = " << d.max_abs << ", mean = " << d.mean_abs);
+    REQUIRE(d.non_finite == 0);
+    // measured on PoCL: max ≈ 6e-5, mean ≈ 4e-7 (float kernel vs double reference, 1024-entry TF table)
+    CHECK(d.mean_abs < 1e-4);
+    CHECK(d.max_abs < 2e-3);
+}
+
+}  // namespace
+
+TEST_CASE("camera pass matches the CPU reference: one sphere, directional light", "[render]") {
+    Scene s = test::sphere_scene();
+    require_matches_reference(s, {}, {});
+}
+
+TEST_CASE("camera pass matches the CPU reference: overlapping rotated volumes, spot + point + directional", "[render]") {
+    Scene s = test::overlapping_scene();
+    SECTION("buffer storage, central differences") { require_matches_reference(s, {}, {}); }
+    SECTION("Sobel gradients") {
+        RenderOptions o;
+        o.gradient = GradientMethod::Sobel;
+        reference::ReferenceOptions r;
+        r.sobel = true;
+        require_matches_reference(s, o, r);
+    }
+    SECTION("3D image storage with the linear sampler") {
+        RenderOptions o;
+        o.storage = VolumeStorage::Image;
+        require_matches_reference(s, o, {});
+    }
+}
+
+TEST_CASE("camera pass without lights shows the transfer function colours only (ambient)", "[render]") {
+    Scene s = test::sphere_scene();
+    s.lights.clear();
+    require_matches_reference(s, {}, {});
+}
+
+TEST_CASE("empty-space skipping changes no pixel and takes fewer samples", "[render]") {
+    Scene s = test::overlapping_scene();
+    // a threshold TF leaves most bricks empty
+    s.volumes[0].transfer_function = test::ramp_tf(0.55f, 0.8f, 0.6f);
+    RenderOptions with, without;
+    without.empty_space_skipping = false;
+    RenderResult a = render_with(s, with), b = render_with(s, without);
+    auto d = test::compare(a.image, b.image);
+    INFO("max difference " << d.max_abs << ", samples " << a.stats.samples << " vs " << b.stats.samples);
+    CHECK(d.max_abs < 1e-5);
+    CHECK(a.stats.samples < b.stats.samples);
+}
+
+TEST_CASE("early ray termination stops opaque rays", "[render]") {
+    Scene s = test::sphere_scene();
+    s.volumes[0].transfer_function = test::ramp_tf(0.1f, 0.2f, 1.0f);  // opaque ball
+    RenderOptions stop, go_on;
+    go_on.termination_transmittance = 0.f;
+    RenderResult a = render_with(s, stop), b = render_with(s, go_on);
+    CHECK(a.stats.samples < b.stats.samples);
+    CHECK(test::compare(a.image, b.image).max_abs < 2e-3);  // what was cut contributes ≤ 1e-3
+}
+
+TEST_CASE("camera inside a volume and a stiff (saturating) medium give finite pixels", "[render][numerics]") {
+    Scene s = test::sphere_scene();
+    s.camera.position = {0.05f, 0.02f, 0.1f};  // inside the box and the ball
+    s.camera.look_at = {0, 0, -1};
+    s.volumes[0].opacity_unit = 1e-4f;  // σΔ ≫ 1: one step saturates
+    RenderResult r = render_with(s);
+    std::size_t bad = 0;
+    for (float v : r.image.rgba) bad += !std::isfinite(v);
+    CHECK(bad == 0);
+    Image ref = reference::render_reference(s, s.width, s.height);
+    CHECK(test::compare(r.image, ref).mean_abs < 2e-3);
+}
+
+TEST_CASE("axis-aligned rays and a one-voxel volume", "[render][numerics]") {
+    Scene s = test::sphere_scene();
+    s.volumes[0].volume = std::make_shared<const Volume>(make_slab(1, 0, 0.f, 1.f, 1.f));
+    s.volumes[0].transform = make_transform({0, 0, 0}, {0, 0, 0}, {0.5f, 0.5f, 0.5f});
+    s.camera.position = {0, 0, 2};  // the centre ray runs exactly along z
+    s.lights[0].direction = {0, 0, -1};
+    RenderResult r = render_with(s);
+    for (float v : r.image.rgba) REQUIRE(std::isfinite(v));
+    Image ref = reference::render_reference(s, s.width, s.height);
+    CHECK(test::compare(r.image, ref).max_abs < 0.05);
+    // the centre pixel sees the voxel: it is not the background
+    std::size_t c = (std::size_t(s.height / 2) * s.width + s.width / 2) * 4;
+    CHECK(r.image.rgba[c + 3] > 0.1f);
+}
+
+TEST_CASE("public API renders the default CT scene", "[render][api]") {
+    Scene scene = load_scene(test::data_path("scenes/default.json"));
+    RenderOptions o;
+    o.width = 64, o.height = 64;
+    RenderResult r = render(test::context(), scene, o);
+    REQUIRE(r.image.width == 64);
+    double coverage = 0;
+    for (std::size_t i = 0; i < 64 * 64; ++i) coverage += r.image.rgba[i * 4 + 3];
+    coverage /= 64 * 64;
+    CHECK(coverage > 0.05);  // the stent graft and vessels cover part of the view
+    CHECK(coverage < 0.9);
+    CHECK(r.stats.samples > 0);
+    CHECK(r.stats.stage_ms.count("camera_pass") == 1);
+    CHECK(r.stats.to_json().find("\"device\"") != std::string::npos);
+    // round trip through an image file
+    std::string png = test::temp_dir() + "/api.png", exr = test::temp_dir() + "/api.exr";
+    write_image(r.image, png);
+    write_image(r.image, exr);
+    Image back = read_image(exr);
+    CHECK(test::compare(back, r.image).max_abs < 1e-6);
+    CHECK(read_image(png).width == 64);
+}

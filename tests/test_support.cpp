@@ -1,0 +1,96 @@
+#include "test_support.h"
+
+#include <cmath>
+#include <filesystem>
+#include <unistd.h>
+
+namespace sombra::test {
+
+Context& context() {
+    static Context ctx("cpu");
+    return ctx;
+}
+
+ImageDifference compare(const Image& a, const Image& b) {
+    ImageDifference d;
+    std::size_t n = std::min(a.rgba.size(), b.rgba.size()) / 4;
+    for (std::size_t i = 0; i < n; ++i)
+        for (int c = 0; c < 3; ++c) {
+            float x = a.rgba[i * 4 + c], y = b.rgba[i * 4 + c];
+            if (!std::isfinite(x) || !std::isfinite(y)) { ++d.non_finite; continue; }
+            double diff = std::fabs(double(x) - double(y));
+            d.max_abs = std::max(d.max_abs, diff);
+            d.mean_abs += diff;
+        }
+    d.mean_abs /= double(std::max<std::size_t>(1, n * 3));
+    return d;
+}
+
+TransferFunction ramp_tf(float lo, float hi, float max_alpha) {
+    TransferFunction tf;
+    tf.color_points = {{0.f, 0.9f, 0.5f, 0.3f}, {1.f, 0.3f, 0.6f, 1.0f}};
+    tf.opacity_points = {{lo, 0.f}, {hi, max_alpha}, {1.f, max_alpha}};
+    if (lo <= 0.f) tf.opacity_points.erase(tf.opacity_points.begin());
+    return tf;
+}
+
+Scene sphere_scene(int size) {
+    Scene s;
+    VolumeInstance vi;
+    vi.volume = std::make_shared<const Volume>(make_sphere(size, 0.4f, 1.f));
+    vi.transfer_function = ramp_tf(0.2f, 0.6f, 0.4f);
+    vi.transform = make_transform({0, 0, 0}, {0, 0, 0}, {1.f / size, 1.f / size, 1.f / size});
+    s.volumes.push_back(vi);
+    Light l;
+    l.direction = {-0.3f, -0.5f, -0.8f};
+    s.lights.push_back(l);
+    s.camera.position = {0.3f, 0.4f, 2.2f};
+    s.background = {0.1f, 0.1f, 0.2f};
+    s.width = s.height = 40;
+    return s;
+}
+
+Scene overlapping_scene() {
+    Scene s;
+    VolumeInstance a, b;
+    a.volume = std::make_shared<const Volume>(make_gaussian_blobs(20, 5, 7));
+    a.transfer_function = ramp_tf(0.1f, 0.7f, 0.5f);
+    a.transform = make_transform({-0.15f, 0.f, 0.f}, {20.f, 35.f, 0.f}, {0.05f, 0.05f, 0.05f});
+    a.material.specular = 0.5f;
+    b.volume = std::make_shared<const Volume>(make_cloud_noise(16, 3));
+    b.spacing = {1.f, 1.5f, 1.f};
+    b.transfer_function = ramp_tf(0.2f, 0.9f, 0.3f);
+    b.transform = make_transform({0.2f, 0.1f, -0.1f}, {0.f, -25.f, 10.f}, {0.06f, 0.06f, 0.06f});
+    b.step_voxels = 0.35f;
+    s.volumes = {a, b};
+    Light dir, spot, point;
+    dir.direction = {0.f, -1.f, -0.2f};
+    dir.intensity = 0.7f;
+    spot.type = LightType::Spot;
+    spot.position = {1.5f, 1.f, 1.5f};
+    spot.direction = {-1.5f, -1.f, -1.5f};
+    spot.cone_angle_deg = 12.f;
+    spot.cone_softness = 0.3f;
+    spot.color = {1.f, 0.6f, 0.3f};
+    point.type = LightType::Point;
+    point.position = {-1.f, 0.5f, 1.f};
+    point.att_linear = 0.3f, point.att_quadratic = 0.2f;
+    s.lights = {dir, spot, point};
+    s.camera.position = {0.4f, 0.5f, 2.f};
+    s.camera.fov_y_deg = 35.f;
+    s.width = 48, s.height = 36;
+    return s;
+}
+
+std::string temp_dir() {
+    static std::string dir = [] {
+        auto p = std::filesystem::temp_directory_path() / ("sombra-test-" + std::to_string(getpid()));
+        std::filesystem::create_directories(p);
+        return p.string();
+    }();
+    return dir;
+}
+
+std::string data_path(const std::string& relative) { return std::string(SOMBRA_DATA_DIR) + "/" + relative; }
+
+}  // namespace sombra::test
