@@ -415,6 +415,14 @@ TEST_CASE("NaN / Inf voxels: rejected by default, replaced by 0 when asked", "[v
 
     tmp.file("n.npy", npy("<f8", "(4, 3, 2)", encode<double>(values)));  // the same policy for every reader
     require_load_error(tmp.path("n.npy"), "voxels", "3 non-finite");
+
+    // NIfTI too (niftiio's own loader would silently turn NaN into 0).
+    Volume nan_volume = sombra::make_sphere(4);
+    nan_volume.voxels[7] = std::numeric_limits<float>::quiet_NaN();
+    sombra::save_volume_nifti(nan_volume, tmp.path("nan.nii.gz"));
+    require_load_error(tmp.path("nan.nii.gz"), "voxels", "1 non-finite");
+    CHECK(load_volume(tmp.path("nan.nii.gz"), sanitize, &report).voxels[7] == 0.f);
+    CHECK(report.non_finite_replaced == 1);
 }
 
 TEST_CASE("save_volume_nifti round-trips through load_volume", "[volume_io]") {

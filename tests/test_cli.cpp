@@ -1,0 +1,157 @@
+// The `sombra` executable: bad input gets one clear line naming file and field, a non-zero exit
+// and no output file; good input writes the image and the stats.
+#include <catch2/catch.hpp>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <sys/wait.h>
+
+#include <nlohmann/json.hpp>
+
+#include "test_support.h"
+
+namespace {
+
+struct CliRun {
+    int exit_code;
+    std::string stderr_text;
+};
+
+CliRun run_cli(const std::string& args) {
+    std::string err = sombra::test::temp_dir() + "/stderr.txt";
+    std::string command = std::string(SOMBRA_CLI) + " " + args + " 2>" + err + " >/dev/null";
+    int status = std::system(command.c_str());
+    std::ifstream in(err);
+    std::stringstream text;
+    text << in.rdbuf();
+    return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, text.str()};
+}
+
+std::string write_file(const std::string& name, const std::string& content) {
+    std::string path = sombra::test::temp_dir() + "/" + name;
+    std::ofstream(path) << content;
+    return path;
+}
+
+// A minimal valid scene with one generated volume; `patch` is merged into it.
+std::string scene_file(const std::string& name, const nlohmann::json& patch) {
+    nlohmann::json scene = {
+        {"camera", {{"position", {0, 0, 3}}, {"look_at", {0, 0, 0}}}},
+        {"image", {{"width", 32}, {"height", 24}}},
+        {"volumes", {{{"generator", {{"type", "sphere"}, {"size", 16}}},
+                      {"transform", {{"scale", 0.06}}},
+                      {"transfer_function", {{"rgb_points", {0, 1, 1, 1, 1, 1, 0.5, 0.2}},
+                                             {"opacity_points", {0, 0, 1, 0.5}}}}}}},
+        {"lights", {{{"type", "directional"}, {"direction", {0, -1, -1}}}}}};
+    scene.merge_patch(patch);
+    return write_file(name, scene.dump(2));
+}
+
+void require_clean_failure(const CliRun& run, const std::string& file, const std::string& field, const std::string& output) {
+    INFO("stderr: " << run.stderr_text);
+    CHECK(run.exit_code != 0);
+    CHECK(std::count(run.stderr_text.begin(), run.stderr_text.end(), '\n') == 1);
+    CHECK(run.stderr_text.find(file) != std::string::npos);
+    CHECK(run.stderr_text.find(field) != std::string::npos);
+    CHECK_FALSE(std::filesystem::exists(output));
+}
+
+}  // namespace
+
+TEST_CASE("sombra render writes the image and the stats", "[cli]") {
+    std::string scene = scene_file("good.json", nlohmann::json::object());
+    std::string out = sombra::test::temp_dir() + "/good.png", stats = sombra::test::temp_dir() + "/good.json";
+    CliRun run = run_cli("render " + scene + " -o " + out + " --stats " + stats + " --device cpu");
+    INFO(run.stderr_text);
+    REQUIRE(run.exit_code == 0);
+    REQUIRE(std::filesystem::exists(out));
+    auto image = sombra::read_image(out);
+    CHECK(image.width == 32);
+    CHECK(image.height == 24);
+    std::ifstream in(stats);
+    auto j = nlohmann::json::parse(in);
+    CHECK(j.at("samples").get<double>() > 0);
+    CHECK(j.at("stage_ms").contains("camera_pass"));
+    CHECK(!j.at("device").get<std::string>().empty());
+}
+
+TEST_CASE("sombra devices lists the PoCL device", "[cli]") {
+    CHECK(run_cli("devices").exit_code == 0);
+}
+
+TEST_CASE("bad scenes fail with one line naming the file and the field", "[cli]") {
+    std::string out = sombra::test::temp_dir() + "/never.png";
+    std::remove(out.c_str());
+    SECTION("missing scene file") {
+        require_clean_failure(run_cli("render /nonexistent/scene.json -o " + out), "/nonexistent/scene.json", "cannot open", out);
+    }
+    SECTION("JSON syntax error names the line") {
+        std::string f = write_file("syntax.json", "{\n  \"volumes\": [\n  }\n");
+        require_clean_failure(run_cli("render " + f + " -o " + out), f, "line 3", out);
+    }
+    SECTION("unknown key") {
+        std::string f = scene_file("unknown.json", {{"camera", {{"fov", 30}}}});
+        require_clean_failure(run_cli("render " + f + " -o " + out), f, "camera.fov", out);
+    }
+    SECTION("wrong type") {
+        std::string f = scene_file("type.json", {{"camera", {{"fov_y_deg", "wide"}}}});
+        require_clean_failure(run_cli("render " + f + " -o " + out), f, "camera.fov_y_deg", out);
+    }
+    SECTION("camera at its look-at point") {
+        std::string f = scene_file("camera.json", {{"camera", {{"position", {0, 0, 0}}}}});
+        require_clean_failure(run_cli("render " + f + " -o " + out), f, "camera.look_at", out);
+    }
+    SECTION("impossible spot cone") {
+        std::string f = scene_file("spot.json", {{"lights", {{{"type", "spot"}, {"cone_angle_deg", 120}}}}});
+        require_clean_failure(run_cli("render " + f + " -o " + out), f, "lights[0].cone_angle_deg", out);
+    }
+    SECTION("zero light direction") {
+        std::string f = scene_file("dir.json", {{"lights", {{{"type", "directional"}, {"direction", {0, 0, 0}}}}}});
+        require_clean_failure(run_cli("render " + f + " -o " + out), f, "lights[0].direction", out);
+    }
+    SECTION("unsorted transfer function") {
+        std::string f = scene_file("tf.json", {{"volumes", {{{"generator", {{"type", "sphere"}}},
+                                                             {"transfer_function", {{"rgb_points", {1, 1, 1, 1, 0, 0, 0, 0}},
+                                                                                    {"opacity_points", {0, 0, 1, 1}}}}}}}});
+        require_clean_failure(run_cli("render " + f + " -o " + out), f, "volumes[0].transfer_function.rgb_points[1]", out);
+    }
+    SECTION("missing volume file") {
+        std::string f = scene_file("novol.json", {{"volumes", {{{"file", "missing.nii.gz"},
+                                                               {"transfer_function", {{"rgb_points", {0, 1, 1, 1}},
+                                                                                      {"opacity_points", {0, 0, 1, 1}}}}}}}});
+        require_clean_failure(run_cli("render " + f + " -o " + out), "missing.nii.gz", "missing.nii.gz", out);
+    }
+    SECTION("no such device") {
+        std::string f = scene_file("device.json", nlohmann::json::object());
+        require_clean_failure(run_cli("render " + f + " -o " + out + " --device 42"), "--device", "42", out);
+    }
+    SECTION("unsupported output format") {
+        std::string f = scene_file("fmt.json", nlohmann::json::object());
+        std::string jpg = sombra::test::temp_dir() + "/out.jpg";
+        require_clean_failure(run_cli("render " + f + " -o " + jpg), jpg, ".png or .exr", jpg);
+    }
+    SECTION("impossible image size") {
+        std::string f = scene_file("size.json", nlohmann::json::object());
+        require_clean_failure(run_cli("render " + f + " -o " + out + " --width 20000"), "--width", "[1, 16384]", out);
+    }
+}
+
+TEST_CASE("NaN voxels are rejected, or sanitized on request", "[cli]") {
+    // a 2×2×2 float32 raw volume with one NaN, described by a JSON header
+    std::string dir = sombra::test::temp_dir();
+    float voxels[8] = {0, 1, 0.5f, 0.2f, NAN, 1, 0, 0};
+    std::ofstream(dir + "/nan.raw", std::ios::binary).write(reinterpret_cast<const char*>(voxels), sizeof voxels);
+    write_file("nan_volume.json", R"({"raw": "nan.raw", "dims": [2, 2, 2], "type": "float32"})");
+    std::string f = scene_file("nan_scene.json", {{"volumes", {{{"file", "nan_volume.json"},
+                                                               {"transfer_function", {{"rgb_points", {0, 1, 1, 1}},
+                                                                                      {"opacity_points", {0, 0, 1, 1}}}}}}}});
+    std::string out = dir + "/nan.png";
+    std::remove(out.c_str());
+    require_clean_failure(run_cli("render " + f + " -o " + out), "nan_volume.json", "voxels: 1 non-finite", out);
+    CliRun ok = run_cli("render " + f + " -o " + out + " --non-finite sanitize");
+    INFO(ok.stderr_text);
+    CHECK(ok.exit_code == 0);
+    CHECK(std::filesystem::exists(out));
+}
