@@ -10,6 +10,9 @@
 
 namespace sombra::bench {
 
+// Inlined everywhere: a call left in an `omp simd` loop body keeps its V3 arguments in memory.
+#define SOMBRA_BENCH_INLINE inline __attribute__((always_inline))
+
 // One volume as the sample math reads it (fields of VolumeGpu, pointers into host copies).
 struct VolumeView {
     const float* voxels;       // this volume's voxels, x fastest
@@ -31,15 +34,18 @@ struct Rgbs {
     float r, g, b, sigma;
 };
 
-inline float mix(float a, float b, float t) { return a + (b - a) * t; }  // OpenCL mix()
-inline float clampf(float x, float lo, float hi) { return std::fmin(std::fmax(x, lo), hi); }
-inline float length(V3 v) { return std::sqrt(dot(v, v)); }
+SOMBRA_BENCH_INLINE float mix(float a, float b, float t) { return a + (b - a) * t; }  // OpenCL mix()
+SOMBRA_BENCH_INLINE float clampf(float x, float lo, float hi) { return std::fmin(std::fmax(x, lo), hi); }
+SOMBRA_BENCH_INLINE float length(V3 v) { return std::sqrt(dot(v, v)); }
+// c ? a : b per component (a struct-valued ?: would put the V3 in memory and stop the vectoriser).
+SOMBRA_BENCH_INLINE V3 select(bool c, V3 a, V3 b) { return {c ? a.x : b.x, c ? a.y : b.y, c ? a.z : b.z}; }
 
 // Trilinear density at voxel position p (voxel centres at integers), clamped to the edge.
-inline float sample_density(const VolumeView& v, V3 p) {
-    p = {clampf(p.x, 0.0f, float(v.nx - 1)), clampf(p.y, 0.0f, float(v.ny - 1)), clampf(p.z, 0.0f, float(v.nz - 1))};
-    float bx = std::floor(p.x), by = std::floor(p.y), bz = std::floor(p.z);
-    float fx = p.x - bx, fy = p.y - by, fz = p.z - bz;
+SOMBRA_BENCH_INLINE float sample_density(const VolumeView& v, V3 p) {
+    float px = clampf(p.x, 0.0f, float(v.nx - 1)), py = clampf(p.y, 0.0f, float(v.ny - 1)),
+          pz = clampf(p.z, 0.0f, float(v.nz - 1));
+    float bx = std::floor(px), by = std::floor(py), bz = std::floor(pz);
+    float fx = px - bx, fy = py - by, fz = pz - bz;
     int x0 = int(bx), y0 = int(by), z0 = int(bz);  // 32-bit indices: 8-wide gathers on AVX2
     int x1 = std::min(x0 + 1, v.nx - 1), y1 = std::min(y0 + 1, v.ny - 1), z1 = std::min(z0 + 1, v.nz - 1);
     int sy = v.nx, sz = v.nx * v.ny;
@@ -52,35 +58,36 @@ inline float sample_density(const VolumeView& v, V3 p) {
 }
 
 // Transfer function: linear interpolation in the table of (r, g, b, σ).
-inline Rgbs classify(const VolumeView& v, float density) {
+SOMBRA_BENCH_INLINE Rgbs classify(const VolumeView& v, float density) {
     float u = clampf((density - v.tf_min) * v.tf_scale, 0.0f, float(v.tf_size - 1));
     int i0 = std::min(int(u), v.tf_size - 2);
     float f = u - float(i0);
-    const float* a = v.tf + 4 * i0;
-    return {mix(a[0], a[4], f), mix(a[1], a[5], f), mix(a[2], a[6], f), mix(a[3], a[7], f)};
+    int e = 4 * i0;  // entry i0, then i0 + 1; plain indices so that the loads become gathers
+    return {mix(v.tf[e], v.tf[e + 4], f), mix(v.tf[e + 1], v.tf[e + 5], f), mix(v.tf[e + 2], v.tf[e + 6], f),
+            mix(v.tf[e + 3], v.tf[e + 7], f)};
 }
 
 // Central differences in voxel space (the renderer's default GradientMethod).
-inline V3 gradient_voxel(const VolumeView& v, V3 p) {
-    float gx = sample_density(v, p + V3{1, 0, 0}) - sample_density(v, p - V3{1, 0, 0});
-    float gy = sample_density(v, p + V3{0, 1, 0}) - sample_density(v, p - V3{0, 1, 0});
-    float gz = sample_density(v, p + V3{0, 0, 1}) - sample_density(v, p - V3{0, 0, 1});
+SOMBRA_BENCH_INLINE V3 gradient_voxel(const VolumeView& v, V3 p) {
+    float gx = sample_density(v, {p.x + 1.0f, p.y, p.z}) - sample_density(v, {p.x - 1.0f, p.y, p.z});
+    float gy = sample_density(v, {p.x, p.y + 1.0f, p.z}) - sample_density(v, {p.x, p.y - 1.0f, p.z});
+    float gz = sample_density(v, {p.x, p.y, p.z + 1.0f}) - sample_density(v, {p.x, p.y, p.z - 1.0f});
     return 0.5f * V3{gx, gy, gz};
 }
 
 // World normal: g_world = Jᵀ g_voxel, pointing to lower density; 0 where the gradient vanishes
 // (below 1e-3 transfer-function entries per voxel).
-inline V3 normal_from_gradient(const VolumeView& v, V3 g_voxel) {
+SOMBRA_BENCH_INLINE V3 normal_from_gradient(const VolumeView& v, V3 g_voxel) {
     V3 g = g_voxel.x * v.j0 + g_voxel.y * v.j1 + g_voxel.z * v.j2;
     V3 n = (-1.0f / length(g)) * g;
     bool vanishes = length(g_voxel) * v.tf_scale < 1e-3f;
-    return vanishes ? V3{0, 0, 0} : n;
+    return select(vanishes, V3{0, 0, 0}, n);
 }
 
 // Phong needs N facing the viewer (gradients have no preferred side).
-inline V3 face_viewer(V3 normal, V3 to_viewer) { return dot(normal, to_viewer) < 0.0f ? -normal : normal; }
+SOMBRA_BENCH_INLINE V3 face_viewer(V3 normal, V3 to_viewer) { return select(dot(normal, to_viewer) < 0.0f, -normal, normal); }
 
-inline float smoothstep(float e0, float e1, float x) {
+SOMBRA_BENCH_INLINE float smoothstep(float e0, float e1, float x) {
     float t = clampf((x - e0) / (e1 - e0), 0.0f, 1.0f);
     return t * t * (3.0f - 2.0f * t);
 }
@@ -90,7 +97,7 @@ inline float smoothstep(float e0, float e1, float x) {
 // point and spot lights, times the spot cone's smooth edge (light_incidence()). N = 0: lit head-on
 // without a highlight. Written with selects instead of branches so that it vectorises.
 template <int Type>
-inline V3 light_term(const LightView& light, const VolumeView& v, V3 color, V3 p, V3 normal, V3 to_viewer) {
+SOMBRA_BENCH_INLINE V3 light_term(const LightView& light, const VolumeView& v, V3 color, V3 p, V3 normal, V3 to_viewer) {
     V3 to_light;
     float incidence = 1.0f;
     if constexpr (Type == SOMBRA_LIGHT_DIRECTIONAL) {
@@ -98,7 +105,7 @@ inline V3 light_term(const LightView& light, const VolumeView& v, V3 color, V3 p
     } else {
         V3 d = light.position - p;
         float dist = length(d);
-        to_light = dist > 0.0f ? (1.0f / dist) * d : V3{0, 0, 1};
+        to_light = select(dist > 0.0f, (1.0f / dist) * d, V3{0, 0, 1});
         incidence = 1.0f / (light.att_constant + dist * (light.att_linear + dist * light.att_quadratic));
         if constexpr (Type == SOMBRA_LIGHT_SPOT)
             incidence *= smoothstep(light.cos_outer, light.cos_inner, dot(-to_light, light.direction));
@@ -118,13 +125,13 @@ inline V3 light_term(const LightView& light, const VolumeView& v, V3 color, V3 p
 }
 
 // Ambient term of Knecht Eq. 3.9: k_a i_a c.
-inline V3 ambient_term(const VolumeView& v, float ambient_intensity, V3 color) {
+SOMBRA_BENCH_INLINE V3 ambient_term(const VolumeView& v, float ambient_intensity, V3 color) {
     return (v.ka * ambient_intensity) * color;
 }
 
 // I_p of Knecht Eq. 3.9 for one sample, all lights (scalar path; the SIMD path loops over
 // lights outside its lane loop and calls light_term directly).
-inline V3 phong_shade(const LightView* lights, unsigned light_count, float ambient_intensity, const VolumeView& v,
+SOMBRA_BENCH_INLINE V3 phong_shade(const LightView* lights, unsigned light_count, float ambient_intensity, const VolumeView& v,
                       V3 color, V3 p, V3 normal, V3 to_viewer) {
     V3 result = ambient_term(v, ambient_intensity, color);
     normal = face_viewer(normal, to_viewer);

@@ -1,22 +1,25 @@
-/* sombra — local illumination: Phong with several lights and distance attenuation
- * (course slides "phongShading", "getAttenuation"; Knecht Eq. 3.8–3.9). */
+/* sombra — local illumination for a packet of samples: Phong with several lights and distance
+ * attenuation (course slides "phongShading", "getAttenuation"; Knecht Eq. 3.8–3.9). */
 #ifndef SOMBRA_SHADING_H
 #define SOMBRA_SHADING_H
 #include "shared/types.h"
+#include "lanes.h"
 
-/* Unit vector from p towards the light, and the light's intensity factor at p: distance
+/* Unit vectors from p towards the light, and the light's intensity factor at p: distance
  * attenuation 1/(c + l·d + q·d²) for point and spot lights, times the spot cone's smooth edge. */
-inline float light_incidence(__global const LightGpu* light, float3 p, float3* to_light) {
+inline lfloat light_incidence(__global const LightGpu* light, lfloat3 p, lfloat3* to_light) {
     if (light->type == SOMBRA_LIGHT_DIRECTIONAL) {
-        *to_light = -light->direction.xyz;
-        return 1.0f;
+        *to_light = l3_splat(-light->direction.xyz);
+        return (lfloat)(1.0f);
     }
-    float3 d = light->position.xyz - p;
-    float dist = length(d);
-    *to_light = dist > 0.0f ? d / dist : (float3)(0.0f, 0.0f, 1.0f);
-    float attenuation = 1.0f / (light->att_constant + dist * (light->att_linear + dist * light->att_quadratic));
+    lfloat3 d = l3_sub(l3_splat(light->position.xyz), p);
+    lfloat dist = sqrt(l3_dot(d, d));
+    lmask at_light = dist <= 0.0f;
+    lfloat inv = 1.0f / select(dist, (lfloat)(1.0f), at_light);
+    *to_light = l3_select(l3_scale(d, inv), l3((lfloat)(0.0f), (lfloat)(0.0f), (lfloat)(1.0f)), at_light);
+    lfloat attenuation = 1.0f / (light->att_constant + dist * (light->att_linear + dist * light->att_quadratic));
     if (light->type == SOMBRA_LIGHT_SPOT) {
-        float cos_angle = dot(-*to_light, light->direction.xyz);
+        lfloat cos_angle = -l3_dot_uniform(*to_light, light->direction.xyz);
         attenuation *= smoothstep(light->cos_outer, light->cos_inner, cos_angle);
     }
     return attenuation;
@@ -26,28 +29,29 @@ inline float light_incidence(__global const LightGpu* light, float3 p, float3* t
  * N is made to face the viewer (gradients have no preferred side); N = 0 marks a vanishing
  * gradient, shaded as if lit head-on without a highlight (homogeneous media such as fog). The
  * shadow term is 1 until a shadow technique provides it. */
-inline float3 phong_shade(__global const LightGpu* lights, uint light_count, float ambient_intensity,
-                          float ka, float kd, float ks, float shininess, float3 color, float3 p,
-                          float3 normal, float3 to_viewer) {
-    float3 result = ka * ambient_intensity * color;
-    bool has_normal = dot(normal, normal) > 0.0f;
-    if (has_normal && dot(normal, to_viewer) < 0.0f) normal = -normal;
+inline lfloat3 phong_shade(__global const LightGpu* lights, uint light_count, float ambient_intensity,
+                           __global const VolumeGpu* material, lfloat3 color, lfloat3 p, lfloat3 normal,
+                           lfloat3 to_viewer) {
+    float ka = material->ambient, kd = material->diffuse, ks = material->specular;
+    lfloat3 result = l3_scale(color, (lfloat)(ka * ambient_intensity));
+    lmask has_normal = l3_dot(normal, normal) > 0.0f;
+    normal = l3_select(normal, l3_scale(normal, (lfloat)(-1.0f)), l3_dot(normal, to_viewer) < 0.0f);
     for (uint m = 0; m < light_count; ++m) {
-        float3 to_light;
-        float incidence = light_incidence(&lights[m], p, &to_light);
-        if (incidence <= 0.0f) continue;
-        float3 lit;
-        if (has_normal) {
-            float n_dot_l = fmax(dot(normal, to_light), 0.0f);
-            float3 reflected = 2.0f * dot(normal, to_light) * normal - to_light;
-            float r_dot_v = fmax(dot(reflected, to_viewer), 0.0f);
-            float highlight = n_dot_l > 0.0f && ks > 0.0f ? pow(r_dot_v, shininess) : 0.0f;
-            lit = kd * n_dot_l * color + ks * highlight;
-        } else {
-            lit = kd * color;
-        }
-        float shadow = 1.0f;
-        result += incidence * shadow * lit * lights[m].color.xyz;
+        lfloat3 to_light;
+        lfloat incidence = light_incidence(&lights[m], p, &to_light);
+        lfloat n_dot_l_signed = l3_dot(normal, to_light);
+        lfloat n_dot_l = fmax(n_dot_l_signed, 0.0f);
+        lfloat3 reflected = l3_sub(l3_scale(normal, 2.0f * n_dot_l_signed), to_light);
+        lfloat r_dot_v = fmax(l3_dot(reflected, to_viewer), 0.0f);
+        lfloat highlight = ks > 0.0f ? select((lfloat)(0.0f), pow(r_dot_v, (lfloat)(material->shininess)), n_dot_l > 0.0f)
+                                     : (lfloat)(0.0f);
+        lfloat diffuse = select((lfloat)(kd), kd * n_dot_l, has_normal); /* no normal: lit head-on */
+        lfloat specular = select((lfloat)(0.0f), ks * highlight, has_normal);
+        lfloat shadow = 1.0f;
+        lfloat weight = incidence * shadow;
+        result = l3_add(result, l3(weight * (diffuse * color.x + specular) * lights[m].color.x,
+                                   weight * (diffuse * color.y + specular) * lights[m].color.y,
+                                   weight * (diffuse * color.z + specular) * lights[m].color.z));
     }
     return result;
 }

@@ -1,10 +1,11 @@
-/* sombra — reading a volume: density at a continuous voxel position, transfer function, gradient.
- * One function, sample_density(), hides where voxels live: a float buffer with manual trilinear
- * interpolation (fast on PoCL: 80 vs 35 Msamples/s, OPENCL-NOTES.md) or a 3D image atlas with the
- * hardware's linear filter (GPUs), chosen by the SOMBRA_USE_IMAGES define. */
+/* sombra — reading a volume for a packet of rays (lanes.h): density at continuous voxel positions,
+ * transfer function, gradient. One function, sample_density(), hides where voxels live: a float
+ * buffer with manual trilinear interpolation (fast on PoCL: 80 vs 35 Msamples/s, OPENCL-NOTES.md)
+ * or a 3D image atlas with the hardware's linear filter (GPUs), chosen by SOMBRA_USE_IMAGES. */
 #ifndef SOMBRA_VOLUME_SAMPLE_H
 #define SOMBRA_VOLUME_SAMPLE_H
 #include "shared/types.h"
+#include "lanes.h"
 
 #ifdef SOMBRA_USE_IMAGES
 #define VOLUME_DATA_PARAM __read_only image3d_t volume_data
@@ -24,69 +25,102 @@ inline float3 to_voxel_direction(__global const VolumeGpu* v, float3 d) {
                     dot(v->world_to_voxel[2].xyz, d));
 }
 
-/* Trilinear density at voxel position p (voxel centres at integers), clamped to the edge. */
-inline float sample_density(VOLUME_DATA_PARAM, __global const VolumeGpu* v, float3 p) {
-    float3 hi = convert_float3(v->dims.xyz) - 1.0f;
-    p = clamp(p, (float3)(0.0f), hi);
+inline lfloat3 to_voxel_point_lanes(__global const VolumeGpu* v, lfloat3 p) {
+    return l3(l3_dot_uniform(p, v->world_to_voxel[0].xyz) + v->world_to_voxel[0].w,
+              l3_dot_uniform(p, v->world_to_voxel[1].xyz) + v->world_to_voxel[1].w,
+              l3_dot_uniform(p, v->world_to_voxel[2].xyz) + v->world_to_voxel[2].w);
+}
+
+inline lfloat3 to_voxel_direction_lanes(__global const VolumeGpu* v, lfloat3 d) {
+    return l3(l3_dot_uniform(d, v->world_to_voxel[0].xyz), l3_dot_uniform(d, v->world_to_voxel[1].xyz),
+              l3_dot_uniform(d, v->world_to_voxel[2].xyz));
+}
+
+/* Trilinear density at voxel positions p (voxel centres at integers), clamped to the edge.
+ * Callers keep p finite in every lane (masked lanes included). */
+inline lfloat sample_density(VOLUME_DATA_PARAM, __global const VolumeGpu* v, lfloat3 p) {
+    lfloat px = clamp(p.x, 0.0f, (float)(v->dims.x - 1));
+    lfloat py = clamp(p.y, 0.0f, (float)(v->dims.y - 1));
+    lfloat pz = clamp(p.z, 0.0f, (float)(v->dims.z - 1));
 #ifdef SOMBRA_USE_IMAGES
-    float4 coord = (float4)(p.x + 0.5f, p.y + 0.5f, p.z + 0.5f + v->image_z_offset, 0.0f);
-    return read_imagef(volume_data, volume_sampler, coord).x;
+    float z_offset = v->image_z_offset + 0.5f;
+#define SOMBRA_READ_LANE(c) read_imagef(volume_data, volume_sampler, (float4)(LC(px, c) + 0.5f, LC(py, c) + 0.5f, LC(pz, c) + z_offset, 0.0f)).x
+    return LFROM_LANES(SOMBRA_READ_LANE);
+#undef SOMBRA_READ_LANE
 #else
-    float3 base = floor(p);
-    float3 f = p - base;
-    int3 i0 = convert_int3(base);
-    int3 i1 = min(i0 + 1, v->dims.xyz - 1);
-    size_t sx = 1, sy = (size_t)v->dims.x, sz = (size_t)v->dims.x * (size_t)v->dims.y;
+    lfloat bx = floor(px), by = floor(py), bz = floor(pz);
+    lfloat fx = px - bx, fy = py - by, fz = pz - bz;
+    int sy = v->dims.x, sz = v->dims.x * v->dims.y;
+    lint x0 = LCONVERT_INT(bx), y0 = LCONVERT_INT(by) * sy, z0 = LCONVERT_INT(bz) * sz;
+    /* the +1 neighbour, clamped: stays on the same voxel at the upper edge */
+    lint x1 = min(x0 + 1, v->dims.x - 1), y1 = min(y0 + sy, (v->dims.y - 1) * sy), z1 = min(z0 + sz, (v->dims.z - 1) * sz);
     __global const float* d = volume_data + v->data_offset;
-    size_t y0 = i0.y * sy, y1 = i1.y * sy, z0 = i0.z * sz, z1 = i1.z * sz;
-    float c00 = mix(d[i0.x * sx + y0 + z0], d[i1.x * sx + y0 + z0], f.x);
-    float c10 = mix(d[i0.x * sx + y1 + z0], d[i1.x * sx + y1 + z0], f.x);
-    float c01 = mix(d[i0.x * sx + y0 + z1], d[i1.x * sx + y0 + z1], f.x);
-    float c11 = mix(d[i0.x * sx + y1 + z1], d[i1.x * sx + y1 + z1], f.x);
-    return mix(mix(c00, c10, f.y), mix(c01, c11, f.y), f.z);
+    lfloat c00 = mix(gather(d, x0 + y0 + z0), gather(d, x1 + y0 + z0), fx);
+    lfloat c10 = mix(gather(d, x0 + y1 + z0), gather(d, x1 + y1 + z0), fx);
+    lfloat c01 = mix(gather(d, x0 + y0 + z1), gather(d, x1 + y0 + z1), fx);
+    lfloat c11 = mix(gather(d, x0 + y1 + z1), gather(d, x1 + y1 + z1), fx);
+    return mix(mix(c00, c10, fy), mix(c01, c11, fy), fz);
 #endif
 }
 
 /* Transfer function: linear interpolation in the volume's table of (r, g, b, σ), σ being the
  * extinction per world unit (opacity already converted, see README "opacity convention"). */
-inline float4 classify(__global const float4* tf_tables, __global const VolumeGpu* v, float density) {
-    float u = clamp((density - v->tf_domain_min) * v->tf_domain_scale, 0.0f, (float)(v->tf_size - 1));
-    uint i0 = min((uint)u, v->tf_size - 2);
-    float f = u - (float)i0;
-    __global const float4* table = tf_tables + v->tf_offset;
-    return mix(table[i0], table[i0 + 1], f);
+typedef struct {
+    lfloat3 color;
+    lfloat sigma;
+} Classified;
+
+inline Classified classify(__global const float* tf_tables, __global const VolumeGpu* v, lfloat density) {
+    lfloat u = clamp((density - v->tf_domain_min) * v->tf_domain_scale, 0.0f, (float)(v->tf_size - 1));
+    lint i0 = min(LCONVERT_INT(u), (int)v->tf_size - 2);
+    lfloat f = u - LCONVERT_FLOAT(i0);
+    __global const float* table = tf_tables + 4 * v->tf_offset;
+    lint e0 = 4 * i0, e1 = e0 + 4;
+    Classified c;
+    c.color = l3(mix(gather(table, e0), gather(table, e1), f), mix(gather(table, e0 + 1), gather(table, e1 + 1), f),
+                 mix(gather(table, e0 + 2), gather(table, e1 + 2), f));
+    c.sigma = mix(gather(table, e0 + 3), gather(table, e1 + 3), f);
+    return c;
 }
+
+inline lfloat3 offset_voxel(lfloat3 p, float dx, float dy, float dz) { return l3(p.x + dx, p.y + dy, p.z + dz); }
 
 /* Voxel-space gradient of the density: central differences, or the 3×3×3 Sobel operator when
  * SOMBRA_SOBEL is defined (course slides, "Gradient Calculation"). Units: density per voxel. */
-inline float3 gradient_voxel(VOLUME_DATA_PARAM, __global const VolumeGpu* v, float3 p) {
+inline lfloat3 gradient_voxel(VOLUME_DATA_PARAM, __global const VolumeGpu* v, lfloat3 p) {
 #ifdef SOMBRA_SOBEL
-    float3 g = (float3)(0.0f);
+    lfloat3 g = l3((lfloat)(0.0f), (lfloat)(0.0f), (lfloat)(0.0f));
     for (int dz = -1; dz <= 1; ++dz)
         for (int dy = -1; dy <= 1; ++dy)
             for (int dx = -1; dx <= 1; ++dx) {
-                /* weight of the smoothing taps: 1 at the corners of each face row, 2 at the centre */
+                /* smoothing taps: 2 on the axis of the difference's neighbours, 1 off it */
                 float wx = 2.0f - (float)abs(dx), wy = 2.0f - (float)abs(dy), wz = 2.0f - (float)abs(dz);
-                float s = sample_density(volume_data, v, p + (float3)(dx, dy, dz));
-                g += s * (float3)(dx * wy * wz, dy * wx * wz, dz * wx * wy);
+                lfloat s = sample_density(volume_data, v, offset_voxel(p, dx, dy, dz));
+                g = l3_add(g, l3(s * (dx * wy * wz), s * (dy * wx * wz), s * (dz * wx * wy)));
             }
-    return g * (1.0f / 32.0f);
+    return l3_scale(g, (lfloat)(1.0f / 32.0f));
 #else
-    float gx = sample_density(volume_data, v, p + (float3)(1, 0, 0)) - sample_density(volume_data, v, p - (float3)(1, 0, 0));
-    float gy = sample_density(volume_data, v, p + (float3)(0, 1, 0)) - sample_density(volume_data, v, p - (float3)(0, 1, 0));
-    float gz = sample_density(volume_data, v, p + (float3)(0, 0, 1)) - sample_density(volume_data, v, p - (float3)(0, 0, 1));
-    return 0.5f * (float3)(gx, gy, gz);
+    lfloat gx = sample_density(volume_data, v, offset_voxel(p, 1, 0, 0)) - sample_density(volume_data, v, offset_voxel(p, -1, 0, 0));
+    lfloat gy = sample_density(volume_data, v, offset_voxel(p, 0, 1, 0)) - sample_density(volume_data, v, offset_voxel(p, 0, -1, 0));
+    lfloat gz = sample_density(volume_data, v, offset_voxel(p, 0, 0, 1)) - sample_density(volume_data, v, offset_voxel(p, 0, 0, -1));
+    return l3(0.5f * gx, 0.5f * gy, 0.5f * gz);
 #endif
 }
 
 /* World-space surface normal from the voxel-space gradient (g_world = Jᵀ g_voxel, J = the
- * world→voxel Jacobian), pointing towards lower density. Returns 0 where the gradient vanishes,
- * measured in transfer-function entries per voxel so that the threshold is unit-free. */
-inline float3 normal_from_gradient(__global const VolumeGpu* v, float3 g_voxel) {
-    if (length(g_voxel) * v->tf_domain_scale < 1e-3f) return (float3)(0.0f);
-    float3 g = g_voxel.x * v->world_to_voxel[0].xyz + g_voxel.y * v->world_to_voxel[1].xyz +
-               g_voxel.z * v->world_to_voxel[2].xyz;
-    return -normalize(g);
+ * world→voxel Jacobian), pointing towards lower density. Lanes where the gradient vanishes —
+ * measured in transfer-function entries per voxel, so the threshold is unit-free — get 0. */
+inline lfloat3 normal_from_gradient(__global const VolumeGpu* v, lfloat3 g_voxel) {
+    lmask vanishing = sqrt(l3_dot(g_voxel, g_voxel)) * v->tf_domain_scale < 1e-3f;
+    float3 j0 = v->world_to_voxel[0].xyz, j1 = v->world_to_voxel[1].xyz, j2 = v->world_to_voxel[2].xyz;
+    lfloat3 g = l3(g_voxel.x * j0.x + g_voxel.y * j1.x + g_voxel.z * j2.x,
+                   g_voxel.x * j0.y + g_voxel.y * j1.y + g_voxel.z * j2.y,
+                   g_voxel.x * j0.z + g_voxel.y * j1.z + g_voxel.z * j2.z);
+    /* keep the normalisation finite in vanishing lanes, then zero them */
+    g = l3_select(g, l3((lfloat)(1.0f), (lfloat)(0.0f), (lfloat)(0.0f)), vanishing);
+    lfloat3 n = l3_scale(l3_normalize(g), (lfloat)(-1.0f));
+    lfloat3 zero = l3((lfloat)(0.0f), (lfloat)(0.0f), (lfloat)(0.0f));
+    return l3_select(n, zero, vanishing);
 }
 
 #endif

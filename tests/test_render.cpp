@@ -49,6 +49,22 @@ TEST_CASE("camera pass matches the CPU reference: overlapping rotated volumes, s
     }
 }
 
+TEST_CASE("every packet width matches the reference, also where the image width is not a multiple of it", "[render][lanes]") {
+    Scene s = test::overlapping_scene();
+    s.width = 45, s.height = 29;
+    Image ref = reference::render_reference(s, s.width, s.height);
+    for (int lanes : {1, 4, 8, 16}) {
+        RenderOptions o;
+        o.lanes = lanes;
+        RenderResult r = render_with(s, o);
+        auto d = test::compare(r.image, ref);
+        INFO(lanes << " lanes: max " << d.max_abs << ", mean " << d.mean_abs);
+        REQUIRE(d.non_finite == 0);
+        CHECK(d.mean_abs < 1e-4);
+        CHECK(d.max_abs < 2e-3);
+    }
+}
+
 TEST_CASE("camera pass without lights shows the transfer function colours only (ambient)", "[render]") {
     Scene s = test::sphere_scene();
     s.lights.clear();

@@ -45,6 +45,9 @@ int run(int argc, char** argv) {
         ->check(CLI::IsMember({"reject", "sanitize"}));
     render->add_flag("--no-empty-space-skipping", no_skip, "march empty bricks too (for comparisons)");
     render->add_option("--seed", seed, "seed of the per-pixel ray jitter");
+    int lanes = 0;
+    render->add_option("--lanes", lanes, "rays per work-item in vector types: 1, 4, 8, 16 (default: 8 on CPUs, 1 on GPUs)")
+        ->check(CLI::IsMember({0, 1, 4, 8, 16}));
 
     CLI::App* devices = app.add_subcommand("devices", "list OpenCL platforms and devices");
 
@@ -79,6 +82,7 @@ int run(int argc, char** argv) {
                                            : sombra::VolumeStorage::Auto;
     options.empty_space_skipping = !no_skip;
     options.jitter_seed = seed;
+    options.lanes = lanes;
     sombra::RenderResult result = sombra::render(context, scene, options);
     sombra::write_image(result.image, output);
     if (!stats_path.empty()) write_text_file(stats_path, result.stats.to_json());
