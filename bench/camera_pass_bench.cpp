@@ -71,7 +71,8 @@ Row bench_opencl(sombra::Context& context, const sombra::Scene& scene, const som
         row.samples = r.stats.samples;
         image = std::move(r.image);
     }
-    row.path = "OpenCL " + context.device().name + " (buffer)";
+    int lanes = options.lanes > 0 ? options.lanes : (context.device().is_gpu ? 1 : 8);
+    row.path = "OpenCL " + context.device().name + " (buffer, " + std::to_string(lanes) + (lanes == 1 ? " lane)" : " lanes)");
     row.median_ms = median(ms);
     return row;
 }
@@ -173,6 +174,13 @@ int run(int argc, char** argv) {
     sombra::bench::NativeScene native = sombra::bench::make_native_scene(scene, options);
     rows.push_back(bench_native(native, NativeVariant::Simd, o.threads, o.runs, cl_image));
     if (o.scalar) rows.push_back(bench_native(native, NativeVariant::Scalar, o.threads, o.runs, cl_image));
+    if (!context.device().is_gpu) {  // the same kernel without packets: what the vector lanes buy on a CPU
+        sombra::RenderOptions scalar_kernel = options;
+        scalar_kernel.lanes = 1;
+        sombra::Image scalar_image;
+        rows.push_back(bench_opencl(context, scene, scalar_kernel, o.runs, scalar_image));
+        compare_rgb(scalar_image.rgba, cl_image.rgba, rows.back());
+    }
     double simd_rate = rows[1].msamples_per_s();
 
     std::cout << markdown_table(rows, simd_rate) << "\n";
