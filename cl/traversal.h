@@ -51,7 +51,7 @@ inline void make_volume_ray(VolumeRay* ray, __global const VolumeGpu* volumes, u
     ray->dir = dir;
     for (uint i = 0; i < volume_count; ++i) {
         __global const VolumeGpu* v = &volumes[i];
-        lfloat3 o = to_voxel_point_lanes(v, origin), d = to_voxel_direction_lanes(v, dir);
+        lfloat3 o = to_voxel_point(v, origin), d = to_voxel_direction(v, dir);
         lfloat3 lo = l3_splat((float3)(-0.5f));
         lfloat3 hi = l3_splat(convert_float3(v->dims.xyz) - 0.5f);
         lfloat t0, t1;

@@ -14,24 +14,13 @@ __constant sampler_t volume_sampler = CLK_NORMALIZED_COORDS_FALSE | CLK_ADDRESS_
 #define VOLUME_DATA_PARAM __global const float* restrict volume_data
 #endif
 
-inline float3 to_voxel_point(__global const VolumeGpu* v, float3 p) {
-    return (float3)(dot(v->world_to_voxel[0].xyz, p) + v->world_to_voxel[0].w,
-                    dot(v->world_to_voxel[1].xyz, p) + v->world_to_voxel[1].w,
-                    dot(v->world_to_voxel[2].xyz, p) + v->world_to_voxel[2].w);
-}
-
-inline float3 to_voxel_direction(__global const VolumeGpu* v, float3 d) {
-    return (float3)(dot(v->world_to_voxel[0].xyz, d), dot(v->world_to_voxel[1].xyz, d),
-                    dot(v->world_to_voxel[2].xyz, d));
-}
-
-inline lfloat3 to_voxel_point_lanes(__global const VolumeGpu* v, lfloat3 p) {
+inline lfloat3 to_voxel_point(__global const VolumeGpu* v, lfloat3 p) {
     return l3(l3_dot_uniform(p, v->world_to_voxel[0].xyz) + v->world_to_voxel[0].w,
               l3_dot_uniform(p, v->world_to_voxel[1].xyz) + v->world_to_voxel[1].w,
               l3_dot_uniform(p, v->world_to_voxel[2].xyz) + v->world_to_voxel[2].w);
 }
 
-inline lfloat3 to_voxel_direction_lanes(__global const VolumeGpu* v, lfloat3 d) {
+inline lfloat3 to_voxel_direction(__global const VolumeGpu* v, lfloat3 d) {
     return l3(l3_dot_uniform(d, v->world_to_voxel[0].xyz), l3_dot_uniform(d, v->world_to_voxel[1].xyz),
               l3_dot_uniform(d, v->world_to_voxel[2].xyz));
 }
