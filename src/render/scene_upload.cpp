@@ -183,7 +183,7 @@ DeviceScene upload_scene(host::Runtime& runtime, const Scene& scene, const Packe
     }
     cl::Event event;
     if (!use_images) {
-        d.voxel_buffer = host::make_buffer(runtime, ro, total * sizeof(float), nullptr, "volume voxels");
+        d.voxel_buffer = host::make_buffer(runtime, ro, total * sizeof(float), nullptr, scene.source + ": volumes: voxels");
         std::size_t offset = 0;
         for (auto& vi : scene.volumes) {
             runtime.queue().enqueueWriteBuffer(d.voxel_buffer, CL_TRUE, offset * sizeof(float),
