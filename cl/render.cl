@@ -1,40 +1,90 @@
 /* sombra — camera pass: ray casting through homogeneous segments, classification, gradient,
  * Phong, front-to-back compositing (Knecht Eq. 3.10–3.11), early ray termination. A work-item
  * renders SOMBRA_LANES neighbouring pixels of one row as a packet (lanes.h).
- * Defines: SOMBRA_LANES (1 on GPUs, 8 or 16 on CPUs), SOMBRA_USE_IMAGES (3D image atlas instead of
- * a buffer), SOMBRA_SOBEL (Sobel gradients), SOMBRA_SKIP_EMPTY (brick skipping),
- * SOMBRA_HAS_LIGHTS (any light in the scene). */
+ * Defines: SOMBRA_LANES (1 on GPUs, 8 or 16 on CPUs), SOMBRA_VOLUME_SLOTS (volumes in the scene),
+ * SOMBRA_USE_IMAGES (3D image atlas instead of a buffer), SOMBRA_SOBEL (Sobel gradients),
+ * SOMBRA_SKIP_EMPTY (brick skipping), SOMBRA_HAS_LIGHTS (any light in the scene),
+ * SOMBRA_SHADOW_RAYS (shadow term by marching towards each light). */
 #include "shared/types.h"
 #include "shared/hash.h"
 #include "lanes.h"
 #include "volume_sample.h"
 #include "shading.h"
+#include "traversal.h"
 
+/* What every sample of the camera pass reads and accumulates. */
 typedef struct {
     lfloat3 radiance;      /* I_acc */
     lfloat transmittance;  /* t_acc */
     luint samples;
-    float termination;
     lfloat3 to_viewer;
-    float ambient_intensity;
-    uint light_count;
+    lfloat jitter;
+    __global const CameraGpu* camera;
     __global const LightGpu* lights;
     __global const VolumeGpu* volumes;
     __global const float* tf_tables;
-} VisitState;
+    __global const uchar* occupancy;
+} CameraState;
 
-#include "traversal.h"
+/* Extinction σ of every active volume at t, summed (an overlap blends by extinction). */
+inline lfloat extinction_at(VOLUME_DATA_PARAM, const CameraState* state, const VolumeRay* ray, lfloat t, luint active,
+                            lmask sampling) {
+    lfloat sigma = (lfloat)(0.0f);
+    for (uint i = 0; i < SOMBRA_VOLUME_SLOTS; ++i) {
+        lmask here = sampling & ((active & (1u << i)) != 0u);
+        if (!lany(here)) continue;
+        __global const VolumeGpu* v = &state->volumes[i];
+        Classified c = classify(state->tf_tables, v, sample_density(volume_data, v, ray_voxel_point(ray, i, t)));
+        sigma += select((lfloat)(0.0f), c.sigma, here);
+    }
+    return sigma;
+}
+
+#ifdef SOMBRA_SHADOW_RAYS
+/* Shadow-ray baseline: transmittance exp(−Σσ·Δ) from p to the light, marched over the same
+ * segments as the camera rays, stopping once it falls below 10⁻⁶ (course slides: shadow rays). */
+inline lfloat shadow_ray(VOLUME_DATA_PARAM, const CameraState* state, __global const LightGpu* light, lfloat3 p,
+                         lmask lanes) {
+    lfloat3 dir;
+    lfloat t_max;
+    if (light->type == SOMBRA_LIGHT_DIRECTIONAL) {
+        dir = l3_splat(-light->direction.xyz);
+        t_max = (lfloat)(INFINITY);
+    } else {
+        lfloat3 d = l3_sub(l3_splat(light->position.xyz), p);
+        t_max = sqrt(l3_dot(d, d));
+        dir = l3_scale(d, 1.0f / fmax(t_max, 1e-30f));
+    }
+    VolumeRay ray;
+    make_volume_ray(&ray, state->volumes, state->camera->volume_count, p, dir, (lfloat)(0.0f), t_max);
+    SegmentCursor cursor;
+    segment_cursor_init(&cursor, &ray, state->camera->volume_count, state->jitter, lanes);
+    lfloat optical_depth = (lfloat)(0.0f);
+    lmask sampling;
+    while (lany(sampling = segment_cursor_next(&cursor, &ray, state->volumes, state->camera->volume_count, state->occupancy))) {
+        lfloat t = select((lfloat)(0.0f), cursor.t, sampling); /* finite positions in idle lanes */
+        optical_depth += extinction_at(volume_data, state, &ray, t, cursor.active, sampling) * cursor.step;
+        cursor.alive &= !(optical_depth > 13.8155f); /* exp(−13.8) = 10⁻⁶ */
+    }
+    return exp(-optical_depth);
+}
+#endif
 
 /* One sample of all active volumes: extinction-weighted blend of their shaded colours,
- * α = 1 − exp(−Σσ·Δ), then I_acc += I_p α t_acc; t_acc *= 1 − α (Knecht Eq. 3.10–3.11). */
-lmask visit_sample(VOLUME_DATA_PARAM, VisitState* state, const VolumeRay* ray, lfloat t, lfloat step, luint active,
-                   lmask sampling) {
-    t = select((lfloat)(0.0f), t, sampling); /* finite positions in idle lanes */
+ * α = 1 − exp(−Σσ·Δ), then I_acc += I_p α t_acc; t_acc *= 1 − α (Knecht Eq. 3.10–3.11).
+ * Returns the lanes whose ray goes on (early ray termination). */
+inline lmask shade_sample(VOLUME_DATA_PARAM, CameraState* state, const VolumeRay* ray, const SegmentCursor* cursor,
+                          lmask sampling) {
+    lfloat t = select((lfloat)(0.0f), cursor->t, sampling); /* finite positions in idle lanes */
     lfloat3 p = l3_mad(ray->dir, t, ray->origin);
     lfloat sigma_sum = (lfloat)(0.0f);
     lfloat3 color_sum = l3((lfloat)(0.0f), (lfloat)(0.0f), (lfloat)(0.0f));
-    for (uint i = 0; i < SOMBRA_MAX_VOLUMES; ++i) {
-        lmask here = sampling & ((active & (1u << i)) != 0u);
+    uint light_count = state->camera->light_count;
+    lfloat shadow[SOMBRA_MAX_LIGHTS]; /* transmittance to each light, found once per sample */
+    for (uint m = 0; m < light_count; ++m) shadow[m] = (lfloat)(1.0f);
+    lmask shadows_known = (lmask)(0);
+    for (uint i = 0; i < SOMBRA_VOLUME_SLOTS; ++i) {
+        lmask here = sampling & ((cursor->active & (1u << i)) != 0u);
         if (!lany(here)) continue;
         __global const VolumeGpu* v = &state->volumes[i];
         lfloat3 pv = ray_voxel_point(ray, i, t);
@@ -47,17 +97,25 @@ lmask visit_sample(VOLUME_DATA_PARAM, VisitState* state, const VolumeRay* ray, l
 #ifdef SOMBRA_HAS_LIGHTS
         normal = normal_from_gradient(v, gradient_voxel(volume_data, v, pv));
 #endif
-        lfloat3 shaded = phong_shade(state->lights, state->light_count, state->ambient_intensity, v, c.color, p, normal,
-                                     state->to_viewer);
+#ifdef SOMBRA_SHADOW_RAYS
+        lmask needed = visible & !shadows_known;
+        if (lany(needed)) {
+            for (uint m = 0; m < light_count; ++m)
+                shadow[m] = select(shadow[m], shadow_ray(volume_data, state, &state->lights[m], p, needed), needed);
+            shadows_known |= needed;
+        }
+#endif
+        lfloat3 shaded = phong_shade(state->lights, light_count, state->camera->ambient_intensity, v, c.color, p, normal,
+                                     state->to_viewer, shadow);
         sigma_sum += sigma;
         color_sum = l3_mad(shaded, sigma, color_sum);
     }
     lmask lit = sigma_sum > 0.0f;
-    lfloat alpha = 1.0f - exp(-sigma_sum * step);
+    lfloat alpha = 1.0f - exp(-sigma_sum * cursor->step);
     lfloat weight = select((lfloat)(0.0f), alpha * state->transmittance / select((lfloat)(1.0f), sigma_sum, lit), lit);
     state->radiance = l3_mad(color_sum, weight, state->radiance);
     state->transmittance = select(state->transmittance, state->transmittance * (1.0f - alpha), lit);
-    return state->transmittance > state->termination;
+    return state->transmittance > state->camera->termination_transmittance;
 }
 
 __kernel void render_camera(VOLUME_DATA_PARAM, __global const uchar* occupancy, __global const float* tf_tables,
@@ -78,21 +136,25 @@ __kernel void render_camera(VOLUME_DATA_PARAM, __global const uchar* occupancy, 
     make_volume_ray(&ray, volumes, camera->volume_count, l3_splat(camera->position.xyz), dir, (lfloat)(0.0f),
                     (lfloat)(INFINITY));
 
-    VisitState state;
+    CameraState state;
     state.radiance = l3((lfloat)(0.0f), (lfloat)(0.0f), (lfloat)(0.0f));
     state.transmittance = (lfloat)(1.0f);
     state.samples = (luint)(0u);
-    state.termination = camera->termination_transmittance;
     state.to_viewer = l3_scale(dir, (lfloat)(-1.0f));
-    state.ambient_intensity = camera->ambient_intensity;
-    state.light_count = camera->light_count;
+    state.camera = camera;
     state.lights = lights;
     state.volumes = volumes;
     state.tf_tables = tf_tables;
+    state.occupancy = occupancy;
 #define SOMBRA_JITTER_LANE(c) sombra_pixel_jitter((uint)LC(xs, c), y, camera->jitter_seed)
-    lfloat jitter = LFROM_LANES(SOMBRA_JITTER_LANE);
+    state.jitter = LFROM_LANES(SOMBRA_JITTER_LANE);
 #undef SOMBRA_JITTER_LANE
-    traverse_segments(volume_data, &state, &ray, volumes, camera->volume_count, occupancy, jitter, lanes);
+
+    SegmentCursor cursor;
+    segment_cursor_init(&cursor, &ray, camera->volume_count, state.jitter, lanes);
+    lmask sampling;
+    while (lany(sampling = segment_cursor_next(&cursor, &ray, volumes, camera->volume_count, occupancy)))
+        cursor.alive &= shade_sample(volume_data, &state, &ray, &cursor, sampling) | !sampling;
 
     float red[SOMBRA_LANES], green[SOMBRA_LANES], blue[SOMBRA_LANES], transmittance[SOMBRA_LANES];
     uint samples[SOMBRA_LANES];

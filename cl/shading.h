@@ -27,11 +27,11 @@ inline lfloat light_incidence(__global const LightGpu* light, lfloat3 p, lfloat3
 
 /* I_p = k_a i_a c + Σ_m f_m [k_d (L_m·N) c + k_s (R_m·V)^n] i_m · shadow_m  (Knecht Eq. 3.9).
  * N is made to face the viewer (gradients have no preferred side); N = 0 marks a vanishing
- * gradient, shaded as if lit head-on without a highlight (homogeneous media such as fog). The
- * shadow term is 1 until a shadow technique provides it. */
+ * gradient, shaded as if lit head-on without a highlight (homogeneous media such as fog).
+ * shadow[m] is the transmittance 1 − α_m from the sample to light m (Knecht Eq. 3.8). */
 inline lfloat3 phong_shade(__global const LightGpu* lights, uint light_count, float ambient_intensity,
                            __global const VolumeGpu* material, lfloat3 color, lfloat3 p, lfloat3 normal,
-                           lfloat3 to_viewer) {
+                           lfloat3 to_viewer, const lfloat* shadow) {
     float ka = material->ambient, kd = material->diffuse, ks = material->specular;
     lfloat3 result = l3_scale(color, (lfloat)(ka * ambient_intensity));
     lmask has_normal = l3_dot(normal, normal) > 0.0f;
@@ -47,8 +47,7 @@ inline lfloat3 phong_shade(__global const LightGpu* lights, uint light_count, fl
                                      : (lfloat)(0.0f);
         lfloat diffuse = select((lfloat)(kd), kd * n_dot_l, has_normal); /* no normal: lit head-on */
         lfloat specular = select((lfloat)(0.0f), ks * highlight, has_normal);
-        lfloat shadow = 1.0f;
-        lfloat weight = incidence * shadow;
+        lfloat weight = incidence * shadow[m];
         result = l3_add(result, l3(weight * (diffuse * color.x + specular) * lights[m].color.x,
                                    weight * (diffuse * color.y + specular) * lights[m].color.y,
                                    weight * (diffuse * color.z + specular) * lights[m].color.z));

@@ -4,9 +4,17 @@
  * The boundaries of every volume's box along a ray cut it into segments; inside one segment the
  * set of active volumes does not change, and it is marched at the smallest step of those volumes.
  * Within a segment, bricks whose value range maps to zero opacity are skipped (Hadwiger §3,
- * brick min/max). Each lane follows its own segments; lanes only share the loop. This file is
- * written once and serves every pass: the including kernel defines `typedef … VisitState;`
- * before including it and then implements visit_sample(), declared below. */
+ * brick min/max). Each lane follows its own segments; lanes only share the loop.
+ *
+ * Written once for every pass as a cursor: a pass calls segment_cursor_next() in a loop and does
+ * its own work per sample; nested traversals (shadow rays from a camera sample) need nothing more.
+ *     SegmentCursor cursor;
+ *     segment_cursor_init(&cursor, &ray, volume_count, jitter, lanes);
+ *     lmask sampling;
+ *     while (lany(sampling = segment_cursor_next(&cursor, &ray, volumes, volume_count, occupancy))) {
+ *         … cursor.t, cursor.step, cursor.active …
+ *         cursor.alive &= go_on | !sampling;   // early termination
+ *     } */
 #ifndef SOMBRA_TRAVERSAL_H
 #define SOMBRA_TRAVERSAL_H
 #include "volume_sample.h"
@@ -14,16 +22,10 @@
 /* Rays expressed in the world and in each volume's voxel space (affine maps keep t). */
 typedef struct {
     lfloat3 origin, dir; /* world */
-    lfloat3 vox_origin[SOMBRA_MAX_VOLUMES];
-    lfloat3 vox_dir[SOMBRA_MAX_VOLUMES];
-    lfloat t_enter[SOMBRA_MAX_VOLUMES], t_exit[SOMBRA_MAX_VOLUMES]; /* missed: both +∞ */
+    lfloat3 vox_origin[SOMBRA_VOLUME_SLOTS];
+    lfloat3 vox_dir[SOMBRA_VOLUME_SLOTS];
+    lfloat t_enter[SOMBRA_VOLUME_SLOTS], t_exit[SOMBRA_VOLUME_SLOTS]; /* missed: both +∞ */
 } VolumeRay;
-
-/* Called for the lanes in `sampling` (a mask) at their parameters t; `active` has bit i set
- * for each volume i whose box contains the lane's sample. Returns the lanes that go on: a lane
- * left out of the result stops (early ray termination). */
-lmask visit_sample(VOLUME_DATA_PARAM, VisitState* state, const VolumeRay* ray, lfloat t, lfloat step, luint active,
-                   lmask sampling);
 
 /* Slab test of every lane's ray against the box [lo, hi]; returns (t_near, t_far), empty when
  * t_near > t_far. Lanes parallel to a slab and outside it miss. */
@@ -100,47 +102,67 @@ inline lmask in_empty_bricks(__global const uchar* occupancy, __global const Vol
 }
 #endif
 
-/* Marches every homogeneous segment of each lane's ray front to back, calling visit_sample at
- * t_k = segment start + (k + jitter) · step. `lanes` masks the lanes that carry a ray. */
-inline void traverse_segments(VOLUME_DATA_PARAM, VisitState* state, const VolumeRay* ray,
-                              __global const VolumeGpu* volumes, uint volume_count,
-                              __global const uchar* occupancy, lfloat jitter, lmask lanes) {
-    /* segment boundaries: all enter/exit values, sorted per lane by a compare-exchange network
-     * (missed volumes are +∞ and sort last) */
-    lfloat bounds[2 * SOMBRA_MAX_VOLUMES];
+/* Where each lane is on its ray: the sorted segment boundaries, the current segment (its span,
+ * step and active volumes) and the sample index k in it. */
+typedef struct {
+    lfloat bounds[2 * SOMBRA_VOLUME_SLOTS];
+    uint bound_count;
+    lmask alive;     /* lanes whose ray goes on; a pass clears lanes to stop them */
+    lint segment;
+    lfloat t_start, t_end;
+    lfloat step;     /* of the current segment: the smallest step of its active volumes */
+    luint active;    /* bit i: volume i is active in the current segment */
+    lint k;          /* sample index in the segment: an integer, so that it never stalls */
+    lfloat jitter;
+    lfloat t;        /* parameter of the current sample: t_start + (k + jitter) · step */
+} SegmentCursor;
+
+inline void segment_cursor_init(SegmentCursor* c, const VolumeRay* ray, uint volume_count, lfloat jitter, lmask lanes) {
+    /* all enter/exit values, sorted per lane by a compare-exchange network (missed volumes are
+     * +∞ and sort last) */
     uint n = 2 * volume_count;
     for (uint i = 0; i < volume_count; ++i) {
-        bounds[2 * i] = ray->t_enter[i];
-        bounds[2 * i + 1] = ray->t_exit[i];
+        c->bounds[2 * i] = ray->t_enter[i];
+        c->bounds[2 * i + 1] = ray->t_exit[i];
     }
     for (uint i = 0; i + 1 < n; ++i)
         for (uint j = 0; j + 1 < n - i; ++j) {
-            lfloat a = bounds[j], b = bounds[j + 1];
-            bounds[j] = fmin(a, b);
-            bounds[j + 1] = fmax(a, b);
+            lfloat a = c->bounds[j], b = c->bounds[j + 1];
+            c->bounds[j] = fmin(a, b);
+            c->bounds[j + 1] = fmax(a, b);
         }
+    c->bound_count = n;
+    c->alive = lanes;
+    c->segment = (lint)(-1);
+    c->t_start = c->t_end = (lfloat)(0.0f);
+    c->step = (lfloat)(1.0f);
+    c->active = (luint)(0u);
+    c->k = (lint)(-1);
+    c->jitter = jitter;
+}
 
-    lmask alive = lanes;
-    lint segment = (lint)(-1);
-    lfloat t_start = (lfloat)(0.0f), t_end = (lfloat)(0.0f), step = (lfloat)(1.0f);
-    lint k = (lint)(0); /* sample index in the segment: an integer, so that it never stalls */
-    luint active = (luint)(0u);
+/* Moves every live lane to its next sample, front to back: next k, else the next non-empty
+ * segment; skips samples in empty bricks. Returns the lanes that sample at c->t (possibly after
+ * several steps of skipping), or no lane once every ray is done. */
+inline lmask segment_cursor_next(SegmentCursor* c, const VolumeRay* ray, __global const VolumeGpu* volumes,
+                                 uint volume_count, __global const uchar* occupancy) {
     for (;;) {
-        lfloat t = t_start + (LCONVERT_FLOAT(k) + jitter) * step;
+        c->k += 1;
+        lfloat t = c->t_start + (LCONVERT_FLOAT(c->k) + c->jitter) * c->step;
         /* lanes past their segment's end move on to their next non-empty segment */
-        lmask exhausted = alive & (t >= t_end);
+        lmask exhausted = c->alive & (t >= c->t_end);
         while (lany(exhausted)) {
-            segment = select(segment, segment + 1, exhausted);
-            lmask finished = exhausted & (segment >= (int)n - 1);
-            alive &= !finished;
+            c->segment = select(c->segment, c->segment + 1, exhausted);
+            lmask finished = exhausted & (c->segment >= (int)c->bound_count - 1);
+            c->alive &= !finished;
             exhausted &= !finished;
             if (!lany(exhausted)) break;
-            for (uint s = 0; s + 1 < n; ++s) {
-                lmask pick = exhausted & (segment == (int)s);
-                t_start = select(t_start, bounds[s], pick);
-                t_end = select(t_end, bounds[s + 1], pick);
+            for (uint s = 0; s + 1 < c->bound_count; ++s) {
+                lmask pick = exhausted & (c->segment == (int)s);
+                c->t_start = select(c->t_start, c->bounds[s], pick);
+                c->t_end = select(c->t_end, c->bounds[s + 1], pick);
             }
-            lfloat mid = 0.5f * (t_start + t_end);
+            lfloat mid = 0.5f * (c->t_start + c->t_end);
             lfloat new_step = (lfloat)(INFINITY);
             luint new_active = (luint)(0u);
             for (uint i = 0; i < volume_count; ++i) {
@@ -148,25 +170,25 @@ inline void traverse_segments(VOLUME_DATA_PARAM, VisitState* state, const Volume
                 new_active |= select((luint)(0u), (luint)(1u << i), inside);
                 new_step = select(new_step, fmin(new_step, volumes[i].step), inside);
             }
-            active = select(active, new_active, exhausted);
-            step = select(step, select(new_step, (lfloat)(1.0f), new_active == 0u), exhausted);
-            k = select(k, (lint)(0), exhausted);
-            t = t_start + (LCONVERT_FLOAT(k) + jitter) * step;
+            c->active = select(c->active, new_active, exhausted);
+            c->step = select(c->step, select(new_step, (lfloat)(1.0f), new_active == 0u), exhausted);
+            c->k = select(c->k, (lint)(0), exhausted);
+            t = c->t_start + (LCONVERT_FLOAT(c->k) + c->jitter) * c->step;
             /* empty segments (no active volume, zero length, or +∞ bounds) are exhausted at once */
-            exhausted &= (t >= t_end) | (new_active == 0u) | !(t_end > t_start);
+            exhausted &= (t >= c->t_end) | (new_active == 0u) | !(c->t_end > c->t_start);
         }
-        if (!lany(alive)) return;
-        lmask sampling = alive;
+        if (!lany(c->alive)) return c->alive;
+        c->t = t;
+        lmask sampling = c->alive;
 #ifdef SOMBRA_SKIP_EMPTY
         lfloat t_resume;
-        lmask skip = in_empty_bricks(occupancy, volumes, volume_count, ray, active, t, alive, &t_resume);
-        /* next k whose sample lies at or beyond the brick exit (one is added below) */
-        lfloat resume_index = fmin(ceil((t_resume - t_start) / step - jitter), 1.0e9f); /* finite for convert */
-        k = select(k, max(k, LCONVERT_INT(resume_index) - 1), skip);
+        lmask skip = in_empty_bricks(occupancy, volumes, volume_count, ray, c->active, t, c->alive, &t_resume);
+        /* the next call samples at the first k at or beyond the brick exit */
+        lfloat resume_index = fmin(ceil((t_resume - c->t_start) / c->step - c->jitter), 1.0e9f); /* finite for convert */
+        c->k = select(c->k, max(c->k, LCONVERT_INT(resume_index) - 1), skip);
         sampling &= !skip;
 #endif
-        if (lany(sampling)) alive &= visit_sample(volume_data, state, ray, t, step, active, sampling) | !sampling;
-        k += 1;
+        if (lany(sampling)) return sampling;
     }
 }
 

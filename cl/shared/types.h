@@ -21,6 +21,10 @@ typedef cl_uint sb_uint;
 /* Upper bound on volumes per scene (segment arrays are sized by it). */
 #define SOMBRA_MAX_VOLUMES 8
 #define SOMBRA_MAX_LIGHTS 8
+/* Kernels size their per-ray arrays by the scene's volume count (a -D define) when it is given. */
+#ifndef SOMBRA_VOLUME_SLOTS
+#define SOMBRA_VOLUME_SLOTS SOMBRA_MAX_VOLUMES
+#endif
 
 enum {
     SOMBRA_LIGHT_DIRECTIONAL = 0,

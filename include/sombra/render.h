@@ -11,10 +11,14 @@ namespace sombra {
 
 enum class GradientMethod { CentralDifferences, Sobel };
 enum class VolumeStorage { Auto, Buffer, Image };  // Auto: buffer on CPU devices, image on GPUs
+// The shadow term of Knecht Eq. 3.9. None: 1 everywhere. Rays: the shadow-ray baseline, marching
+// from every visible sample to every light over the same segments as the camera rays.
+enum class ShadowTechnique { None, Rays };
 
 struct RenderOptions {
     int width = 0, height = 0;  // 0: the scene's size
     GradientMethod gradient = GradientMethod::CentralDifferences;
+    ShadowTechnique shadows = ShadowTechnique::None;
     VolumeStorage storage = VolumeStorage::Auto;
     bool empty_space_skipping = true;
     float termination_transmittance = 1e-3f;  // early ray termination threshold on t_acc

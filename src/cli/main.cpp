@@ -39,6 +39,9 @@ int run(int argc, char** argv) {
     render->add_option("--device", device, "auto, cpu, gpu, or an index from `sombra devices`");
     render->add_option("--stats", stats_path, "write per-stage times and sample counts as JSON");
     render->add_option("--gradient", gradient, "central or sobel")->check(CLI::IsMember({"central", "sobel"}));
+    std::string shadows = "none";
+    render->add_option("--shadows", shadows, "none, or rays (march from every sample to every light)")
+        ->check(CLI::IsMember({"none", "rays"}));
     render->add_option("--volume-storage", storage, "auto (buffer on CPUs, image on GPUs), buffer or image")
         ->check(CLI::IsMember({"auto", "buffer", "image"}));
     render->add_option("--non-finite", non_finite, "NaN/Inf voxels: reject (error) or sanitize (set to 0, warn)")
@@ -83,6 +86,7 @@ int run(int argc, char** argv) {
     options.empty_space_skipping = !no_skip;
     options.jitter_seed = seed;
     options.lanes = lanes;
+    options.shadows = shadows == "rays" ? sombra::ShadowTechnique::Rays : sombra::ShadowTechnique::None;
     sombra::RenderResult result = sombra::render(context, scene, options);
     sombra::write_image(result.image, output);
     if (!stats_path.empty()) write_text_file(stats_path, result.stats.to_json());

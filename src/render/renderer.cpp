@@ -13,11 +13,13 @@ namespace {
 // -D defines for the camera pass: what this scene and these options need, nothing more.
 std::vector<std::string> camera_pass_defines(const Scene& scene, const RenderOptions& options, bool use_images,
                                              int lanes) {
-    std::vector<std::string> defines{"SOMBRA_LANES=" + std::to_string(lanes)};
+    std::vector<std::string> defines{"SOMBRA_LANES=" + std::to_string(lanes),
+                                     "SOMBRA_VOLUME_SLOTS=" + std::to_string(scene.volumes.size())};
     if (use_images) defines.push_back("SOMBRA_USE_IMAGES");
     if (options.gradient == GradientMethod::Sobel) defines.push_back("SOMBRA_SOBEL");
     if (options.empty_space_skipping) defines.push_back("SOMBRA_SKIP_EMPTY");
     if (!scene.lights.empty()) defines.push_back("SOMBRA_HAS_LIGHTS");
+    if (!scene.lights.empty() && options.shadows == ShadowTechnique::Rays) defines.push_back("SOMBRA_SHADOW_RAYS");
     return defines;
 }
 
