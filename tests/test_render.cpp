@@ -65,6 +65,25 @@ TEST_CASE("every packet width matches the reference, also where the image width 
     }
 }
 
+TEST_CASE("shadow-ray baseline matches the CPU reference and darkens what lies behind", "[render][shadows]") {
+    Scene s = test::overlapping_scene();
+    s.width = 40, s.height = 30;
+    RenderOptions o;
+    o.shadows = ShadowTechnique::Rays;
+    reference::ReferenceOptions r;
+    r.shadow_rays = true;
+    require_matches_reference(s, o, r);
+    // shadows only remove light: no pixel gets brighter than without them
+    RenderResult lit = render_with(s), shadowed = render_with(s, o);
+    double darker = 0;
+    for (std::size_t i = 0; i < lit.image.rgba.size(); ++i) {
+        if (i % 4 == 3) continue;
+        REQUIRE(shadowed.image.rgba[i] <= lit.image.rgba[i] + 1e-5f);
+        darker += lit.image.rgba[i] - shadowed.image.rgba[i];
+    }
+    CHECK(darker > 1.0);  // and some light is blocked
+}
+
 TEST_CASE("camera pass without lights shows the transfer function colours only (ambient)", "[render]") {
     Scene s = test::sphere_scene();
     s.lights.clear();

@@ -90,11 +90,12 @@ V3 gradient(const Volume& v, V3 p, bool sobel) {
 }
 
 // Phong with several lights and attenuation (Knecht Eq. 3.9, slides' phongShading), shadow = 1.
-V3 shade(const Scene& scene, const Material& mat, V3 color, V3 p, V3 normal, V3 to_viewer) {
+V3 shade(const Scene& scene, const Material& mat, V3 color, V3 p, V3 normal, V3 to_viewer, const std::vector<double>& shadow) {
     V3 result = (mat.ambient * scene.ambient_intensity) * color;
     bool has_normal = dot(normal, normal) > 0;
     if (has_normal && dot(normal, to_viewer) < 0) normal = -1.0 * normal;
-    for (const Light& l : scene.lights) {
+    for (std::size_t m = 0; m < scene.lights.size(); ++m) {
+        const Light& l = scene.lights[m];
         V3 to_light;
         double f = 1;
         if (l.type == LightType::Directional) {
@@ -123,9 +124,71 @@ V3 shade(const Scene& scene, const Material& mat, V3 color, V3 p, V3 normal, V3 
             lit = mat.diffuse * color;
         }
         V3 lc = double(l.intensity) * from(l.color);
-        result = result + f * V3{lit[0] * lc[0], lit[1] * lc[1], lit[2] * lc[2]};
+        result = result + (f * shadow[m]) * V3{lit[0] * lc[0], lit[1] * lc[1], lit[2] * lc[2]};
     }
     return result;
+}
+
+// Calls visit(t, step, active volumes) for every sample of the ray origin + t·dir, t in [0, t_max],
+// over homogeneous segments (sorted box entries/exits; step = smallest of the active volumes),
+// samples at segment start + (k + jitter)·step, until visit returns false.
+template <typename Visit>
+void march_segments(const std::vector<RefVolume>& volumes, V3 origin, V3 dir, double t_max, double jitter, Visit visit) {
+    std::vector<double> enter(volumes.size()), exit(volumes.size()), bounds;
+    for (std::size_t i = 0; i < volumes.size(); ++i) {  // slab test in voxel space; affine maps keep t
+        V3 o = volumes[i].world_to_voxel.point(origin), d = volumes[i].world_to_voxel.direction(dir);
+        double t0 = -INFINITY, t1 = INFINITY;
+        for (int a = 0; a < 3; ++a) {
+            double lo = -0.5, hi = volumes[i].instance->volume->dims[a] - 0.5;
+            if (std::fabs(d[a]) < 1e-30) {
+                if (o[a] < lo || o[a] > hi) t0 = INFINITY, t1 = -INFINITY;
+            } else {
+                double ta = (lo - o[a]) / d[a], tb = (hi - o[a]) / d[a];
+                t0 = std::max(t0, std::min(ta, tb));
+                t1 = std::min(t1, std::max(ta, tb));
+            }
+        }
+        enter[i] = std::max(t0, 0.0), exit[i] = std::min(t1, t_max);
+        if (enter[i] < exit[i]) bounds.push_back(enter[i]), bounds.push_back(exit[i]);
+    }
+    std::sort(bounds.begin(), bounds.end());
+    for (std::size_t s = 0; s + 1 < bounds.size(); ++s) {
+        double a = bounds[s], b = bounds[s + 1], mid = 0.5 * (a + b), step = INFINITY;
+        std::vector<std::size_t> active;
+        for (std::size_t i = 0; i < volumes.size(); ++i)
+            if (enter[i] <= mid && mid < exit[i]) active.push_back(i), step = std::min(step, volumes[i].step);
+        if (active.empty() || !(b > a)) continue;
+        for (double k = 0;; k += 1) {
+            double t = a + (k + jitter) * step;
+            if (t >= b) break;
+            if (!visit(t, step, active)) return;
+        }
+    }
+}
+
+// Transmittance from p to the light along a shadow ray (same segments and jitter as camera rays),
+// stopped once the optical depth passes −ln 10⁻⁶, as the kernel does.
+double shadow_ray_transmittance(const std::vector<RefVolume>& volumes, const Light& l, V3 p, double jitter) {
+    V3 dir;
+    double t_max = INFINITY;
+    if (l.type == LightType::Directional) {
+        dir = -1.0 * unit(from(l.direction));
+    } else {
+        V3 d = from(l.position) - p;
+        t_max = norm(d);
+        dir = (1.0 / std::max(t_max, 1e-30)) * d;
+    }
+    double optical_depth = 0;
+    march_segments(volumes, p, dir, t_max, jitter, [&](double t, double step, const std::vector<std::size_t>& active) {
+        V3 q = p + t * dir;
+        for (std::size_t i : active) {
+            V3 pv = volumes[i].world_to_voxel.point(q);
+            const VolumeInstance& vi = *volumes[i].instance;
+            optical_depth += extinction(vi.transfer_function, sample_trilinear(*vi.volume, pv[0], pv[1], pv[2]), volumes[i].opacity_unit) * step;
+        }
+        return !(optical_depth > 13.8155);
+    });
+    return std::exp(-optical_depth);
 }
 
 }  // namespace
@@ -163,71 +226,46 @@ Image render_reference(const Scene& scene, int width, int height, const Referenc
         for (int x = 0; x < width; ++x) {
             double sx = ((x + 0.5) / width) * 2 - 1, sy = 1 - ((y + 0.5) / height) * 2;
             V3 dir = unit(forward + (sx * tan_half * aspect) * right + (sy * tan_half) * up);
-            // per-volume entry/exit along the ray (slab test in voxel space; affine maps keep t)
-            std::vector<double> enter(volumes.size()), exit(volumes.size()), bounds;
-            for (std::size_t i = 0; i < volumes.size(); ++i) {
-                V3 o = volumes[i].world_to_voxel.point(eye), d = volumes[i].world_to_voxel.direction(dir);
-                double t0 = -INFINITY, t1 = INFINITY;
-                for (int a = 0; a < 3; ++a) {
-                    double lo = -0.5, hi = volumes[i].instance->volume->dims[a] - 0.5;
-                    if (std::fabs(d[a]) < 1e-30) {
-                        if (o[a] < lo || o[a] > hi) t0 = INFINITY, t1 = -INFINITY;
-                    } else {
-                        double ta = (lo - o[a]) / d[a], tb = (hi - o[a]) / d[a];
-                        t0 = std::max(t0, std::min(ta, tb));
-                        t1 = std::min(t1, std::max(ta, tb));
-                    }
-                }
-                enter[i] = std::max(t0, 0.0), exit[i] = t1;
-                if (enter[i] < exit[i]) bounds.push_back(enter[i]), bounds.push_back(exit[i]);
-            }
-            std::sort(bounds.begin(), bounds.end());
             double jitter = sombra_pixel_jitter(std::uint32_t(x), std::uint32_t(y), options.jitter_seed);
             V3 radiance{0, 0, 0};
             double transmittance = 1;
-            bool done = false;
-            for (std::size_t s = 0; s + 1 < bounds.size() && !done; ++s) {
-                double a = bounds[s], b = bounds[s + 1], mid = 0.5 * (a + b), step = INFINITY;
-                std::vector<std::size_t> active;
-                for (std::size_t i = 0; i < volumes.size(); ++i)
-                    if (enter[i] <= mid && mid < exit[i]) active.push_back(i), step = std::min(step, volumes[i].step);
-                if (active.empty() || !(b > a)) continue;
-                for (double k = 0;; k += 1) {
-                    double t = a + (k + jitter) * step;
-                    if (t >= b) break;
-                    V3 p = eye + t * dir;
-                    double sigma_sum = 0;
-                    V3 color_sum{0, 0, 0};
-                    for (std::size_t i : active) {
-                        const VolumeInstance& vi = *volumes[i].instance;
-                        V3 pv = volumes[i].world_to_voxel.point(p);
-                        double value = sample_trilinear(*vi.volume, pv[0], pv[1], pv[2]);
-                        double sigma = extinction(vi.transfer_function, value, volumes[i].opacity_unit);
-                        if (sigma <= 0) continue;
-                        auto c = vi.transfer_function.color(float(value));
-                        V3 normal{0, 0, 0};
-                        if (!scene.lights.empty()) {
-                            V3 g = gradient(*vi.volume, pv, options.sobel);
-                            double range = vi.transfer_function.domain_max() - vi.transfer_function.domain_min();
-                            if (norm(g) * (range > 0 ? 1023.0 / range : 0.0) >= 1e-3) {
-                                const auto& m = volumes[i].world_to_voxel.m;  // g_world = Jᵀ g_voxel
-                                V3 gw{m[0][0] * g[0] + m[1][0] * g[1] + m[2][0] * g[2], m[0][1] * g[0] + m[1][1] * g[1] + m[2][1] * g[2],
-                                      m[0][2] * g[0] + m[1][2] * g[1] + m[2][2] * g[2]};
-                                normal = -1.0 * unit(gw);
-                            }
+            march_segments(volumes, eye, dir, INFINITY, jitter, [&](double t, double step, const std::vector<std::size_t>& active) {
+                V3 p = eye + t * dir;
+                double sigma_sum = 0;
+                V3 color_sum{0, 0, 0};
+                std::vector<double> shadow;  // transmittance to each light, once per sample
+                for (std::size_t i : active) {
+                    const VolumeInstance& vi = *volumes[i].instance;
+                    V3 pv = volumes[i].world_to_voxel.point(p);
+                    double value = sample_trilinear(*vi.volume, pv[0], pv[1], pv[2]);
+                    double sigma = extinction(vi.transfer_function, value, volumes[i].opacity_unit);
+                    if (sigma <= 0) continue;
+                    auto c = vi.transfer_function.color(float(value));
+                    V3 normal{0, 0, 0};
+                    if (!scene.lights.empty()) {
+                        V3 g = gradient(*vi.volume, pv, options.sobel);
+                        double range = vi.transfer_function.domain_max() - vi.transfer_function.domain_min();
+                        if (norm(g) * (range > 0 ? 1023.0 / range : 0.0) >= 1e-3) {
+                            const auto& m = volumes[i].world_to_voxel.m;  // g_world = Jᵀ g_voxel
+                            V3 gw{m[0][0] * g[0] + m[1][0] * g[1] + m[2][0] * g[2], m[0][1] * g[0] + m[1][1] * g[1] + m[2][1] * g[2],
+                                  m[0][2] * g[0] + m[1][2] * g[1] + m[2][2] * g[2]};
+                            normal = -1.0 * unit(gw);
                         }
-                        V3 shaded = shade(scene, vi.material, {c[0], c[1], c[2]}, p, normal, -1.0 * dir);
-                        sigma_sum += sigma;
-                        color_sum = color_sum + sigma * shaded;
                     }
-                    if (sigma_sum > 0) {  // Knecht Eq. 3.10–3.11 with α = 1 − exp(−Σσ Δ)
-                        double alpha = 1 - std::exp(-sigma_sum * step);
-                        radiance = radiance + (alpha * transmittance / sigma_sum) * color_sum;
-                        transmittance *= 1 - alpha;
-                    }
-                    if (transmittance <= options.termination_transmittance) { done = true; break; }
+                    if (shadow.empty())
+                        for (const Light& l : scene.lights)
+                            shadow.push_back(options.shadow_rays ? shadow_ray_transmittance(volumes, l, p, jitter) : 1.0);
+                    V3 shaded = shade(scene, vi.material, {c[0], c[1], c[2]}, p, normal, -1.0 * dir, shadow);
+                    sigma_sum += sigma;
+                    color_sum = color_sum + sigma * shaded;
                 }
-            }
+                if (sigma_sum > 0) {  // Knecht Eq. 3.10–3.11 with α = 1 − exp(−Σσ Δ)
+                    double alpha = 1 - std::exp(-sigma_sum * step);
+                    radiance = radiance + (alpha * transmittance / sigma_sum) * color_sum;
+                    transmittance *= 1 - alpha;
+                }
+                return transmittance > options.termination_transmittance;
+            });
             float* px = &image.rgba[(std::size_t(y) * width + x) * 4];
             for (int c = 0; c < 3; ++c) px[c] = float(radiance[c] + transmittance * scene.background[c]);
             px[3] = float(1 - transmittance);

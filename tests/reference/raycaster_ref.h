@@ -11,6 +11,7 @@ struct ReferenceOptions {
     bool sobel = false;
     double termination_transmittance = 1e-3;
     unsigned jitter_seed = 1;
+    bool shadow_rays = false;  // shadow term by marching to each light (else 1)
 };
 
 Image render_reference(const Scene& scene, int width, int height, const ReferenceOptions& options = {});
