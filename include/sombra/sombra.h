@@ -4,5 +4,6 @@
 #include "sombra/error.h"
 #include "sombra/render.h"
 #include "sombra/scene.h"
+#include "sombra/shadows.h"
 #include "sombra/transfer_function.h"
 #include "sombra/volume.h"

@@ -1,0 +1,43 @@
+// sombra — shadow data on the host: deep shadow maps as node lists, their deep OpenEXR form, and
+// the brute-force transmittance every shadow technique is measured against.
+#pragma once
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "sombra/scene.h"
+
+namespace sombra {
+
+// One node of a compressed visibility function (Knecht §3.2): accumulated opacity α at a depth.
+// Depth is the distance from the light along the texel's ray (spot and point lights) or from the
+// DSM's near plane along the light direction (directional lights), in world units.
+struct DsmNode {
+    float depth;
+    float opacity;
+};
+
+// The deep shadow map of one light view (one spot light, one cube face of a point light, or one
+// directional light), read back from the device. Texel (x, y) owns the nodes
+// nodes[first[y·width + x] … first[y·width + x + 1]), sorted by depth, opacity non-decreasing.
+// A texel without nodes is fully lit.
+struct DeepShadowMap {
+    int width = 0, height = 0;
+    std::vector<std::uint32_t> first;  // width·height + 1 offsets
+    std::vector<DsmNode> nodes;
+    std::string light_name;  // e.g. "lights[0]", "lights[1].+x"
+};
+
+// Writes a scanline deep OpenEXR (channels A and Z per node; ZBack = Z) through OpenImageIO,
+// under a temporary name renamed at the end (no partial file). Throws sombra::Error.
+void write_deep_exr(const DeepShadowMap& map, const std::string& path);
+DeepShadowMap read_deep_exr(const std::string& path);
+
+// Ground truth: transmittance from world point p to light `light_index` of the scene, integrated
+// in double precision with steps of `step_voxels` of each volume's smallest voxel (midpoint rule,
+// trilinear interpolation, the transfer function evaluated directly, no table, no compression).
+// Overlapping volumes add their optical depths. Lights at infinity (directional) integrate to the
+// far side of every volume.
+double reference_transmittance(const Scene& scene, int light_index, const Vec3& p, double step_voxels = 0.05);
+
+}  // namespace sombra

@@ -1,0 +1,163 @@
+// sombra — deep shadow maps as scanline deep OpenEXR files (shadows.h: write_deep_exr, read_deep_exr).
+//
+// One deep sample per DSM node, in depth order, with float channels A (accumulated opacity),
+// Z (depth) and ZBack (= Z: point samples). The light's name travels in the header as the string
+// attribute "sombra:light". Scanline, not tiled: Nuke reads only scanline deep EXR.
+#include <OpenImageIO/deepdata.h>
+#include <OpenImageIO/imageio.h>
+
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "sombra/error.h"
+#include "sombra/shadows.h"
+
+namespace sombra {
+namespace {
+
+constexpr const char* kLightAttribute = "sombra:light";
+
+std::string texel_name(const DeepShadowMap& map, std::size_t texel) {
+    return "texel (" + std::to_string(texel % std::size_t(map.width)) + ", " +
+           std::to_string(texel / std::size_t(map.width)) + ")";
+}
+
+// Every invariant of shadows.h's DeepShadowMap that the file format relies on.
+void validate(const DeepShadowMap& map, const std::string& path) {
+    if (map.width < 1) throw file_error(path, "width", "must be >= 1, got " + std::to_string(map.width));
+    if (map.height < 1) throw file_error(path, "height", "must be >= 1, got " + std::to_string(map.height));
+    const std::uint64_t texels = std::uint64_t(map.width) * std::uint64_t(map.height);
+    if (map.first.size() != texels + 1)
+        throw file_error(path, "first", "has " + std::to_string(map.first.size()) + " offsets, expected width·height + 1 = " +
+                                            std::to_string(texels + 1));
+    if (map.first.front() != 0) throw file_error(path, "first[0]", "must be 0, got " + std::to_string(map.first.front()));
+    for (std::size_t i = 1; i < map.first.size(); ++i)
+        if (map.first[i] < map.first[i - 1])
+            throw file_error(path, "first[" + std::to_string(i) + "]",
+                             "offsets must not decrease (" + std::to_string(map.first[i]) + " < " +
+                                 std::to_string(map.first[i - 1]) + ")");
+    if (map.first.back() != map.nodes.size())
+        throw file_error(path, "first", "last offset " + std::to_string(map.first.back()) + " != node count " +
+                                            std::to_string(map.nodes.size()));
+    for (std::size_t i = 0; i < map.nodes.size(); ++i) {
+        if (!std::isfinite(map.nodes[i].depth))
+            throw file_error(path, "nodes[" + std::to_string(i) + "].depth", "not finite");
+        if (!std::isfinite(map.nodes[i].opacity))
+            throw file_error(path, "nodes[" + std::to_string(i) + "].opacity", "not finite");
+    }
+    for (std::size_t texel = 0; texel < texels; ++texel)
+        for (std::uint32_t n = map.first[texel] + 1; n < map.first[texel + 1]; ++n)
+            if (map.nodes[n].depth < map.nodes[n - 1].depth)
+                throw file_error(path, "nodes[" + std::to_string(n) + "].depth",
+                                 "not sorted by depth in " + texel_name(map, texel) + " (" +
+                                     std::to_string(map.nodes[n].depth) + " < " + std::to_string(map.nodes[n - 1].depth) + ")");
+}
+
+// Removes the temporary file unless release() was called (the rename succeeded).
+class TemporaryFile {
+public:
+    explicit TemporaryFile(std::string path) : path_(std::move(path)) {}
+    ~TemporaryFile() {
+        if (!path_.empty()) {
+            std::error_code ec;
+            std::filesystem::remove(path_, ec);
+        }
+    }
+    TemporaryFile(const TemporaryFile&) = delete;
+    TemporaryFile& operator=(const TemporaryFile&) = delete;
+    void release() { path_.clear(); }
+
+private:
+    std::string path_;
+};
+
+int channel_index(const OIIO::ImageSpec& spec, const std::string& name) {
+    for (int c = 0; c < spec.nchannels; ++c)
+        if (spec.channelnames[std::size_t(c)] == name) return c;
+    return -1;
+}
+
+}  // namespace
+
+void write_deep_exr(const DeepShadowMap& map, const std::string& path) {
+    validate(map, path);
+
+    OIIO::ImageSpec spec(map.width, map.height, 3, OIIO::TypeDesc::FLOAT);
+    spec.channelnames = {"A", "Z", "ZBack"};
+    spec.alpha_channel = 0;
+    spec.z_channel = 1;
+    spec.deep = true;
+    spec.attribute("compression", "zips");  // deep EXR allows none, rle and zips only
+    spec.attribute(kLightAttribute, map.light_name);
+
+    OIIO::DeepData deep;
+    deep.init(spec);
+    const std::size_t texels = std::size_t(map.width) * std::size_t(map.height);
+    for (std::size_t texel = 0; texel < texels; ++texel)
+        deep.set_samples(int64_t(texel), int(map.first[texel + 1] - map.first[texel]));
+    for (std::size_t texel = 0; texel < texels; ++texel)
+        for (std::uint32_t n = map.first[texel]; n < map.first[texel + 1]; ++n) {
+            const int s = int(n - map.first[texel]);
+            deep.set_deep_value(int64_t(texel), 0, s, map.nodes[n].opacity);
+            deep.set_deep_value(int64_t(texel), 1, s, map.nodes[n].depth);
+            deep.set_deep_value(int64_t(texel), 2, s, map.nodes[n].depth);  // ZBack = Z: point samples
+        }
+
+    // Write under a temporary name next to the target (ending in .exr so OpenImageIO picks the EXR
+    // writer), then rename: a failed write leaves no file behind.
+    const std::string temporary = path + ".part.exr";
+    TemporaryFile guard(temporary);
+    {
+        auto out = OIIO::ImageOutput::create("openexr");
+        if (!out) throw Error(path + ": OpenImageIO has no OpenEXR writer (" + OIIO::geterror() + ")");
+        if (!out->supports("deepdata")) throw Error(path + ": OpenImageIO's OpenEXR writer does not support deep data");
+        const bool ok = out->open(temporary, spec) && out->write_deep_image(deep) && out->close();
+        if (!ok) throw Error(path + ": cannot write deep EXR (" + out->geterror() + ")");
+    }
+    std::error_code ec;
+    std::filesystem::rename(temporary, path, ec);
+    if (ec) throw Error(path + ": cannot write deep EXR (" + ec.message() + ")");
+    guard.release();
+}
+
+DeepShadowMap read_deep_exr(const std::string& path) {
+    auto in = OIIO::ImageInput::open(path);
+    if (!in) {
+        std::string why = OIIO::geterror();
+        throw Error(path + ": cannot read deep EXR (" + (why.empty() ? std::string("cannot open") : why) + ")");
+    }
+    const OIIO::ImageSpec spec = in->spec();
+    if (std::string(in->format_name()) != "openexr" || !spec.deep)
+        throw Error(path + ": not a deep OpenEXR file (format " + std::string(in->format_name()) +
+                    (spec.deep ? ", deep" : ", not deep") + ")");
+    const int a_channel = channel_index(spec, "A"), z_channel = channel_index(spec, "Z");
+    if (a_channel < 0 || z_channel < 0) throw file_error(path, "channels", "needs channels A and Z");
+    if (spec.width < 1 || spec.height < 1)
+        throw file_error(path, "size", "empty image (" + std::to_string(spec.width) + "x" + std::to_string(spec.height) + ")");
+
+    OIIO::DeepData deep;
+    if (!in->read_native_deep_image(0, 0, deep)) throw Error(path + ": cannot read deep EXR (" + in->geterror() + ")");
+
+    DeepShadowMap map;
+    map.width = spec.width;
+    map.height = spec.height;
+    map.light_name = spec.get_string_attribute(kLightAttribute);
+    const std::size_t texels = std::size_t(map.width) * std::size_t(map.height);
+    if (std::size_t(deep.pixels()) != texels)
+        throw file_error(path, "deep data", "has " + std::to_string(deep.pixels()) + " pixels, expected " + std::to_string(texels));
+    map.first.assign(texels + 1, 0);
+    for (std::size_t texel = 0; texel < texels; ++texel) {
+        const int samples = deep.samples(int64_t(texel));
+        for (int s = 0; s < samples; ++s)
+            map.nodes.push_back({deep.deep_value(int64_t(texel), z_channel, s), deep.deep_value(int64_t(texel), a_channel, s)});
+        map.first[texel + 1] = std::uint32_t(map.nodes.size());
+    }
+    validate(map, path);  // a file from elsewhere must still be a valid map (finite, depth-sorted)
+    return map;
+}
+
+}  // namespace sombra

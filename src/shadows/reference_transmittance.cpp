@@ -1,0 +1,268 @@
+// sombra — ground-truth transmittance (shadows.h: reference_transmittance).
+//
+// This file is the independent yardstick every shadow technique is measured against. It shares no
+// code with the kernels (cl/) nor with the test references (tests/reference/): everything it needs
+// — the voxel ↔ world affine maps, the box clipping, trilinear interpolation, the extinction of
+// the transfer function and the quadrature — is written out here, in double precision, in small
+// functions that each do one thing.
+//
+//   T(p → light) = exp(−τ),   τ = Σ_volumes ∫_segment σ_v(x) ds                      (Beer–Lambert)
+//   σ_v(x)       = −ln(1 − α(f_v(x))) / opacity_unit_v                     (README: opacity convention)
+//   ∫_a^b σ ds   ≈ h · Σ_{k=0}^{n−1} σ(a + (k + ½)·h),  n = ⌈(b − a)/h₀⌉, h = (b − a)/n  (midpoint rule)
+//
+// with h₀ = step_voxels × the volume's smallest world voxel size, and f_v the trilinear
+// interpolation of the voxels (positions clamped to [0, dims − 1]). Overlapping volumes add their
+// optical depths. No spot cone, no distance attenuation: transmittance only.
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include "sombra/error.h"
+#include "sombra/shadows.h"
+
+namespace sombra {
+namespace {
+
+// ---- small double-precision vector algebra ----
+
+using D3 = std::array<double, 3>;
+
+D3 to_d3(const Vec3& v) { return {double(v[0]), double(v[1]), double(v[2])}; }
+D3 add(const D3& a, const D3& b) { return {a[0] + b[0], a[1] + b[1], a[2] + b[2]}; }
+D3 sub(const D3& a, const D3& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
+D3 scale(double s, const D3& a) { return {s * a[0], s * a[1], s * a[2]}; }
+double dot(const D3& a, const D3& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+double length(const D3& a) { return std::sqrt(dot(a, a)); }
+bool finite(const D3& a) { return std::isfinite(a[0]) && std::isfinite(a[1]) && std::isfinite(a[2]); }
+
+// x ↦ M·x + t, M a 3×3 matrix stored row-major.
+struct Affine {
+    std::array<std::array<double, 3>, 3> m{};
+    D3 t{0, 0, 0};
+
+    D3 apply_linear(const D3& x) const {
+        return {m[0][0] * x[0] + m[0][1] * x[1] + m[0][2] * x[2],
+                m[1][0] * x[0] + m[1][1] * x[1] + m[1][2] * x[2],
+                m[2][0] * x[0] + m[2][1] * x[1] + m[2][2] * x[2]};
+    }
+    D3 apply_point(const D3& x) const { return add(apply_linear(x), t); }
+};
+
+// (A∘B)(x) = A(B(x)) = A.m·B.m·x + (A.m·B.t + A.t)
+Affine compose(const Affine& a, const Affine& b) {
+    Affine r;
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j)
+            r.m[i][j] = a.m[i][0] * b.m[0][j] + a.m[i][1] * b.m[1][j] + a.m[i][2] * b.m[2][j];
+    r.t = a.apply_point(b.t);
+    return r;
+}
+
+double determinant(const Affine& a) {
+    const auto& m = a.m;
+    return m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
+           m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+}
+
+// Inverse of x ↦ M·x + t is y ↦ M⁻¹·y − M⁻¹·t, with M⁻¹ = adj(M)/det(M) (cofactor formula).
+Affine inverse(const Affine& a, const std::string& where) {
+    const double det = determinant(a);
+    if (!std::isfinite(det) || det == 0.0) throw Error(where + ": transform is singular (zero determinant)");
+    const auto& m = a.m;
+    Affine r;
+    r.m[0][0] = (m[1][1] * m[2][2] - m[1][2] * m[2][1]) / det;
+    r.m[0][1] = (m[0][2] * m[2][1] - m[0][1] * m[2][2]) / det;
+    r.m[0][2] = (m[0][1] * m[1][2] - m[0][2] * m[1][1]) / det;
+    r.m[1][0] = (m[1][2] * m[2][0] - m[1][0] * m[2][2]) / det;
+    r.m[1][1] = (m[0][0] * m[2][2] - m[0][2] * m[2][0]) / det;
+    r.m[1][2] = (m[0][2] * m[1][0] - m[0][0] * m[1][2]) / det;
+    r.m[2][0] = (m[1][0] * m[2][1] - m[1][1] * m[2][0]) / det;
+    r.m[2][1] = (m[0][1] * m[2][0] - m[0][0] * m[2][1]) / det;
+    r.m[2][2] = (m[0][0] * m[1][1] - m[0][1] * m[1][0]) / det;
+    r.t = scale(-1.0, r.apply_linear(a.t));
+    return r;
+}
+
+// ---- one volume in world space ----
+
+// Voxel (i, j, k) → object frame: ((i − (nx−1)/2)·sx, (j − (ny−1)/2)·sy, (k − (nz−1)/2)·sz)  (scene.h)
+Affine voxel_to_object(const VolumeInstance& vi) {
+    Affine a;
+    for (int axis = 0; axis < 3; ++axis) {
+        const double s = vi.spacing[std::size_t(axis)];
+        a.m[axis][axis] = s;
+        a.t[axis] = -0.5 * double(vi.volume->dims[std::size_t(axis)] - 1) * s;
+    }
+    return a;
+}
+
+// Object → world: the affine part of the row-major 4×4 `transform` (last row is 0 0 0 1).
+Affine object_to_world(const VolumeInstance& vi) {
+    Affine a;
+    for (int r = 0; r < 3; ++r) {
+        for (int c = 0; c < 3; ++c) a.m[r][c] = vi.transform[std::size_t(r * 4 + c)];
+        a.t[r] = vi.transform[std::size_t(r * 4 + 3)];
+    }
+    return a;
+}
+
+// World length of one voxel step along voxel axis j = |column j of the voxel → world matrix|;
+// the smallest of the three is "the volume's smallest world voxel size".
+double smallest_voxel_size(const Affine& voxel_to_world) {
+    double smallest = std::numeric_limits<double>::infinity();
+    for (int j = 0; j < 3; ++j)
+        smallest = std::min(smallest, length({voxel_to_world.m[0][j], voxel_to_world.m[1][j], voxel_to_world.m[2][j]}));
+    return smallest;
+}
+
+struct PreparedVolume {
+    const Volume* volume = nullptr;
+    const TransferFunction* tf = nullptr;
+    Affine world_to_voxel;
+    double voxel_size = 0;    // smallest world voxel size
+    double opacity_unit = 0;  // world length the TF opacities refer to
+};
+
+PreparedVolume prepare(const VolumeInstance& vi, const std::string& where) {
+    if (!vi.volume) throw Error(where + ": no volume data");
+    const Volume& v = *vi.volume;
+    if (v.dims[0] < 1 || v.dims[1] < 1 || v.dims[2] < 1 || v.voxels.size() != v.voxel_count())
+        throw Error(where + ": volume has no voxels or a voxel count that does not match its dims");
+    const Affine voxel_to_world = compose(object_to_world(vi), voxel_to_object(vi));
+    PreparedVolume pv;
+    pv.volume = &v;
+    pv.tf = &vi.transfer_function;
+    pv.world_to_voxel = inverse(voxel_to_world, where);
+    pv.voxel_size = smallest_voxel_size(voxel_to_world);
+    pv.opacity_unit = vi.opacity_unit > 0.f ? double(vi.opacity_unit) : pv.voxel_size;  // 0 = one voxel
+    return pv;
+}
+
+// ---- sampling ----
+
+// Trilinear interpolation at voxel-space position x (voxel (i, j, k) at integer coordinates),
+// clamp-to-edge: x is first clamped to [0, dims − 1] on each axis.
+double sample_trilinear(const Volume& v, const D3& x) {
+    int lo[3], hi[3];
+    double w[3];  // weight of the upper neighbour
+    for (int a = 0; a < 3; ++a) {
+        const int n = v.dims[std::size_t(a)];
+        const double c = std::clamp(x[std::size_t(a)], 0.0, double(n - 1));
+        lo[a] = std::min(int(std::floor(c)), n - 1);
+        hi[a] = std::min(lo[a] + 1, n - 1);
+        w[a] = c - double(lo[a]);
+    }
+    double result = 0;
+    for (int dz = 0; dz < 2; ++dz)
+        for (int dy = 0; dy < 2; ++dy)
+            for (int dx = 0; dx < 2; ++dx) {
+                const double weight = (dx ? w[0] : 1 - w[0]) * (dy ? w[1] : 1 - w[1]) * (dz ? w[2] : 1 - w[2]);
+                if (weight == 0) continue;
+                result += weight * double(v.at(dx ? hi[0] : lo[0], dy ? hi[1] : lo[1], dz ? hi[2] : lo[2]));
+            }
+    return result;
+}
+
+// σ = −ln(1 − α)/opacity_unit (README, "Opacity convention"), α = TF opacity of the value.
+// α = 1 would be σ = ∞: it is capped at transmittance 10⁻⁶ per opacity unit, σ_max = −ln(10⁻⁶)/unit,
+// and, as in TransferFunction::table, no σ exceeds that cap.
+double extinction(const TransferFunction& tf, double value, double opacity_unit) {
+    const double alpha = std::clamp(double(tf.opacity(float(value))), 0.0, 1.0);
+    const double sigma_max = -std::log(1e-6) / opacity_unit;
+    if (alpha >= 1.0) return sigma_max;
+    return std::min(sigma_max, -std::log1p(-alpha) / opacity_unit);  // log1p(−α) = ln(1 − α)
+}
+
+// ---- geometry of the shadow segment ----
+
+// The shadow segment: origin + t·dir, t ∈ [0, t_end], |dir| = 1 (so t is a world length).
+struct Segment {
+    D3 origin;
+    D3 dir;
+    double t_end;  // +∞ for a directional light
+};
+
+struct Interval {
+    double t0, t1;
+    bool empty() const { return !(t1 > t0); }
+};
+
+// Clips the segment against the volume's box [−½, dims − ½]³ in voxel space (slab method).
+// An affine map sends origin + t·dir to o' + t·d', so the parameter t is the same in both spaces.
+Interval clip_to_box(const PreparedVolume& pv, const Segment& s) {
+    const D3 o = pv.world_to_voxel.apply_point(s.origin);
+    const D3 d = pv.world_to_voxel.apply_linear(s.dir);
+    Interval in{0.0, s.t_end};
+    for (int a = 0; a < 3; ++a) {
+        const double lo = -0.5, hi = double(pv.volume->dims[std::size_t(a)]) - 0.5;
+        if (d[std::size_t(a)] == 0.0) {  // parallel to this pair of faces: inside the slab or never
+            if (o[std::size_t(a)] < lo || o[std::size_t(a)] > hi) return {0.0, 0.0};
+            continue;
+        }
+        double ta = (lo - o[std::size_t(a)]) / d[std::size_t(a)], tb = (hi - o[std::size_t(a)]) / d[std::size_t(a)];
+        if (ta > tb) std::swap(ta, tb);
+        in.t0 = std::max(in.t0, ta);
+        in.t1 = std::min(in.t1, tb);
+    }
+    return in;
+}
+
+// τ_v = ∫ σ_v ds over the part of the segment inside the volume, midpoint rule:
+// n = ⌈length/h₀⌉ equal steps h = length/n ≤ h₀, samples at the step midpoints.
+double optical_depth(const PreparedVolume& pv, const Segment& s, double step_voxels) {
+    const Interval in = clip_to_box(pv, s);
+    if (in.empty()) return 0.0;
+    const double length = in.t1 - in.t0;
+    const double h0 = step_voxels * pv.voxel_size;
+    const double n = std::max(1.0, std::ceil(length / h0));
+    const double h = length / n;
+    double tau = 0;
+    for (double k = 0; k < n; k += 1) {
+        const double t = in.t0 + (k + 0.5) * h;
+        const D3 x = pv.world_to_voxel.apply_point(add(s.origin, scale(t, s.dir)));
+        tau += extinction(*pv.tf, sample_trilinear(*pv.volume, x), pv.opacity_unit) * h;
+    }
+    return tau;
+}
+
+// From p towards the light: directional lights along −direction to infinity; spot and point
+// lights to their position.
+Segment shadow_segment(const Light& light, const D3& p, const std::string& where) {
+    if (light.type == LightType::Directional) {
+        const D3 d = to_d3(light.direction);
+        const double len = length(d);
+        if (!(len > 0) || !std::isfinite(len)) throw Error(where + ".direction: must be a finite non-zero vector");
+        return {p, scale(-1.0 / len, d), std::numeric_limits<double>::infinity()};
+    }
+    const D3 to_light = sub(to_d3(light.position), p);
+    if (!finite(to_light)) throw Error(where + ".position: not finite");
+    const double dist = length(to_light);
+    if (dist == 0.0) return {p, {0, 0, 1}, 0.0};  // p at the light: empty segment, T = 1
+    return {p, scale(1.0 / dist, to_light), dist};
+}
+
+}  // namespace
+
+double reference_transmittance(const Scene& scene, int light_index, const Vec3& p, double step_voxels) {
+    if (light_index < 0 || std::size_t(light_index) >= scene.lights.size())
+        throw Error("reference_transmittance: light index " + std::to_string(light_index) + " out of range (scene has " +
+                    std::to_string(scene.lights.size()) + " lights)");
+    if (!(step_voxels > 0) || !std::isfinite(step_voxels))
+        throw Error("reference_transmittance: step_voxels must be a finite positive number");
+    const D3 point = to_d3(p);
+    if (!finite(point)) throw Error("reference_transmittance: point is not finite");
+
+    const std::string light_where = "lights[" + std::to_string(light_index) + "]";
+    const Segment segment = shadow_segment(scene.lights[std::size_t(light_index)], point, light_where);
+
+    double tau = 0;  // overlapping volumes add their optical depths
+    for (std::size_t i = 0; i < scene.volumes.size(); ++i) {
+        const PreparedVolume pv = prepare(scene.volumes[i], "volumes[" + std::to_string(i) + "]");
+        tau += optical_depth(pv, segment, step_voxels);
+    }
+    return std::exp(-tau);
+}
+
+}  // namespace sombra
