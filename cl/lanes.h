@@ -7,7 +7,8 @@
  *   select(a, b, m)         per lane m ? b : a (OpenCL built-in, works for both)
  *   gather(ptr, idx)        per-lane loads ptr[idx]
  *   LSTORE(v, array)        lanes to a private array (vstoreN), for per-lane writes at the end
- *   LFROM_LANES(f), LC(v,c) build a lane vector from f(c) for every component c of the width */
+ *   LFROM_LANES(f), LC(v,c) build a lane vector from f(c) for every component c of the width
+ *   LFROM_LANES_AS(type, f) the same for another lane type (lint, luint) */
 #ifndef SOMBRA_LANES_H
 #define SOMBRA_LANES_H
 
@@ -23,7 +24,7 @@ typedef int lmask;
 #define lany(m) ((m) != 0)
 #define LCONVERT_INT(x) convert_int(x)
 #define LCONVERT_FLOAT(x) convert_float(x)
-#define LFROM_LANES(f) (f(_))
+#define LFROM_LANES_AS(type, f) ((type)(f(_)))
 #define LC(v, c) (v)
 #define LANE_INDEX ((lint)(0))
 #define LSTORE(v, array) ((array)[0] = (v))
@@ -35,7 +36,7 @@ typedef int4 lmask;
 #define lany(m) any(m)
 #define LCONVERT_INT(x) convert_int4(x)
 #define LCONVERT_FLOAT(x) convert_float4(x)
-#define LFROM_LANES(f) ((lfloat)(f(s0), f(s1), f(s2), f(s3)))
+#define LFROM_LANES_AS(type, f) ((type)(f(s0), f(s1), f(s2), f(s3)))
 #define LSTORE(v, array) vstore4((v), 0, (array))
 #define LC(v, c) ((v).c)
 #define LANE_INDEX ((lint)(0, 1, 2, 3))
@@ -47,7 +48,7 @@ typedef int8 lmask;
 #define lany(m) any(m)
 #define LCONVERT_INT(x) convert_int8(x)
 #define LCONVERT_FLOAT(x) convert_float8(x)
-#define LFROM_LANES(f) ((lfloat)(f(s0), f(s1), f(s2), f(s3), f(s4), f(s5), f(s6), f(s7)))
+#define LFROM_LANES_AS(type, f) ((type)(f(s0), f(s1), f(s2), f(s3), f(s4), f(s5), f(s6), f(s7)))
 #define LSTORE(v, array) vstore8((v), 0, (array))
 #define LC(v, c) ((v).c)
 #define LANE_INDEX ((lint)(0, 1, 2, 3, 4, 5, 6, 7))
@@ -59,13 +60,15 @@ typedef int16 lmask;
 #define lany(m) any(m)
 #define LCONVERT_INT(x) convert_int16(x)
 #define LCONVERT_FLOAT(x) convert_float16(x)
-#define LFROM_LANES(f) ((lfloat)(f(s0), f(s1), f(s2), f(s3), f(s4), f(s5), f(s6), f(s7), f(s8), f(s9), f(sA), f(sB), f(sC), f(sD), f(sE), f(sF)))
+#define LFROM_LANES_AS(type, f) ((type)(f(s0), f(s1), f(s2), f(s3), f(s4), f(s5), f(s6), f(s7), f(s8), f(s9), f(sA), f(sB), f(sC), f(sD), f(sE), f(sF)))
 #define LSTORE(v, array) vstore16((v), 0, (array))
 #define LC(v, c) ((v).c)
 #define LANE_INDEX ((lint)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15))
 #else
 #error "SOMBRA_LANES must be 1, 4, 8 or 16"
 #endif
+
+#define LFROM_LANES(f) LFROM_LANES_AS(lfloat, f)
 
 /* Per-lane loads ptr[idx[lane]] (the CPU has no cheaper gather for OpenCL C to use). */
 #if SOMBRA_LANES == 1

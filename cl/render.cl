@@ -4,13 +4,18 @@
  * Defines: SOMBRA_LANES (1 on GPUs, 8 or 16 on CPUs), SOMBRA_VOLUME_SLOTS (volumes in the scene),
  * SOMBRA_USE_IMAGES (3D image atlas instead of a buffer), SOMBRA_SOBEL (Sobel gradients),
  * SOMBRA_SKIP_EMPTY (brick skipping), SOMBRA_HAS_LIGHTS (any light in the scene),
- * SOMBRA_SHADOW_RAYS (shadow term by marching towards each light). */
+ * SOMBRA_SHADOW_RAYS (shadow term by marching towards each light), SOMBRA_SHADOW_DSM (shadow term
+ * from deep shadow maps). */
 #include "shared/types.h"
 #include "shared/hash.h"
 #include "lanes.h"
 #include "volume_sample.h"
 #include "shading.h"
 #include "traversal.h"
+#ifdef SOMBRA_SHADOW_DSM
+#include "dsm_view.h"
+#include "storage_compact.h"
+#endif
 
 /* What every sample of the camera pass reads and accumulates. */
 typedef struct {
@@ -24,21 +29,12 @@ typedef struct {
     __global const VolumeGpu* volumes;
     __global const float* tf_tables;
     __global const uchar* occupancy;
+#ifdef SOMBRA_SHADOW_DSM
+    __global const DsmViewGpu* views;
+    __global const uint* texel_first;
+    __global const float* nodes;
+#endif
 } CameraState;
-
-/* Extinction σ of every active volume at t, summed (an overlap blends by extinction). */
-inline lfloat extinction_at(VOLUME_DATA_PARAM, const CameraState* state, const VolumeRay* ray, lfloat t, luint active,
-                            lmask sampling) {
-    lfloat sigma = (lfloat)(0.0f);
-    for (uint i = 0; i < SOMBRA_VOLUME_SLOTS; ++i) {
-        lmask here = sampling & ((active & (1u << i)) != 0u);
-        if (!lany(here)) continue;
-        __global const VolumeGpu* v = &state->volumes[i];
-        Classified c = classify(state->tf_tables, v, sample_density(volume_data, v, ray_voxel_point(ray, i, t)));
-        sigma += select((lfloat)(0.0f), c.sigma, here);
-    }
-    return sigma;
-}
 
 #ifdef SOMBRA_SHADOW_RAYS
 /* Shadow-ray baseline: transmittance exp(−Σσ·Δ) from p to the light, marched over the same
@@ -63,10 +59,42 @@ inline lfloat shadow_ray(VOLUME_DATA_PARAM, const CameraState* state, __global c
     lmask sampling;
     while (lany(sampling = segment_cursor_next(&cursor, &ray, state->volumes, state->camera->volume_count, state->occupancy))) {
         lfloat t = select((lfloat)(0.0f), cursor.t, sampling); /* finite positions in idle lanes */
-        optical_depth += extinction_at(volume_data, state, &ray, t, cursor.active, sampling) * cursor.step;
+        optical_depth += extinction_at(volume_data, state->volumes, state->tf_tables, &ray, t, cursor.active, sampling) * cursor.step;
         cursor.alive &= !(optical_depth > 13.8155f); /* exp(−13.8) = 10⁻⁶ */
     }
     return exp(-optical_depth);
+}
+#endif
+
+#ifdef SOMBRA_SHADOW_DSM
+/* Transmittance 1 − α to the light from its deep shadow maps: the view that covers p (a point
+ * light's cube face, found by projection), V'(depth) of the four nearest texels filtered
+ * bilinearly (Knecht Eq. 3.7, 4.18–4.19). Points no view covers are lit. */
+inline lfloat dsm_shadow(const CameraState* state, __global const LightGpu* light, lfloat3 p, lmask lanes) {
+    __global const uint* texel_first = state->texel_first;
+    __global const float* nodes = state->nodes;
+    lfloat alpha = (lfloat)(0.0f);
+    lmask done = !lanes;
+    for (uint i = 0; i < light->view_count; ++i) {
+        __global const DsmViewGpu* v = &state->views[light->view_first + i];
+        lfloat u, w, depth;
+        lmask covered = dsm_view_project(v, p, &u, &w, &depth) & !done;
+        if (!lany(covered)) continue;
+        u = select((lfloat)(0.0f), u, covered); /* finite texel indices in every lane */
+        w = select((lfloat)(0.0f), w, covered);
+        lfloat u0 = floor(u), w0 = floor(w), fu = u - u0, fw = w - w0;
+        int last = (int)v->resolution - 1;
+        lint x0 = clamp(LCONVERT_INT(u0), 0, last), x1 = clamp(LCONVERT_INT(u0) + 1, 0, last);
+        lint y0 = clamp(LCONVERT_INT(w0), 0, last), y1 = clamp(LCONVERT_INT(w0) + 1, 0, last);
+        lint row0 = (int)v->first_texel + y0 * (int)v->resolution, row1 = (int)v->first_texel + y1 * (int)v->resolution;
+        lfloat a00 = dsm_texel_opacity(DSM_STORAGE_ARGS, row0 + x0, depth, v->max_nodes);
+        lfloat a10 = dsm_texel_opacity(DSM_STORAGE_ARGS, row0 + x1, depth, v->max_nodes);
+        lfloat a01 = dsm_texel_opacity(DSM_STORAGE_ARGS, row1 + x0, depth, v->max_nodes);
+        lfloat a11 = dsm_texel_opacity(DSM_STORAGE_ARGS, row1 + x1, depth, v->max_nodes);
+        alpha = select(alpha, mix(mix(a00, a10, fu), mix(a01, a11, fu), fw), covered);
+        done |= covered;
+    }
+    return 1.0f - alpha;
 }
 #endif
 
@@ -97,11 +125,17 @@ inline lmask shade_sample(VOLUME_DATA_PARAM, CameraState* state, const VolumeRay
 #ifdef SOMBRA_HAS_LIGHTS
         normal = normal_from_gradient(v, gradient_voxel(volume_data, v, pv));
 #endif
-#ifdef SOMBRA_SHADOW_RAYS
+#if defined(SOMBRA_SHADOW_RAYS) || defined(SOMBRA_SHADOW_DSM)
         lmask needed = visible & !shadows_known;
         if (lany(needed)) {
-            for (uint m = 0; m < light_count; ++m)
-                shadow[m] = select(shadow[m], shadow_ray(volume_data, state, &state->lights[m], p, needed), needed);
+            for (uint m = 0; m < light_count; ++m) {
+#ifdef SOMBRA_SHADOW_RAYS
+                lfloat transmittance_to_light = shadow_ray(volume_data, state, &state->lights[m], p, needed);
+#else
+                lfloat transmittance_to_light = dsm_shadow(state, &state->lights[m], p, needed);
+#endif
+                shadow[m] = select(shadow[m], transmittance_to_light, needed);
+            }
             shadows_known |= needed;
         }
 #endif
@@ -120,7 +154,12 @@ inline lmask shade_sample(VOLUME_DATA_PARAM, CameraState* state, const VolumeRay
 
 __kernel void render_camera(VOLUME_DATA_PARAM, __global const uchar* occupancy, __global const float* tf_tables,
                             __global const VolumeGpu* volumes, __global const LightGpu* lights,
-                            __global const CameraGpu* camera, __global float4* image, __global uint* sample_counts) {
+                            __global const CameraGpu* camera, __global float4* image, __global uint* sample_counts
+#ifdef SOMBRA_SHADOW_DSM
+                            , __global const DsmViewGpu* views, __global const uint* texel_first,
+                            __global const float* nodes
+#endif
+) {
     uint y = get_global_id(1);
     if (y >= camera->height) return;
     lint xs = (int)(get_global_id(0) * SOMBRA_LANES) + LANE_INDEX;
@@ -146,6 +185,11 @@ __kernel void render_camera(VOLUME_DATA_PARAM, __global const uchar* occupancy, 
     state.volumes = volumes;
     state.tf_tables = tf_tables;
     state.occupancy = occupancy;
+#ifdef SOMBRA_SHADOW_DSM
+    state.views = views;
+    state.texel_first = texel_first;
+    state.nodes = nodes;
+#endif
 #define SOMBRA_JITTER_LANE(c) sombra_pixel_jitter((uint)LC(xs, c), y, camera->jitter_seed)
     state.jitter = LFROM_LANES(SOMBRA_JITTER_LANE);
 #undef SOMBRA_JITTER_LANE

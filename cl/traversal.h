@@ -192,4 +192,19 @@ inline lmask segment_cursor_next(SegmentCursor* c, const VolumeRay* ray, __globa
     }
 }
 
+/* Extinction σ of every active volume at t, summed (an overlap blends by extinction); 0 in lanes
+ * outside `sampling`. Callers keep t finite in every lane. */
+inline lfloat extinction_at(VOLUME_DATA_PARAM, __global const VolumeGpu* volumes, __global const float* tf_tables,
+                            const VolumeRay* ray, lfloat t, luint active, lmask sampling) {
+    lfloat sigma = (lfloat)(0.0f);
+    for (uint i = 0; i < SOMBRA_VOLUME_SLOTS; ++i) {
+        lmask here = sampling & ((active & (1u << i)) != 0u);
+        if (!lany(here)) continue;
+        __global const VolumeGpu* v = &volumes[i];
+        Classified c = classify(tf_tables, v, sample_density(volume_data, v, ray_voxel_point(ray, i, t)));
+        sigma += select((lfloat)(0.0f), c.sigma, here);
+    }
+    return sigma;
+}
+
 #endif

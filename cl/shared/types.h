@@ -61,8 +61,24 @@ typedef struct {
     float att_constant;   /* distance attenuation 1 / (c + l·d + q·d²) (course slides) */
     float att_linear;
     float att_quadratic;
-    float pad0, pad1;
+    sb_uint view_first;   /* its deep shadow map views: [view_first, view_first + view_count) */
+    sb_uint view_count;   /* 1 for spot and directional lights, 6 for point lights, 0 if none */
 } LightGpu;
+
+/* One deep shadow map view: a spot light, one cube face of a point light (90°), or a
+ * directional light's orthographic box fitted to the scene. Depth convention (DESIGN.md): the
+ * distance from the light along the texel's ray (perspective) or from the near plane along
+ * axis_z (orthographic), in world units — never NDC z. */
+typedef struct {
+    sb_float4 axis_x, axis_y, axis_z; /* orthonormal light frame; axis_z looks into the scene */
+    sb_float4 origin;    /* perspective: the light's position; orthographic: centre of the near plane */
+    float extent_x, extent_y; /* perspective: tan(half field of view); orthographic: half width, height */
+    sb_uint resolution;  /* texels per side */
+    sb_uint perspective; /* 1: perspective, 0: orthographic */
+    sb_uint first_texel; /* index of texel (0, 0) in the storage's per-texel arrays */
+    sb_uint max_nodes;   /* most nodes in one texel: bounds the binary search of lookups */
+    float near_depth, far_depth; /* depth range of the scene's boxes in this view */
+} DsmViewGpu;
 
 typedef struct {
     sb_float4 position;

@@ -12,13 +12,16 @@ namespace sombra {
 enum class GradientMethod { CentralDifferences, Sobel };
 enum class VolumeStorage { Auto, Buffer, Image };  // Auto: buffer on CPU devices, image on GPUs
 // The shadow term of Knecht Eq. 3.9. None: 1 everywhere. Rays: the shadow-ray baseline, marching
-// from every visible sample to every light over the same segments as the camera rays.
-enum class ShadowTechnique { None, Rays };
+// from every visible sample to every light over the same segments as the camera rays. Dsm: deep
+// shadow maps built by ray casting from each light, compressed with error bound dsm_epsilon.
+enum class ShadowTechnique { None, Rays, Dsm };
 
 struct RenderOptions {
     int width = 0, height = 0;  // 0: the scene's size
     GradientMethod gradient = GradientMethod::CentralDifferences;
     ShadowTechnique shadows = ShadowTechnique::None;
+    int dsm_resolution = 512;   // texels per side of every deep shadow map view
+    float dsm_epsilon = 0.02f;  // compression error bound (Knecht Eq. 3.1)
     VolumeStorage storage = VolumeStorage::Auto;
     bool empty_space_skipping = true;
     float termination_transmittance = 1e-3f;  // early ray termination threshold on t_acc
@@ -39,6 +42,12 @@ struct RenderStats {
     std::map<std::string, double> stage_ms;  // from OpenCL profiling events
     unsigned long long samples = 0;          // volume samples taken (all volumes)
     double msamples_per_s = 0;               // samples / camera-pass kernel time
+    // deep shadow maps (ShadowTechnique::Dsm): views, nodes, memory
+    int dsm_views = 0;
+    unsigned long long dsm_nodes = 0;
+    double dsm_mean_nodes_per_texel = 0;
+    unsigned dsm_max_nodes_per_texel = 0;
+    unsigned long long dsm_bytes_used = 0, dsm_bytes_wasted = 0;
     int width = 0, height = 0;
     std::string to_json() const;
 };

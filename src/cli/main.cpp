@@ -40,8 +40,14 @@ int run(int argc, char** argv) {
     render->add_option("--stats", stats_path, "write per-stage times and sample counts as JSON");
     render->add_option("--gradient", gradient, "central or sobel")->check(CLI::IsMember({"central", "sobel"}));
     std::string shadows = "none";
-    render->add_option("--shadows", shadows, "none, or rays (march from every sample to every light)")
-        ->check(CLI::IsMember({"none", "rays"}));
+    render->add_option("--shadows", shadows,
+                       "none, rays (march from every sample to every light) or dsm (deep shadow maps)")
+        ->check(CLI::IsMember({"none", "rays", "dsm"}));
+    int dsm_resolution = 512;
+    float dsm_epsilon = 0.02f;
+    render->add_option("--dsm-res", dsm_resolution, "deep shadow map texels per side")->check(CLI::Range(1, 8192));
+    render->add_option("--eps", dsm_epsilon, "deep shadow map compression error bound ε (Knecht Eq. 3.1)")
+        ->check(CLI::Range(0.0f, 1e6f));
     render->add_option("--volume-storage", storage, "auto (buffer on CPUs, image on GPUs), buffer or image")
         ->check(CLI::IsMember({"auto", "buffer", "image"}));
     render->add_option("--non-finite", non_finite, "NaN/Inf voxels: reject (error) or sanitize (set to 0, warn)")
@@ -86,7 +92,11 @@ int run(int argc, char** argv) {
     options.empty_space_skipping = !no_skip;
     options.jitter_seed = seed;
     options.lanes = lanes;
-    options.shadows = shadows == "rays" ? sombra::ShadowTechnique::Rays : sombra::ShadowTechnique::None;
+    options.shadows = shadows == "rays"  ? sombra::ShadowTechnique::Rays
+                      : shadows == "dsm" ? sombra::ShadowTechnique::Dsm
+                                         : sombra::ShadowTechnique::None;
+    options.dsm_resolution = dsm_resolution;
+    options.dsm_epsilon = dsm_epsilon;
     sombra::RenderResult result = sombra::render(context, scene, options);
     sombra::write_image(result.image, output);
     if (!stats_path.empty()) write_text_file(stats_path, result.stats.to_json());

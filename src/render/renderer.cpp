@@ -4,6 +4,8 @@
 #include <nlohmann/json.hpp>
 
 #include "render/scene_upload.h"
+#include "shadows/dsm_builder.h"
+#include "shadows/dsm_views.h"
 #include "sombra/error.h"
 #include "sombra/render.h"
 
@@ -13,13 +15,12 @@ namespace {
 // -D defines for the camera pass: what this scene and these options need, nothing more.
 std::vector<std::string> camera_pass_defines(const Scene& scene, const RenderOptions& options, bool use_images,
                                              int lanes) {
-    std::vector<std::string> defines{"SOMBRA_LANES=" + std::to_string(lanes),
-                                     "SOMBRA_VOLUME_SLOTS=" + std::to_string(scene.volumes.size())};
-    if (use_images) defines.push_back("SOMBRA_USE_IMAGES");
+    std::vector<std::string> defines = shadows::volume_pass_defines(scene, use_images, options.empty_space_skipping);
+    defines.push_back("SOMBRA_LANES=" + std::to_string(lanes));
     if (options.gradient == GradientMethod::Sobel) defines.push_back("SOMBRA_SOBEL");
-    if (options.empty_space_skipping) defines.push_back("SOMBRA_SKIP_EMPTY");
     if (!scene.lights.empty()) defines.push_back("SOMBRA_HAS_LIGHTS");
     if (!scene.lights.empty() && options.shadows == ShadowTechnique::Rays) defines.push_back("SOMBRA_SHADOW_RAYS");
+    if (!scene.lights.empty() && options.shadows == ShadowTechnique::Dsm) defines.push_back("SOMBRA_SHADOW_DSM");
     return defines;
 }
 
@@ -33,6 +34,14 @@ std::string RenderStats::to_json() const {
     j["samples"] = samples;
     j["msamples_per_s"] = msamples_per_s;
     j["stage_ms"] = stage_ms;
+    if (dsm_views > 0) {
+        j["dsm"] = {{"views", dsm_views},
+                    {"nodes", dsm_nodes},
+                    {"mean_nodes_per_texel", dsm_mean_nodes_per_texel},
+                    {"max_nodes_per_texel", dsm_max_nodes_per_texel},
+                    {"bytes_used", dsm_bytes_used},
+                    {"bytes_wasted", dsm_bytes_wasted}};
+    }
     return j.dump(2);
 }
 
@@ -52,6 +61,9 @@ RenderResult render(Context& context, const Scene& scene, const RenderOptions& o
 
     auto t0 = clock::now();
     packing::PackedScene packed = packing::pack_scene(scene);
+    bool use_dsm = options.shadows == ShadowTechnique::Dsm && !scene.lights.empty();
+    std::vector<DsmViewGpu> views;
+    if (use_dsm) views = shadows::make_dsm_views(scene, packed, options.dsm_resolution);
     CameraGpu camera = packing::pack_camera(scene, width, height);
     camera.termination_transmittance = options.termination_transmittance;
     camera.jitter_seed = options.jitter_seed;
@@ -63,6 +75,21 @@ RenderResult render(Context& context, const Scene& scene, const RenderOptions& o
                       (options.storage == VolumeStorage::Auto && runtime.info().is_gpu);
     packing::DeviceScene device_scene = packing::upload_scene(runtime, scene, packed, use_images);
     stats.stage_ms["upload"] = device_scene.upload_ms;
+
+    shadows::DeviceDsm dsm;
+    if (use_dsm) {
+        dsm = shadows::build_deep_shadow_maps(runtime, scene, packed, device_scene, views,
+                                              {options.dsm_resolution, options.dsm_epsilon});
+        stats.stage_ms["dsm_count"] = dsm.stats.count_ms;
+        stats.stage_ms["dsm_prefix_sum"] = dsm.stats.prefix_sum_ms;
+        stats.stage_ms["dsm_write"] = dsm.stats.write_ms;
+        stats.dsm_views = dsm.stats.views;
+        stats.dsm_nodes = dsm.stats.nodes;
+        stats.dsm_mean_nodes_per_texel = dsm.stats.mean_nodes_per_texel;
+        stats.dsm_max_nodes_per_texel = dsm.stats.max_nodes_per_texel;
+        stats.dsm_bytes_used = dsm.stats.bytes_used;
+        stats.dsm_bytes_wasted = dsm.stats.bytes_wasted;
+    }
 
     std::size_t pixels = std::size_t(width) * std::size_t(height);
     cl::Buffer camera_buffer = host::make_buffer(runtime, CL_MEM_READ_ONLY, sizeof(CameraGpu), &camera, "camera");
@@ -83,6 +110,11 @@ RenderResult render(Context& context, const Scene& scene, const RenderOptions& o
     kernel.setArg(arg++, camera_buffer);
     kernel.setArg(arg++, image_buffer);
     kernel.setArg(arg++, count_buffer);
+    if (use_dsm) {
+        kernel.setArg(arg++, dsm.views_buffer);
+        kernel.setArg(arg++, dsm.texel_first_buffer);
+        kernel.setArg(arg++, dsm.nodes_buffer);
+    }
 
     cl::Event event;
     // Packets run on CPUs: PoCL keeps every work-item's private state of a work-group on one

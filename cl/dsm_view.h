@@ -1,0 +1,49 @@
+/* sombra — deep shadow map views: the ray of a texel (generation) and the texel position and depth
+ * of a world point (lookup), with one depth convention for both (see DsmViewGpu). */
+#ifndef SOMBRA_DSM_VIEW_H
+#define SOMBRA_DSM_VIEW_H
+#include "shared/types.h"
+#include "lanes.h"
+
+/* Ray through the point (ndc_x, ndc_y) ∈ [−1, 1]² of the view's image plane; t along it is the
+ * view's depth (unit direction from the light, or from the near plane). */
+inline void dsm_view_ray(__global const DsmViewGpu* v, float ndc_x, float ndc_y, float3* origin, float3* dir) {
+    float3 across = ndc_x * v->extent_x * v->axis_x.xyz + ndc_y * v->extent_y * v->axis_y.xyz;
+    if (v->perspective) {
+        *origin = v->origin.xyz;
+        *dir = normalize(v->axis_z.xyz + across);
+    } else {
+        *origin = v->origin.xyz + across;
+        *dir = v->axis_z.xyz;
+    }
+}
+
+/* Continuous texel coordinates (texel centres at integers) and depth of points p; `covered` marks
+ * the lanes whose point projects into the view (in front of a perspective view, inside the map). */
+inline lmask dsm_view_project(__global const DsmViewGpu* v, lfloat3 p, lfloat* u, lfloat* w, lfloat* depth) {
+    lfloat3 d = l3_sub(p, l3_splat(v->origin.xyz));
+    lfloat qx = l3_dot_uniform(d, v->axis_x.xyz), qy = l3_dot_uniform(d, v->axis_y.xyz);
+    lfloat qz = l3_dot_uniform(d, v->axis_z.xyz);
+    lfloat nx, ny;
+    lmask covered;
+    if (v->perspective) {
+        lmask in_front = qz > 0.0f;
+        lfloat inv = 1.0f / select((lfloat)(1.0f), qz, in_front);
+        nx = qx * inv / v->extent_x;
+        ny = qy * inv / v->extent_y;
+        *depth = sqrt(l3_dot(d, d));
+        covered = in_front;
+    } else {
+        nx = qx / v->extent_x;
+        ny = qy / v->extent_y;
+        *depth = qz;
+        covered = (lmask)(-1) & (qz == qz); /* all lanes (true in every width) */
+    }
+    covered &= (fabs(nx) <= 1.0f) & (fabs(ny) <= 1.0f);
+    float res = (float)v->resolution;
+    *u = (nx * 0.5f + 0.5f) * res - 0.5f;
+    *w = (ny * 0.5f + 0.5f) * res - 0.5f;
+    return covered;
+}
+
+#endif

@@ -1,0 +1,110 @@
+#include "shadows/dsm_views.h"
+
+#include <algorithm>
+#include <cmath>
+#include <glm/glm.hpp>
+
+#include "sombra/error.h"
+
+namespace sombra::shadows {
+namespace {
+
+cl_float4 f4(const glm::vec3& v, float w = 0.f) {
+    cl_float4 r;
+    r.s[0] = v.x, r.s[1] = v.y, r.s[2] = v.z, r.s[3] = w;
+    return r;
+}
+
+// An orthonormal frame looking along `forward`, with an up hint that is never parallel to it
+// (a directional light along an axis is a stiff case of DESIGN.md).
+void frame(const glm::vec3& forward, glm::vec3& x, glm::vec3& y, glm::vec3& z) {
+    z = glm::normalize(forward);
+    glm::vec3 hint = std::fabs(z.y) < 0.9f ? glm::vec3(0, 1, 0) : glm::vec3(1, 0, 0);
+    x = glm::normalize(glm::cross(hint, z));
+    y = glm::cross(z, x);
+}
+
+DsmViewGpu perspective_view(const glm::vec3& position, const glm::vec3& forward, float tan_half,
+                            const std::vector<std::array<float, 3>>& corners, int resolution) {
+    DsmViewGpu v{};
+    glm::vec3 x, y, z;
+    frame(forward, x, y, z);
+    v.axis_x = f4(x), v.axis_y = f4(y), v.axis_z = f4(z), v.origin = f4(position, 1.f);
+    v.extent_x = v.extent_y = tan_half;
+    v.resolution = cl_uint(resolution);
+    v.perspective = 1;
+    // depth = distance from the light: the nearest and farthest box corners bound the objects
+    // (near 0 when the light sits inside a box)
+    v.near_depth = INFINITY, v.far_depth = 0.f;
+    for (auto& c : corners) {
+        float d = glm::length(glm::vec3(c[0], c[1], c[2]) - position);
+        v.near_depth = std::min(v.near_depth, d), v.far_depth = std::max(v.far_depth, d);
+    }
+    return v;
+}
+
+}  // namespace
+
+std::vector<std::array<float, 3>> scene_box_corners(const packing::PackedScene& packed, const Scene& scene) {
+    std::vector<std::array<float, 3>> corners;
+    for (std::size_t i = 0; i < scene.volumes.size(); ++i) {
+        const auto& m = packed.voxel_to_world[i];
+        const auto& dims = scene.volumes[i].volume->dims;
+        for (int c = 0; c < 8; ++c) {
+            float p[3] = {c & 1 ? dims[0] - 0.5f : -0.5f, c & 2 ? dims[1] - 0.5f : -0.5f, c & 4 ? dims[2] - 0.5f : -0.5f};
+            std::array<float, 3> w{};
+            for (int r = 0; r < 3; ++r) w[r] = m[r * 4] * p[0] + m[r * 4 + 1] * p[1] + m[r * 4 + 2] * p[2] + m[r * 4 + 3];
+            corners.push_back(w);
+        }
+    }
+    return corners;
+}
+
+std::vector<DsmViewGpu> make_dsm_views(const Scene& scene, packing::PackedScene& packed, int resolution) {
+    if (resolution < 1 || resolution > 8192) throw Error("--dsm-res: must lie in [1, 8192]");
+    auto corners = scene_box_corners(packed, scene);
+    std::vector<DsmViewGpu> views;
+    for (std::size_t li = 0; li < scene.lights.size(); ++li) {
+        const Light& l = scene.lights[li];
+        LightGpu& gpu = packed.lights[li];
+        gpu.view_first = cl_uint(views.size());
+        glm::vec3 position(l.position[0], l.position[1], l.position[2]);
+        glm::vec3 direction(l.direction[0], l.direction[1], l.direction[2]);
+        if (l.type == LightType::Spot) {
+            views.push_back(perspective_view(position, direction, std::tan(l.cone_angle_deg * 3.14159265f / 180.f),
+                                             corners, resolution));
+        } else if (l.type == LightType::Point) {
+            // cube faces +x, −x, +y, −y, +z, −z, each a 90° frustum (tan 45° = 1)
+            const glm::vec3 faces[6] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+            for (const glm::vec3& f : faces) views.push_back(perspective_view(position, f, 1.f, corners, resolution));
+        } else {
+            // orthographic box around the scene, seen along the light direction
+            DsmViewGpu v{};
+            glm::vec3 x, y, z;
+            frame(direction, x, y, z);
+            glm::vec3 lo(INFINITY), hi(-INFINITY);
+            for (auto& c : corners) {
+                glm::vec3 w(c[0], c[1], c[2]);
+                glm::vec3 q(glm::dot(w, x), glm::dot(w, y), glm::dot(w, z));
+                lo = glm::min(lo, q), hi = glm::max(hi, q);
+            }
+            glm::vec3 margin = 1e-3f * (hi - lo) + glm::vec3(1e-6f);  // texels of the border stay inside
+            lo -= margin, hi += margin;
+            glm::vec3 centre = 0.5f * (lo + hi);
+            v.axis_x = f4(x), v.axis_y = f4(y), v.axis_z = f4(z);
+            v.origin = f4(centre.x * x + centre.y * y + lo.z * z, 1.f);
+            v.extent_x = 0.5f * (hi.x - lo.x), v.extent_y = 0.5f * (hi.y - lo.y);
+            v.resolution = cl_uint(resolution);
+            v.perspective = 0;
+            v.near_depth = 0.f, v.far_depth = hi.z - lo.z;
+            views.push_back(v);
+        }
+        gpu.view_count = cl_uint(views.size()) - gpu.view_first;
+    }
+    for (std::size_t i = 0; i < views.size(); ++i) views[i].first_texel = cl_uint(i * std::size_t(resolution) * resolution);
+    if (views.size() * std::size_t(resolution) * resolution >= 0xffffffffull)
+        throw Error("--dsm-res: too many texels for 32-bit indices");
+    return views;
+}
+
+}  // namespace sombra::shadows
