@@ -214,3 +214,34 @@ __kernel void render_camera(VOLUME_DATA_PARAM, __global const uchar* occupancy, 
         sample_counts[pixel] = samples[lane];
     }
 }
+
+#if (defined(SOMBRA_SHADOW_RAYS) || defined(SOMBRA_SHADOW_DSM)) && SOMBRA_LANES == 1
+/* Transmittance to light `light_index` at arbitrary world points, by the technique this program
+ * was built for (sombra visibility, tests). Built with SOMBRA_LANES=1. */
+__kernel void shadow_probe(VOLUME_DATA_PARAM, __global const uchar* occupancy, __global const float* tf_tables,
+                           __global const VolumeGpu* volumes, __global const LightGpu* lights,
+                           __global const CameraGpu* camera, uint light_index, __global const float4* points,
+                           __global float* transmittance
+#ifdef SOMBRA_SHADOW_DSM
+                           , __global const DsmViewGpu* views, __global const uint* texel_first,
+                           __global const float* nodes
+#endif
+) {
+    size_t i = get_global_id(0);
+    CameraState state;
+    state.camera = camera;
+    state.lights = lights;
+    state.volumes = volumes;
+    state.tf_tables = tf_tables;
+    state.occupancy = occupancy;
+    state.jitter = sombra_pixel_jitter((uint)i, 0u, camera->jitter_seed);
+#ifdef SOMBRA_SHADOW_DSM
+    state.views = views;
+    state.texel_first = texel_first;
+    state.nodes = nodes;
+    transmittance[i] = dsm_shadow(&state, &lights[light_index], l3(points[i].x, points[i].y, points[i].z), 1);
+#else
+    transmittance[i] = shadow_ray(volume_data, &state, &lights[light_index], l3(points[i].x, points[i].y, points[i].z), 1);
+#endif
+}
+#endif

@@ -6,6 +6,7 @@
 
 #include "sombra/device.h"
 #include "sombra/scene.h"
+#include "sombra/shadows.h"
 
 namespace sombra {
 
@@ -58,6 +59,20 @@ struct RenderResult {
 };
 
 RenderResult render(Context& context, const Scene& scene, const RenderOptions& options = {});
+
+// Transmittance (1 − α) from world points to one light by options.shadows (Rays or Dsm, with the
+// options' DSM resolution and ε), computed by the same kernel code the camera pass runs.
+struct ShadowQuery {
+    std::vector<double> transmittance;  // one per point
+    RenderStats stats;                  // preparation and DSM build times, DSM sizes
+};
+ShadowQuery shadow_transmittance(Context& context, const Scene& scene, int light_index, const std::vector<Vec3>& points,
+                                 const RenderOptions& options);
+
+// The deep shadow maps of one light (1 view, or 6 cube faces +x −x +y −y +z −z of a point
+// light), built with options.dsm_resolution / dsm_epsilon and read back to the host.
+std::vector<DeepShadowMap> build_deep_shadow_maps(Context& context, const Scene& scene, int light_index,
+                                                  const RenderOptions& options, RenderStats* stats = nullptr);
 
 // PNG (8-bit sRGB) or EXR (float linear) by extension, through OpenImageIO. Writes to a temporary
 // file in the same folder and renames it, so a failed write leaves no partial file.

@@ -5,7 +5,10 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <cmath>
 #include <iostream>
+#include <sstream>
+#include <algorithm>
 
 #include "sombra/sombra.h"
 
@@ -21,6 +24,72 @@ void write_text_file(const std::string& path, const std::string& text) {
         }
     }
     std::filesystem::rename(temporary, path);
+}
+
+// sombra dsm: one deep EXR per view of the light (a point light has six cube faces).
+int write_dsm(sombra::Context& context, const sombra::Scene& scene, int light, const sombra::RenderOptions& options,
+              const std::string& output, const std::string& stats_path) {
+    sombra::RenderStats stats;
+    auto maps = sombra::build_deep_shadow_maps(context, scene, light, options, &stats);
+    std::filesystem::path out(output);
+    for (const sombra::DeepShadowMap& map : maps) {
+        std::string path = output;
+        if (maps.size() > 1) {  // NAME.exr → NAME.+x.exr …
+            std::string face = map.light_name.substr(map.light_name.rfind('.') + 1);
+            path = (out.parent_path() / (out.stem().string() + "." + face + out.extension().string())).string();
+        }
+        sombra::write_deep_exr(map, path);
+        std::cerr << "sombra: wrote " << path << " (" << map.width << "×" << map.height << ", " << map.nodes.size()
+                  << " nodes)\n";
+    }
+    if (!stats_path.empty()) write_text_file(stats_path, stats.to_json());
+    return 0;
+}
+
+std::vector<sombra::Vec3> read_points(const std::string& path) {
+    std::ifstream in(path);
+    if (!in) throw sombra::file_error(path, "", "cannot open file");
+    std::vector<sombra::Vec3> points;
+    std::string line;
+    for (int number = 1; std::getline(in, line); ++number) {
+        if (line.empty() || line[0] == '#' || line.find_first_not_of(" \t\r") == std::string::npos) continue;
+        for (char& c : line)
+            if (c == ',' || c == ';') c = ' ';
+        std::istringstream fields(line);
+        sombra::Vec3 p;
+        std::string rest;
+        if (!(fields >> p[0] >> p[1] >> p[2]) || (fields >> rest) || !std::isfinite(p[0]) || !std::isfinite(p[1]) ||
+            !std::isfinite(p[2]))
+            throw sombra::file_error(path, "line " + std::to_string(number), "expected three finite numbers x,y,z");
+        points.push_back(p);
+    }
+    return points;
+}
+
+// sombra visibility: per point, the technique's transmittance, the brute-force reference, and
+// their difference; then the mean and max error.
+int print_visibility(sombra::Context& context, const sombra::Scene& scene, int light,
+                     const sombra::RenderOptions& options, const std::string& points_path, const std::string& stats_path) {
+    auto points = read_points(points_path);
+    sombra::RenderOptions dsm_options = options, ray_options = options;
+    dsm_options.shadows = sombra::ShadowTechnique::Dsm;
+    ray_options.shadows = sombra::ShadowTechnique::Rays;
+    sombra::ShadowQuery dsm = sombra::shadow_transmittance(context, scene, light, points, dsm_options);
+    sombra::ShadowQuery rays = sombra::shadow_transmittance(context, scene, light, points, ray_options);
+    std::cout << "x,y,z,dsm,shadow_ray,reference,dsm_error,shadow_ray_error\n";
+    double dsm_sum = 0, dsm_max = 0, ray_sum = 0, ray_max = 0;
+    for (std::size_t i = 0; i < points.size(); ++i) {
+        double reference = sombra::reference_transmittance(scene, light, points[i]);
+        double de = std::fabs(dsm.transmittance[i] - reference), re = std::fabs(rays.transmittance[i] - reference);
+        dsm_sum += de, ray_sum += re, dsm_max = std::max(dsm_max, de), ray_max = std::max(ray_max, re);
+        std::cout << points[i][0] << "," << points[i][1] << "," << points[i][2] << "," << dsm.transmittance[i] << ","
+                  << rays.transmittance[i] << "," << reference << "," << de << "," << re << "\n";
+    }
+    double n = double(std::max<std::size_t>(points.size(), 1));
+    std::cerr << "sombra: " << points.size() << " points; |dsm − reference| mean " << dsm_sum / n << " max " << dsm_max
+              << "; |shadow ray − reference| mean " << ray_sum / n << " max " << ray_max << "\n";
+    if (!stats_path.empty()) write_text_file(stats_path, dsm.stats.to_json());
+    return 0;
 }
 
 int run(int argc, char** argv) {
@@ -60,6 +129,23 @@ int run(int argc, char** argv) {
 
     CLI::App* devices = app.add_subcommand("devices", "list OpenCL platforms and devices");
 
+    int light_index = 0;
+    std::string points_path;
+    CLI::App* dsm = app.add_subcommand("dsm", "write one light's deep shadow map as a scanline deep OpenEXR");
+    dsm->add_option("scene", scene_path, "scene file (JSON)")->required();
+    dsm->add_option("--light", light_index, "light index in the scene")->required();
+    dsm->add_option("-o,--output", output, "output .exr (a point light writes NAME.+x.exr … NAME.-z.exr)")->required();
+    CLI::App* visibility = app.add_subcommand("visibility", "transmittance to a light at points: technique vs reference");
+    visibility->add_option("scene", scene_path, "scene file (JSON)")->required();
+    visibility->add_option("--light", light_index, "light index in the scene")->required();
+    visibility->add_option("--points", points_path, "CSV file of x,y,z world points (one per line)")->required();
+    for (CLI::App* sub : {dsm, visibility}) {
+        sub->add_option("--device", device, "auto, cpu, gpu, or an index from `sombra devices`");
+        sub->add_option("--dsm-res", dsm_resolution, "deep shadow map texels per side")->check(CLI::Range(1, 8192));
+        sub->add_option("--eps", dsm_epsilon, "compression error bound ε")->check(CLI::Range(0.0f, 1e6f));
+        sub->add_option("--stats", stats_path, "write build times and DSM sizes as JSON");
+    }
+
     try {
         app.parse(argc, argv);
     } catch (const CLI::CallForHelp& e) {
@@ -97,6 +183,8 @@ int run(int argc, char** argv) {
                                          : sombra::ShadowTechnique::None;
     options.dsm_resolution = dsm_resolution;
     options.dsm_epsilon = dsm_epsilon;
+    if (dsm->parsed()) return write_dsm(context, scene, light_index, options, output, stats_path);
+    if (visibility->parsed()) return print_visibility(context, scene, light_index, options, points_path, stats_path);
     sombra::RenderResult result = sombra::render(context, scene, options);
     sombra::write_image(result.image, output);
     if (!stats_path.empty()) write_text_file(stats_path, result.stats.to_json());

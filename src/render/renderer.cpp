@@ -1,5 +1,6 @@
+// sombra — the camera pass on the host, and the shadow queries that share its preparation.
 #include <chrono>
-#include <sstream>
+#include <cmath>
 
 #include <nlohmann/json.hpp>
 
@@ -12,6 +13,11 @@
 namespace sombra {
 namespace {
 
+using clock_type = std::chrono::steady_clock;
+double ms_since(clock_type::time_point start) {
+    return std::chrono::duration<double, std::milli>(clock_type::now() - start).count();
+}
+
 // -D defines for the camera pass: what this scene and these options need, nothing more.
 std::vector<std::string> camera_pass_defines(const Scene& scene, const RenderOptions& options, bool use_images,
                                              int lanes) {
@@ -22,6 +28,74 @@ std::vector<std::string> camera_pass_defines(const Scene& scene, const RenderOpt
     if (!scene.lights.empty() && options.shadows == ShadowTechnique::Rays) defines.push_back("SOMBRA_SHADOW_RAYS");
     if (!scene.lights.empty() && options.shadows == ShadowTechnique::Dsm) defines.push_back("SOMBRA_SHADOW_DSM");
     return defines;
+}
+
+// Everything the kernels read, on the device: the packed scene, and the deep shadow maps when the
+// shadow technique needs them (built only then).
+struct PreparedScene {
+    packing::PackedScene packed;
+    packing::DeviceScene device;
+    shadows::DeviceDsm dsm;
+    bool use_images = false, use_dsm = false;
+};
+
+PreparedScene prepare(host::Runtime& runtime, const Scene& scene, const RenderOptions& options, RenderStats& stats) {
+    validate_scene(scene, scene.source);
+    PreparedScene prepared;
+    auto start = clock_type::now();
+    prepared.packed = packing::pack_scene(scene);
+    prepared.use_dsm = options.shadows == ShadowTechnique::Dsm && !scene.lights.empty();
+    std::vector<DsmViewGpu> views;
+    if (prepared.use_dsm) views = shadows::make_dsm_views(scene, prepared.packed, options.dsm_resolution);
+    stats.stage_ms["host_prepare"] = ms_since(start);
+
+    prepared.use_images = options.storage == VolumeStorage::Image ||
+                          (options.storage == VolumeStorage::Auto && runtime.info().is_gpu);
+    prepared.device = packing::upload_scene(runtime, scene, prepared.packed, prepared.use_images);
+    stats.stage_ms["upload"] = prepared.device.upload_ms;
+    if (prepared.use_dsm) {
+        prepared.dsm = shadows::build_deep_shadow_maps(runtime, scene, prepared.packed, prepared.device, views,
+                                                       {options.dsm_resolution, options.dsm_epsilon});
+        const shadows::DsmStats& d = prepared.dsm.stats;
+        stats.stage_ms["dsm_count"] = d.count_ms;
+        stats.stage_ms["dsm_prefix_sum"] = d.prefix_sum_ms;
+        stats.stage_ms["dsm_write"] = d.write_ms;
+        stats.dsm_views = d.views;
+        stats.dsm_nodes = d.nodes;
+        stats.dsm_mean_nodes_per_texel = d.mean_nodes_per_texel;
+        stats.dsm_max_nodes_per_texel = d.max_nodes_per_texel;
+        stats.dsm_bytes_used = d.bytes_used;
+        stats.dsm_bytes_wasted = d.bytes_wasted;
+    }
+    return prepared;
+}
+
+// The arguments render.cl's kernels share, in their order; returns the next argument index.
+int set_scene_args(cl::Kernel& kernel, const PreparedScene& p, const cl::Buffer& camera) {
+    int arg = 0;
+    if (p.use_images) kernel.setArg(arg++, p.device.voxel_image);
+    else kernel.setArg(arg++, p.device.voxel_buffer);
+    kernel.setArg(arg++, p.device.occupancy);
+    kernel.setArg(arg++, p.device.tf_tables);
+    kernel.setArg(arg++, p.device.volumes);
+    kernel.setArg(arg++, p.device.lights);
+    kernel.setArg(arg++, camera);
+    return arg;
+}
+
+int set_dsm_args(cl::Kernel& kernel, int arg, const PreparedScene& p) {
+    if (!p.use_dsm) return arg;
+    kernel.setArg(arg++, p.dsm.views_buffer);
+    kernel.setArg(arg++, p.dsm.texel_first_buffer);
+    kernel.setArg(arg++, p.dsm.nodes_buffer);
+    return arg;
+}
+
+int check_light(const Scene& scene, int light_index) {
+    if (light_index < 0 || light_index >= int(scene.lights.size()))
+        throw Error("--light: the scene has " + std::to_string(scene.lights.size()) + " lights; " +
+                    std::to_string(light_index) + " is not one of them");
+    return light_index;
 }
 
 }  // namespace
@@ -46,77 +120,37 @@ std::string RenderStats::to_json() const {
 }
 
 RenderResult render(Context& context, const Scene& scene, const RenderOptions& options) {
-    using clock = std::chrono::steady_clock;
     host::Runtime& runtime = context.runtime();
     int width = options.width > 0 ? options.width : scene.width;
     int height = options.height > 0 ? options.height : scene.height;
     if (width < 1 || height < 1 || width > 16384 || height > 16384)
         throw Error("--width/--height: must lie in [1, 16384]");
-    validate_scene(scene, scene.source);
+    int lanes = options.lanes > 0 ? options.lanes : (runtime.info().is_gpu ? 1 : 8);
+    if (lanes != 1 && lanes != 4 && lanes != 8 && lanes != 16) throw Error("--lanes: must be 1, 4, 8 or 16");
 
     RenderResult result;
     RenderStats& stats = result.stats;
     stats.device = runtime.info().name;
     stats.width = width, stats.height = height;
+    PreparedScene prepared = prepare(runtime, scene, options, stats);
 
-    auto t0 = clock::now();
-    packing::PackedScene packed = packing::pack_scene(scene);
-    bool use_dsm = options.shadows == ShadowTechnique::Dsm && !scene.lights.empty();
-    std::vector<DsmViewGpu> views;
-    if (use_dsm) views = shadows::make_dsm_views(scene, packed, options.dsm_resolution);
     CameraGpu camera = packing::pack_camera(scene, width, height);
     camera.termination_transmittance = options.termination_transmittance;
     camera.jitter_seed = options.jitter_seed;
-    stats.stage_ms["host_prepare"] = std::chrono::duration<double, std::milli>(clock::now() - t0).count();
-
-    int lanes = options.lanes > 0 ? options.lanes : (runtime.info().is_gpu ? 1 : 8);
-    if (lanes != 1 && lanes != 4 && lanes != 8 && lanes != 16) throw Error("--lanes: must be 1, 4, 8 or 16");
-    bool use_images = options.storage == VolumeStorage::Image ||
-                      (options.storage == VolumeStorage::Auto && runtime.info().is_gpu);
-    packing::DeviceScene device_scene = packing::upload_scene(runtime, scene, packed, use_images);
-    stats.stage_ms["upload"] = device_scene.upload_ms;
-
-    shadows::DeviceDsm dsm;
-    if (use_dsm) {
-        dsm = shadows::build_deep_shadow_maps(runtime, scene, packed, device_scene, views,
-                                              {options.dsm_resolution, options.dsm_epsilon});
-        stats.stage_ms["dsm_count"] = dsm.stats.count_ms;
-        stats.stage_ms["dsm_prefix_sum"] = dsm.stats.prefix_sum_ms;
-        stats.stage_ms["dsm_write"] = dsm.stats.write_ms;
-        stats.dsm_views = dsm.stats.views;
-        stats.dsm_nodes = dsm.stats.nodes;
-        stats.dsm_mean_nodes_per_texel = dsm.stats.mean_nodes_per_texel;
-        stats.dsm_max_nodes_per_texel = dsm.stats.max_nodes_per_texel;
-        stats.dsm_bytes_used = dsm.stats.bytes_used;
-        stats.dsm_bytes_wasted = dsm.stats.bytes_wasted;
-    }
-
     std::size_t pixels = std::size_t(width) * std::size_t(height);
     cl::Buffer camera_buffer = host::make_buffer(runtime, CL_MEM_READ_ONLY, sizeof(CameraGpu), &camera, "camera");
     cl::Buffer image_buffer = host::make_buffer(runtime, CL_MEM_WRITE_ONLY, pixels * sizeof(cl_float4), nullptr, "image");
     cl::Buffer count_buffer = host::make_buffer(runtime, CL_MEM_WRITE_ONLY, pixels * sizeof(cl_uint), nullptr, "sample counts");
 
-    auto build_start = clock::now();
-    cl::Program& program = runtime.program("render.cl", camera_pass_defines(scene, options, use_images, lanes));
-    stats.stage_ms["program_build"] = std::chrono::duration<double, std::milli>(clock::now() - build_start).count();
+    auto build_start = clock_type::now();
+    cl::Program& program = runtime.program("render.cl", camera_pass_defines(scene, options, prepared.use_images, lanes));
+    stats.stage_ms["program_build"] = ms_since(build_start);
     cl::Kernel kernel(program, "render_camera");
-    int arg = 0;
-    if (use_images) kernel.setArg(arg++, device_scene.voxel_image);
-    else kernel.setArg(arg++, device_scene.voxel_buffer);
-    kernel.setArg(arg++, device_scene.occupancy);
-    kernel.setArg(arg++, device_scene.tf_tables);
-    kernel.setArg(arg++, device_scene.volumes);
-    kernel.setArg(arg++, device_scene.lights);
-    kernel.setArg(arg++, camera_buffer);
+    int arg = set_scene_args(kernel, prepared, camera_buffer);
     kernel.setArg(arg++, image_buffer);
     kernel.setArg(arg++, count_buffer);
-    if (use_dsm) {
-        kernel.setArg(arg++, dsm.views_buffer);
-        kernel.setArg(arg++, dsm.texel_first_buffer);
-        kernel.setArg(arg++, dsm.nodes_buffer);
-    }
+    set_dsm_args(kernel, arg, prepared);
 
-    cl::Event event;
     // Packets run on CPUs: PoCL keeps every work-item's private state of a work-group on one
     // stack, and its default group size overflows it for 8- and 16-lane packets; 4×4 groups
     // measured fastest here (the kernel ignores the padding of the grid).
@@ -128,6 +162,7 @@ RenderResult render(Context& context, const Scene& scene, const RenderOptions& o
         rows = (rows + group - 1) / group * group;
         local = cl::NDRange(group, group);
     }
+    cl::Event event;
     runtime.queue().enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(columns, rows), local, nullptr, &event);
     event.wait();
     double kernel_ms = host::Runtime::event_ms(event);
@@ -143,6 +178,61 @@ RenderResult render(Context& context, const Scene& scene, const RenderOptions& o
     for (cl_uint c : counts) stats.samples += c;
     stats.msamples_per_s = kernel_ms > 0 ? double(stats.samples) / (kernel_ms * 1e3) : 0.0;
     return result;
+}
+
+ShadowQuery shadow_transmittance(Context& context, const Scene& scene, int light_index, const std::vector<Vec3>& points,
+                                 const RenderOptions& options) {
+    host::Runtime& runtime = context.runtime();
+    check_light(scene, light_index);
+    if (options.shadows == ShadowTechnique::None) throw Error("--shadows: none has no transmittance to query");
+    ShadowQuery query;
+    query.stats.device = runtime.info().name;
+    PreparedScene prepared = prepare(runtime, scene, options, query.stats);
+    if (points.empty()) return query;
+    CameraGpu camera = packing::pack_camera(scene, scene.width, scene.height);
+    camera.jitter_seed = options.jitter_seed;
+    std::vector<cl_float4> host_points;
+    for (const Vec3& p : points) host_points.push_back({{p[0], p[1], p[2], 1.f}});
+    cl::Buffer camera_buffer = host::make_buffer(runtime, CL_MEM_READ_ONLY, sizeof(CameraGpu), &camera, "camera");
+    cl::Buffer point_buffer = host::make_buffer(runtime, CL_MEM_READ_ONLY, host_points.size() * sizeof(cl_float4),
+                                                host_points.data(), "points");
+    cl::Buffer out = host::make_buffer(runtime, CL_MEM_WRITE_ONLY, points.size() * sizeof(float), nullptr, "transmittance");
+    RenderOptions probe_options = options;
+    cl::Kernel kernel(runtime.program("render.cl", camera_pass_defines(scene, probe_options, prepared.use_images, 1)),
+                      "shadow_probe");
+    int arg = set_scene_args(kernel, prepared, camera_buffer);
+    kernel.setArg(arg++, cl_uint(light_index));
+    kernel.setArg(arg++, point_buffer);
+    kernel.setArg(arg++, out);
+    set_dsm_args(kernel, arg, prepared);
+    cl::Event event;
+    runtime.queue().enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(points.size()), cl::NullRange, nullptr, &event);
+    event.wait();
+    query.stats.stage_ms["shadow_probe"] = host::Runtime::event_ms(event);
+    std::vector<float> values(points.size());
+    runtime.queue().enqueueReadBuffer(out, CL_TRUE, 0, values.size() * sizeof(float), values.data());
+    query.transmittance.assign(values.begin(), values.end());
+    return query;
+}
+
+std::vector<DeepShadowMap> build_deep_shadow_maps(Context& context, const Scene& scene, int light_index,
+                                                  const RenderOptions& options, RenderStats* stats_out) {
+    host::Runtime& runtime = context.runtime();
+    check_light(scene, light_index);
+    RenderOptions dsm_options = options;
+    dsm_options.shadows = ShadowTechnique::Dsm;
+    RenderStats stats;
+    stats.device = runtime.info().name;
+    PreparedScene prepared = prepare(runtime, scene, dsm_options, stats);
+    const LightGpu& light = prepared.packed.lights[std::size_t(light_index)];
+    static const char* faces[6] = {"+x", "-x", "+y", "-y", "+z", "-z"};
+    std::vector<DeepShadowMap> maps;
+    for (cl_uint v = 0; v < light.view_count; ++v) {
+        std::string name = "lights[" + std::to_string(light_index) + "]" + (light.view_count == 6 ? std::string(".") + faces[v] : "");
+        maps.push_back(shadows::read_back(runtime, prepared.dsm, int(light.view_first + v), name));
+    }
+    if (stats_out) *stats_out = stats;
+    return maps;
 }
 
 }  // namespace sombra

@@ -193,6 +193,28 @@ double shadow_ray_transmittance(const std::vector<RefVolume>& volumes, const Lig
 
 }  // namespace
 
+std::vector<VisibilitySample> visibility_samples(const Scene& scene, const Vec3& origin, const Vec3& dir, double jitter,
+                                                 double stop_transmittance) {
+    std::vector<RefVolume> volumes;
+    for (const auto& vi : scene.volumes) volumes.push_back(prepare(vi));
+    std::vector<VisibilitySample> out;
+    double transmittance = 1;
+    V3 o = from(origin), d = unit(from(dir));
+    march_segments(volumes, o, d, INFINITY, jitter, [&](double t, double step, const std::vector<std::size_t>& active) {
+        V3 q = o + t * d;
+        double sigma = 0;
+        for (std::size_t i : active) {
+            V3 pv = volumes[i].world_to_voxel.point(q);
+            const VolumeInstance& vi = *volumes[i].instance;
+            sigma += extinction(vi.transfer_function, sample_trilinear(*vi.volume, pv[0], pv[1], pv[2]), volumes[i].opacity_unit);
+        }
+        transmittance *= std::exp(-sigma * step);
+        out.push_back({t, 1 - transmittance});
+        return transmittance >= stop_transmittance;
+    });
+    return out;
+}
+
 double sample_trilinear(const Volume& v, double x, double y, double z) {
     double p[3] = {std::clamp(x, 0.0, v.dims[0] - 1.0), std::clamp(y, 0.0, v.dims[1] - 1.0), std::clamp(z, 0.0, v.dims[2] - 1.0)};
     int i0[3], i1[3];

@@ -5,6 +5,8 @@
 #include "sombra/render.h"
 #include "sombra/scene.h"
 
+#include <vector>
+
 namespace sombra::reference {
 
 struct ReferenceOptions {
@@ -15,6 +17,15 @@ struct ReferenceOptions {
 };
 
 Image render_reference(const Scene& scene, int width, int height, const ReferenceOptions& options = {});
+
+// The visibility function sampled along a ray as the DSM build kernel samples it (same segments,
+// steps and jitter): (t, accumulated opacity α, Knecht Eq. 3.2) per sample, in double, until
+// the transmittance falls below `stop_transmittance`.
+struct VisibilitySample {
+    double t, alpha;
+};
+std::vector<VisibilitySample> visibility_samples(const Scene& scene, const Vec3& origin, const Vec3& dir, double jitter,
+                                                 double stop_transmittance = 1e-4);
 
 // Trilinear density at a continuous voxel position, clamped to the edge (for unit tests).
 double sample_trilinear(const Volume& volume, double x, double y, double z);
