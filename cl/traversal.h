@@ -184,7 +184,9 @@ inline lmask segment_cursor_next(SegmentCursor* c, const VolumeRay* ray, __globa
         lfloat t_resume;
         lmask skip = in_empty_bricks(occupancy, volumes, volume_count, ray, c->active, t, c->alive, &t_resume);
         /* the next call samples at the first k at or beyond the brick exit */
-        lfloat resume_index = fmin(ceil((t_resume - c->t_start) / c->step - c->jitter), 1.0e9f); /* finite for convert */
+        /* fmax/fmin also map NaN and ±∞ (a ray parallel to a brick face, outside it) into range:
+         * converting them to int is undefined */
+        lfloat resume_index = fmin(fmax(ceil((t_resume - c->t_start) / c->step - c->jitter), -1.0f), 1.0e9f);
         c->k = select(c->k, max(c->k, LCONVERT_INT(resume_index) - 1), skip);
         sampling &= !skip;
 #endif
