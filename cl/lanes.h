@@ -23,6 +23,7 @@ typedef uint luint;
 typedef int lmask;
 #define lany(m) ((m) != 0)
 #define LCONVERT_INT(x) convert_int(x)
+#define LAS_INT(x) as_int(x)
 #define LCONVERT_FLOAT(x) convert_float(x)
 #define LFROM_LANES_AS(type, f) ((type)(f(_)))
 #define LC(v, c) (v)
@@ -35,6 +36,7 @@ typedef uint4 luint;
 typedef int4 lmask;
 #define lany(m) any(m)
 #define LCONVERT_INT(x) convert_int4(x)
+#define LAS_INT(x) as_int4(x)
 #define LCONVERT_FLOAT(x) convert_float4(x)
 #define LFROM_LANES_AS(type, f) ((type)(f(s0), f(s1), f(s2), f(s3)))
 #define LSTORE(v, array) vstore4((v), 0, (array))
@@ -47,6 +49,7 @@ typedef uint8 luint;
 typedef int8 lmask;
 #define lany(m) any(m)
 #define LCONVERT_INT(x) convert_int8(x)
+#define LAS_INT(x) as_int8(x)
 #define LCONVERT_FLOAT(x) convert_float8(x)
 #define LFROM_LANES_AS(type, f) ((type)(f(s0), f(s1), f(s2), f(s3), f(s4), f(s5), f(s6), f(s7)))
 #define LSTORE(v, array) vstore8((v), 0, (array))
@@ -59,6 +62,7 @@ typedef uint16 luint;
 typedef int16 lmask;
 #define lany(m) any(m)
 #define LCONVERT_INT(x) convert_int16(x)
+#define LAS_INT(x) as_int16(x)
 #define LCONVERT_FLOAT(x) convert_float16(x)
 #define LFROM_LANES_AS(type, f) ((type)(f(s0), f(s1), f(s2), f(s3), f(s4), f(s5), f(s6), f(s7), f(s8), f(s9), f(sA), f(sB), f(sC), f(sD), f(sE), f(sF)))
 #define LSTORE(v, array) vstore16((v), 0, (array))

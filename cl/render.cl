@@ -14,7 +14,7 @@
 #include "traversal.h"
 #ifdef SOMBRA_SHADOW_DSM
 #include "dsm_view.h"
-#include "storage_compact.h"
+#include "dsm_storage.h"
 #endif
 
 /* What every sample of the camera pass reads and accumulates. */
@@ -31,8 +31,7 @@ typedef struct {
     __global const uchar* occupancy;
 #ifdef SOMBRA_SHADOW_DSM
     __global const DsmViewGpu* views;
-    __global const uint* texel_first;
-    __global const float* nodes;
+    DSM_READ_STATE_FIELDS
 #endif
 } CameraState;
 
@@ -71,8 +70,6 @@ inline lfloat shadow_ray(VOLUME_DATA_PARAM, const CameraState* state, __global c
  * light's cube face, found by projection), V'(depth) of the four nearest texels filtered
  * bilinearly (Knecht Eq. 3.7, 4.18–4.19). Points no view covers are lit. */
 inline lfloat dsm_shadow(const CameraState* state, __global const LightGpu* light, lfloat3 p, lmask lanes) {
-    __global const uint* texel_first = state->texel_first;
-    __global const float* nodes = state->nodes;
     lfloat alpha = (lfloat)(0.0f);
     lmask done = !lanes;
     for (uint i = 0; i < light->view_count; ++i) {
@@ -86,11 +83,10 @@ inline lfloat dsm_shadow(const CameraState* state, __global const LightGpu* ligh
         int last = (int)v->resolution - 1;
         lint x0 = clamp(LCONVERT_INT(u0), 0, last), x1 = clamp(LCONVERT_INT(u0) + 1, 0, last);
         lint y0 = clamp(LCONVERT_INT(w0), 0, last), y1 = clamp(LCONVERT_INT(w0) + 1, 0, last);
-        lint row0 = (int)v->first_texel + y0 * (int)v->resolution, row1 = (int)v->first_texel + y1 * (int)v->resolution;
-        lfloat a00 = dsm_texel_opacity(DSM_STORAGE_ARGS, row0 + x0, depth, v->max_nodes);
-        lfloat a10 = dsm_texel_opacity(DSM_STORAGE_ARGS, row0 + x1, depth, v->max_nodes);
-        lfloat a01 = dsm_texel_opacity(DSM_STORAGE_ARGS, row1 + x0, depth, v->max_nodes);
-        lfloat a11 = dsm_texel_opacity(DSM_STORAGE_ARGS, row1 + x1, depth, v->max_nodes);
+        lfloat a00 = dsm_texel_opacity(DSM_READ_ARGS_OF(state), v, x0, y0, depth);
+        lfloat a10 = dsm_texel_opacity(DSM_READ_ARGS_OF(state), v, x1, y0, depth);
+        lfloat a01 = dsm_texel_opacity(DSM_READ_ARGS_OF(state), v, x0, y1, depth);
+        lfloat a11 = dsm_texel_opacity(DSM_READ_ARGS_OF(state), v, x1, y1, depth);
         alpha = select(alpha, mix(mix(a00, a10, fu), mix(a01, a11, fu), fw), covered);
         done |= covered;
     }
@@ -156,8 +152,7 @@ __kernel void render_camera(VOLUME_DATA_PARAM, __global const uchar* occupancy, 
                             __global const VolumeGpu* volumes, __global const LightGpu* lights,
                             __global const CameraGpu* camera, __global float4* image, __global uint* sample_counts
 #ifdef SOMBRA_SHADOW_DSM
-                            , __global const DsmViewGpu* views, __global const uint* texel_first,
-                            __global const float* nodes
+                            , __global const DsmViewGpu* views, DSM_READ_PARAMS
 #endif
 ) {
     uint y = get_global_id(1);
@@ -187,8 +182,7 @@ __kernel void render_camera(VOLUME_DATA_PARAM, __global const uchar* occupancy, 
     state.occupancy = occupancy;
 #ifdef SOMBRA_SHADOW_DSM
     state.views = views;
-    state.texel_first = texel_first;
-    state.nodes = nodes;
+    DSM_READ_STATE_INIT(state);
 #endif
 #define SOMBRA_JITTER_LANE(c) sombra_pixel_jitter((uint)LC(xs, c), y, camera->jitter_seed)
     state.jitter = LFROM_LANES(SOMBRA_JITTER_LANE);
@@ -223,8 +217,7 @@ __kernel void shadow_probe(VOLUME_DATA_PARAM, __global const uchar* occupancy, _
                            __global const CameraGpu* camera, uint light_index, __global const float4* points,
                            __global float* transmittance
 #ifdef SOMBRA_SHADOW_DSM
-                           , __global const DsmViewGpu* views, __global const uint* texel_first,
-                           __global const float* nodes
+                           , __global const DsmViewGpu* views, DSM_READ_PARAMS
 #endif
 ) {
     size_t i = get_global_id(0);
@@ -237,8 +230,7 @@ __kernel void shadow_probe(VOLUME_DATA_PARAM, __global const uchar* occupancy, _
     state.jitter = sombra_pixel_jitter((uint)i, 0u, camera->jitter_seed);
 #ifdef SOMBRA_SHADOW_DSM
     state.views = views;
-    state.texel_first = texel_first;
-    state.nodes = nodes;
+    DSM_READ_STATE_INIT(state);
     transmittance[i] = dsm_shadow(&state, &lights[light_index], l3(points[i].x, points[i].y, points[i].z), 1);
 #else
     transmittance[i] = shadow_ray(volume_data, &state, &lights[light_index], l3(points[i].x, points[i].y, points[i].z), 1);

@@ -23,6 +23,10 @@ struct RenderOptions {
     ShadowTechnique shadows = ShadowTechnique::None;
     int dsm_resolution = 512;   // texels per side of every deep shadow map view
     float dsm_epsilon = 0.02f;  // compression error bound (Knecht Eq. 3.1)
+    // DSM storage backend: "atlas" (3D-texture-like atlas of layer blocks allocated per tile on
+    // demand, Hadwiger §3.4 / Knecht Eq. 4.7–4.10), "chunked" (64-node chunks per 8×8 tile with
+    // atomics and linked lists, Knecht Alg. 4.1) or "compact" (count, prefix sum, write).
+    std::string dsm_storage = "atlas";
     VolumeStorage storage = VolumeStorage::Auto;
     bool empty_space_skipping = true;
     float termination_transmittance = 1e-3f;  // early ray termination threshold on t_acc
@@ -49,6 +53,8 @@ struct RenderStats {
     double dsm_mean_nodes_per_texel = 0;
     unsigned dsm_max_nodes_per_texel = 0;
     unsigned long long dsm_bytes_used = 0, dsm_bytes_wasted = 0;
+    unsigned long long dsm_capped_texels = 0;  // texels that hit the atlas layer cap
+    std::string dsm_storage;
     int width = 0, height = 0;
     std::string to_json() const;
 };

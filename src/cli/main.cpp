@@ -114,7 +114,10 @@ int run(int argc, char** argv) {
         ->check(CLI::IsMember({"none", "rays", "dsm"}));
     int dsm_resolution = 512;
     float dsm_epsilon = 0.02f;
+    std::string dsm_storage = "atlas";
     render->add_option("--dsm-res", dsm_resolution, "deep shadow map texels per side")->check(CLI::Range(1, 8192));
+    render->add_option("--storage", dsm_storage, "deep shadow map storage: atlas, chunked, chunked-ondemand (Knecht) or compact")
+        ->check(CLI::IsMember({"atlas", "chunked", "chunked-ondemand", "compact"}));
     render->add_option("--eps", dsm_epsilon, "deep shadow map compression error bound ε (Knecht Eq. 3.1)")
         ->check(CLI::Range(0.0f, 1e6f));
     render->add_option("--volume-storage", storage, "auto (buffer on CPUs, image on GPUs), buffer or image")
@@ -142,6 +145,8 @@ int run(int argc, char** argv) {
     for (CLI::App* sub : {dsm, visibility}) {
         sub->add_option("--device", device, "auto, cpu, gpu, or an index from `sombra devices`");
         sub->add_option("--dsm-res", dsm_resolution, "deep shadow map texels per side")->check(CLI::Range(1, 8192));
+        sub->add_option("--storage", dsm_storage, "deep shadow map storage: atlas, chunked, chunked-ondemand (Knecht) or compact")
+            ->check(CLI::IsMember({"atlas", "chunked", "chunked-ondemand", "compact"}));
         sub->add_option("--eps", dsm_epsilon, "compression error bound ε")->check(CLI::Range(0.0f, 1e6f));
         sub->add_option("--stats", stats_path, "write build times and DSM sizes as JSON");
     }
@@ -183,6 +188,7 @@ int run(int argc, char** argv) {
                                          : sombra::ShadowTechnique::None;
     options.dsm_resolution = dsm_resolution;
     options.dsm_epsilon = dsm_epsilon;
+    options.dsm_storage = dsm_storage;
     if (dsm->parsed()) return write_dsm(context, scene, light_index, options, output, stats_path);
     if (visibility->parsed()) return print_visibility(context, scene, light_index, options, points_path, stats_path);
     sombra::RenderResult result = sombra::render(context, scene, options);

@@ -95,11 +95,13 @@ Runtime::Runtime(const std::string& selector) {
 
 std::string expand_kernel_source(const std::string& path) {
     const auto& sources = embedded_kernel_sources();
-    std::set<std::string> included;
+    std::set<std::string> open_files;
     std::ostringstream out;
-    // Recursive textual include; each file is emitted once (the headers have guards anyway).
+    // Recursive textual include. Every inclusion is expanded, as the C preprocessor would (an
+    // #include inside #if must not hide a later one: the headers' guards keep them single); a
+    // file already being expanded is an include cycle and is skipped.
     auto expand = [&](const std::string& file, auto& self) -> void {
-        if (!included.insert(file).second) return;
+        if (!open_files.insert(file).second) return;
         auto it = sources.find(file);
         if (it == sources.end()) throw Error("cl/" + file + ": kernel source not embedded in this build");
         std::istringstream in(it->second);
@@ -117,6 +119,7 @@ std::string expand_kernel_source(const std::string& path) {
                 out << line << '\n';
             }
         }
+        open_files.erase(file);
     };
     expand(path, expand);
     return out.str();

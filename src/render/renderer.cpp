@@ -26,7 +26,10 @@ std::vector<std::string> camera_pass_defines(const Scene& scene, const RenderOpt
     if (options.gradient == GradientMethod::Sobel) defines.push_back("SOMBRA_SOBEL");
     if (!scene.lights.empty()) defines.push_back("SOMBRA_HAS_LIGHTS");
     if (!scene.lights.empty() && options.shadows == ShadowTechnique::Rays) defines.push_back("SOMBRA_SHADOW_RAYS");
-    if (!scene.lights.empty() && options.shadows == ShadowTechnique::Dsm) defines.push_back("SOMBRA_SHADOW_DSM");
+    if (!scene.lights.empty() && options.shadows == ShadowTechnique::Dsm) {
+        defines.push_back("SOMBRA_SHADOW_DSM");
+        for (auto& d : memory::make_dsm_storage(options.dsm_storage)->defines()) defines.push_back(d);
+    }
     return defines;
 }
 
@@ -54,18 +57,18 @@ PreparedScene prepare(host::Runtime& runtime, const Scene& scene, const RenderOp
     prepared.device = packing::upload_scene(runtime, scene, prepared.packed, prepared.use_images);
     stats.stage_ms["upload"] = prepared.device.upload_ms;
     if (prepared.use_dsm) {
-        prepared.dsm = shadows::build_deep_shadow_maps(runtime, scene, prepared.packed, prepared.device, views,
-                                                       {options.dsm_resolution, options.dsm_epsilon});
-        const shadows::DsmStats& d = prepared.dsm.stats;
-        stats.stage_ms["dsm_count"] = d.count_ms;
-        stats.stage_ms["dsm_prefix_sum"] = d.prefix_sum_ms;
-        stats.stage_ms["dsm_write"] = d.write_ms;
+        prepared.dsm = shadows::build_deep_shadow_maps(runtime, scene, prepared.device, views,
+                                                       {options.dsm_resolution, options.dsm_epsilon, options.dsm_storage});
+        const memory::DsmStats& d = prepared.dsm.stats;
+        for (auto& [stage, ms] : d.stage_ms) stats.stage_ms[stage] = ms;
         stats.dsm_views = d.views;
+        stats.dsm_storage = options.dsm_storage;
         stats.dsm_nodes = d.nodes;
         stats.dsm_mean_nodes_per_texel = d.mean_nodes_per_texel;
         stats.dsm_max_nodes_per_texel = d.max_nodes_per_texel;
         stats.dsm_bytes_used = d.bytes_used;
         stats.dsm_bytes_wasted = d.bytes_wasted;
+        stats.dsm_capped_texels = d.capped_texels;
     }
     return prepared;
 }
@@ -86,9 +89,7 @@ int set_scene_args(cl::Kernel& kernel, const PreparedScene& p, const cl::Buffer&
 int set_dsm_args(cl::Kernel& kernel, int arg, const PreparedScene& p) {
     if (!p.use_dsm) return arg;
     kernel.setArg(arg++, p.dsm.views_buffer);
-    kernel.setArg(arg++, p.dsm.texel_first_buffer);
-    kernel.setArg(arg++, p.dsm.nodes_buffer);
-    return arg;
+    return p.dsm.storage->bind_for_reading(kernel, arg);
 }
 
 int check_light(const Scene& scene, int light_index) {
@@ -114,7 +115,9 @@ std::string RenderStats::to_json() const {
                     {"mean_nodes_per_texel", dsm_mean_nodes_per_texel},
                     {"max_nodes_per_texel", dsm_max_nodes_per_texel},
                     {"bytes_used", dsm_bytes_used},
-                    {"bytes_wasted", dsm_bytes_wasted}};
+                    {"bytes_wasted", dsm_bytes_wasted},
+                    {"capped_texels", dsm_capped_texels},
+                    {"storage", dsm_storage}};
     }
     return j.dump(2);
 }
@@ -229,7 +232,9 @@ std::vector<DeepShadowMap> build_deep_shadow_maps(Context& context, const Scene&
     std::vector<DeepShadowMap> maps;
     for (cl_uint v = 0; v < light.view_count; ++v) {
         std::string name = "lights[" + std::to_string(light_index) + "]" + (light.view_count == 6 ? std::string(".") + faces[v] : "");
-        maps.push_back(shadows::read_back(runtime, prepared.dsm, int(light.view_first + v), name));
+        const DsmViewGpu& view = prepared.dsm.views[light.view_first + v];
+        maps.push_back(prepared.dsm.storage->read_back(runtime, view, light.view_first + v));
+        maps.back().light_name = name;
     }
     if (stats_out) *stats_out = stats;
     return maps;

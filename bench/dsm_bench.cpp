@@ -1,0 +1,373 @@
+// sombra_bench_dsm — deep shadow maps against the shadow-ray baseline and no shadows, in one run:
+// per DSM resolution × ε, the generation time (count, prefix sum, write), the camera-pass time,
+// nodes per texel, memory used / wasted, and the transmittance error against the brute-force
+// reference (sombra::reference_transmittance). The analogue on this device of Hadwiger 2006
+// Table 1 and Knecht 2011 Tables 5.1/5.3 and 5.8–5.10. See bench/README.md.
+#include <CLI/CLI.hpp>
+#include <CL/opencl.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <map>
+#include <random>
+#include <sstream>
+#include <thread>
+
+#include "sombra/sombra.h"
+
+namespace {
+
+// DSM storage backends benchmarked, one row set each. RenderOptions has no `dsm_storage` field yet:
+// the compact node storage is the only one. When the field lands, list its backends here.
+const std::vector<std::string> kDsmStorages = {"compact"};
+
+// Sets RenderOptions::dsm_storage when it exists (and takes a name); otherwise only "compact".
+template <class O>
+auto set_dsm_storage(O& options, const std::string& name, int) -> decltype(options.dsm_storage = name, void()) {
+    options.dsm_storage = name;
+}
+template <class O>
+void set_dsm_storage(O&, const std::string& name, long) {
+    if (name != "compact") throw sombra::Error("DSM storage '" + name + "': this build has only compact storage");
+}
+
+struct BenchOptions {
+    std::string scene = SOMBRA_DEFAULT_SCENE;
+    std::vector<int> resolutions{128, 256, 512};
+    std::vector<float> epsilons{0.01f, 0.02f, 0.05f, 0.06f, 0.1f, 0.2f};
+    int width = 256, height = 256;
+    int runs = 3;
+    int points = 2000;
+    unsigned seed = 7;  // of the random points
+    int light = 0;
+    std::string device = "auto";
+    std::string out_dir;
+    std::string python = "python3";
+};
+
+struct Row {
+    std::string shadows;  // "none", "rays", "dsm"
+    std::string storage;  // DSM rows only
+    int resolution = 0;
+    float epsilon = 0;
+    std::map<std::string, double> dsm_stage_ms;  // median per dsm_* stage (DSM rows)
+    double generation_ms = 0;                    // median of the per-run sum of the dsm_* stages
+    double render_ms = 0;                                                      // median camera_pass
+    double mean_nodes = 0;
+    unsigned max_nodes = 0;
+    int views = 0;
+    unsigned long long nodes = 0, bytes_used = 0, bytes_wasted = 0;
+    bool has_error = false;
+    double mean_error = 0, max_error = 0;  // |T − T_reference| over the points, light --light
+    bool is_dsm() const { return shadows == "dsm"; }
+    double total_ms() const { return generation_ms + render_ms; }  // what a frame costs (DSM rebuilt per frame)
+};
+
+double median(std::vector<double> v) {
+    std::sort(v.begin(), v.end());
+    std::size_t n = v.size();
+    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+std::string fixed(double v, int digits) {
+    std::ostringstream s;
+    s << std::fixed << std::setprecision(digits) << v;
+    return s.str();
+}
+
+std::string sci(double v) {
+    std::ostringstream s;
+    s << std::scientific << std::setprecision(2) << v;
+    return s.str();
+}
+
+std::string eps_text(float e) {
+    std::ostringstream s;
+    s << e;
+    return s.str();
+}
+
+void write_file(const std::filesystem::path& path, const std::string& text) {
+    std::ofstream out(path);
+    out << text;
+    if (!out) throw sombra::Error(path.string() + ": cannot write");
+}
+
+// Uniform random points in the world boxes of the scene's volumes (a volume drawn uniformly, then
+// a point in its voxel-centre box mapped by its transform); deterministic for a seed.
+std::vector<sombra::Vec3> random_points(const sombra::Scene& scene, int count, unsigned seed) {
+    std::mt19937 rng(seed);
+    std::uniform_int_distribution<std::size_t> pick(0, scene.volumes.size() - 1);
+    std::uniform_real_distribution<float> u(-0.5f, 0.5f);
+    std::vector<sombra::Vec3> points;
+    for (int i = 0; i < count; ++i) {
+        const sombra::VolumeInstance& vi = scene.volumes[pick(rng)];
+        float o[3];
+        for (int a = 0; a < 3; ++a) o[a] = u(rng) * float(vi.volume->dims[a] - 1) * vi.spacing[a];
+        const auto& m = vi.transform;
+        sombra::Vec3 p;
+        for (int r = 0; r < 3; ++r) p[r] = m[4 * r] * o[0] + m[4 * r + 1] * o[1] + m[4 * r + 2] * o[2] + m[4 * r + 3];
+        points.push_back(p);
+    }
+    return points;
+}
+
+// The brute-force reference at every point, on all cores (the function is pure).
+std::vector<double> reference_values(const sombra::Scene& scene, int light, const std::vector<sombra::Vec3>& points) {
+    std::vector<double> values(points.size());
+    unsigned workers = std::max(1u, std::thread::hardware_concurrency());
+    std::vector<std::thread> threads;
+    for (unsigned w = 0; w < workers; ++w)
+        threads.emplace_back([&, w] {
+            for (std::size_t i = w; i < points.size(); i += workers)
+                values[i] = sombra::reference_transmittance(scene, light, points[i]);
+        });
+    for (auto& t : threads) t.join();
+    return values;
+}
+
+void measure_error(sombra::Context& context, const sombra::Scene& scene, int light, const std::vector<sombra::Vec3>& points,
+                   const std::vector<double>& reference, const sombra::RenderOptions& options, Row& row) {
+    sombra::ShadowQuery q = sombra::shadow_transmittance(context, scene, light, points, options);
+    double sum = 0, max_diff = 0;
+    for (std::size_t i = 0; i < points.size(); ++i) {
+        double d = std::fabs(q.transmittance[i] - reference[i]);
+        if (!(d <= max_diff)) max_diff = d;  // a NaN makes the maximum NaN
+        sum += d;
+    }
+    row.has_error = true;
+    row.mean_error = sum / double(std::max<std::size_t>(points.size(), 1));
+    row.max_error = max_diff;
+}
+
+// One warm-up render, then `runs` timed ones; times are the OpenCL profiling events in the stats.
+void measure_render(sombra::Context& context, const sombra::Scene& scene, const sombra::RenderOptions& options, int runs,
+                    Row& row) {
+    sombra::render(context, scene, options);  // program build, PoCL kernel cache, first enqueue
+    std::vector<double> generation, render;
+    std::map<std::string, std::vector<double>> stages;  // every dsm_* stage the storage backend reports
+    sombra::RenderStats last;
+    for (int i = 0; i < runs; ++i) {
+        last = sombra::render(context, scene, options).stats;
+        render.push_back(last.stage_ms.at("camera_pass"));
+        double sum = 0;
+        for (const auto& [stage, ms] : last.stage_ms)
+            if (stage.rfind("dsm_", 0) == 0) stages[stage].push_back(ms), sum += ms;
+        generation.push_back(sum);
+    }
+    row.render_ms = median(render);
+    if (row.is_dsm()) {
+        for (const auto& [stage, ms] : stages) row.dsm_stage_ms[stage] = median(ms);
+        row.generation_ms = median(generation);
+        row.views = last.dsm_views, row.nodes = last.dsm_nodes;
+        row.mean_nodes = last.dsm_mean_nodes_per_texel, row.max_nodes = last.dsm_max_nodes_per_texel;
+        row.bytes_used = last.dsm_bytes_used, row.bytes_wasted = last.dsm_bytes_wasted;
+    }
+}
+
+const Row* find_row(const std::vector<Row>& rows, const std::string& shadows) {
+    for (const Row& r : rows)
+        if (r.shadows == shadows) return &r;
+    return nullptr;
+}
+
+// The dsm_* stages reported by any row: the compact storage's count, prefix sum and write passes
+// first, then whatever other backends add, by name.
+std::vector<std::string> stage_columns(const std::vector<Row>& rows) {
+    std::vector<std::string> columns = {"dsm_count", "dsm_prefix_sum", "dsm_write"}, seen;
+    for (const Row& r : rows)
+        for (const auto& [stage, ms] : r.dsm_stage_ms)
+            if (std::find(seen.begin(), seen.end(), stage) == seen.end()) seen.push_back(stage);
+    columns.erase(std::remove_if(columns.begin(), columns.end(),
+                                 [&](const std::string& c) { return std::find(seen.begin(), seen.end(), c) == seen.end(); }),
+                  columns.end());
+    std::sort(seen.begin(), seen.end());
+    for (const std::string& stage : seen)
+        if (std::find(columns.begin(), columns.end(), stage) == columns.end()) columns.push_back(stage);
+    return columns;
+}
+
+std::string markdown_table(const std::vector<Row>& rows) {
+    const Row* rays = find_row(rows, "rays");
+    std::vector<std::string> stages = stage_columns(rows);
+    std::ostringstream s;
+    s << "| shadows | storage | res | ε |";
+    for (const std::string& stage : stages) s << " " << stage << " ms |";
+    s << " DSM gen ms | render ms | render ÷ rays | gen + render ms | nodes/texel mean | max | bytes used | bytes wasted"
+         " | mean \\|ΔT\\| | max \\|ΔT\\| | mean \\|ΔT\\| ÷ rays |\n|---|---|---:|---:|";
+    for (std::size_t i = 0; i < stages.size() + 11; ++i) s << "---:|";
+    s << "\n";
+    for (const Row& r : rows) {
+        std::string na = "–";
+        s << "| " << (r.is_dsm() ? "DSM" : r.shadows == "rays" ? "shadow rays" : "none") << " | "
+          << (r.is_dsm() ? r.storage : na) << " | " << (r.is_dsm() ? std::to_string(r.resolution) : na) << " | "
+          << (r.is_dsm() ? eps_text(r.epsilon) : na) << " | ";
+        for (const std::string& stage : stages)
+            s << (r.dsm_stage_ms.count(stage) ? fixed(r.dsm_stage_ms.at(stage), 2) : na) << " | ";
+        s << (r.is_dsm() ? fixed(r.generation_ms, 1) : na) << " | " << fixed(r.render_ms, 1) << " | " << (rays ? fixed(r.render_ms / rays->render_ms, 2) : na) << " | "
+          << fixed(r.total_ms(), 1) << " | ";
+        if (r.is_dsm())
+            s << fixed(r.mean_nodes, 3) << " | " << r.max_nodes << " | " << r.bytes_used << " | " << r.bytes_wasted << " | ";
+        else
+            s << na << " | " << na << " | " << na << " | " << na << " | ";
+        if (r.has_error)
+            s << sci(r.mean_error) << " | " << sci(r.max_error) << " | "
+              << (rays && rays->mean_error > 0 ? fixed(r.mean_error / rays->mean_error, 2) : na) << " |\n";
+        else
+            s << na << " | " << na << " | " << na << " |\n";
+    }
+    return s.str();
+}
+
+std::string csv_table(const std::vector<Row>& rows) {
+    std::vector<std::string> stages = stage_columns(rows);
+    std::ostringstream s;
+    s << "shadows,storage,resolution,epsilon,";
+    for (const std::string& stage : stages) s << stage << "_ms,";
+    s << "dsm_generation_ms,render_ms,total_ms,dsm_views,dsm_nodes,mean_nodes_per_texel,max_nodes_per_texel,bytes_used,bytes_wasted,mean_abs_error,"
+         "max_abs_error\n";
+    for (const Row& r : rows) {
+        s << r.shadows << ',' << r.storage << ',' << (r.is_dsm() ? std::to_string(r.resolution) : "") << ','
+          << (r.is_dsm() ? eps_text(r.epsilon) : "") << ',';
+        for (const std::string& stage : stages)
+            s << (r.dsm_stage_ms.count(stage) ? fixed(r.dsm_stage_ms.at(stage), 3) : "") << ',';
+        s << (r.is_dsm() ? fixed(r.generation_ms, 3) : "") << ',';
+        s << fixed(r.render_ms, 3) << ',' << fixed(r.total_ms(), 3) << ',';
+        if (r.is_dsm())
+            s << r.views << ',' << r.nodes << ',' << fixed(r.mean_nodes, 5) << ',' << r.max_nodes << ',' << r.bytes_used
+              << ',' << r.bytes_wasted << ',';
+        else
+            s << ",,,,,,";
+        if (r.has_error) s << std::setprecision(6) << r.mean_error << ',' << r.max_error;
+        else s << ',';
+        s << '\n';
+    }
+    return s.str();
+}
+
+// The error-vs-time plot, by bench/plot_error_vs_time.py when python3 with matplotlib is there.
+void plot(const BenchOptions& o, const std::filesystem::path& csv, const std::filesystem::path& png) {
+    std::string check = o.python + " -c 'import matplotlib' >/dev/null 2>&1";
+    if (std::system(check.c_str()) != 0) {
+        std::cout << "note: no plot: `" << o.python << "` cannot import matplotlib (pip install -r bench/requirements.txt); "
+                  << "later: " << o.python << " " << SOMBRA_PLOT_SCRIPT << " " << csv.string() << " " << png.string() << "\n";
+        return;
+    }
+    std::string command = o.python + " '" + SOMBRA_PLOT_SCRIPT + "' '" + csv.string() + "' '" + png.string() + "'";
+    if (std::system(command.c_str()) != 0) std::cout << "note: the plot script failed: " << command << "\n";
+    else std::cout << "wrote " << png.string() << "\n";
+}
+
+int run(int argc, char** argv) {
+    BenchOptions o;
+    CLI::App app{"sombra deep shadow maps: generation time, render time, nodes, memory and error vs shadow rays"};
+    app.add_option("--scene", o.scene, "scene file (JSON)");
+    app.add_option("--resolutions", o.resolutions, "DSM texels per side, comma-separated (paper set: 256,512,1024)")
+        ->delimiter(',')
+        ->check(CLI::Range(1, 8192));
+    app.add_option("--eps", o.epsilons, "compression error bounds ε, comma-separated")->delimiter(',')->check(CLI::Range(0.0f, 1e6f));
+    app.add_option("--width", o.width, "image width")->check(CLI::Range(1, 16384));
+    app.add_option("--height", o.height, "image height")->check(CLI::Range(1, 16384));
+    app.add_option("--runs", o.runs, "timed renders per row, after one warm-up")->check(CLI::PositiveNumber);
+    app.add_option("--points", o.points, "random points in the volumes for the transmittance error")->check(CLI::PositiveNumber);
+    app.add_option("--seed", o.seed, "seed of the random points");
+    app.add_option("--light", o.light, "light whose transmittance is compared with the reference")->check(CLI::NonNegativeNumber);
+    app.add_option("--device", o.device, "OpenCL device: auto, cpu, gpu, or an index from `sombra devices`");
+    app.add_option("--out", o.out_dir, "write dsm_table.md, dsm_table.csv and dsm_error_vs_time.png into this folder");
+    app.add_option("--python", o.python, "Python with matplotlib, for the plot");
+    CLI11_PARSE(app, argc, argv);
+
+    std::string command;
+    for (int i = 0; i < argc; ++i) command += (i ? " " : "") + std::string(argv[i]);
+
+    sombra::Scene scene = sombra::load_scene(o.scene);
+    if (o.light >= int(scene.lights.size()))
+        throw sombra::Error("--light: the scene has " + std::to_string(scene.lights.size()) + " lights");
+    if (scene.volumes.empty()) throw sombra::Error(o.scene + ": no volumes to place points in");
+    sombra::Context context(o.device);
+    sombra::RenderOptions base;  // defaults: central differences, skipping on, t ≤ 1e-3 stops, seed 1
+    base.width = o.width, base.height = o.height;
+
+    std::cout << "command:  " << command << "\n"
+              << "scene:    " << o.scene << " (" << o.width << "x" << o.height << ", " << scene.lights.size()
+              << " lights: every render shadows all of them)\n"
+              << "device:   " << context.device().name << " [" << context.device().platform << "]\n"
+              << "cores:    " << std::thread::hardware_concurrency() << "\n"
+              << "runs:     " << o.runs << " timed after 1 warm-up, medians of OpenCL profiling events\n";
+
+    auto points = random_points(scene, o.points, o.seed);
+    std::vector<double> reference = reference_values(scene, o.light, points);
+    std::size_t shadowed = std::count_if(reference.begin(), reference.end(), [](double t) { return t < 0.99; });
+    std::cout << "error:    " << points.size() << " random points (seed " << o.seed << ") in the volumes' boxes, light "
+              << o.light << "; " << shadowed << " have reference T < 0.99\n\n";
+
+    std::vector<Row> rows;
+    Row none;
+    none.shadows = "none";
+    measure_render(context, scene, base, o.runs, none);
+    rows.push_back(none);
+    std::cout << "none: render " << fixed(none.render_ms, 1) << " ms\n";
+
+    Row rays;
+    rays.shadows = "rays";
+    sombra::RenderOptions ray_options = base;
+    ray_options.shadows = sombra::ShadowTechnique::Rays;
+    measure_render(context, scene, ray_options, o.runs, rays);
+    measure_error(context, scene, o.light, points, reference, ray_options, rays);
+    rows.push_back(rays);
+    std::cout << "rays: render " << fixed(rays.render_ms, 1) << " ms, mean |ΔT| " << sci(rays.mean_error) << "\n";
+
+    for (const std::string& storage : kDsmStorages)
+        for (int resolution : o.resolutions)
+            for (float epsilon : o.epsilons) {
+                Row r;
+                r.shadows = "dsm", r.storage = storage, r.resolution = resolution, r.epsilon = epsilon;
+                sombra::RenderOptions options = base;
+                options.shadows = sombra::ShadowTechnique::Dsm;
+                options.dsm_resolution = resolution, options.dsm_epsilon = epsilon;
+                set_dsm_storage(options, storage, 0);
+                measure_render(context, scene, options, o.runs, r);
+                measure_error(context, scene, o.light, points, reference, options, r);
+                rows.push_back(r);
+                std::cout << "dsm " << storage << " " << resolution << " ε " << eps_text(epsilon) << ": gen "
+                          << fixed(r.generation_ms, 1) << " ms, render " << fixed(r.render_ms, 1) << " ms, nodes/texel "
+                          << fixed(r.mean_nodes, 3) << " (max " << r.max_nodes << "), mean |ΔT| " << sci(r.mean_error)
+                          << std::endl;
+            }
+
+    std::string table = markdown_table(rows);
+    std::cout << "\n" << table;
+    if (!o.out_dir.empty()) {
+        std::filesystem::path dir(o.out_dir);
+        std::filesystem::create_directories(dir);
+        std::string header = "<!-- " + command + " | " + context.device().name + " | " +
+                             std::to_string(std::thread::hardware_concurrency()) + " cores | " + std::to_string(o.width) +
+                             "x" + std::to_string(o.height) + " | " + std::to_string(o.points) + " points, light " +
+                             std::to_string(o.light) + " -->\n";
+        write_file(dir / "dsm_table.md", header + table);
+        write_file(dir / "dsm_table.csv", csv_table(rows));
+        std::cout << "wrote " << o.out_dir << "/dsm_table.{csv,md}\n";
+        plot(o, dir / "dsm_table.csv", dir / "dsm_error_vs_time.png");
+    }
+    return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    try {
+        return run(argc, argv);
+    } catch (const sombra::Error& e) {
+        std::cerr << "sombra_bench_dsm: error: " << e.what() << "\n";
+    } catch (const cl::Error& e) {
+        std::cerr << "sombra_bench_dsm: error: OpenCL: " << e.what() << " failed with error " << e.err() << "\n";
+    } catch (const std::exception& e) {
+        std::cerr << "sombra_bench_dsm: error: " << e.what() << "\n";
+    }
+    return 1;
+}

@@ -1,0 +1,134 @@
+/* sombra — "chunked" deep shadow map storage (Knecht §4.2.2, Alg. 4.1, Eq. 4.11–4.17): the nodes
+ * of an 8×8 tile go into chunks of SOMBRA_CHUNK_LENGTH nodes, taken in order by the tile's
+ * work-items through an atomic counter (Eq. 4.11–4.12) and allocated on demand from a global
+ * pool with atomic_inc + atomic_cmpxchg (Alg. 4.1; no spin-waits). Each texel's nodes form a
+ * linked list whose head sits in a per-texel lookup table (Eq. 4.13–4.17). After generation the
+ * nodes are rearranged for reading (dsm_rearrange: depth, opacity and link in one float4, as
+ * Knecht's chunk texture) and lookups walk the list linearly. With SOMBRA_CHUNKS_COUNTED the
+ * host counts the nodes of every tile first (dsm_count) and gives each tile an exact run
+ * instead of whole chunks: Knecht wasted 7.8 chunks per chunk used (Table 5.11); this wastes none,
+ * at the price of a second march. */
+#ifndef SOMBRA_STORAGE_CHUNKED_H
+#define SOMBRA_STORAGE_CHUNKED_H
+#include "dsm_storage_common.h"
+
+#ifndef SOMBRA_CHUNK_LENGTH
+#define SOMBRA_CHUNK_LENGTH 64
+#endif
+#ifndef SOMBRA_CHUNKS_PER_TILE
+#define SOMBRA_CHUNKS_PER_TILE 64
+#endif
+#define CHUNK_END 0xffffffffu
+
+/* allocator[0]: chunks handed out (may exceed the pool: the host grows it and rebuilds),
+ * [1]: requests the pool or a tile's chunk table could not serve, [2]: chunks lost in races. */
+#define DSM_WRITE_PARAMS                                                                                   \
+    __global uint* restrict tile_fill, __global uint* restrict tile_chunks, __global float* restrict chunk_nodes, \
+        __global uint* restrict chunk_next, __global uint* restrict texel_head, __global uint* restrict texel_count, \
+        __global uint* restrict chunk_allocator, uint chunk_pool
+#define DSM_WRITE_ARGS tile_fill, tile_chunks, chunk_nodes, chunk_next, texel_head, texel_count, chunk_allocator, chunk_pool
+
+typedef struct {
+    uint tile, texel, count, previous_slot;
+} DsmWriter;
+
+inline void dsm_writer_begin(DsmWriter* w, DSM_WRITE_PARAMS, __global const DsmViewGpu* v, uint x, uint y) {
+    uint per_row = dsm_tiles_per_row(v);
+    w->tile = dsm_view_number(v) * per_row * per_row + (y / DSM_TILE_SIZE) * per_row + x / DSM_TILE_SIZE;
+    w->texel = dsm_texel_index(v, x, y);
+    w->count = 0;
+    w->previous_slot = CHUNK_END;
+    texel_head[w->texel] = CHUNK_END;
+}
+
+/* Global index of chunk `c` of `tile`, allocated if needed (Knecht Alg. 4.1). */
+inline uint chunk_of_tile(DSM_WRITE_PARAMS, uint tile, uint c) {
+    if (c >= SOMBRA_CHUNKS_PER_TILE) {
+        atomic_inc(&chunk_allocator[1]);
+        return CHUNK_END;
+    }
+    __global uint* entry = &tile_chunks[tile * SOMBRA_CHUNKS_PER_TILE + c];
+    uint held = *entry;
+    if (held) return held - 1;
+    uint fresh = atomic_inc(&chunk_allocator[0]);
+    if (fresh >= chunk_pool) {
+        atomic_inc(&chunk_allocator[1]);
+        return CHUNK_END;
+    }
+    uint previous = atomic_cmpxchg(entry, 0u, fresh + 1);
+    if (previous) {
+        atomic_inc(&chunk_allocator[2]);
+        return previous - 1;
+    }
+    return fresh;
+}
+
+inline void dsm_writer_put(DsmWriter* w, DSM_WRITE_PARAMS, float z, float alpha) {
+    uint n = atomic_inc(&tile_fill[w->tile]); /* the tile's n-th node */
+#ifdef SOMBRA_CHUNKS_COUNTED
+    /* counted allocation: the host counted every tile's nodes first and gave each tile one
+     * exact run (tile_chunks holds its first slot): nothing is wasted */
+    uint slot = tile_chunks[w->tile] + n;
+#else
+    /* on demand (Knecht Alg. 4.1): chunk n / L, layer n mod L (Eq. 4.11–4.12) */
+    uint chunk = chunk_of_tile(DSM_WRITE_ARGS, w->tile, n / SOMBRA_CHUNK_LENGTH);
+    if (chunk == CHUNK_END) return;
+    uint slot = chunk * SOMBRA_CHUNK_LENGTH + n % SOMBRA_CHUNK_LENGTH;
+#endif
+    vstore2((float2)(z, alpha), slot, chunk_nodes);
+    chunk_next[slot] = CHUNK_END;
+    if (w->previous_slot == CHUNK_END) texel_head[w->texel] = slot;
+    else chunk_next[w->previous_slot] = slot;
+    w->previous_slot = slot;
+    w->count += 1;
+}
+
+inline void dsm_writer_end(DsmWriter* w, DSM_WRITE_PARAMS, __global const DsmViewGpu* v, uint x, uint y) {
+    texel_count[w->texel] = w->count;
+}
+
+#ifdef SOMBRA_DSM_BUILD_PROGRAM
+/* Rearranges the chunk arrays into the chunk texture read by lookups: per slot one float4
+ * (depth, opacity, link as bits, 0), Knecht's AoS form of §4.2.2. */
+__kernel void dsm_rearrange(__global const float* chunk_nodes, __global const uint* chunk_next,
+                            __global float4* chunk_texture) {
+    size_t slot = get_global_id(0);
+    float2 node = vload2(slot, chunk_nodes);
+    chunk_texture[slot] = (float4)(node.x, node.y, as_float(chunk_next[slot]), 0.0f);
+}
+#endif
+
+#define DSM_READ_PARAMS __global const uint* restrict texel_head, __global const float* restrict chunk_texture
+#define DSM_READ_ARGS texel_head, chunk_texture
+#define DSM_READ_STATE_FIELDS __global const uint* texel_head; __global const float* chunk_texture;
+#define DSM_READ_STATE_INIT(s) ((s).texel_head = texel_head, (s).chunk_texture = chunk_texture)
+#define DSM_READ_ARGS_OF(s) (s)->texel_head, (s)->chunk_texture
+
+/* V'(z) by walking each lane's list from its head (Knecht: linear search, no bisection). */
+inline lfloat dsm_texel_opacity(DSM_READ_PARAMS, __global const DsmViewGpu* v, lint x, lint y, lfloat z) {
+    lint node = gather_uint_as_int(texel_head, (int)v->first_texel + y * (int)v->resolution + x);
+    lint previous = (lint)(-1);
+    lfloat z0 = (lfloat)(0.0f), a0 = (lfloat)(0.0f), z1 = (lfloat)(0.0f), a1 = (lfloat)(0.0f);
+    lmask walking = node != -1;
+    for (uint step = 0; step < v->max_nodes && lany(walking); ++step) {
+        lint at = 4 * select((lint)(0), node, walking);
+        lfloat depth = gather(chunk_texture, at), opacity = gather(chunk_texture, at + 1);
+        lmask passed = walking & (depth <= z);
+        z1 = select(z1, depth, walking);
+        a1 = select(a1, opacity, walking);
+        z0 = select(z0, depth, passed);
+        a0 = select(a0, opacity, passed);
+        previous = select(previous, node, passed);
+        node = select(node, LAS_INT(gather(chunk_texture, at + 2)), passed); /* the link, stored as bits */
+        walking = passed & (node != -1);
+    }
+    /* previous = last node at or before z (−1: none); z1/a1 = the first node deeper, or the last one */
+    lmask none_before = previous == -1;
+    lmask after_last = !none_before & (node == -1);
+    lfloat alpha = mix(a0, a1, clamp((z - z0) / fmax(z1 - z0, 1e-30f), 0.0f, 1.0f));
+    alpha = select(alpha, a0, after_last);
+    alpha = select(alpha, (lfloat)(0.0f), none_before);
+    return clamp(alpha, 0.0f, 1.0f);
+}
+
+#endif

@@ -1,0 +1,34 @@
+#include "memory/dsm_storage.h"
+
+#include <algorithm>
+
+#include "sombra/error.h"
+
+namespace sombra::memory {
+
+std::unique_ptr<DsmStorage> make_compact_storage();
+std::unique_ptr<DsmStorage> make_atlas_storage();
+std::unique_ptr<DsmStorage> make_chunked_storage(bool counted);
+
+std::unique_ptr<DsmStorage> make_dsm_storage(const std::string& name) {
+    if (name == "compact") return make_compact_storage();
+    if (name == "atlas") return make_atlas_storage();
+    if (name == "chunked") return make_chunked_storage(true);
+    if (name == "chunked-ondemand") return make_chunked_storage(false);
+    throw Error("--storage: unknown deep shadow map storage '" + name + "' (atlas, chunked, chunked-ondemand, compact)");
+}
+
+void summarize_counts(const std::vector<cl_uint>& counts, std::vector<DsmViewGpu>& views, std::size_t texels_per_view,
+                      DsmStats& stats) {
+    stats.nodes = 0;
+    stats.max_nodes_per_texel = 0;
+    for (std::size_t v = 0; v < views.size(); ++v) {
+        auto begin = counts.begin() + std::ptrdiff_t(v * texels_per_view);
+        views[v].max_nodes = *std::max_element(begin, begin + std::ptrdiff_t(texels_per_view));
+        stats.max_nodes_per_texel = std::max(stats.max_nodes_per_texel, unsigned(views[v].max_nodes));
+        for (auto it = begin; it != begin + std::ptrdiff_t(texels_per_view); ++it) stats.nodes += *it;
+    }
+    stats.mean_nodes_per_texel = counts.empty() ? 0.0 : double(stats.nodes) / double(counts.size());
+}
+
+}  // namespace sombra::memory

@@ -1,0 +1,62 @@
+// sombra — deep shadow map storage backends behind one interface (DESIGN.md "Storage backends
+// are swappable on both sides"). Each backend has a kernel header of the same function names
+// (cl/storage_<name>.h) and this C++ side: it allocates for a set of DSM views, runs generation
+// into its layout, binds its buffers to lookup kernels, reports bytes used and wasted, and reads a
+// view back for export.
+#pragma once
+#include <CL/opencl.hpp>
+
+#include <functional>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "host/runtime.h"
+#include "shared/types.h"
+#include "sombra/shadows.h"
+
+namespace sombra::memory {
+
+struct DsmStats {
+    int views = 0, resolution = 0;
+    std::map<std::string, double> stage_ms;  // kernels from profiling events, host steps by clock
+    unsigned long long nodes = 0;
+    double mean_nodes_per_texel = 0;         // over all texels of all views
+    unsigned max_nodes_per_texel = 0;
+    unsigned long long bytes_used = 0, bytes_wasted = 0;
+    unsigned long long capped_texels = 0;    // texels that hit a layer cap (atlas)
+};
+
+// What generation needs from the caller: the device, the views, and a way to enqueue dsm_build.cl
+// for one view with the backend's buffers appended to the common arguments.
+struct BuildContext {
+    host::Runtime& runtime;
+    std::vector<DsmViewGpu>& views;          // the backend sets max_nodes
+    std::vector<std::string> defines;        // the volume pass defines (+ the backend's own)
+    std::size_t texels_per_view = 0;
+    // Builds `kernel` of `program_defines`, sets the common arguments for `view`, lets `bind` add
+    // the backend's, runs it over the view's texels and returns the kernel time in ms.
+    std::function<double(const std::vector<std::string>& program_defines, const char* kernel, cl_uint view,
+                         const std::function<void(cl::Kernel&, int first_free_arg)>& bind)>
+        run_view;
+};
+
+class DsmStorage {
+public:
+    virtual ~DsmStorage() = default;
+    virtual std::string name() const = 0;
+    virtual std::vector<std::string> defines() const = 0;  // selects cl/storage_<name>.h
+    virtual void build(BuildContext& context, DsmStats& stats) = 0;
+    virtual int bind_for_reading(cl::Kernel& kernel, int arg) const = 0;  // DSM_READ_PARAMS, in order
+    virtual DeepShadowMap read_back(host::Runtime& runtime, const DsmViewGpu& view, cl_uint view_number) const = 0;
+};
+
+// "compact", "atlas" or "chunked"; throws sombra::Error naming --storage otherwise.
+std::unique_ptr<DsmStorage> make_dsm_storage(const std::string& name);
+
+// Shared helpers of the backends.
+void summarize_counts(const std::vector<cl_uint>& counts, std::vector<DsmViewGpu>& views, std::size_t texels_per_view,
+                      DsmStats& stats);
+
+}  // namespace sombra::memory

@@ -1,0 +1,123 @@
+// sombra — atlas storage: layer blocks per tile allocated on demand (cl/storage_atlas.h).
+#include <algorithm>
+#include <array>
+
+#include "memory/dsm_storage.h"
+#include "sombra/error.h"
+
+namespace sombra::memory {
+namespace {
+
+constexpr unsigned kLayers = 8;      // layers per block (Hadwiger: "e.g. eight")
+constexpr unsigned kMaxBlocks = 32;  // blocks per tile: a cap of 256 layers per texel
+constexpr unsigned kTileTexels = 64;
+constexpr std::size_t kBlockBytes = std::size_t(kLayers) * kTileTexels * 2 * sizeof(float);
+
+class AtlasStorage : public DsmStorage {
+public:
+    std::string name() const override { return "atlas"; }
+    std::vector<std::string> defines() const override {
+        return {"SOMBRA_DSM_ATLAS", "SOMBRA_ATLAS_LAYERS=" + std::to_string(kLayers),
+                "SOMBRA_ATLAS_MAX_BLOCKS=" + std::to_string(kMaxBlocks)};
+    }
+
+    void build(BuildContext& context, DsmStats& stats) override {
+        host::Runtime& rt = context.runtime;
+        const DsmViewGpu& first = context.views.front();
+        std::size_t per_row = (first.resolution + 7) / 8;
+        tiles_ = context.views.size() * per_row * per_row;
+        std::size_t texels = context.views.size() * context.texels_per_view;
+        layout_ = host::make_buffer(rt, CL_MEM_READ_WRITE, tiles_ * kMaxBlocks * sizeof(cl_uint), nullptr, "atlas layout table");
+        counts_ = host::make_buffer(rt, CL_MEM_READ_WRITE, texels * sizeof(cl_uint), nullptr, "atlas texel counts");
+        allocator_ = host::make_buffer(rt, CL_MEM_READ_WRITE, 4 * sizeof(cl_uint), nullptr, "atlas allocator");
+        // First guess: one block per tile. A pool that runs out is grown to what was asked for,
+        // and generation runs again (at most once more: the second pool fits every request).
+        cl_uint pool = cl_uint(std::max<std::size_t>(tiles_, 1));
+        std::array<cl_uint, 4> counters{};
+        for (int attempt = 0;; ++attempt) {
+            pool_blocks_ = pool;
+            if (std::size_t(pool) * kBlockBytes > rt.device().getInfo<CL_DEVICE_MAX_MEM_ALLOC_SIZE>())
+                throw Error("--dsm-res/--eps: the atlas needs " + std::to_string((std::size_t(pool) * kBlockBytes) >> 20) +
+                            " MiB, more than one allocation on " + rt.info().name + " may hold");
+            blocks_ = host::make_buffer(rt, CL_MEM_READ_WRITE, std::size_t(pool) * kBlockBytes, nullptr, "atlas blocks");
+            rt.queue().enqueueFillBuffer(layout_, cl_uint(0), 0, tiles_ * kMaxBlocks * sizeof(cl_uint));
+            rt.queue().enqueueFillBuffer(allocator_, cl_uint(0), 0, 4 * sizeof(cl_uint));
+            for (cl_uint v = 0; v < context.views.size(); ++v)
+                stats.stage_ms["dsm_build"] += context.run_view(context.defines, "dsm_build", v, [&](cl::Kernel& k, int arg) {
+                    k.setArg(arg++, layout_);
+                    k.setArg(arg++, counts_);
+                    k.setArg(arg++, blocks_);
+                    k.setArg(arg++, allocator_);
+                    k.setArg(arg, pool);
+                });
+            rt.queue().enqueueReadBuffer(allocator_, CL_TRUE, 0, sizeof(counters), counters.data());
+            if (counters[1] == 0) break;
+            if (attempt > 0) throw Error("atlas storage: the pool ran out twice (internal error)");
+            pool = counters[0];
+        }
+        // Shrink the pool to the blocks handed out (they are numbered from 0): memory follows the
+        // node count, not the first guess.
+        std::size_t used_blocks = std::max<std::size_t>(std::min<std::size_t>(counters[0], pool), 1);
+        if (used_blocks < pool) {
+            cl::Buffer shrunk = host::make_buffer(rt, CL_MEM_READ_WRITE, used_blocks * kBlockBytes, nullptr, "atlas blocks");
+            cl::Event copy;
+            rt.queue().enqueueCopyBuffer(blocks_, shrunk, 0, 0, used_blocks * kBlockBytes, nullptr, &copy);
+            copy.wait();
+            stats.stage_ms["dsm_shrink"] = host::Runtime::event_ms(copy);
+            blocks_ = shrunk;
+            pool_blocks_ = cl_uint(used_blocks);
+        }
+        std::vector<cl_uint> host_counts(texels);
+        rt.queue().enqueueReadBuffer(counts_, CL_TRUE, 0, texels * sizeof(cl_uint), host_counts.data());
+        summarize_counts(host_counts, context.views, context.texels_per_view, stats);
+        layout_host_.resize(tiles_ * kMaxBlocks);
+        rt.queue().enqueueReadBuffer(layout_, CL_TRUE, 0, layout_host_.size() * sizeof(cl_uint), layout_host_.data());
+        counts_host_ = host_counts;
+        stats.capped_texels = counters[2];
+        stats.bytes_used = used_blocks * kBlockBytes + layout_host_.size() * sizeof(cl_uint) + texels * sizeof(cl_uint);
+        // empty layers of allocated blocks (tiles whose texels differ in node count) and blocks
+        // lost in allocation races
+        stats.bytes_wasted = used_blocks * kBlockBytes - std::min<std::size_t>(stats.nodes * 2 * sizeof(float), used_blocks * kBlockBytes);
+    }
+
+    int bind_for_reading(cl::Kernel& kernel, int arg) const override {
+        kernel.setArg(arg++, layout_);
+        kernel.setArg(arg++, counts_);
+        kernel.setArg(arg++, blocks_);
+        return arg;
+    }
+
+    DeepShadowMap read_back(host::Runtime& rt, const DsmViewGpu& view, cl_uint view_number) const override {
+        std::vector<float> blocks(std::size_t(pool_blocks_) * kBlockBytes / sizeof(float));
+        rt.queue().enqueueReadBuffer(blocks_, CL_TRUE, 0, blocks.size() * sizeof(float), blocks.data());
+        DeepShadowMap map;
+        map.width = map.height = int(view.resolution);
+        std::size_t per_row = (view.resolution + 7) / 8;
+        map.first.push_back(0);
+        for (cl_uint y = 0; y < view.resolution; ++y)
+            for (cl_uint x = 0; x < view.resolution; ++x) {
+                std::size_t tile = view_number * per_row * per_row + (y / 8) * per_row + x / 8;
+                std::size_t in_tile = (y % 8) * 8 + x % 8;
+                cl_uint count = counts_host_[view.first_texel + std::size_t(y) * view.resolution + x];
+                for (cl_uint k = 0; k < count; ++k) {
+                    std::size_t block = layout_host_[tile * kMaxBlocks + k / kLayers] - 1;
+                    std::size_t at = ((block * kLayers + k % kLayers) * kTileTexels + in_tile) * 2;
+                    map.nodes.push_back({blocks[at], blocks[at + 1]});
+                }
+                map.first.push_back(cl_uint(map.nodes.size()));
+            }
+        return map;
+    }
+
+private:
+    std::size_t tiles_ = 0;
+    cl_uint pool_blocks_ = 0;
+    cl::Buffer layout_, counts_, blocks_, allocator_;
+    std::vector<cl_uint> layout_host_, counts_host_;
+};
+
+}  // namespace
+
+std::unique_ptr<DsmStorage> make_atlas_storage() { return std::make_unique<AtlasStorage>(); }
+
+}  // namespace sombra::memory

@@ -1,0 +1,168 @@
+// sombra — chunked storage: Knecht Alg. 4.1 chunks per tile, linked lists (cl/storage_chunked.h).
+#include <algorithm>
+#include <chrono>
+#include <array>
+#include <cstring>
+
+#include "memory/dsm_storage.h"
+#include "sombra/error.h"
+
+namespace sombra::memory {
+namespace {
+
+constexpr unsigned kChunkLength = 64;    // Knecht's L_C
+constexpr unsigned kChunksPerTile = 64;  // Knecht's C_B: up to 4096 nodes per tile
+
+class ChunkedStorage : public DsmStorage {
+public:
+    explicit ChunkedStorage(bool counted) : counted_(counted) {}
+    std::string name() const override { return counted_ ? "chunked" : "chunked-ondemand"; }
+    std::vector<std::string> defines() const override {
+        std::vector<std::string> d{"SOMBRA_DSM_CHUNKED", "SOMBRA_CHUNK_LENGTH=" + std::to_string(kChunkLength),
+                                   "SOMBRA_CHUNKS_PER_TILE=" + std::to_string(kChunksPerTile)};
+        if (counted_) d.push_back("SOMBRA_CHUNKS_COUNTED");
+        return d;
+    }
+
+    // Counted allocation: nodes per texel (dsm_count), summed per tile, prefix sum → each tile's
+    // first slot; returns the number of slots.
+    std::size_t count_tiles(BuildContext& context, DsmStats& stats, std::vector<cl_uint>& tile_first) {
+        host::Runtime& rt = context.runtime;
+        std::size_t texels = context.views.size() * context.texels_per_view;
+        cl::Buffer counts = host::make_buffer(rt, CL_MEM_READ_WRITE, texels * sizeof(cl_uint), nullptr, "deep shadow map node counts");
+        auto count_defines = context.defines;
+        count_defines.push_back("SOMBRA_DSM_COUNT_ONLY");
+        for (cl_uint v = 0; v < context.views.size(); ++v)
+            stats.stage_ms["dsm_count"] += context.run_view(count_defines, "dsm_count", v,
+                                                            [&](cl::Kernel& k, int arg) { k.setArg(arg, counts); });
+        std::vector<cl_uint> host_counts(texels);
+        rt.queue().enqueueReadBuffer(counts, CL_TRUE, 0, texels * sizeof(cl_uint), host_counts.data());
+        auto start = std::chrono::steady_clock::now();
+        cl_uint resolution = context.views.front().resolution, per_row = (resolution + 7) / 8;
+        std::vector<unsigned long long> per_tile(tile_first.size(), 0);
+        for (std::size_t v = 0; v < context.views.size(); ++v)
+            for (cl_uint y = 0; y < resolution; ++y)
+                for (cl_uint x = 0; x < resolution; ++x)
+                    per_tile[v * per_row * per_row + (y / 8) * per_row + x / 8] +=
+                        host_counts[v * context.texels_per_view + std::size_t(y) * resolution + x];
+        unsigned long long total = 0;
+        for (std::size_t t = 0; t < per_tile.size(); ++t) {
+            tile_first[t] = cl_uint(total);
+            total += per_tile[t];
+            if (total > 0x7fffffffull) throw Error("--dsm-res/--eps: more than 2^31 deep shadow map nodes");
+        }
+        stats.stage_ms["dsm_prefix_sum"] = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+        return std::size_t(total);
+    }
+
+    void build(BuildContext& context, DsmStats& stats) override {
+        host::Runtime& rt = context.runtime;
+        const DsmViewGpu& first = context.views.front();
+        std::size_t per_row = (first.resolution + 7) / 8;
+        std::size_t tiles = context.views.size() * per_row * per_row;
+        std::size_t texels = context.views.size() * context.texels_per_view;
+        cl::Buffer fill = host::make_buffer(rt, CL_MEM_READ_WRITE, tiles * sizeof(cl_uint), nullptr, "chunk fill counters");
+        cl::Buffer tile_chunks = host::make_buffer(rt, CL_MEM_READ_WRITE, tiles * kChunksPerTile * sizeof(cl_uint), nullptr,
+                                                   "tile chunk tables");
+        head_ = host::make_buffer(rt, CL_MEM_READ_WRITE, texels * sizeof(cl_uint), nullptr, "texel list heads");
+        cl::Buffer counts = host::make_buffer(rt, CL_MEM_READ_WRITE, texels * sizeof(cl_uint), nullptr, "texel node counts");
+        cl::Buffer allocator = host::make_buffer(rt, CL_MEM_READ_WRITE, 3 * sizeof(cl_uint), nullptr, "chunk allocator");
+        cl::Buffer nodes, next;
+        cl_uint pool = cl_uint(std::max<std::size_t>(tiles, 1));
+        std::vector<cl_uint> tile_first(tiles, 0);
+        if (counted_) {  // one exact run per tile: pool = nodes (+1 so that no buffer is empty)
+            std::size_t total = count_tiles(context, stats, tile_first);
+            slots_ = total + 1;
+            rt.queue().enqueueWriteBuffer(tile_chunks, CL_TRUE, 0, tiles * sizeof(cl_uint), tile_first.data());
+        }
+        std::array<cl_uint, 3> counters{};
+        for (int attempt = 0;; ++attempt) {
+            std::size_t slots = counted_ ? slots_ : std::size_t(pool) * kChunkLength;
+            nodes = host::make_buffer(rt, CL_MEM_READ_WRITE, slots * 2 * sizeof(float), nullptr, "chunk nodes");
+            next = host::make_buffer(rt, CL_MEM_READ_WRITE, slots * sizeof(cl_uint), nullptr, "chunk links");
+            rt.queue().enqueueFillBuffer(fill, cl_uint(0), 0, tiles * sizeof(cl_uint));
+            if (!counted_) rt.queue().enqueueFillBuffer(tile_chunks, cl_uint(0), 0, tiles * kChunksPerTile * sizeof(cl_uint));
+            rt.queue().enqueueFillBuffer(allocator, cl_uint(0), 0, 3 * sizeof(cl_uint));
+            for (cl_uint v = 0; v < context.views.size(); ++v)
+                stats.stage_ms["dsm_build"] += context.run_view(context.defines, "dsm_build", v, [&](cl::Kernel& k, int arg) {
+                    k.setArg(arg++, fill);
+                    k.setArg(arg++, tile_chunks);
+                    k.setArg(arg++, nodes);
+                    k.setArg(arg++, next);
+                    k.setArg(arg++, head_);
+                    k.setArg(arg++, counts);
+                    k.setArg(arg++, allocator);
+                    k.setArg(arg, pool);
+                });
+            rt.queue().enqueueReadBuffer(allocator, CL_TRUE, 0, sizeof(counters), counters.data());
+            if (counters[1] == 0) break;
+            if (counters[0] <= pool) throw Error("--dsm-res: a tile holds more than " +
+                                                 std::to_string(kChunkLength * kChunksPerTile) +
+                                                 " nodes, the chunked storage's limit; raise --eps or use --storage atlas");
+            if (attempt > 0) throw Error("chunked storage: the pool ran out twice (internal error)");
+            pool = counters[0];
+        }
+        if (!counted_) slots_ = std::size_t(pool) * kChunkLength;
+        // rearranged for reading: one float4 per slot
+        std::size_t slots = slots_;
+        texture_ = host::make_buffer(rt, CL_MEM_READ_WRITE, slots * 4 * sizeof(float), nullptr, "chunk texture");
+        cl::Kernel rearrange(rt.program("dsm_build.cl", context.defines), "dsm_rearrange");
+        rearrange.setArg(0, nodes);
+        rearrange.setArg(1, next);
+        rearrange.setArg(2, texture_);
+        cl::Event event;
+        rt.queue().enqueueNDRangeKernel(rearrange, cl::NullRange, cl::NDRange(slots), cl::NullRange, nullptr, &event);
+        event.wait();
+        stats.stage_ms["dsm_rearrange"] = host::Runtime::event_ms(event);
+
+        std::vector<cl_uint> host_counts(texels);
+        rt.queue().enqueueReadBuffer(counts, CL_TRUE, 0, texels * sizeof(cl_uint), host_counts.data());
+        summarize_counts(host_counts, context.views, context.texels_per_view, stats);
+        heads_host_.resize(texels);
+        rt.queue().enqueueReadBuffer(head_, CL_TRUE, 0, texels * sizeof(cl_uint), heads_host_.data());
+        counts_host_ = host_counts;
+        std::size_t node_bytes = 4 * sizeof(float);  // per slot of the chunk texture
+        std::size_t tables = texels * 2 * sizeof(cl_uint) + tiles * ((counted_ ? 1 : kChunksPerTile) + 1) * sizeof(cl_uint);
+        // wasted: unfilled slots of allocated chunks (Knecht Table 5.11), chunks lost in races,
+        // the pool's unused tail; counted allocation wastes only the one spare slot
+        stats.bytes_used = slots_ * node_bytes + tables;
+        stats.bytes_wasted = (slots_ - stats.nodes) * node_bytes;
+    }
+
+    int bind_for_reading(cl::Kernel& kernel, int arg) const override {
+        kernel.setArg(arg++, head_);
+        kernel.setArg(arg++, texture_);
+        return arg;
+    }
+
+    DeepShadowMap read_back(host::Runtime& rt, const DsmViewGpu& view, cl_uint) const override {
+        std::vector<float> texture(slots_ * 4);
+        rt.queue().enqueueReadBuffer(texture_, CL_TRUE, 0, texture.size() * sizeof(float), texture.data());
+        DeepShadowMap map;
+        map.width = map.height = int(view.resolution);
+        map.first.push_back(0);
+        std::size_t texels = std::size_t(view.resolution) * view.resolution;
+        for (std::size_t t = 0; t < texels; ++t) {
+            cl_uint slot = heads_host_[view.first_texel + t];
+            for (cl_uint k = 0; k < counts_host_[view.first_texel + t] && slot != 0xffffffffu; ++k) {
+                const float* n = &texture[std::size_t(slot) * 4];
+                map.nodes.push_back({n[0], n[1]});
+                std::memcpy(&slot, &n[2], sizeof(slot));
+            }
+            map.first.push_back(cl_uint(map.nodes.size()));
+        }
+        return map;
+    }
+
+private:
+    bool counted_;
+    std::size_t slots_ = 0;
+    cl::Buffer head_, texture_;
+    std::vector<cl_uint> heads_host_, counts_host_;
+};
+
+}  // namespace
+
+std::unique_ptr<DsmStorage> make_chunked_storage(bool counted) { return std::make_unique<ChunkedStorage>(counted); }
+
+}  // namespace sombra::memory

@@ -1,0 +1,81 @@
+// sombra — compact storage: count, prefix sum, write (cl/storage_compact.h).
+#include <chrono>
+
+#include "memory/dsm_storage.h"
+#include "sombra/error.h"
+
+namespace sombra::memory {
+namespace {
+
+class CompactStorage : public DsmStorage {
+public:
+    std::string name() const override { return "compact"; }
+    std::vector<std::string> defines() const override { return {}; }
+
+    void build(BuildContext& context, DsmStats& stats) override {
+        host::Runtime& rt = context.runtime;
+        std::size_t texels = context.views.size() * context.texels_per_view;
+        cl::Buffer counts = host::make_buffer(rt, CL_MEM_READ_WRITE, texels * sizeof(cl_uint), nullptr, "deep shadow map node counts");
+        auto count_defines = context.defines;
+        count_defines.push_back("SOMBRA_DSM_COUNT_ONLY");
+        for (cl_uint v = 0; v < context.views.size(); ++v)
+            stats.stage_ms["dsm_count"] += context.run_view(count_defines, "dsm_count", v,
+                                                            [&](cl::Kernel& k, int arg) { k.setArg(arg, counts); });
+        std::vector<cl_uint> host_counts(texels);
+        rt.queue().enqueueReadBuffer(counts, CL_TRUE, 0, texels * sizeof(cl_uint), host_counts.data());
+
+        auto start = std::chrono::steady_clock::now();
+        texel_first_.assign(texels + 1, 0);
+        for (std::size_t i = 0; i < texels; ++i) {
+            unsigned long long next = (unsigned long long)texel_first_[i] + host_counts[i];
+            if (next > 0x7fffffffull) throw Error("--dsm-res/--eps: more than 2^31 deep shadow map nodes");
+            texel_first_[i + 1] = cl_uint(next);
+        }
+        stats.stage_ms["dsm_prefix_sum"] =
+            std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+        summarize_counts(host_counts, context.views, context.texels_per_view, stats);
+
+        // one spare node: lookups of empty texels at the end read in bounds
+        std::size_t node_count = std::size_t(texel_first_.back()) + 1;
+        texel_first_buffer_ = host::make_buffer(rt, CL_MEM_READ_ONLY, texel_first_.size() * sizeof(cl_uint), texel_first_.data(),
+                                                "deep shadow map offsets");
+        nodes_ = host::make_buffer(rt, CL_MEM_READ_WRITE, node_count * 2 * sizeof(float), nullptr, "deep shadow map nodes");
+        for (cl_uint v = 0; v < context.views.size(); ++v)
+            stats.stage_ms["dsm_build"] += context.run_view(context.defines, "dsm_build", v, [&](cl::Kernel& k, int arg) {
+                k.setArg(arg++, texel_first_buffer_);
+                k.setArg(arg, nodes_);
+            });
+        stats.bytes_used = stats.nodes * 2 * sizeof(float) + texel_first_.size() * sizeof(cl_uint);
+        stats.bytes_wasted = 2 * sizeof(float);  // the spare node
+    }
+
+    int bind_for_reading(cl::Kernel& kernel, int arg) const override {
+        kernel.setArg(arg++, texel_first_buffer_);
+        kernel.setArg(arg++, nodes_);
+        return arg;
+    }
+
+    DeepShadowMap read_back(host::Runtime& rt, const DsmViewGpu& view, cl_uint) const override {
+        std::size_t texels = std::size_t(view.resolution) * view.resolution, first = view.first_texel;
+        DeepShadowMap map;
+        map.width = map.height = int(view.resolution);
+        cl_uint base = texel_first_[first], end = texel_first_[first + texels];
+        map.first.resize(texels + 1);
+        for (std::size_t i = 0; i <= texels; ++i) map.first[i] = texel_first_[first + i] - base;
+        std::vector<float> raw(std::size_t(end - base) * 2);
+        if (!raw.empty())
+            rt.queue().enqueueReadBuffer(nodes_, CL_TRUE, std::size_t(base) * 2 * sizeof(float), raw.size() * sizeof(float), raw.data());
+        for (std::size_t i = 0; i < raw.size(); i += 2) map.nodes.push_back({raw[i], raw[i + 1]});
+        return map;
+    }
+
+private:
+    std::vector<cl_uint> texel_first_;
+    cl::Buffer texel_first_buffer_, nodes_;
+};
+
+}  // namespace
+
+std::unique_ptr<DsmStorage> make_compact_storage() { return std::make_unique<CompactStorage>(); }
+
+}  // namespace sombra::memory
