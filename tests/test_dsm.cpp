@@ -286,3 +286,22 @@ TEST_CASE("atlas layer cap: hit, counted and reported, never written past", "[ds
     o.dsm_storage = "compact";  // no cap: the same texels keep every node
     CHECK(render(test::context(), s, o).stats.dsm_max_nodes_per_texel > 256);
 }
+
+TEST_CASE("deep shadow maps are rebuilt only when the light, the scene or the transfer function changes", "[dsm]") {
+    Context context("cpu");  // its own kept state
+    Scene s = smoke_scene(LightType::Spot);
+    RenderOptions o = dsm_options(32, 0.02f);
+    RenderResult first = render(context, s, o);
+    CHECK_FALSE(first.stats.reused_preparation);
+    CHECK(first.stats.stage_ms.count("dsm_build") == 1);
+    s.camera.position = {0.5f, 0.2f, 2.5f};  // the camera moves: nothing to rebuild
+    RenderResult moved = render(context, s, o);
+    CHECK(moved.stats.reused_preparation);
+    CHECK(moved.stats.stage_ms.count("dsm_build") == 0);
+    CHECK(moved.stats.dsm_nodes == first.stats.dsm_nodes);
+    s.lights[0].position = {0.2f, 1.3f, 0.3f};  // the light moves
+    CHECK_FALSE(render(context, s, o).stats.reused_preparation);
+    s.volumes[0].transfer_function.opacity_points.back().alpha = 0.5f;  // the transfer function changes
+    CHECK_FALSE(render(context, s, o).stats.reused_preparation);
+    CHECK(render(context, s, o).stats.reused_preparation);
+}

@@ -55,6 +55,9 @@ struct RenderStats {
     unsigned long long dsm_bytes_used = 0, dsm_bytes_wasted = 0;
     unsigned long long dsm_capped_texels = 0;  // texels that hit the atlas layer cap
     std::string dsm_storage;
+    // true when the scene's device data and deep shadow maps of the previous call on this
+    // Context were reused (only the camera, image size or shading options changed)
+    bool reused_preparation = false;
     int width = 0, height = 0;
     std::string to_json() const;
 };

@@ -4,6 +4,7 @@
 #include <CL/opencl.hpp>
 
 #include <map>
+#include <memory>
 #include <mutex>
 #include <string>
 #include <vector>
@@ -29,7 +30,12 @@ public:
     // Milliseconds between an event's start and end (profiling queue).
     static double event_ms(const cl::Event& event);
 
+    // Device state a pass keeps between calls (the renderer's prepared scene and deep shadow
+    // maps), so that what did not change is not rebuilt. One slot per name.
+    std::shared_ptr<void>& kept_state(const std::string& name) { return kept_state_[name]; }
+
 private:
+    std::map<std::string, std::shared_ptr<void>> kept_state_;
     DeviceInfo info_;
     cl::Context context_;
     cl::Device device_;
@@ -38,7 +44,7 @@ private:
     std::map<std::string, cl::Program> programs_;
 };
 
-// The source of a cl/ file with every #include "…" replaced by the file's text (each file once).
+// The source of a cl/ file with every #include "…" replaced by the file's text.
 std::string expand_kernel_source(const std::string& path);
 
 // Allocation helpers that turn CL_MEM_OBJECT_ALLOCATION_FAILURE and friends into one clear line.

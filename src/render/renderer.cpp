@@ -1,6 +1,7 @@
 // sombra — the camera pass on the host, and the shadow queries that share its preparation.
 #include <chrono>
 #include <cmath>
+#include <sstream>
 
 #include <nlohmann/json.hpp>
 
@@ -42,8 +43,77 @@ struct PreparedScene {
     bool use_images = false, use_dsm = false;
 };
 
-PreparedScene prepare(host::Runtime& runtime, const Scene& scene, const RenderOptions& options, RenderStats& stats) {
+// Everything the prepared scene depends on: volumes (identity, size, a sample of their voxels,
+// placement, transfer function, step, material), lights, and the options that shape the device
+// data and the deep shadow maps — not the camera, the image size or the shading options.
+std::string preparation_key(const Scene& scene, const RenderOptions& o, bool use_images) {
+    std::ostringstream key;
+    key.precision(9);
+    for (const VolumeInstance& vi : scene.volumes) {
+        const Volume& v = *vi.volume;
+        key << "V" << static_cast<const void*>(&v) << ' ' << v.dims[0] << ' ' << v.dims[1] << ' ' << v.dims[2];
+        std::size_t n = v.voxels.size(), stride = std::max<std::size_t>(1, n / 4096);
+        double sum = 0;
+        for (std::size_t i = 0; i < n; i += stride) sum += double(v.voxels[i]) * double(i % 7919 + 1);
+        key << ' ' << sum;
+        for (float f : vi.transform) key << ' ' << f;
+        for (float f : vi.spacing) key << ' ' << f;
+        for (auto& c : vi.transfer_function.color_points) key << ' ' << c.x << ' ' << c.r << ' ' << c.g << ' ' << c.b;
+        for (auto& a : vi.transfer_function.opacity_points) key << ' ' << a.x << ' ' << a.alpha;
+        key << ' ' << vi.step_voxels << ' ' << vi.opacity_unit << ' ' << vi.material.ambient << ' ' << vi.material.diffuse
+            << ' ' << vi.material.specular << ' ' << vi.material.shininess;
+    }
+    for (const Light& l : scene.lights) {
+        key << " L" << int(l.type) << ' ' << l.intensity << ' ' << l.cone_angle_deg << ' ' << l.cone_softness << ' '
+            << l.att_constant << ' ' << l.att_linear << ' ' << l.att_quadratic;
+        for (float f : l.position) key << ' ' << f;
+        for (float f : l.direction) key << ' ' << f;
+        for (float f : l.color) key << ' ' << f;
+    }
+    key << " O" << int(o.shadows) << ' ' << o.dsm_resolution << ' ' << o.dsm_epsilon << ' ' << o.dsm_storage << ' '
+        << use_images;
+    return key.str();
+}
+
+PreparedScene prepare_anew(host::Runtime& runtime, const Scene& scene, const RenderOptions& options, RenderStats& stats);
+
+// The prepared scene of the last call when nothing it depends on changed (a moved camera
+// rebuilds nothing: Knecht §3.2 "Deep Shadow Map Re-Generation"), else a new one.
+std::shared_ptr<PreparedScene> prepare(host::Runtime& runtime, const Scene& scene, const RenderOptions& options,
+                                       RenderStats& stats) {
     validate_scene(scene, scene.source);
+    bool use_images = options.storage == VolumeStorage::Image ||
+                      (options.storage == VolumeStorage::Auto && runtime.info().is_gpu);
+    struct Kept {
+        std::string key;
+        std::shared_ptr<PreparedScene> prepared;
+        RenderStats stats;
+    };
+    std::string key = preparation_key(scene, options, use_images);
+    auto& slot = runtime.kept_state("renderer.prepared_scene");
+    auto kept = std::static_pointer_cast<Kept>(slot);
+    if (kept && kept->key == key) {
+        stats.reused_preparation = true;
+        stats.dsm_views = kept->stats.dsm_views;
+        stats.dsm_nodes = kept->stats.dsm_nodes;
+        stats.dsm_mean_nodes_per_texel = kept->stats.dsm_mean_nodes_per_texel;
+        stats.dsm_max_nodes_per_texel = kept->stats.dsm_max_nodes_per_texel;
+        stats.dsm_bytes_used = kept->stats.dsm_bytes_used;
+        stats.dsm_bytes_wasted = kept->stats.dsm_bytes_wasted;
+        stats.dsm_capped_texels = kept->stats.dsm_capped_texels;
+        stats.dsm_storage = kept->stats.dsm_storage;
+        return kept->prepared;
+    }
+    slot.reset();  // free the old device data before allocating the new
+    auto fresh = std::make_shared<Kept>();
+    fresh->key = key;
+    fresh->prepared = std::make_shared<PreparedScene>(prepare_anew(runtime, scene, options, stats));
+    fresh->stats = stats;
+    slot = fresh;
+    return fresh->prepared;
+}
+
+PreparedScene prepare_anew(host::Runtime& runtime, const Scene& scene, const RenderOptions& options, RenderStats& stats) {
     PreparedScene prepared;
     auto start = clock_type::now();
     prepared.packed = packing::pack_scene(scene);
@@ -109,6 +179,7 @@ std::string RenderStats::to_json() const {
     j["samples"] = samples;
     j["msamples_per_s"] = msamples_per_s;
     j["stage_ms"] = stage_ms;
+    j["reused_preparation"] = reused_preparation;
     if (dsm_views > 0) {
         j["dsm"] = {{"views", dsm_views},
                     {"nodes", dsm_nodes},
@@ -135,7 +206,8 @@ RenderResult render(Context& context, const Scene& scene, const RenderOptions& o
     RenderStats& stats = result.stats;
     stats.device = runtime.info().name;
     stats.width = width, stats.height = height;
-    PreparedScene prepared = prepare(runtime, scene, options, stats);
+    std::shared_ptr<PreparedScene> kept = prepare(runtime, scene, options, stats);
+    const PreparedScene& prepared = *kept;
 
     CameraGpu camera = packing::pack_camera(scene, width, height);
     camera.termination_transmittance = options.termination_transmittance;
@@ -190,7 +262,8 @@ ShadowQuery shadow_transmittance(Context& context, const Scene& scene, int light
     if (options.shadows == ShadowTechnique::None) throw Error("--shadows: none has no transmittance to query");
     ShadowQuery query;
     query.stats.device = runtime.info().name;
-    PreparedScene prepared = prepare(runtime, scene, options, query.stats);
+    std::shared_ptr<PreparedScene> kept = prepare(runtime, scene, options, query.stats);
+    const PreparedScene& prepared = *kept;
     if (points.empty()) return query;
     CameraGpu camera = packing::pack_camera(scene, scene.width, scene.height);
     camera.jitter_seed = options.jitter_seed;
@@ -226,7 +299,8 @@ std::vector<DeepShadowMap> build_deep_shadow_maps(Context& context, const Scene&
     dsm_options.shadows = ShadowTechnique::Dsm;
     RenderStats stats;
     stats.device = runtime.info().name;
-    PreparedScene prepared = prepare(runtime, scene, dsm_options, stats);
+    std::shared_ptr<PreparedScene> kept = prepare(runtime, scene, dsm_options, stats);
+    const PreparedScene& prepared = *kept;
     const LightGpu& light = prepared.packed.lights[std::size_t(light_index)];
     static const char* faces[6] = {"+x", "-x", "+y", "-y", "+z", "-z"};
     std::vector<DeepShadowMap> maps;

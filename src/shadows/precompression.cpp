@@ -102,9 +102,9 @@ struct Node {
 // accumulates over every step of a ray, so a bias there would compound), not the wedge's middle line:
 //  - if the exact slope from the current origin lies in the slope wedge, that line closes the function;
 //  - otherwise a node is placed at f_{n−1} (inside the wedge, nearest V(f_{n−1})) before (1, V(1));
-//  - node opacities are capped at V(1). Since V ≤ V(1) everywhere, capping keeps every sample within ε
-//    (the capped polyline lies between min(V', V(1)) and V') and keeps V' monotone; nodes after the
-//    first one that reaches V(1) are flat and dropped (except the last, at f = 1).
+//  - V' is replaced by min(V', V(1)): the first node above V(1) moves back along its segment to where
+//    that segment crosses V(1), and the nodes after it (all ≥ V(1)) are dropped. Since V ≤ V(1),
+//    min(V', V(1)) stays within ε of every sample and monotone, and it never adds a node.
 // The compressor's first node at f = 0 is the implicit origin and dropped. Returns the number of
 // nodes, or limit + 1 as soon as more than `limit` are certain (nodes below V(1) all survive).
 int compress_entry(const float* V, int n, float epsilon, std::vector<Node>& out, int limit) {
@@ -141,12 +141,25 @@ int compress_entry(const float* V, int n, float epsilon, std::vector<Node>& out,
         out.push_back({c.prev_z, std::clamp(c.prev_alpha, lo, hi)});  // within ε of every sample since the origin
     }
     std::size_t kept = 0;
+    float f_prev = 0.f, a_prev = 0.f;  // the implicit origin
     for (std::size_t i = 0; i < out.size(); ++i) {
-        float alpha = std::clamp(out[i].alpha, 0.f, v1);
-        out[kept++] = {out[i].f, alpha};
-        if (alpha >= v1) break;  // the rest is flat at V(1)
+        Node node = out[i];
+        if (node.alpha >= v1) {
+            if (node.alpha > v1) {  // where the segment from the previous node crosses V(1)
+                float f_cross = f_prev + (v1 - a_prev) / (node.alpha - a_prev) * (node.f - f_prev);
+                if (f_cross > f_prev) node = {std::min(f_cross, node.f), v1};
+                else if (kept) { out[kept - 1].alpha = v1; break; }  // crossing within rounding of it
+                else node = {node.f, v1};
+            }
+            out[kept++] = node;
+            break;  // the rest is flat at V(1)
+        }
+        out[kept++] = node;
+        f_prev = node.f;
+        a_prev = node.alpha;
     }
     out.resize(kept);
+    if (!out.empty() && out.back().f >= 1.f) out.pop_back();
     out.push_back({1.f, v1});
     return int(out.size());
 }
