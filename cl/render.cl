@@ -5,7 +5,7 @@
  * SOMBRA_USE_IMAGES (3D image atlas instead of a buffer), SOMBRA_SOBEL (Sobel gradients),
  * SOMBRA_SKIP_EMPTY (brick skipping), SOMBRA_HAS_LIGHTS (any light in the scene),
  * SOMBRA_SHADOW_RAYS (shadow term by marching towards each light), SOMBRA_SHADOW_DSM (shadow term
- * from deep shadow maps). */
+ * from deep shadow maps), SOMBRA_SHADOW_BINARY (with SOMBRA_SHADOW_DSM: binary shadow maps). */
 #include "shared/types.h"
 #include "shared/hash.h"
 #include "lanes.h"
@@ -66,6 +66,17 @@ inline lfloat shadow_ray(VOLUME_DATA_PARAM, const CameraState* state, __global c
 #endif
 
 #ifdef SOMBRA_SHADOW_DSM
+/* α of one texel at depth z: V'(z) (Knecht Eq. 3.7), or with SOMBRA_SHADOW_BINARY the binary
+ * shadow-map baseline: fully shadowed behind the depth where the texel's opacity reaches 1/2
+ * (the depth a classic shadow map stores), lit before it. */
+inline lfloat texel_attenuation(DSM_READ_PARAMS, __global const DsmViewGpu* v, lint x, lint y, lfloat z) {
+    lfloat alpha = dsm_texel_opacity(DSM_READ_ARGS, v, x, y, z);
+#ifdef SOMBRA_SHADOW_BINARY
+    alpha = select((lfloat)(0.0f), (lfloat)(1.0f), alpha >= 0.5f);
+#endif
+    return alpha;
+}
+
 /* Transmittance 1 − α to the light from its deep shadow maps: the view that covers p (a point
  * light's cube face, found by projection), V'(depth) of the four nearest texels filtered
  * bilinearly (Knecht Eq. 3.7, 4.18–4.19). Points no view covers are lit. */
@@ -83,10 +94,10 @@ inline lfloat dsm_shadow(const CameraState* state, __global const LightGpu* ligh
         int last = (int)v->resolution - 1;
         lint x0 = clamp(LCONVERT_INT(u0), 0, last), x1 = clamp(LCONVERT_INT(u0) + 1, 0, last);
         lint y0 = clamp(LCONVERT_INT(w0), 0, last), y1 = clamp(LCONVERT_INT(w0) + 1, 0, last);
-        lfloat a00 = dsm_texel_opacity(DSM_READ_ARGS_OF(state), v, x0, y0, depth);
-        lfloat a10 = dsm_texel_opacity(DSM_READ_ARGS_OF(state), v, x1, y0, depth);
-        lfloat a01 = dsm_texel_opacity(DSM_READ_ARGS_OF(state), v, x0, y1, depth);
-        lfloat a11 = dsm_texel_opacity(DSM_READ_ARGS_OF(state), v, x1, y1, depth);
+        lfloat a00 = texel_attenuation(DSM_READ_ARGS_OF(state), v, x0, y0, depth);
+        lfloat a10 = texel_attenuation(DSM_READ_ARGS_OF(state), v, x1, y0, depth);
+        lfloat a01 = texel_attenuation(DSM_READ_ARGS_OF(state), v, x0, y1, depth);
+        lfloat a11 = texel_attenuation(DSM_READ_ARGS_OF(state), v, x1, y1, depth);
         alpha = select(alpha, mix(mix(a00, a10, fu), mix(a01, a11, fu), fw), covered);
         done |= covered;
     }

@@ -15,7 +15,10 @@ enum class VolumeStorage { Auto, Buffer, Image };  // Auto: buffer on CPU device
 // The shadow term of Knecht Eq. 3.9. None: 1 everywhere. Rays: the shadow-ray baseline, marching
 // from every visible sample to every light over the same segments as the camera rays. Dsm: deep
 // shadow maps built by ray casting from each light, compressed with error bound dsm_epsilon.
-enum class ShadowTechnique { None, Rays, Dsm };
+// ShadowMap: the binary shadow-map baseline — per texel the depth where opacity reaches 1/2,
+// lit before it and dark behind (2×2 percentage-closer filtering); taken from the same light
+// rays as the DSM, so it costs what a DSM costs to build.
+enum class ShadowTechnique { None, Rays, Dsm, ShadowMap };
 
 struct RenderOptions {
     int width = 0, height = 0;  // 0: the scene's size

@@ -76,18 +76,26 @@ int print_visibility(sombra::Context& context, const sombra::Scene& scene, int l
     ray_options.shadows = sombra::ShadowTechnique::Rays;
     sombra::ShadowQuery dsm = sombra::shadow_transmittance(context, scene, light, points, dsm_options);
     sombra::ShadowQuery rays = sombra::shadow_transmittance(context, scene, light, points, ray_options);
-    std::cout << "x,y,z,dsm,shadow_ray,reference,dsm_error,shadow_ray_error\n";
-    double dsm_sum = 0, dsm_max = 0, ray_sum = 0, ray_max = 0;
+    sombra::RenderOptions map_options = options;
+    map_options.shadows = sombra::ShadowTechnique::ShadowMap;
+    sombra::ShadowQuery maps = sombra::shadow_transmittance(context, scene, light, points, map_options);
+    std::cout << "x,y,z,reference,dsm,shadow_ray,shadow_map,dsm_error,shadow_ray_error,shadow_map_error\n";
+    const sombra::ShadowQuery* techniques[3] = {&dsm, &rays, &maps};
+    double sum[3] = {0, 0, 0}, worst[3] = {0, 0, 0};
     for (std::size_t i = 0; i < points.size(); ++i) {
         double reference = sombra::reference_transmittance(scene, light, points[i]);
-        double de = std::fabs(dsm.transmittance[i] - reference), re = std::fabs(rays.transmittance[i] - reference);
-        dsm_sum += de, ray_sum += re, dsm_max = std::max(dsm_max, de), ray_max = std::max(ray_max, re);
-        std::cout << points[i][0] << "," << points[i][1] << "," << points[i][2] << "," << dsm.transmittance[i] << ","
-                  << rays.transmittance[i] << "," << reference << "," << de << "," << re << "\n";
+        std::cout << points[i][0] << "," << points[i][1] << "," << points[i][2] << "," << reference;
+        for (auto* t : techniques) std::cout << "," << t->transmittance[i];
+        for (int k = 0; k < 3; ++k) {
+            double e = std::fabs(techniques[k]->transmittance[i] - reference);
+            sum[k] += e, worst[k] = std::max(worst[k], e);
+            std::cout << "," << e;
+        }
+        std::cout << "\n";
     }
     double n = double(std::max<std::size_t>(points.size(), 1));
-    std::cerr << "sombra: " << points.size() << " points; |dsm − reference| mean " << dsm_sum / n << " max " << dsm_max
-              << "; |shadow ray − reference| mean " << ray_sum / n << " max " << ray_max << "\n";
+    std::cerr << "sombra: " << points.size() << " points; |T − reference| mean/max: dsm " << sum[0] / n << "/" << worst[0]
+              << ", shadow rays " << sum[1] / n << "/" << worst[1] << ", shadow map " << sum[2] / n << "/" << worst[2] << "\n";
     if (!stats_path.empty()) write_text_file(stats_path, dsm.stats.to_json());
     return 0;
 }
@@ -110,8 +118,9 @@ int run(int argc, char** argv) {
     render->add_option("--gradient", gradient, "central or sobel")->check(CLI::IsMember({"central", "sobel"}));
     std::string shadows = "none";
     render->add_option("--shadows", shadows,
-                       "none, rays (march from every sample to every light) or dsm (deep shadow maps)")
-        ->check(CLI::IsMember({"none", "rays", "dsm"}));
+                       "none, rays (march from every sample to every light), dsm (deep shadow maps) or shadowmap "
+                       "(binary shadow maps, the baseline)")
+        ->check(CLI::IsMember({"none", "rays", "dsm", "shadowmap"}));
     int dsm_resolution = 512;
     float dsm_epsilon = 0.02f;
     std::string dsm_storage = "atlas";
@@ -183,9 +192,10 @@ int run(int argc, char** argv) {
     options.empty_space_skipping = !no_skip;
     options.jitter_seed = seed;
     options.lanes = lanes;
-    options.shadows = shadows == "rays"  ? sombra::ShadowTechnique::Rays
-                      : shadows == "dsm" ? sombra::ShadowTechnique::Dsm
-                                         : sombra::ShadowTechnique::None;
+    options.shadows = shadows == "rays"        ? sombra::ShadowTechnique::Rays
+                      : shadows == "dsm"       ? sombra::ShadowTechnique::Dsm
+                      : shadows == "shadowmap" ? sombra::ShadowTechnique::ShadowMap
+                                               : sombra::ShadowTechnique::None;
     options.dsm_resolution = dsm_resolution;
     options.dsm_epsilon = dsm_epsilon;
     options.dsm_storage = dsm_storage;

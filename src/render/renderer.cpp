@@ -27,8 +27,10 @@ std::vector<std::string> camera_pass_defines(const Scene& scene, const RenderOpt
     if (options.gradient == GradientMethod::Sobel) defines.push_back("SOMBRA_SOBEL");
     if (!scene.lights.empty()) defines.push_back("SOMBRA_HAS_LIGHTS");
     if (!scene.lights.empty() && options.shadows == ShadowTechnique::Rays) defines.push_back("SOMBRA_SHADOW_RAYS");
-    if (!scene.lights.empty() && options.shadows == ShadowTechnique::Dsm) {
+    bool maps = options.shadows == ShadowTechnique::Dsm || options.shadows == ShadowTechnique::ShadowMap;
+    if (!scene.lights.empty() && maps) {
         defines.push_back("SOMBRA_SHADOW_DSM");
+        if (options.shadows == ShadowTechnique::ShadowMap) defines.push_back("SOMBRA_SHADOW_BINARY");
         for (auto& d : memory::make_dsm_storage(options.dsm_storage)->defines()) defines.push_back(d);
     }
     return defines;
@@ -70,7 +72,8 @@ std::string preparation_key(const Scene& scene, const RenderOptions& o, bool use
         for (float f : l.direction) key << ' ' << f;
         for (float f : l.color) key << ' ' << f;
     }
-    key << " O" << int(o.shadows) << ' ' << o.dsm_resolution << ' ' << o.dsm_epsilon << ' ' << o.dsm_storage << ' '
+    bool maps = o.shadows == ShadowTechnique::Dsm || o.shadows == ShadowTechnique::ShadowMap;  // one preparation
+    key << " O" << (maps ? 99 : int(o.shadows)) << ' ' << o.dsm_resolution << ' ' << o.dsm_epsilon << ' ' << o.dsm_storage << ' '
         << use_images;
     return key.str();
 }
@@ -117,7 +120,8 @@ PreparedScene prepare_anew(host::Runtime& runtime, const Scene& scene, const Ren
     PreparedScene prepared;
     auto start = clock_type::now();
     prepared.packed = packing::pack_scene(scene);
-    prepared.use_dsm = options.shadows == ShadowTechnique::Dsm && !scene.lights.empty();
+    prepared.use_dsm = (options.shadows == ShadowTechnique::Dsm || options.shadows == ShadowTechnique::ShadowMap) &&
+                       !scene.lights.empty();
     std::vector<DsmViewGpu> views;
     if (prepared.use_dsm) views = shadows::make_dsm_views(scene, prepared.packed, options.dsm_resolution);
     stats.stage_ms["host_prepare"] = ms_since(start);
