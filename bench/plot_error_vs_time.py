@@ -2,9 +2,9 @@
 """Error against time for sombra_bench_dsm: plot_error_vs_time.py dsm_table.csv out.png
 
 x: time per frame in ms, log scale (DSM rows: generation + camera pass; shadow rays: camera pass).
-y: mean |T - T_reference| over the bench's random points, log scale. One marker series per DSM storage and
-resolution (points labelled with their epsilon), one point for shadow rays, and the no-shadow
-render time as a dashed vertical line.
+y: mean |T - T_reference| over the bench's random points, log scale. One marker series per DSM
+storage and resolution (joined in epsilon order, smallest and largest epsilon labelled), one point
+for shadow rays, and the no-shadow render time as a dashed vertical line.
 """
 import csv
 import sys
@@ -32,7 +32,7 @@ def main(csv_path, png_path):
         xs, ys = [p[0] for p in pts], [p[1] for p in pts]
         label = f"DSM {res}²" + (f" ({storage})" if len({k[0] for k in series}) > 1 else "")
         ax.plot(xs, ys, marker=markers[i % len(markers)], linestyle="-", linewidth=0.8, label=label)
-        for x, y, eps in pts:
+        for x, y, eps in (pts[0], pts[-1]) if len(pts) > 1 else pts:  # the line runs in ε order between them
             ax.annotate(f"ε={eps}", (x, y), textcoords="offset points", xytext=(4, 3), fontsize=7, alpha=0.8)
     for r in rows:
         if r["shadows"] == "rays":

@@ -94,4 +94,14 @@ typedef struct {
     sb_uint pad0;
 } CameraGpu;
 
+/* A volume's pre-compressed visibility table (Hadwiger §3.2; src/shadows/precompression.h):
+ * entry (front, back) of `size`² holds ≤ 4 nodes (fraction of the step, opacity) at
+ * [4·(entry_offset + front·size + back), +4) of the shared node arrays. */
+typedef struct {
+    sb_uint entry_offset;
+    sb_uint size;        /* entries per axis; 0: no table for this volume */
+    float domain_min;    /* density of index 0 */
+    float domain_scale;  /* (size − 1) / (domain max − domain min) */
+} PrecompressionGpu;
+
 #endif /* SOMBRA_SHARED_TYPES_H */

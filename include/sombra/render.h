@@ -30,6 +30,10 @@ struct RenderOptions {
     // demand, Hadwiger §3.4 / Knecht Eq. 4.7–4.10), "chunked" (64-node chunks per 8×8 tile with
     // atomics and linked lists, Knecht Alg. 4.1) or "compact" (count, prefix sum, write).
     std::string dsm_storage = "atlas";
+    // Pre-compressed visibility tables (Hadwiger §3.2): each step of a one-volume segment is
+    // replaced by its precomputed, compressed visibility, so isosurfaces of step transfer
+    // functions cast shadows from where they lie rather than from the next sample.
+    bool dsm_precompression = false;
     VolumeStorage storage = VolumeStorage::Auto;
     bool empty_space_skipping = true;
     float termination_transmittance = 1e-3f;  // early ray termination threshold on t_acc

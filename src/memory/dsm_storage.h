@@ -26,6 +26,7 @@ struct DsmStats {
     unsigned max_nodes_per_texel = 0;
     unsigned long long bytes_used = 0, bytes_wasted = 0;
     unsigned long long capped_texels = 0;    // texels that hit a layer cap (atlas)
+    double precompression_max_error = 0;     // of the pre-compressed visibility tables, if used
 };
 
 // What generation needs from the caller: the device, the views, and a way to enqueue dsm_build.cl

@@ -1,6 +1,10 @@
 #include "shadows/dsm_builder.h"
 
+#include <algorithm>
+#include <chrono>
 #include <cmath>
+
+#include "shadows/precompression.h"
 
 #include "sombra/error.h"
 
@@ -13,8 +17,49 @@ std::vector<std::string> volume_pass_defines(const Scene& scene, bool use_images
     return defines;
 }
 
-DeviceDsm build_deep_shadow_maps(host::Runtime& runtime, const Scene& scene, const packing::DeviceScene& device_scene,
-                                 std::vector<DsmViewGpu> views, const DsmBuildOptions& options) {
+namespace {
+
+// The pre-compressed visibility tables of every volume, on the device (one table per transfer
+// function and step; 256 densities per axis).
+struct DevicePrecompression {
+    cl::Buffer params, fraction, opacity, count;
+};
+
+DevicePrecompression upload_precompression(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
+                                           float epsilon, memory::DsmStats& stats) {
+    auto start = std::chrono::steady_clock::now();
+    std::vector<PrecompressionGpu> params;
+    std::vector<float> fraction, opacity;
+    std::vector<cl_uchar> count;
+    double max_error = 0;
+    for (std::size_t i = 0; i < scene.volumes.size(); ++i) {
+        const VolumeInstance& vi = scene.volumes[i];
+        float step = packed.volumes[i].step, voxel_size = step / vi.step_voxels;
+        float unit = vi.opacity_unit > 0.f ? vi.opacity_unit : voxel_size;
+        // the table's own error adds to the DSM's: give it half of ε (at least 10⁻³)
+        PrecompressionTable table = build_precompression_table(vi.transfer_function, unit, step, 256,
+                                                               std::max(0.5f * epsilon, 1e-3f));
+        max_error = std::max(max_error, table.max_error);
+        params.push_back({cl_uint(count.size()), cl_uint(table.size), table.domain_min, table.domain_scale});
+        fraction.insert(fraction.end(), table.fraction.begin(), table.fraction.end());
+        opacity.insert(opacity.end(), table.opacity.begin(), table.opacity.end());
+        count.insert(count.end(), table.counts.begin(), table.counts.end());
+    }
+    stats.stage_ms["dsm_precompression_table"] =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    stats.precompression_max_error = max_error;
+    auto ro = CL_MEM_READ_ONLY;
+    return {host::make_buffer(runtime, ro, params.size() * sizeof(PrecompressionGpu), params.data(), "pre-compression tables"),
+            host::make_buffer(runtime, ro, fraction.size() * sizeof(float), fraction.data(), "pre-compression tables"),
+            host::make_buffer(runtime, ro, opacity.size() * sizeof(float), opacity.data(), "pre-compression tables"),
+            host::make_buffer(runtime, ro, count.size(), count.data(), "pre-compression tables")};
+}
+
+}  // namespace
+
+DeviceDsm build_deep_shadow_maps(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
+                                 const packing::DeviceScene& device_scene, std::vector<DsmViewGpu> views,
+                                 const DsmBuildOptions& options) {
     if (!(options.epsilon >= 0.f) || !std::isfinite(options.epsilon)) throw Error("--eps: must be ≥ 0");
     DeviceDsm dsm;
     dsm.storage = memory::make_dsm_storage(options.storage);
@@ -26,6 +71,11 @@ DeviceDsm build_deep_shadow_maps(host::Runtime& runtime, const Scene& scene, con
     auto defines = volume_pass_defines(scene, device_scene.uses_images, true);
     defines.push_back("SOMBRA_LANES=1");
     for (auto& d : dsm.storage->defines()) defines.push_back(d);
+    DevicePrecompression precompression;
+    if (options.precompression) {
+        precompression = upload_precompression(runtime, scene, packed, options.epsilon, dsm.stats);
+        defines.push_back("SOMBRA_DSM_PRECOMPRESSED");
+    }
     memory::BuildContext context{runtime, views, defines, std::size_t(options.resolution) * std::size_t(options.resolution), {}};
     context.run_view = [&](const std::vector<std::string>& program_defines, const char* kernel_name, cl_uint view,
                            const std::function<void(cl::Kernel&, int)>& bind) {
@@ -40,6 +90,12 @@ DeviceDsm build_deep_shadow_maps(host::Runtime& runtime, const Scene& scene, con
         kernel.setArg(a++, dsm.views_buffer);
         kernel.setArg(a++, view);
         kernel.setArg(a++, options.epsilon);
+        if (options.precompression) {
+            kernel.setArg(a++, precompression.params);
+            kernel.setArg(a++, precompression.fraction);
+            kernel.setArg(a++, precompression.opacity);
+            kernel.setArg(a++, precompression.count);
+        }
         bind(kernel, a);
         cl::Event event;
         runtime.queue().enqueueNDRangeKernel(kernel, cl::NullRange,

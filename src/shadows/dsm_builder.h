@@ -16,6 +16,7 @@ struct DsmBuildOptions {
     int resolution = 512;
     float epsilon = 0.02f;          // Knecht Eq. 3.1
     std::string storage = "atlas";  // atlas, chunked, compact
+    bool precompression = false;    // pre-compressed visibility tables (Hadwiger §3.2)
 };
 
 struct DeviceDsm {
@@ -25,8 +26,9 @@ struct DeviceDsm {
     memory::DsmStats stats;
 };
 
-DeviceDsm build_deep_shadow_maps(host::Runtime& runtime, const Scene& scene, const packing::DeviceScene& device_scene,
-                                 std::vector<DsmViewGpu> views, const DsmBuildOptions& options);
+DeviceDsm build_deep_shadow_maps(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
+                                 const packing::DeviceScene& device_scene, std::vector<DsmViewGpu> views,
+                                 const DsmBuildOptions& options);
 
 // -D defines of every pass over the scene's volumes.
 std::vector<std::string> volume_pass_defines(const Scene& scene, bool use_images, bool skip_empty);
