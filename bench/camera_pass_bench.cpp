@@ -3,6 +3,7 @@
 // Msamples/s, their ratio, and how far the native images are from the OpenCL one (a benchmark
 // that measures different work is worthless). See bench/README.md.
 #include <CLI/CLI.hpp>
+#include "host/guarded_main.h"
 
 #include <algorithm>
 #include <chrono>
@@ -211,15 +212,4 @@ int run(int argc, char** argv) {
 
 }  // namespace
 
-int main(int argc, char** argv) {
-    try {
-        return run(argc, argv);
-    } catch (const sombra::Error& e) {
-        std::cerr << "sombra_bench_camera: error: " << e.what() << "\n";
-    } catch (const cl::Error& e) {
-        std::cerr << "sombra_bench_camera: error: OpenCL: " << e.what() << " failed with error " << e.err() << "\n";
-    } catch (const std::exception& e) {
-        std::cerr << "sombra_bench_camera: error: " << e.what() << "\n";
-    }
-    return 1;
-}
+int main(int argc, char** argv) { return sombra::host::guarded_main("sombra_bench_camera", run, argc, argv); }

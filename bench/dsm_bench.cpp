@@ -4,6 +4,7 @@
 // reference (sombra::reference_transmittance). The analogue on this device of Hadwiger 2006
 // Table 1 and Knecht 2011 Tables 5.1/5.3 and 5.8–5.10. See bench/README.md.
 #include <CLI/CLI.hpp>
+#include "host/guarded_main.h"
 #include <CL/opencl.hpp>
 
 #include <algorithm>
@@ -375,15 +376,4 @@ int run(int argc, char** argv) {
 
 }  // namespace
 
-int main(int argc, char** argv) {
-    try {
-        return run(argc, argv);
-    } catch (const sombra::Error& e) {
-        std::cerr << "sombra_bench_dsm: error: " << e.what() << "\n";
-    } catch (const cl::Error& e) {
-        std::cerr << "sombra_bench_dsm: error: OpenCL: " << e.what() << " failed with error " << e.err() << "\n";
-    } catch (const std::exception& e) {
-        std::cerr << "sombra_bench_dsm: error: " << e.what() << "\n";
-    }
-    return 1;
-}
+int main(int argc, char** argv) { return sombra::host::guarded_main("sombra_bench_dsm", run, argc, argv); }

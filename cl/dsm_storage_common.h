@@ -18,6 +18,28 @@ inline uint dsm_texel_index(__global const DsmViewGpu* v, uint x, uint y) { retu
 inline uint dsm_tiles_per_row(__global const DsmViewGpu* v) { return (v->resolution + DSM_TILE_SIZE - 1) / DSM_TILE_SIZE; }
 inline uint dsm_view_number(__global const DsmViewGpu* v) { return v->first_texel / (v->resolution * v->resolution); }
 
+#define DSM_NO_BLOCK 0xffffffffu
+
+/* Knecht Alg. 4.1 with CAS only (spin-waits deadlock on PoCL): the block recorded in *entry
+ * (stored + 1; 0 = none), else a fresh one from counters[0] claimed by compare-and-swap. A pool
+ * that ran out counts the request in counters[1]; a block lost to another work-item that claimed
+ * the entry first is counted in counters[lost] (waste). */
+inline uint claim_block(__global uint* entry, __global uint* counters, uint pool, uint lost) {
+    uint held = *entry;
+    if (held) return held - 1;
+    uint fresh = atomic_inc(&counters[0]);
+    if (fresh >= pool) {
+        atomic_inc(&counters[1]);
+        return DSM_NO_BLOCK;
+    }
+    uint previous = atomic_cmpxchg(entry, 0u, fresh + 1);
+    if (previous) {
+        atomic_inc(&counters[lost]);
+        return previous - 1;
+    }
+    return fresh;
+}
+
 #if SOMBRA_LANES == 1
 inline lint gather_uint_as_int(__global const uint* ptr, lint idx) { return (int)ptr[idx]; }
 #else

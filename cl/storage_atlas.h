@@ -18,7 +18,6 @@
 #define SOMBRA_ATLAS_MAX_BLOCKS 32
 #endif
 #define ATLAS_TILE_TEXELS (DSM_TILE_SIZE * DSM_TILE_SIZE)
-#define ATLAS_NO_BLOCK 0xffffffffu
 
 /* allocator[0]: blocks handed out (may exceed the pool: then the host grows it and rebuilds),
  * [1]: requests the pool could not serve, [2]: texels that hit the layer cap, [3]: blocks lost
@@ -47,22 +46,9 @@ inline void dsm_writer_begin(DsmWriter* w, DSM_WRITE_PARAMS, __global const DsmV
     w->capped = 0;
 }
 
-/* The block of layer range `slot` of `tile`, allocated if needed (Knecht Alg. 4.1, CAS-only). */
+/* The block of layer range `slot` of `tile`, allocated if needed. */
 inline uint atlas_block(DSM_WRITE_PARAMS, uint tile, uint slot) {
-    __global uint* entry = &atlas_layout[tile * SOMBRA_ATLAS_MAX_BLOCKS + slot];
-    uint held = *entry;
-    if (held) return held - 1;
-    uint fresh = atomic_inc(&atlas_allocator[0]);
-    if (fresh >= atlas_pool_blocks) {
-        atomic_inc(&atlas_allocator[1]);
-        return ATLAS_NO_BLOCK;
-    }
-    uint previous = atomic_cmpxchg(entry, 0u, fresh + 1);
-    if (previous) {
-        atomic_inc(&atlas_allocator[3]); /* another texel of the tile was first */
-        return previous - 1;
-    }
-    return fresh;
+    return claim_block(&atlas_layout[tile * SOMBRA_ATLAS_MAX_BLOCKS + slot], atlas_allocator, atlas_pool_blocks, 3);
 }
 
 inline void dsm_writer_put(DsmWriter* w, DSM_WRITE_PARAMS, float z, float alpha) {
@@ -76,7 +62,7 @@ inline void dsm_writer_put(DsmWriter* w, DSM_WRITE_PARAMS, float z, float alpha)
         w->count += 1;
     }
     uint block = atlas_block(DSM_WRITE_ARGS, w->tile, k / SOMBRA_ATLAS_LAYERS);
-    if (block == ATLAS_NO_BLOCK) return;
+    if (block == DSM_NO_BLOCK) return;
     uint at = (block * SOMBRA_ATLAS_LAYERS + k % SOMBRA_ATLAS_LAYERS) * ATLAS_TILE_TEXELS + w->texel_in_tile;
     vstore2((float2)(z, alpha), at, atlas_blocks);
 }

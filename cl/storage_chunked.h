@@ -47,20 +47,7 @@ inline uint chunk_of_tile(DSM_WRITE_PARAMS, uint tile, uint c) {
         atomic_inc(&chunk_allocator[1]);
         return CHUNK_END;
     }
-    __global uint* entry = &tile_chunks[tile * SOMBRA_CHUNKS_PER_TILE + c];
-    uint held = *entry;
-    if (held) return held - 1;
-    uint fresh = atomic_inc(&chunk_allocator[0]);
-    if (fresh >= chunk_pool) {
-        atomic_inc(&chunk_allocator[1]);
-        return CHUNK_END;
-    }
-    uint previous = atomic_cmpxchg(entry, 0u, fresh + 1);
-    if (previous) {
-        atomic_inc(&chunk_allocator[2]);
-        return previous - 1;
-    }
-    return fresh;
+    return claim_block(&tile_chunks[tile * SOMBRA_CHUNKS_PER_TILE + c], chunk_allocator, chunk_pool, 2);
 }
 
 inline void dsm_writer_put(DsmWriter* w, DSM_WRITE_PARAMS, float z, float alpha) {

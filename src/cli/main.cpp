@@ -1,5 +1,6 @@
 // sombra — command-line renderer. Thin: parses arguments and calls the public library API.
 #include <CLI/CLI.hpp>
+#include "host/guarded_main.h"
 #include <CL/opencl.hpp>
 
 #include <cstdio>
@@ -216,15 +217,4 @@ int run(int argc, char** argv) {
 
 }  // namespace
 
-int main(int argc, char** argv) {
-    try {
-        return run(argc, argv);
-    } catch (const sombra::Error& e) {
-        std::cerr << "sombra: error: " << e.what() << "\n";
-    } catch (const cl::Error& e) {
-        std::cerr << "sombra: error: OpenCL: " << e.what() << " failed with error " << e.err() << "\n";
-    } catch (const std::exception& e) {
-        std::cerr << "sombra: error: " << e.what() << "\n";
-    }
-    return 1;
-}
+int main(int argc, char** argv) { return sombra::host::guarded_main("sombra", run, argc, argv); }

@@ -18,6 +18,20 @@ std::unique_ptr<DsmStorage> make_dsm_storage(const std::string& name) {
     throw Error("--storage: unknown deep shadow map storage '" + name + "' (atlas, chunked, chunked-ondemand, compact)");
 }
 
+std::vector<cl_uint> count_nodes(BuildContext& context, DsmStats& stats) {
+    host::Runtime& rt = context.runtime;
+    std::size_t texels = context.views.size() * context.texels_per_view;
+    cl::Buffer counts = host::make_buffer(rt, CL_MEM_READ_WRITE, texels * sizeof(cl_uint), nullptr, "deep shadow map node counts");
+    auto count_defines = context.defines;
+    count_defines.push_back("SOMBRA_DSM_COUNT_ONLY");
+    for (cl_uint v = 0; v < context.views.size(); ++v)
+        stats.stage_ms["dsm_count"] +=
+            context.run_view(count_defines, "dsm_count", v, [&](cl::Kernel& k, int arg) { k.setArg(arg, counts); });
+    std::vector<cl_uint> host_counts(texels);
+    rt.queue().enqueueReadBuffer(counts, CL_TRUE, 0, texels * sizeof(cl_uint), host_counts.data());
+    return host_counts;
+}
+
 void summarize_counts(const std::vector<cl_uint>& counts, std::vector<DsmViewGpu>& views, std::size_t texels_per_view,
                       DsmStats& stats) {
     stats.nodes = 0;

@@ -57,6 +57,8 @@ public:
 std::unique_ptr<DsmStorage> make_dsm_storage(const std::string& name);
 
 // Shared helpers of the backends.
+// Nodes of every texel of every view, from a counting march (dsm_count, SOMBRA_DSM_COUNT_ONLY).
+std::vector<cl_uint> count_nodes(BuildContext& context, DsmStats& stats);
 void summarize_counts(const std::vector<cl_uint>& counts, std::vector<DsmViewGpu>& views, std::size_t texels_per_view,
                       DsmStats& stats);
 

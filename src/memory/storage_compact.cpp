@@ -15,14 +15,7 @@ public:
     void build(BuildContext& context, DsmStats& stats) override {
         host::Runtime& rt = context.runtime;
         std::size_t texels = context.views.size() * context.texels_per_view;
-        cl::Buffer counts = host::make_buffer(rt, CL_MEM_READ_WRITE, texels * sizeof(cl_uint), nullptr, "deep shadow map node counts");
-        auto count_defines = context.defines;
-        count_defines.push_back("SOMBRA_DSM_COUNT_ONLY");
-        for (cl_uint v = 0; v < context.views.size(); ++v)
-            stats.stage_ms["dsm_count"] += context.run_view(count_defines, "dsm_count", v,
-                                                            [&](cl::Kernel& k, int arg) { k.setArg(arg, counts); });
-        std::vector<cl_uint> host_counts(texels);
-        rt.queue().enqueueReadBuffer(counts, CL_TRUE, 0, texels * sizeof(cl_uint), host_counts.data());
+        std::vector<cl_uint> host_counts = count_nodes(context, stats);
 
         auto start = std::chrono::steady_clock::now();
         texel_first_.assign(texels + 1, 0);
