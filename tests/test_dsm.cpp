@@ -341,3 +341,43 @@ TEST_CASE("pre-compressed visibility tables remove the error of coarse sampling 
     CHECK(with.non_finite == 0);
     CHECK(with.mean < 0.5 * without.mean);
 }
+
+TEST_CASE("pre-filtering: each texel is the box-filtered visibility of its 2×2 sub-pixel rays within ε", "[dsm][prefilter]") {
+    Scene s = smoke_scene(LightType::Spot);
+    const int res = 16;
+    const float epsilon = 0.02f;
+    RenderOptions filtered = dsm_options(res, epsilon);
+    filtered.dsm_prefilter = "box";
+    RenderOptions fine = dsm_options(2 * res, 0.5f * epsilon);  // the sub-pixel map the filter merges
+    fine.dsm_storage = "compact";
+    auto lo = build_deep_shadow_maps(test::context(), s, 0, filtered)[0];
+    auto hi = build_deep_shadow_maps(test::context(), s, 0, fine)[0];
+    double worst = 0;
+    std::size_t checked = 0;
+    for (int y = 0; y < res; ++y)
+        for (int x = 0; x < res; ++x) {
+            std::size_t taps[4] = {std::size_t(2 * y) * 2 * res + 2 * x, std::size_t(2 * y) * 2 * res + 2 * x + 1,
+                                   std::size_t(2 * y + 1) * 2 * res + 2 * x, std::size_t(2 * y + 1) * 2 * res + 2 * x + 1};
+            for (std::size_t t : taps)
+                for (std::uint32_t k = hi.first[t]; k < hi.first[t + 1]; ++k) {
+                    double z = hi.nodes[k].depth, expected = 0;
+                    for (std::size_t u : taps) expected += 0.25 * texel_opacity(hi, u, z);
+                    worst = std::max(worst, std::fabs(texel_opacity(lo, std::size_t(y) * res + x, z) - expected));
+                    ++checked;
+                }
+        }
+    INFO("max |V'_filtered − Σ w V'_sub| " << worst << " over " << checked << " depths");
+    CHECK(checked > 100);
+    CHECK(worst <= 0.5 * epsilon + 1e-4);
+
+    // and the filtered map is a usable shadow: finite, close to the reference
+    auto points = random_points(300, 0.45f, 21);
+    for (const char* filter : {"box", "tent"}) {
+        RenderOptions o = dsm_options(64, 0.01f);
+        o.dsm_prefilter = filter;
+        Errors e = against_reference(s, points, shadow_transmittance(test::context(), s, 0, points, o).transmittance);
+        INFO(filter << ": mean " << e.mean << ", max " << e.max);
+        CHECK(e.non_finite == 0);
+        CHECK(e.mean < 0.02);
+    }
+}

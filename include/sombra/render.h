@@ -34,6 +34,10 @@ struct RenderOptions {
     // replaced by its precomputed, compressed visibility, so isosurfaces of step transfer
     // functions cast shadows from where they lie rather than from the next sample.
     bool dsm_precompression = false;
+    // Pre-filtering (Lokovic–Veach; Hadwiger §3.1): "none", "box" (each texel averages 2×2
+    // sub-pixel rays) or "tent" (4×4 sub-pixel rays weighted 1 3 3 1 per axis), combined exactly
+    // and compressed again; total error ≤ ε against the filtered visibility of the sub-pixel rays.
+    std::string dsm_prefilter = "none";
     VolumeStorage storage = VolumeStorage::Auto;
     bool empty_space_skipping = true;
     float termination_transmittance = 1e-3f;  // early ray termination threshold on t_acc

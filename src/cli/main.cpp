@@ -126,10 +126,13 @@ int run(int argc, char** argv) {
     float dsm_epsilon = 0.02f;
     std::string dsm_storage = "atlas";
     bool precompression = false;
+    std::string prefilter = "none";
     render->add_option("--dsm-res", dsm_resolution, "deep shadow map texels per side")->check(CLI::Range(1, 8192));
     render->add_option("--storage", dsm_storage, "deep shadow map storage: atlas, chunked, chunked-ondemand (Knecht) or compact")
         ->check(CLI::IsMember({"atlas", "chunked", "chunked-ondemand", "compact"}));
     render->add_flag("--precompression", precompression, "pre-compressed visibility tables for DSM generation (Hadwiger §3.2)");
+    render->add_option("--prefilter", prefilter, "DSM pre-filtering: none, box (2×2 sub-pixel rays) or tent (4×4)")
+        ->check(CLI::IsMember({"none", "box", "tent"}));
     render->add_option("--eps", dsm_epsilon, "deep shadow map compression error bound ε (Knecht Eq. 3.1)")
         ->check(CLI::Range(0.0f, 1e6f));
     render->add_option("--volume-storage", storage, "auto (buffer on CPUs, image on GPUs), buffer or image")
@@ -160,6 +163,8 @@ int run(int argc, char** argv) {
         sub->add_option("--storage", dsm_storage, "deep shadow map storage: atlas, chunked, chunked-ondemand (Knecht) or compact")
             ->check(CLI::IsMember({"atlas", "chunked", "chunked-ondemand", "compact"}));
         sub->add_flag("--precompression", precompression, "pre-compressed visibility tables (Hadwiger §3.2)");
+        sub->add_option("--prefilter", prefilter, "DSM pre-filtering: none, box or tent")
+            ->check(CLI::IsMember({"none", "box", "tent"}));
         sub->add_option("--eps", dsm_epsilon, "compression error bound ε")->check(CLI::Range(0.0f, 1e6f));
         sub->add_option("--stats", stats_path, "write build times and DSM sizes as JSON");
     }
@@ -204,6 +209,7 @@ int run(int argc, char** argv) {
     options.dsm_epsilon = dsm_epsilon;
     options.dsm_storage = dsm_storage;
     options.dsm_precompression = precompression;
+    options.dsm_prefilter = prefilter;
     if (dsm->parsed()) return write_dsm(context, scene, light_index, options, output, stats_path);
     if (visibility->parsed()) return print_visibility(context, scene, light_index, options, points_path, stats_path);
     sombra::RenderResult result = sombra::render(context, scene, options);

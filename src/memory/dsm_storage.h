@@ -36,6 +36,7 @@ struct BuildContext {
     std::vector<DsmViewGpu>& views;          // the backend sets max_nodes
     std::vector<std::string> defines;        // the volume pass defines (+ the backend's own)
     std::size_t texels_per_view = 0;
+    std::string program = "dsm_build.cl";    // the generation program (dsm_prefilter.cl when filtering)
     // Builds `kernel` of `program_defines`, sets the common arguments for `view`, lets `bind` add
     // the backend's, runs it over the view's texels and returns the kernel time in ms.
     std::function<double(const std::vector<std::string>& program_defines, const char* kernel, cl_uint view,

@@ -97,7 +97,7 @@ public:
         // rearranged for reading: one float4 per slot
         std::size_t slots = slots_;
         texture_ = host::make_buffer(rt, CL_MEM_READ_WRITE, slots * 4 * sizeof(float), nullptr, "chunk texture");
-        cl::Kernel rearrange(rt.program("dsm_build.cl", context.defines), "dsm_rearrange");
+        cl::Kernel rearrange(rt.program(context.program, context.defines), "dsm_rearrange");
         rearrange.setArg(0, nodes);
         rearrange.setArg(1, next);
         rearrange.setArg(2, texture_);

@@ -74,7 +74,7 @@ std::string preparation_key(const Scene& scene, const RenderOptions& o, bool use
     }
     bool maps = o.shadows == ShadowTechnique::Dsm || o.shadows == ShadowTechnique::ShadowMap;  // one preparation
     key << " O" << (maps ? 99 : int(o.shadows)) << ' ' << o.dsm_resolution << ' ' << o.dsm_epsilon << ' ' << o.dsm_storage << ' '
-        << o.dsm_precompression << ' ' << use_images;
+        << o.dsm_precompression << ' ' << o.dsm_prefilter << ' ' << use_images;
     return key.str();
 }
 
@@ -133,7 +133,8 @@ PreparedScene prepare_anew(host::Runtime& runtime, const Scene& scene, const Ren
     if (prepared.use_dsm) {
         prepared.dsm = shadows::build_deep_shadow_maps(
             runtime, scene, prepared.packed, prepared.device, views,
-            {options.dsm_resolution, options.dsm_epsilon, options.dsm_storage, options.dsm_precompression});
+            {options.dsm_resolution, options.dsm_epsilon, options.dsm_storage, options.dsm_precompression,
+             options.dsm_prefilter});
         const memory::DsmStats& d = prepared.dsm.stats;
         for (auto& [stage, ms] : d.stage_ms) stats.stage_ms[stage] = ms;
         stats.dsm_views = d.views;

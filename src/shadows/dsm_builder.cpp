@@ -57,10 +57,72 @@ DevicePrecompression upload_precompression(host::Runtime& runtime, const Scene& 
 
 }  // namespace
 
+namespace {
+
+// Pre-filtering (Lokovic–Veach; Hadwiger §3.1): the map at twice the resolution (2×2 sub-pixel
+// rays per texel, compact storage, ε/2), then dsm_prefilter.cl merges each texel's sub-pixel
+// functions under the filter kernel and compresses the sum (ε/2) into the chosen backend.
+DeviceDsm build_prefiltered(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
+                            const packing::DeviceScene& device_scene, std::vector<DsmViewGpu> views,
+                            const DsmBuildOptions& options) {
+    if (options.prefilter != "box" && options.prefilter != "tent")
+        throw Error("--prefilter: unknown filter '" + options.prefilter + "' (none, box, tent)");
+    std::vector<DsmViewGpu> fine_views = views;
+    std::size_t fine_texels = std::size_t(options.resolution) * options.resolution * 4;
+    for (std::size_t v = 0; v < fine_views.size(); ++v) {
+        fine_views[v].resolution = cl_uint(options.resolution * 2);
+        fine_views[v].first_texel = cl_uint(v * fine_texels);
+    }
+    DsmBuildOptions fine_options = options;
+    fine_options.resolution = options.resolution * 2;
+    fine_options.epsilon = 0.5f * options.epsilon;
+    fine_options.storage = "compact";
+    fine_options.prefilter = "none";
+    DeviceDsm fine = build_deep_shadow_maps(runtime, scene, packed, device_scene, fine_views, fine_options);
+
+    DeviceDsm dsm;
+    dsm.storage = memory::make_dsm_storage(options.storage);
+    dsm.stats.views = int(views.size());
+    dsm.stats.resolution = options.resolution;
+    for (auto& [stage, ms] : fine.stats.stage_ms) dsm.stats.stage_ms["dsm_fine_" + stage.substr(4)] = ms;
+    dsm.views_buffer = host::make_buffer(runtime, CL_MEM_READ_ONLY, views.size() * sizeof(DsmViewGpu), views.data(),
+                                         "deep shadow map views");
+    std::vector<std::string> defines{"SOMBRA_LANES=1"};
+    if (options.prefilter == "tent") defines.push_back("SOMBRA_PREFILTER_TENT");
+    for (auto& d : dsm.storage->defines()) defines.push_back(d);
+    memory::BuildContext context{runtime, views, defines, std::size_t(options.resolution) * std::size_t(options.resolution),
+                                 "dsm_prefilter.cl", {}};
+    float merge_epsilon = 0.5f * options.epsilon;
+    context.run_view = [&](const std::vector<std::string>& program_defines, const char* kernel_name, cl_uint view,
+                           const std::function<void(cl::Kernel&, int)>& bind) {
+        cl::Kernel kernel(runtime.program("dsm_prefilter.cl", program_defines), kernel_name);
+        int a = 0;
+        kernel.setArg(a++, dsm.views_buffer);
+        kernel.setArg(a++, view);
+        kernel.setArg(a++, merge_epsilon);
+        kernel.setArg(a++, fine.views_buffer);
+        a = fine.storage->bind_for_reading(kernel, a);  // compact: offsets, nodes
+        bind(kernel, a);
+        cl::Event event;
+        runtime.queue().enqueueNDRangeKernel(kernel, cl::NullRange,
+                                             cl::NDRange(std::size_t(options.resolution), std::size_t(options.resolution)),
+                                             cl::NullRange, nullptr, &event);
+        event.wait();
+        return host::Runtime::event_ms(event);
+    };
+    dsm.storage->build(context, dsm.stats);
+    runtime.queue().enqueueWriteBuffer(dsm.views_buffer, CL_TRUE, 0, views.size() * sizeof(DsmViewGpu), views.data());
+    dsm.views = views;
+    return dsm;
+}
+
+}  // namespace
+
 DeviceDsm build_deep_shadow_maps(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
                                  const packing::DeviceScene& device_scene, std::vector<DsmViewGpu> views,
                                  const DsmBuildOptions& options) {
     if (!(options.epsilon >= 0.f) || !std::isfinite(options.epsilon)) throw Error("--eps: must be ≥ 0");
+    if (options.prefilter != "none") return build_prefiltered(runtime, scene, packed, device_scene, views, options);
     DeviceDsm dsm;
     dsm.storage = memory::make_dsm_storage(options.storage);
     dsm.stats.views = int(views.size());
@@ -76,7 +138,8 @@ DeviceDsm build_deep_shadow_maps(host::Runtime& runtime, const Scene& scene, con
         precompression = upload_precompression(runtime, scene, packed, options.epsilon, dsm.stats);
         defines.push_back("SOMBRA_DSM_PRECOMPRESSED");
     }
-    memory::BuildContext context{runtime, views, defines, std::size_t(options.resolution) * std::size_t(options.resolution), {}};
+    memory::BuildContext context{runtime, views, defines, std::size_t(options.resolution) * std::size_t(options.resolution),
+                                 "dsm_build.cl", {}};
     context.run_view = [&](const std::vector<std::string>& program_defines, const char* kernel_name, cl_uint view,
                            const std::function<void(cl::Kernel&, int)>& bind) {
         cl::Kernel kernel(runtime.program("dsm_build.cl", program_defines), kernel_name);

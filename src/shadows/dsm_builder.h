@@ -17,6 +17,7 @@ struct DsmBuildOptions {
     float epsilon = 0.02f;          // Knecht Eq. 3.1
     std::string storage = "atlas";  // atlas, chunked, compact
     bool precompression = false;    // pre-compressed visibility tables (Hadwiger §3.2)
+    std::string prefilter = "none"; // none, box (2×2 sub-pixel rays) or tent (4×4, weights 1 3 3 1)
 };
 
 struct DeviceDsm {
