@@ -381,3 +381,46 @@ TEST_CASE("pre-filtering: each texel is the box-filtered visibility of its 2×2 
         CHECK(e.mean < 0.02);
     }
 }
+
+TEST_CASE("DSM lookup kernel against a CPU lookup of the read-back map (projection, Eq. 3.7, bilinear)", "[dsm]") {
+    for (LightType type : {LightType::Directional, LightType::Spot}) {
+        Scene s = smoke_scene(type);
+        const int res = 32;
+        for (const char* storage : {"atlas", "chunked", "compact"}) {
+            RenderOptions o = dsm_options(res, 0.02f);
+            o.dsm_storage = storage;
+            auto map = build_deep_shadow_maps(test::context(), s, 0, o)[0];
+            packing::PackedScene packed = packing::pack_scene(s);
+            DsmViewGpu v = shadows::make_dsm_views(s, packed, res)[0];
+            auto points = random_points(500, 0.5f, 33);
+            auto kernel = shadow_transmittance(test::context(), s, 0, points, o).transmittance;
+            double worst = 0;
+            for (std::size_t i = 0; i < points.size(); ++i) {
+                double d[3], q[3];
+                for (int k = 0; k < 3; ++k) d[k] = points[i][k] - v.origin.s[k];
+                for (int k = 0; k < 3; ++k)
+                    q[k] = d[0] * (&v.axis_x)[k].s[0] + d[1] * (&v.axis_x)[k].s[1] + d[2] * (&v.axis_x)[k].s[2];
+                double nx = q[0], ny = q[1], depth = q[2];
+                if (v.perspective) {
+                    if (q[2] <= 0) continue;
+                    nx = q[0] / q[2], ny = q[1] / q[2], depth = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+                }
+                nx /= v.extent_x, ny /= v.extent_y;
+                double alpha = 0;
+                if (std::fabs(nx) <= 1 && std::fabs(ny) <= 1) {
+                    double u = (nx * 0.5 + 0.5) * res - 0.5, w = (ny * 0.5 + 0.5) * res - 0.5;
+                    int x0 = int(std::floor(u)), y0 = int(std::floor(w));
+                    double fu = u - x0, fw = w - y0;
+                    auto at = [&](int x, int y) {
+                        x = std::clamp(x, 0, res - 1), y = std::clamp(y, 0, res - 1);
+                        return texel_opacity(map, std::size_t(y) * res + x, depth);
+                    };
+                    alpha = (1 - fw) * ((1 - fu) * at(x0, y0) + fu * at(x0 + 1, y0)) + fw * ((1 - fu) * at(x0, y0 + 1) + fu * at(x0 + 1, y0 + 1));
+                }
+                worst = std::max(worst, std::fabs(kernel[i] - (1 - alpha)));
+            }
+            INFO(storage << ", light " << int(type) << ": max |kernel − CPU| " << worst);
+            CHECK(worst < 1e-4);
+        }
+    }
+}
