@@ -15,35 +15,13 @@
 #include "volume_sample.h"
 #include "traversal.h"
 #include "dsm_view.h"
-#define SOMBRA_DSM_BUILD_PROGRAM /* backends may add kernels of their own (dsm_rearrange) */
-#ifndef SOMBRA_DSM_COUNT_ONLY
-#include "dsm_storage.h"
-#endif
+#include "dsm_generation.h"
 
 /* A ray stops once its transmittance falls below this: V(z) is then within 10⁻⁴ of 1. */
 #define DSM_TERMINATION_TRANSMITTANCE 1e-4f
 
-#ifdef SOMBRA_DSM_COUNT_ONLY
-#define DSM_BUILD_STORAGE_PARAMS __global uint* counts
-#define STORE_NODES(out) (count += (out).count)
-#else
-#define DSM_BUILD_STORAGE_PARAMS DSM_WRITE_PARAMS
-#define STORE_NODES(out)                                                                   \
-    do {                                                                                   \
-        CompressorOutput emitted = (out);                                                  \
-        for (int i = 0; i < emitted.count; ++i)                                            \
-            dsm_writer_put(&writer, DSM_WRITE_ARGS, emitted.z[i], emitted.alpha[i]);       \
-        count += emitted.count;                                                            \
-    } while (0)
-#endif
 
-__kernel void
-#ifdef SOMBRA_DSM_COUNT_ONLY
-dsm_count
-#else
-dsm_build
-#endif
-    (VOLUME_DATA_PARAM, __global const uchar* occupancy, __global const float* tf_tables,
+DSM_GENERATION_KERNEL(VOLUME_DATA_PARAM, __global const uchar* occupancy, __global const float* tf_tables,
      __global const VolumeGpu* volumes, uint volume_count, __global const DsmViewGpu* views, uint view_index,
      float epsilon,
 #ifdef SOMBRA_DSM_PRECOMPRESSED
@@ -54,10 +32,7 @@ dsm_build
     __global const DsmViewGpu* v = &views[view_index];
     uint x = get_global_id(0), y = get_global_id(1);
     if (x >= v->resolution || y >= v->resolution) return;
-#ifndef SOMBRA_DSM_COUNT_ONLY
-    DsmWriter writer;
-    dsm_writer_begin(&writer, DSM_WRITE_ARGS, v, x, y);
-#endif
+    DSM_TEXEL_BEGIN(v, x, y);
 
     float res = (float)v->resolution;
     float3 origin, dir;
@@ -120,9 +95,5 @@ dsm_build
         if (transmittance < DSM_TERMINATION_TRANSMITTANCE) cursor.alive = 0;
     }
     STORE_NODES(compressor_finish(&compressor));
-#ifdef SOMBRA_DSM_COUNT_ONLY
-    counts[v->first_texel + y * v->resolution + x] = count;
-#else
-    dsm_writer_end(&writer, DSM_WRITE_ARGS, v, x, y);
-#endif
+    DSM_TEXEL_END(v, x, y);
 }

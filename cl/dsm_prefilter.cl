@@ -10,12 +10,8 @@
  *   dsm_count  nodes per filtered texel only (SOMBRA_DSM_COUNT_ONLY)
  * Defines: SOMBRA_PREFILTER_TENT (4×4 tent kernel, weights 1 3 3 1 per axis; else the 2×2 box). */
 #include "shared/types.h"
-#include "shared/compress.h"
 #include "lanes.h"
-#define SOMBRA_DSM_BUILD_PROGRAM
-#ifndef SOMBRA_DSM_COUNT_ONLY
-#include "dsm_storage.h"
-#endif
+#include "dsm_generation.h"
 
 #ifdef SOMBRA_PREFILTER_TENT
 #define PREFILTER_SPAN 4 /* fine texels per axis: 2x − 1 … 2x + 2 */
@@ -28,36 +24,14 @@ __constant float prefilter_weight[2] = {1.0f, 1.0f};
 #endif
 #define PREFILTER_TAPS (PREFILTER_SPAN * PREFILTER_SPAN)
 
-#ifdef SOMBRA_DSM_COUNT_ONLY
-#define DSM_BUILD_STORAGE_PARAMS __global uint* counts
-#define STORE_NODES(out) (count += (out).count)
-#else
-#define DSM_BUILD_STORAGE_PARAMS DSM_WRITE_PARAMS
-#define STORE_NODES(out)                                                                   \
-    do {                                                                                   \
-        CompressorOutput emitted = (out);                                                  \
-        for (int i = 0; i < emitted.count; ++i)                                            \
-            dsm_writer_put(&writer, DSM_WRITE_ARGS, emitted.z[i], emitted.alpha[i]);       \
-        count += emitted.count;                                                            \
-    } while (0)
-#endif
 
-__kernel void
-#ifdef SOMBRA_DSM_COUNT_ONLY
-dsm_count
-#else
-dsm_build
-#endif
-    (__global const DsmViewGpu* views, uint view_index, float epsilon, __global const DsmViewGpu* fine_views,
+DSM_GENERATION_KERNEL(__global const DsmViewGpu* views, uint view_index, float epsilon, __global const DsmViewGpu* fine_views,
      __global const uint* fine_first, __global const float* fine_nodes, DSM_BUILD_STORAGE_PARAMS) {
     __global const DsmViewGpu* v = &views[view_index];
     __global const DsmViewGpu* fine = &fine_views[view_index];
     uint x = get_global_id(0), y = get_global_id(1);
     if (x >= v->resolution || y >= v->resolution) return;
-#ifndef SOMBRA_DSM_COUNT_ONLY
-    DsmWriter writer;
-    dsm_writer_begin(&writer, DSM_WRITE_ARGS, v, x, y);
-#endif
+    DSM_TEXEL_BEGIN(v, x, y);
     /* the taps: fine texels under the kernel (clamped at the map's border), their node runs */
     uint next[PREFILTER_TAPS], end[PREFILTER_TAPS];
     float weight[PREFILTER_TAPS], z0[PREFILTER_TAPS], a0[PREFILTER_TAPS];
@@ -105,9 +79,5 @@ dsm_build
         previous_z = z;
     }
     STORE_NODES(compressor_finish(&compressor));
-#ifdef SOMBRA_DSM_COUNT_ONLY
-    counts[v->first_texel + y * v->resolution + x] = count;
-#else
-    dsm_writer_end(&writer, DSM_WRITE_ARGS, v, x, y);
-#endif
+    DSM_TEXEL_END(v, x, y);
 }
