@@ -73,9 +73,9 @@ DSM_GENERATION_KERNEL(VOLUME_DATA_PARAM, __global const uchar* occupancy, __glob
                 uint front = (uint)rint(clamp((front_density - table->domain_min) * table->domain_scale, 0.0f, last));
                 uint back = (uint)rint(clamp((density - table->domain_min) * table->domain_scale, 0.0f, last));
                 uint entry = table->entry_offset + front * table->size + back;
-                uint nodes = precompressed_count[entry];
+                uint node_count = precompressed_count[entry];
                 float start_transmittance = transmittance, start_t = t - step, fed_z = previous_t;
-                for (uint j = 0; j < nodes; ++j) {
+                for (uint j = 0; j < node_count; ++j) {
                     float z = start_t + precompressed_fraction[4 * entry + j] * step;
                     float step_alpha = precompressed_opacity[4 * entry + j];
                     transmittance = start_transmittance * (1.0f - step_alpha);

@@ -240,6 +240,7 @@ TEST_CASE("every storage backend stores the same nodes and renders the same imag
     RenderOptions base = dsm_options(40, 0.02f);
     base.storage = VolumeStorage::Buffer;
     base.dsm_storage = "compact";
+    base.dsm_precompression = GENERATE(false, true);  // the tables go through every backend too
     auto reference_maps = build_deep_shadow_maps(test::context(), s, 0, base);
     RenderResult reference_image = render(test::context(), s, base);
     for (const char* storage : {"atlas", "chunked", "chunked-ondemand"}) {
