@@ -50,27 +50,53 @@ inline lint gather_uint_as_int(__global const uint* ptr, lint idx) {
 }
 #endif
 
-/* Body of dsm_texel_opacity for backends with random access to node k of a texel, given as the
- * macros DSM_NODE_DEPTH(k) and DSM_NODE_OPACITY(k) (k a lint, valid in [0, count)): bisection
- * for the first node deeper than z in at most ⌈log2(max_nodes + 1)⌉ steps, then V'(z): 0 before
- * the first node, the last node's opacity after the last, linear in between; clamped to [0, 1]. */
-#define DSM_BISECT_AND_INTERPOLATE(count, z, max_nodes)                                                 \
-    lint lo = (lint)(0), hi = (count);                                                                   \
-    for (uint span = (max_nodes); span > 0; span >>= 1) {                                                \
-        lmask open = lo < hi;                                                                            \
-        lint mid = (lo + hi) >> 1;                                                                       \
-        lmask deeper = DSM_NODE_DEPTH(select((lint)(0), mid, open)) > (z);                               \
-        hi = select(hi, mid, open & deeper);                                                             \
-        lo = select(lo, mid + 1, open & !deeper);                                                        \
-    }                                                                                                    \
+/* For backends with random access to node k of a texel, given as the macros DSM_NODE_DEPTH(k)
+ * and DSM_NODE_OPACITY(k) (k a lint, valid in [0, count)):
+ *   DSM_BISECT(lo, count, z, max_nodes)   lo = first node deeper than z, by bisection in at most
+ *                                         ⌈log2(max_nodes + 1)⌉ steps
+ *   DSM_WALK(lo, count, z, max_nodes)     the same by walking from a start index lo (Hadwiger §3.5:
+ *                                         the search starts at the previous sample's node)
+ *   DSM_INTERPOLATE(lo, count, z)         V'(z) from lo: 0 before the first node, the last node's
+ *                                         opacity after the last, linear in between (Knecht Eq. 3.7) */
+#define DSM_BISECT(lo, count, z, max_nodes)                                                             \
+    do {                                                                                                 \
+        lint hi_ = (count);                                                                              \
+        (lo) = (lint)(0);                                                                                \
+        for (uint span_ = (max_nodes); span_ > 0; span_ >>= 1) {                                         \
+            lmask open_ = (lo) < hi_;                                                                    \
+            lint mid_ = ((lo) + hi_) >> 1;                                                               \
+            lmask deeper_ = DSM_NODE_DEPTH(select((lint)(0), mid_, open_)) > (z);                        \
+            hi_ = select(hi_, mid_, open_ & deeper_);                                                    \
+            (lo) = select((lo), mid_ + 1, open_ & !deeper_);                                             \
+        }                                                                                                \
+    } while (0)
+
+#define DSM_WALK(lo, count, z, max_nodes)                                                               \
+    do {                                                                                                 \
+        (lo) = clamp((lo), (lint)(0), (count));                                                          \
+        for (uint step_ = 0; step_ < (max_nodes); ++step_) { /* forward past nodes at or before z */     \
+            lmask pass_ = (lo) < (count);                                                                \
+            pass_ &= DSM_NODE_DEPTH(select((lint)(0), (lo), pass_)) <= (z);                              \
+            if (!lany(pass_)) break;                                                                     \
+            (lo) += select((lint)(0), (lint)(1), pass_);                                                 \
+        }                                                                                                \
+        for (uint step_ = 0; step_ < (max_nodes); ++step_) { /* back over nodes deeper than z */         \
+            lmask back_ = (lo) > 0;                                                                      \
+            back_ &= DSM_NODE_DEPTH(select((lint)(0), (lo) - 1, back_)) > (z);                           \
+            if (!lany(back_)) break;                                                                     \
+            (lo) -= select((lint)(0), (lint)(1), back_);                                                 \
+        }                                                                                                \
+    } while (0)
+
+#define DSM_INTERPOLATE(lo, count, z)                                                                   \
     lmask any_node = (count) > 0;                                                                        \
-    lint i1 = select((lint)(0), clamp(lo, (lint)(0), (count) - 1), any_node);                            \
+    lint i1 = select((lint)(0), clamp((lo), (lint)(0), (count) - 1), any_node);                         \
     lint i0 = max(i1 - 1, (lint)(0));                                                                    \
     lfloat z0 = DSM_NODE_DEPTH(i0), a0 = DSM_NODE_OPACITY(i0);                                           \
     lfloat z1 = DSM_NODE_DEPTH(i1), a1 = DSM_NODE_OPACITY(i1);                                           \
     lfloat alpha = mix(a0, a1, clamp(((z) - z0) / fmax(z1 - z0, 1e-30f), 0.0f, 1.0f));                   \
-    alpha = select(alpha, a1, lo == (count));                                                            \
-    alpha = select(alpha, (lfloat)(0.0f), (lo == 0) | !any_node);                                        \
+    alpha = select(alpha, a1, (lo) == (count));                                                          \
+    alpha = select(alpha, (lfloat)(0.0f), ((lo) == 0) | !any_node);                                      \
     return clamp(alpha, 0.0f, 1.0f)
 
 #endif

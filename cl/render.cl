@@ -32,6 +32,9 @@ typedef struct {
 #ifdef SOMBRA_SHADOW_DSM
     __global const DsmViewGpu* views;
     DSM_READ_STATE_FIELDS
+#ifdef DSM_HAS_SEARCH_HINTS
+    DsmSearchHint hints[SOMBRA_LIGHT_SLOTS * 4]; /* per light and bilinear corner: the last node found */
+#endif
 #endif
 } CameraState;
 
@@ -69,18 +72,37 @@ inline lfloat shadow_ray(VOLUME_DATA_PARAM, const CameraState* state, __global c
 /* α of one texel at depth z: V'(z) (Knecht Eq. 3.7), or with SOMBRA_SHADOW_BINARY the binary
  * shadow-map baseline: fully shadowed behind the depth where the texel's opacity reaches 1/2
  * (the depth a classic shadow map stores), lit before it. */
-inline lfloat texel_attenuation(DSM_READ_PARAMS, __global const DsmViewGpu* v, lint x, lint y, lfloat z) {
-    lfloat alpha = dsm_texel_opacity(DSM_READ_ARGS, v, x, y, z);
+#ifdef DSM_HAS_SEARCH_HINTS
+#define DSM_HINT_PARAM , DsmSearchHint* hint
+#define DSM_HINT_ARG(h) , (h)
+#define DSM_TEXEL_OPACITY(v, x, y, z) dsm_texel_opacity_hinted(DSM_READ_ARGS, v, x, y, z, hint)
+#else
+#define DSM_HINT_PARAM
+#define DSM_HINT_ARG(h)
+#define DSM_TEXEL_OPACITY(v, x, y, z) dsm_texel_opacity(DSM_READ_ARGS, v, x, y, z)
+#endif
+inline lfloat texel_attenuation(DSM_READ_PARAMS, __global const DsmViewGpu* v, lint x, lint y, lfloat z DSM_HINT_PARAM) {
+    lfloat alpha = DSM_TEXEL_OPACITY(v, x, y, z);
 #ifdef SOMBRA_SHADOW_BINARY
     alpha = select((lfloat)(0.0f), (lfloat)(1.0f), alpha >= 0.5f);
 #endif
     return alpha;
 }
 
+inline void init_search_hints(CameraState* state) {
+#ifdef DSM_HAS_SEARCH_HINTS
+    for (int i = 0; i < SOMBRA_LIGHT_SLOTS * 4; ++i) state->hints[i].texel = (lint)(-1);
+#endif
+}
+
 /* Transmittance 1 − α to the light from its deep shadow maps: the view that covers p (a point
  * light's cube face, found by projection), V'(depth) of the four nearest texels filtered
  * bilinearly (Knecht Eq. 3.7, 4.18–4.19). Points no view covers are lit. */
-inline lfloat dsm_shadow(const CameraState* state, __global const LightGpu* light, lfloat3 p, lmask lanes) {
+inline lfloat dsm_shadow(CameraState* state, uint light_index, lfloat3 p, lmask lanes) {
+    __global const LightGpu* light = &state->lights[light_index];
+#ifdef DSM_HAS_SEARCH_HINTS
+    DsmSearchHint* hints = &state->hints[4 * light_index];
+#endif
     lfloat alpha = (lfloat)(0.0f);
     lmask done = !lanes;
     for (uint i = 0; i < light->view_count; ++i) {
@@ -94,10 +116,10 @@ inline lfloat dsm_shadow(const CameraState* state, __global const LightGpu* ligh
         int last = (int)v->resolution - 1;
         lint x0 = clamp(LCONVERT_INT(u0), 0, last), x1 = clamp(LCONVERT_INT(u0) + 1, 0, last);
         lint y0 = clamp(LCONVERT_INT(w0), 0, last), y1 = clamp(LCONVERT_INT(w0) + 1, 0, last);
-        lfloat a00 = texel_attenuation(DSM_READ_ARGS_OF(state), v, x0, y0, depth);
-        lfloat a10 = texel_attenuation(DSM_READ_ARGS_OF(state), v, x1, y0, depth);
-        lfloat a01 = texel_attenuation(DSM_READ_ARGS_OF(state), v, x0, y1, depth);
-        lfloat a11 = texel_attenuation(DSM_READ_ARGS_OF(state), v, x1, y1, depth);
+        lfloat a00 = texel_attenuation(DSM_READ_ARGS_OF(state), v, x0, y0, depth DSM_HINT_ARG(&hints[0]));
+        lfloat a10 = texel_attenuation(DSM_READ_ARGS_OF(state), v, x1, y0, depth DSM_HINT_ARG(&hints[1]));
+        lfloat a01 = texel_attenuation(DSM_READ_ARGS_OF(state), v, x0, y1, depth DSM_HINT_ARG(&hints[2]));
+        lfloat a11 = texel_attenuation(DSM_READ_ARGS_OF(state), v, x1, y1, depth DSM_HINT_ARG(&hints[3]));
         alpha = select(alpha, mix(mix(a00, a10, fu), mix(a01, a11, fu), fw), covered);
         done |= covered;
     }
@@ -115,7 +137,7 @@ inline lmask shade_sample(VOLUME_DATA_PARAM, CameraState* state, const VolumeRay
     lfloat sigma_sum = (lfloat)(0.0f);
     lfloat3 color_sum = l3((lfloat)(0.0f), (lfloat)(0.0f), (lfloat)(0.0f));
     uint light_count = state->camera->light_count;
-    lfloat shadow[SOMBRA_MAX_LIGHTS]; /* transmittance to each light, found once per sample */
+    lfloat shadow[SOMBRA_LIGHT_SLOTS]; /* transmittance to each light, found once per sample */
     for (uint m = 0; m < light_count; ++m) shadow[m] = (lfloat)(1.0f);
     lmask shadows_known = (lmask)(0);
     for (uint i = 0; i < SOMBRA_VOLUME_SLOTS; ++i) {
@@ -139,7 +161,7 @@ inline lmask shade_sample(VOLUME_DATA_PARAM, CameraState* state, const VolumeRay
 #ifdef SOMBRA_SHADOW_RAYS
                 lfloat transmittance_to_light = shadow_ray(volume_data, state, &state->lights[m], p, needed);
 #else
-                lfloat transmittance_to_light = dsm_shadow(state, &state->lights[m], p, needed);
+                lfloat transmittance_to_light = dsm_shadow(state, m, p, needed);
 #endif
                 shadow[m] = select(shadow[m], transmittance_to_light, needed);
             }
@@ -194,6 +216,7 @@ __kernel void render_camera(VOLUME_DATA_PARAM, __global const uchar* occupancy, 
 #ifdef SOMBRA_SHADOW_DSM
     state.views = views;
     DSM_READ_STATE_INIT(state);
+    init_search_hints(&state);
 #endif
 #define SOMBRA_JITTER_LANE(c) sombra_pixel_jitter((uint)LC(xs, c), y, camera->jitter_seed)
     state.jitter = LFROM_LANES(SOMBRA_JITTER_LANE);
@@ -242,7 +265,8 @@ __kernel void shadow_probe(VOLUME_DATA_PARAM, __global const uchar* occupancy, _
 #ifdef SOMBRA_SHADOW_DSM
     state.views = views;
     DSM_READ_STATE_INIT(state);
-    transmittance[i] = dsm_shadow(&state, &lights[light_index], l3(points[i].x, points[i].y, points[i].z), 1);
+    init_search_hints(&state);
+    transmittance[i] = dsm_shadow(&state, light_index, l3(points[i].x, points[i].y, points[i].z), 1);
 #else
     transmittance[i] = shadow_ray(volume_data, &state, &lights[light_index], l3(points[i].x, points[i].y, points[i].z), 1);
 #endif

@@ -42,7 +42,9 @@ inline lfloat dsm_texel_opacity(DSM_READ_PARAMS, __global const DsmViewGpu* v, l
     lint count = gather_uint_as_int(texel_first, texel + 1) - begin;
 #define DSM_NODE_DEPTH(k) gather(nodes, 2 * (begin + (k)))
 #define DSM_NODE_OPACITY(k) gather(nodes, 2 * (begin + (k)) + 1)
-    DSM_BISECT_AND_INTERPOLATE(count, z, v->max_nodes);
+    lint lo;
+    DSM_BISECT(lo, count, z, v->max_nodes);
+    DSM_INTERPOLATE(lo, count, z);
 #undef DSM_NODE_DEPTH
 #undef DSM_NODE_OPACITY
 }

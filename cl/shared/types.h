@@ -25,6 +25,9 @@ typedef cl_uint sb_uint;
 #ifndef SOMBRA_VOLUME_SLOTS
 #define SOMBRA_VOLUME_SLOTS SOMBRA_MAX_VOLUMES
 #endif
+#ifndef SOMBRA_LIGHT_SLOTS
+#define SOMBRA_LIGHT_SLOTS SOMBRA_MAX_LIGHTS
+#endif
 
 enum {
     SOMBRA_LIGHT_DIRECTIONAL = 0,

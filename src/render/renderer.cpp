@@ -24,6 +24,7 @@ std::vector<std::string> camera_pass_defines(const Scene& scene, const RenderOpt
                                              int lanes) {
     std::vector<std::string> defines = shadows::volume_pass_defines(scene, use_images, options.empty_space_skipping);
     defines.push_back("SOMBRA_LANES=" + std::to_string(lanes));
+    defines.push_back("SOMBRA_LIGHT_SLOTS=" + std::to_string(std::max<std::size_t>(scene.lights.size(), 1)));
     if (options.gradient == GradientMethod::Sobel) defines.push_back("SOMBRA_SOBEL");
     if (!scene.lights.empty()) defines.push_back("SOMBRA_HAS_LIGHTS");
     if (!scene.lights.empty() && options.shadows == ShadowTechnique::Rays) defines.push_back("SOMBRA_SHADOW_RAYS");
