@@ -4,6 +4,7 @@
 // that measures different work is worthless). See bench/README.md.
 #include <CLI/CLI.hpp>
 #include "host/guarded_main.h"
+#include "bench_util.h"
 
 #include <algorithm>
 #include <chrono>
@@ -20,6 +21,11 @@
 #include "sombra/sombra.h"
 
 namespace {
+
+using sombra::bench::fixed;
+using sombra::bench::median;
+using sombra::bench::sci;
+using sombra::bench::write_file;
 
 using sombra::bench::NativeVariant;
 
@@ -40,12 +46,6 @@ struct Row {
     double max_abs_diff = 0, mean_abs_diff = 0;  // RGB vs the OpenCL image (0 for the OpenCL row)
     double msamples_per_s() const { return median_ms > 0 ? double(samples) / (median_ms * 1e3) : 0; }
 };
-
-double median(std::vector<double> v) {
-    std::sort(v.begin(), v.end());
-    std::size_t n = v.size();
-    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
 
 // Max and mean absolute difference over the RGB channels of two RGBA images.
 void compare_rgb(const std::vector<float>& a, const std::vector<float>& b, Row& row) {
@@ -99,18 +99,6 @@ Row bench_native(const sombra::bench::NativeScene& scene, NativeVariant variant,
     return row;
 }
 
-std::string fixed(double v, int digits) {
-    std::ostringstream s;
-    s << std::fixed << std::setprecision(digits) << v;
-    return s.str();
-}
-
-std::string sci(double v) {
-    std::ostringstream s;
-    s << std::scientific << std::setprecision(2) << v;
-    return s.str();
-}
-
 std::string markdown_table(const std::vector<Row>& rows, double native_simd_rate) {
     std::ostringstream s;
     s << "| path | median ms | Msamples/s | ratio to native SIMD |\n|---|---:|---:|---:|\n";
@@ -128,12 +116,6 @@ std::string csv_table(const std::vector<Row>& rows, double native_simd_rate) {
           << fixed(r.msamples_per_s() / native_simd_rate, 4) << ',' << r.samples << ',' << sci(r.max_abs_diff) << ','
           << sci(r.mean_abs_diff) << '\n';
     return s.str();
-}
-
-void write_file(const std::filesystem::path& path, const std::string& text) {
-    std::ofstream out(path);
-    out << text;
-    if (!out) throw sombra::Error(path.string() + ": cannot write");
 }
 
 int run(int argc, char** argv) {

@@ -5,6 +5,7 @@
 // Table 1 and Knecht 2011 Tables 5.1/5.3 and 5.8–5.10. See bench/README.md.
 #include <CLI/CLI.hpp>
 #include "host/guarded_main.h"
+#include "bench_util.h"
 #include <CL/opencl.hpp>
 
 #include <algorithm>
@@ -22,6 +23,11 @@
 #include "sombra/sombra.h"
 
 namespace {
+
+using sombra::bench::fixed;
+using sombra::bench::median;
+using sombra::bench::sci;
+using sombra::bench::write_file;
 
 // DSM storage backends benchmarked by default, one row set each (--storages overrides).
 const std::vector<std::string> kDsmStorages = {"atlas", "chunked"};
@@ -69,34 +75,10 @@ struct Row {
     double total_ms() const { return generation_ms + render_ms; }  // what a frame costs (DSM rebuilt per frame)
 };
 
-double median(std::vector<double> v) {
-    std::sort(v.begin(), v.end());
-    std::size_t n = v.size();
-    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
-
-std::string fixed(double v, int digits) {
-    std::ostringstream s;
-    s << std::fixed << std::setprecision(digits) << v;
-    return s.str();
-}
-
-std::string sci(double v) {
-    std::ostringstream s;
-    s << std::scientific << std::setprecision(2) << v;
-    return s.str();
-}
-
 std::string eps_text(float e) {
     std::ostringstream s;
     s << e;
     return s.str();
-}
-
-void write_file(const std::filesystem::path& path, const std::string& text) {
-    std::ofstream out(path);
-    out << text;
-    if (!out) throw sombra::Error(path.string() + ": cannot write");
 }
 
 // Uniform random points in the world boxes of the scene's volumes (a volume drawn uniformly, then

@@ -19,6 +19,26 @@ std::vector<std::string> volume_pass_defines(const Scene& scene, bool use_images
 
 namespace {
 
+// A DSM set about to be generated: its backend and its views on the device.
+DeviceDsm start_dsm(host::Runtime& runtime, const std::vector<DsmViewGpu>& views, const DsmBuildOptions& options) {
+    DeviceDsm dsm;
+    dsm.storage = memory::make_dsm_storage(options.storage);
+    dsm.stats.views = int(views.size());
+    dsm.stats.resolution = options.resolution;
+    dsm.views_buffer = host::make_buffer(runtime, CL_MEM_READ_ONLY, views.size() * sizeof(DsmViewGpu), views.data(),
+                                         "deep shadow map views");
+    return dsm;
+}
+
+// Generates into the backend; the backend sets max_nodes per view (it bounds the lookups' search),
+// so the views go to the device again.
+void finish_dsm(host::Runtime& runtime, DeviceDsm& dsm, memory::BuildContext& context) {
+    dsm.storage->build(context, dsm.stats);
+    runtime.queue().enqueueWriteBuffer(dsm.views_buffer, CL_TRUE, 0, context.views.size() * sizeof(DsmViewGpu),
+                                       context.views.data());
+    dsm.views = context.views;
+}
+
 // Runs a generation kernel over the texels of one view; returns its profiled time in ms.
 double run_over_texels(host::Runtime& runtime, cl::Kernel& kernel, int resolution) {
     cl::Event event;
@@ -89,13 +109,8 @@ DeviceDsm build_prefiltered(host::Runtime& runtime, const Scene& scene, const pa
     fine_options.prefilter = "none";
     DeviceDsm fine = build_deep_shadow_maps(runtime, scene, packed, device_scene, fine_views, fine_options);
 
-    DeviceDsm dsm;
-    dsm.storage = memory::make_dsm_storage(options.storage);
-    dsm.stats.views = int(views.size());
-    dsm.stats.resolution = options.resolution;
+    DeviceDsm dsm = start_dsm(runtime, views, options);
     for (auto& [stage, ms] : fine.stats.stage_ms) dsm.stats.stage_ms["dsm_fine_" + stage.substr(4)] = ms;
-    dsm.views_buffer = host::make_buffer(runtime, CL_MEM_READ_ONLY, views.size() * sizeof(DsmViewGpu), views.data(),
-                                         "deep shadow map views");
     std::vector<std::string> defines{"SOMBRA_LANES=1"};
     if (options.prefilter == "tent") defines.push_back("SOMBRA_PREFILTER_TENT");
     for (auto& d : dsm.storage->defines()) defines.push_back(d);
@@ -114,9 +129,7 @@ DeviceDsm build_prefiltered(host::Runtime& runtime, const Scene& scene, const pa
         bind(kernel, a);
         return run_over_texels(runtime, kernel, options.resolution);
     };
-    dsm.storage->build(context, dsm.stats);
-    runtime.queue().enqueueWriteBuffer(dsm.views_buffer, CL_TRUE, 0, views.size() * sizeof(DsmViewGpu), views.data());
-    dsm.views = views;
+    finish_dsm(runtime, dsm, context);
     return dsm;
 }
 
@@ -127,12 +140,7 @@ DeviceDsm build_deep_shadow_maps(host::Runtime& runtime, const Scene& scene, con
                                  const DsmBuildOptions& options) {
     if (!(options.epsilon >= 0.f) || !std::isfinite(options.epsilon)) throw Error("--eps: must be ≥ 0");
     if (options.prefilter != "none") return build_prefiltered(runtime, scene, packed, device_scene, views, options);
-    DeviceDsm dsm;
-    dsm.storage = memory::make_dsm_storage(options.storage);
-    dsm.stats.views = int(views.size());
-    dsm.stats.resolution = options.resolution;
-    dsm.views_buffer = host::make_buffer(runtime, CL_MEM_READ_ONLY, views.size() * sizeof(DsmViewGpu), views.data(),
-                                         "deep shadow map views");
+    DeviceDsm dsm = start_dsm(runtime, views, options);
 
     auto defines = volume_pass_defines(scene, device_scene.uses_images, true);
     defines.push_back("SOMBRA_LANES=1");
@@ -166,10 +174,7 @@ DeviceDsm build_deep_shadow_maps(host::Runtime& runtime, const Scene& scene, con
         bind(kernel, a);
         return run_over_texels(runtime, kernel, options.resolution);
     };
-    dsm.storage->build(context, dsm.stats);
-    // the backend set max_nodes per view (bounds the lookups' bisection)
-    runtime.queue().enqueueWriteBuffer(dsm.views_buffer, CL_TRUE, 0, views.size() * sizeof(DsmViewGpu), views.data());
-    dsm.views = views;
+    finish_dsm(runtime, dsm, context);
     return dsm;
 }
 
