@@ -305,11 +305,52 @@ TEST_CASE("deep shadow maps are rebuilt only when the light, the scene or the tr
     CHECK(moved.stats.reused_preparation);
     CHECK(moved.stats.stage_ms.count("dsm_build") == 0);
     CHECK(moved.stats.dsm_nodes == first.stats.dsm_nodes);
-    s.lights[0].position = {0.2f, 1.3f, 0.3f};  // the light moves
-    CHECK_FALSE(render(context, s, o).stats.reused_preparation);
+    s.lights[0].position = {0.2f, 1.3f, 0.3f};  // the light moves: its map only
+    RenderResult lit = render(context, s, o);
+    CHECK(lit.stats.reused_preparation);
+    CHECK(lit.stats.dsm_views_generated == 1);
     s.volumes[0].transfer_function.opacity_points.back().alpha = 0.5f;  // the transfer function changes
     CHECK_FALSE(render(context, s, o).stats.reused_preparation);
     CHECK(render(context, s, o).stats.reused_preparation);
+}
+
+TEST_CASE("a moved light regenerates its own maps only, and the image equals a fresh build's", "[dsm]") {
+    for (const char* storage : {"atlas", "chunked", "chunked-ondemand", "compact"}) {
+        for (const char* prefilter : {"none", "box"}) {
+            INFO("storage " << storage << ", prefilter " << prefilter);
+            Context context("cpu"), fresh_context("cpu");  // their own kept state
+            auto fresh_render = [&](const Scene& scene, const RenderOptions& options) {
+                fresh_context.release_prepared_scenes();
+                return render(fresh_context, scene, options);
+            };
+            Scene s = smoke_scene(LightType::Spot);
+            Light point = s.lights[0];
+            point.type = LightType::Point;
+            point.position = {-0.9f, 0.4f, 0.8f};
+            s.lights.push_back(point);
+            RenderOptions o = dsm_options(24, 0.02f);
+            o.dsm_storage = storage;
+            o.dsm_prefilter = prefilter;
+            o.width = o.height = 48;
+            CHECK(render(context, s, o).stats.dsm_views_generated == 7);
+            s.lights[1].intensity = 0.5f;  // shading only: no map to regenerate
+            RenderResult dimmed = render(context, s, o);
+            CHECK(dimmed.stats.dsm_views_generated == 0);
+            CHECK(test::compare(dimmed.image, fresh_render(s, o).image).max_abs == 0.0);
+            // moving the lights again and again: superseded nodes pile up in the pools until the
+            // set is built anew; every image equals the fresh build's
+            for (int move = 0; move < 4; ++move) {
+                int moved = move % 2;
+                s.lights[std::size_t(moved)].position[0] += 0.15f;
+                RenderResult updated = render(context, s, o);
+                CHECK(updated.stats.reused_preparation);
+                CHECK(updated.stats.dsm_views_generated >= (moved == 0 ? 1 : 6));
+                RenderResult fresh = fresh_render(s, o);
+                CHECK(updated.stats.dsm_nodes == fresh.stats.dsm_nodes);
+                CHECK(test::compare(updated.image, fresh.image).max_abs <= 1e-6);
+            }
+        }
+    }
 }
 
 TEST_CASE("pre-compressed visibility tables remove the error of coarse sampling on an isosurface TF", "[dsm][precompression]") {

@@ -30,6 +30,9 @@ public:
     Context& operator=(const Context&) = delete;
     const DeviceInfo& device() const;
     host::Runtime& runtime();
+    // Frees the device data kept between calls (uploaded volumes, deep shadow maps); the next
+    // render prepares everything anew. Compiled programs stay.
+    void release_prepared_scenes();
 
 private:
     std::unique_ptr<host::Runtime> runtime_;

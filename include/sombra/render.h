@@ -65,9 +65,11 @@ struct RenderStats {
     unsigned dsm_max_nodes_per_texel = 0;
     unsigned long long dsm_bytes_used = 0, dsm_bytes_wasted = 0;
     unsigned long long dsm_capped_texels = 0;  // texels that hit the atlas layer cap
+    int dsm_views_generated = 0;  // by this call: all views, those of the lights that moved, or none
     std::string dsm_storage;
-    // true when the scene's device data and deep shadow maps of the previous call on this
-    // Context were reused (only the camera, image size or shading options changed)
+    // true when the scene's device data of the previous call on this Context were reused (only
+    // the camera, image size, shading options or lights changed); the deep shadow maps of lights
+    // that did not move are reused too (dsm_views_generated counts those regenerated)
     bool reused_preparation = false;
     int width = 0, height = 0;
     std::string to_json() const;

@@ -178,5 +178,6 @@ Context::Context(const std::string& selector) : runtime_(std::make_unique<host::
 Context::~Context() = default;
 const DeviceInfo& Context::device() const { return runtime_->info(); }
 host::Runtime& Context::runtime() { return *runtime_; }
+void Context::release_prepared_scenes() { runtime_->release_kept_state(); }
 
 }  // namespace sombra

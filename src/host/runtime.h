@@ -33,6 +33,7 @@ public:
     // Device state a pass keeps between calls (the renderer's prepared scene and deep shadow
     // maps), so that what did not change is not rebuilt. One slot per name.
     std::shared_ptr<void>& kept_state(const std::string& name) { return kept_state_[name]; }
+    void release_kept_state() { kept_state_.clear(); }
 
 private:
     std::map<std::string, std::shared_ptr<void>> kept_state_;

@@ -18,18 +18,31 @@ std::unique_ptr<DsmStorage> make_dsm_storage(const std::string& name) {
     throw Error("--storage: unknown deep shadow map storage '" + name + "' (atlas, chunked, chunked-ondemand, compact)");
 }
 
-std::vector<cl_uint> count_nodes(BuildContext& context, DsmStats& stats) {
+std::vector<cl_uint> count_nodes(BuildContext& context, DsmStats& stats, const std::vector<cl_uint>& kept) {
     host::Runtime& rt = context.runtime;
     std::size_t texels = context.views.size() * context.texels_per_view;
+    std::vector<cl_uint> host_counts(texels, 0);
+    if (kept.size() == texels) host_counts = kept;
     cl::Buffer counts = host::make_buffer(rt, CL_MEM_READ_WRITE, texels * sizeof(cl_uint), nullptr, "deep shadow map node counts");
     auto count_defines = context.defines;
     count_defines.push_back("SOMBRA_DSM_COUNT_ONLY");
-    for (cl_uint v = 0; v < context.views.size(); ++v)
+    for (cl_uint v = 0; v < context.views.size(); ++v) {
+        if (!context.generates(v)) continue;
         stats.stage_ms["dsm_count"] +=
             context.run_view(count_defines, "dsm_count", v, [&](cl::Kernel& k, int arg) { k.setArg(arg, counts); });
-    std::vector<cl_uint> host_counts(texels);
-    rt.queue().enqueueReadBuffer(counts, CL_TRUE, 0, texels * sizeof(cl_uint), host_counts.data());
+        std::size_t first = v * context.texels_per_view;
+        rt.queue().enqueueReadBuffer(counts, CL_TRUE, first * sizeof(cl_uint), context.texels_per_view * sizeof(cl_uint),
+                                     host_counts.data() + first);
+    }
     return host_counts;
+}
+
+cl::Buffer grow_buffer(host::Runtime& runtime, const cl::Buffer& old, std::size_t kept_bytes, std::size_t new_bytes,
+                       const char* what) {
+    cl::Buffer grown = host::make_buffer(runtime, CL_MEM_READ_WRITE, std::max<std::size_t>(new_bytes, 4), nullptr, what);
+    kept_bytes = std::min(kept_bytes, new_bytes);
+    if (kept_bytes > 0) runtime.queue().enqueueCopyBuffer(old, grown, 0, 0, kept_bytes);
+    return grown;
 }
 
 void summarize_counts(const std::vector<cl_uint>& counts, std::vector<DsmViewGpu>& views, std::size_t texels_per_view,

@@ -2,7 +2,8 @@
 // are swappable on both sides"). Each backend has a kernel header of the same function names
 // (cl/storage_<name>.h) and this C++ side: it allocates for a set of DSM views, runs generation
 // into its layout, binds its buffers to lookup kernels, reports bytes used and wasted, and reads a
-// view back for export.
+// view back for export. A storage that was built once can regenerate some views and keep the
+// others (a moved light rebuilds its own views only: Knecht §3.2 "Deep Shadow Map Re-Generation").
 #pragma once
 #include <CL/opencl.hpp>
 
@@ -26,6 +27,7 @@ struct DsmStats {
     unsigned max_nodes_per_texel = 0;
     unsigned long long bytes_used = 0, bytes_wasted = 0;
     unsigned long long capped_texels = 0;    // texels that hit a layer cap (atlas)
+    int views_generated = 0;                 // by the last build (all views, or the changed lights')
     double precompression_max_error = 0;     // of the pre-compressed visibility tables, if used
 };
 
@@ -37,6 +39,10 @@ struct BuildContext {
     std::vector<std::string> defines;        // the volume pass defines (+ the backend's own)
     std::size_t texels_per_view = 0;
     std::string program = "dsm_build.cl";    // the generation program (dsm_prefilter.cl when filtering)
+    // Views to generate. Empty: all. Views left out keep the nodes of the storage's previous
+    // build, or stay empty (no nodes: fully lit) in a storage never built.
+    std::vector<bool> regenerate;
+    bool generates(std::size_t view) const { return regenerate.empty() || regenerate[view]; }
     // Builds `kernel` of `program_defines`, sets the common arguments for `view`, lets `bind` add
     // the backend's, runs it over the view's texels and returns the kernel time in ms.
     std::function<double(const std::vector<std::string>& program_defines, const char* kernel, cl_uint view,
@@ -49,7 +55,12 @@ public:
     virtual ~DsmStorage() = default;
     virtual std::string name() const = 0;
     virtual std::vector<std::string> defines() const = 0;  // selects cl/storage_<name>.h
+    // Generates context.generates() views; stats cover every view (nodes, bytes) and the work
+    // done by this call (stage times).
     virtual void build(BuildContext& context, DsmStats& stats) = 0;
+    // Share of the allocated node memory held by superseded nodes of regenerated views; the
+    // caller rebuilds everything anew when it grows too large.
+    virtual double garbage_fraction() const { return 0.0; }
     virtual int bind_for_reading(cl::Kernel& kernel, int arg) const = 0;  // DSM_READ_PARAMS, in order
     virtual DeepShadowMap read_back(host::Runtime& runtime, const DsmViewGpu& view, cl_uint view_number) const = 0;
 };
@@ -58,8 +69,13 @@ public:
 std::unique_ptr<DsmStorage> make_dsm_storage(const std::string& name);
 
 // Shared helpers of the backends.
-// Nodes of every texel of every view, from a counting march (dsm_count, SOMBRA_DSM_COUNT_ONLY).
-std::vector<cl_uint> count_nodes(BuildContext& context, DsmStats& stats);
+// Nodes per texel of every view, from a counting march (dsm_count, SOMBRA_DSM_COUNT_ONLY) over
+// the views generated; the others' counts come from `kept` (their previous counts, or none).
+std::vector<cl_uint> count_nodes(BuildContext& context, DsmStats& stats, const std::vector<cl_uint>& kept);
+// A buffer of `new_bytes` whose first `kept_bytes` are copied from `old` (pools that grow while
+// keeping the nodes of views not regenerated).
+cl::Buffer grow_buffer(host::Runtime& runtime, const cl::Buffer& old, std::size_t kept_bytes, std::size_t new_bytes,
+                       const char* what);
 void summarize_counts(const std::vector<cl_uint>& counts, std::vector<DsmViewGpu>& views, std::size_t texels_per_view,
                       DsmStats& stats);
 

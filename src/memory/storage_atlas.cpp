@@ -24,25 +24,48 @@ public:
     void build(BuildContext& context, DsmStats& stats) override {
         host::Runtime& rt = context.runtime;
         const DsmViewGpu& first = context.views.front();
-        std::size_t per_row = (first.resolution + 7) / 8;
-        tiles_ = context.views.size() * per_row * per_row;
+        std::size_t per_row = (first.resolution + 7) / 8, view_tiles = per_row * per_row;
+        std::size_t tiles = context.views.size() * view_tiles;
         std::size_t texels = context.views.size() * context.texels_per_view;
-        layout_ = host::make_buffer(rt, CL_MEM_READ_WRITE, tiles_ * kMaxBlocks * sizeof(cl_uint), nullptr, "atlas layout table");
-        counts_ = host::make_buffer(rt, CL_MEM_READ_WRITE, texels * sizeof(cl_uint), nullptr, "atlas texel counts");
-        allocator_ = host::make_buffer(rt, CL_MEM_READ_WRITE, 4 * sizeof(cl_uint), nullptr, "atlas allocator");
-        // First guess: one block per tile. A pool that runs out is grown to what was asked for,
-        // and generation runs again (at most once more: the second pool fits every request).
-        cl_uint pool = cl_uint(std::max<std::size_t>(tiles_, 1));
+        bool update = tiles_ == tiles && !context.regenerate.empty();
+        if (!update) {
+            tiles_ = tiles;
+            layout_ = host::make_buffer(rt, CL_MEM_READ_WRITE, tiles * kMaxBlocks * sizeof(cl_uint), nullptr, "atlas layout table");
+            counts_ = host::make_buffer(rt, CL_MEM_READ_WRITE, texels * sizeof(cl_uint), nullptr, "atlas texel counts");
+            allocator_ = host::make_buffer(rt, CL_MEM_READ_WRITE, 4 * sizeof(cl_uint), nullptr, "atlas allocator");
+            rt.queue().enqueueFillBuffer(layout_, cl_uint(0), 0, tiles * kMaxBlocks * sizeof(cl_uint));
+            rt.queue().enqueueFillBuffer(counts_, cl_uint(0), 0, texels * sizeof(cl_uint));
+            pool_blocks_ = 0;
+            capped_per_view_.assign(context.views.size(), 0);
+            layout_host_.assign(tiles * kMaxBlocks, 0);
+        }
+        // First guess: the kept blocks plus as many as the regenerated views held before (one per
+        // tile when new). A pool that runs out is grown to what was asked for, and the generated
+        // views run again (at most once more: the second pool fits every request).
+        const cl_uint blocks_before = pool_blocks_;
+        std::size_t guess = 0;
+        for (std::size_t v = 0; v < context.views.size(); ++v) {
+            if (!context.generates(v)) continue;
+            auto begin = layout_host_.begin() + std::ptrdiff_t(v * view_tiles * kMaxBlocks);
+            guess += std::max<std::size_t>(view_tiles, std::size_t(std::count_if(begin, begin + std::ptrdiff_t(view_tiles * kMaxBlocks),
+                                                                                 [](cl_uint b) { return b != 0; })));
+        }
+        cl_uint pool = cl_uint(std::max<std::size_t>(blocks_before + guess, 1));
         std::array<cl_uint, 4> counters{};
         for (int attempt = 0;; ++attempt) {
-            pool_blocks_ = pool;
             if (std::size_t(pool) * kBlockBytes > rt.device().getInfo<CL_DEVICE_MAX_MEM_ALLOC_SIZE>())
                 throw Error("--dsm-res/--eps: the atlas needs " + std::to_string((std::size_t(pool) * kBlockBytes) >> 20) +
                             " MiB, more than one allocation on " + rt.info().name + " may hold");
-            blocks_ = host::make_buffer(rt, CL_MEM_READ_WRITE, std::size_t(pool) * kBlockBytes, nullptr, "atlas blocks");
-            rt.queue().enqueueFillBuffer(layout_, cl_uint(0), 0, tiles_ * kMaxBlocks * sizeof(cl_uint));
-            rt.queue().enqueueFillBuffer(allocator_, cl_uint(0), 0, 4 * sizeof(cl_uint));
-            for (cl_uint v = 0; v < context.views.size(); ++v)
+            blocks_ = grow_buffer(rt, blocks_, std::size_t(blocks_before) * kBlockBytes, std::size_t(pool) * kBlockBytes, "atlas blocks");
+            for (std::size_t v = 0; v < context.views.size(); ++v)
+                if (context.generates(v))
+                    rt.queue().enqueueFillBuffer(layout_, cl_uint(0), v * view_tiles * kMaxBlocks * sizeof(cl_uint),
+                                                 view_tiles * kMaxBlocks * sizeof(cl_uint));
+            counters = {blocks_before, 0, 0, 0};
+            rt.queue().enqueueWriteBuffer(allocator_, CL_TRUE, 0, sizeof(counters), counters.data());
+            for (cl_uint v = 0; v < context.views.size(); ++v) {
+                if (!context.generates(v)) continue;
+                cl_uint capped_before = counters[2];
                 stats.stage_ms["dsm_build"] += context.run_view(context.defines, "dsm_build", v, [&](cl::Kernel& k, int arg) {
                     k.setArg(arg++, layout_);
                     k.setArg(arg++, counts_);
@@ -50,7 +73,9 @@ public:
                     k.setArg(arg++, allocator_);
                     k.setArg(arg, pool);
                 });
-            rt.queue().enqueueReadBuffer(allocator_, CL_TRUE, 0, sizeof(counters), counters.data());
+                rt.queue().enqueueReadBuffer(allocator_, CL_TRUE, 0, sizeof(counters), counters.data());
+                capped_per_view_[v] = counters[2] - capped_before;
+            }
             if (counters[1] == 0) break;
             if (attempt > 0) throw Error("atlas storage: the pool ran out twice (internal error)");
             pool = counters[0];
@@ -58,27 +83,24 @@ public:
         // Shrink the pool to the blocks handed out (they are numbered from 0): memory follows the
         // node count, not the first guess.
         std::size_t used_blocks = std::max<std::size_t>(std::min<std::size_t>(counters[0], pool), 1);
-        if (used_blocks < pool) {
-            cl::Buffer shrunk = host::make_buffer(rt, CL_MEM_READ_WRITE, used_blocks * kBlockBytes, nullptr, "atlas blocks");
-            cl::Event copy;
-            rt.queue().enqueueCopyBuffer(blocks_, shrunk, 0, 0, used_blocks * kBlockBytes, nullptr, &copy);
-            copy.wait();
-            stats.stage_ms["dsm_shrink"] = host::Runtime::event_ms(copy);
-            blocks_ = shrunk;
-            pool_blocks_ = cl_uint(used_blocks);
-        }
+        if (used_blocks < pool) blocks_ = grow_buffer(rt, blocks_, used_blocks * kBlockBytes, used_blocks * kBlockBytes, "atlas blocks");
+        pool_blocks_ = cl_uint(used_blocks);
         std::vector<cl_uint> host_counts(texels);
         rt.queue().enqueueReadBuffer(counts_, CL_TRUE, 0, texels * sizeof(cl_uint), host_counts.data());
         summarize_counts(host_counts, context.views, context.texels_per_view, stats);
-        layout_host_.resize(tiles_ * kMaxBlocks);
         rt.queue().enqueueReadBuffer(layout_, CL_TRUE, 0, layout_host_.size() * sizeof(cl_uint), layout_host_.data());
         counts_host_ = host_counts;
-        stats.capped_texels = counters[2];
+        std::size_t live_blocks = std::size_t(std::count_if(layout_host_.begin(), layout_host_.end(), [](cl_uint b) { return b != 0; }));
+        garbage_fraction_ = double(used_blocks - std::min(live_blocks, used_blocks)) / double(used_blocks);
+        stats.capped_texels = 0;
+        for (auto c : capped_per_view_) stats.capped_texels += c;
         stats.bytes_used = used_blocks * kBlockBytes + layout_host_.size() * sizeof(cl_uint) + texels * sizeof(cl_uint);
-        // empty layers of allocated blocks (tiles whose texels differ in node count) and blocks
-        // lost in allocation races
+        // empty layers of allocated blocks (tiles whose texels differ in node count), blocks lost
+        // in allocation races, blocks of the superseded nodes of regenerated views
         stats.bytes_wasted = used_blocks * kBlockBytes - std::min<std::size_t>(stats.nodes * 2 * sizeof(float), used_blocks * kBlockBytes);
     }
+
+    double garbage_fraction() const override { return garbage_fraction_; }
 
     int bind_for_reading(cl::Kernel& kernel, int arg) const override {
         kernel.setArg(arg++, layout_);
@@ -114,6 +136,8 @@ private:
     cl_uint pool_blocks_ = 0;
     cl::Buffer layout_, counts_, blocks_, allocator_;
     std::vector<cl_uint> layout_host_, counts_host_;
+    std::vector<unsigned long long> capped_per_view_;
+    double garbage_fraction_ = 0;
 };
 
 }  // namespace

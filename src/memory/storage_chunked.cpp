@@ -24,20 +24,23 @@ public:
         return d;
     }
 
-    // Counted allocation: nodes per texel (dsm_count), summed per tile, prefix sum → each tile's
-    // first slot; returns the number of slots.
-    std::size_t count_tiles(BuildContext& context, DsmStats& stats, std::vector<cl_uint>& tile_first) {
-        std::vector<cl_uint> host_counts = count_nodes(context, stats);
+    // Counted allocation: nodes per texel (dsm_count), summed per tile, prefix sum → each
+    // generated tile's first slot, after the slots already taken (kept views stay where they
+    // are); returns the slots in use.
+    std::size_t count_tiles(BuildContext& context, DsmStats& stats, std::vector<cl_uint>& host_counts,
+                            std::vector<cl_uint>& tile_first, bool update) {
+        host_counts = count_nodes(context, stats, update ? counts_host_ : std::vector<cl_uint>{});
         auto start = std::chrono::steady_clock::now();
         cl_uint resolution = context.views.front().resolution, per_row = (resolution + 7) / 8;
         std::vector<unsigned long long> per_tile(tile_first.size(), 0);
         for (std::size_t v = 0; v < context.views.size(); ++v)
-            for (cl_uint y = 0; y < resolution; ++y)
+            for (cl_uint y = 0; context.generates(v) && y < resolution; ++y)
                 for (cl_uint x = 0; x < resolution; ++x)
                     per_tile[v * per_row * per_row + (y / 8) * per_row + x / 8] +=
                         host_counts[v * context.texels_per_view + std::size_t(y) * resolution + x];
-        unsigned long long total = 0;
+        unsigned long long total = update ? slots_ - 1 : 0;  // the spare slot moves to the end
         for (std::size_t t = 0; t < per_tile.size(); ++t) {
+            if (!context.generates(t / (per_row * per_row))) continue;
             tile_first[t] = cl_uint(total);
             total += per_tile[t];
             if (total > 0x7fffffffull) throw Error("--dsm-res/--eps: more than 2^31 deep shadow map nodes");
@@ -49,43 +52,68 @@ public:
     void build(BuildContext& context, DsmStats& stats) override {
         host::Runtime& rt = context.runtime;
         const DsmViewGpu& first = context.views.front();
-        std::size_t per_row = (first.resolution + 7) / 8;
-        std::size_t tiles = context.views.size() * per_row * per_row;
+        std::size_t per_row = (first.resolution + 7) / 8, view_tiles = per_row * per_row;
+        std::size_t tiles = context.views.size() * view_tiles;
         std::size_t texels = context.views.size() * context.texels_per_view;
-        cl::Buffer fill = host::make_buffer(rt, CL_MEM_READ_WRITE, tiles * sizeof(cl_uint), nullptr, "chunk fill counters");
-        cl::Buffer tile_chunks = host::make_buffer(rt, CL_MEM_READ_WRITE, tiles * kChunksPerTile * sizeof(cl_uint), nullptr,
-                                                   "tile chunk tables");
-        head_ = host::make_buffer(rt, CL_MEM_READ_WRITE, texels * sizeof(cl_uint), nullptr, "texel list heads");
-        cl::Buffer counts = host::make_buffer(rt, CL_MEM_READ_WRITE, texels * sizeof(cl_uint), nullptr, "texel node counts");
-        cl::Buffer allocator = host::make_buffer(rt, CL_MEM_READ_WRITE, 3 * sizeof(cl_uint), nullptr, "chunk allocator");
-        cl::Buffer nodes, next;
-        cl_uint pool = cl_uint(std::max<std::size_t>(tiles, 1));
-        std::vector<cl_uint> tile_first(tiles, 0);
-        if (counted_) {  // one exact run per tile: pool = nodes (+1 so that no buffer is empty)
-            std::size_t total = count_tiles(context, stats, tile_first);
-            slots_ = total + 1;
-            rt.queue().enqueueWriteBuffer(tile_chunks, CL_TRUE, 0, tiles * sizeof(cl_uint), tile_first.data());
+        std::size_t table_entries = tiles * (counted_ ? 1 : kChunksPerTile);
+        bool update = tiles_ == tiles && !context.regenerate.empty();
+        if (!update) {
+            tiles_ = tiles;
+            fill_ = host::make_buffer(rt, CL_MEM_READ_WRITE, tiles * sizeof(cl_uint), nullptr, "chunk fill counters");
+            tile_chunks_ = host::make_buffer(rt, CL_MEM_READ_WRITE, table_entries * sizeof(cl_uint), nullptr, "tile chunk tables");
+            head_ = host::make_buffer(rt, CL_MEM_READ_WRITE, texels * sizeof(cl_uint), nullptr, "texel list heads");
+            counts_ = host::make_buffer(rt, CL_MEM_READ_WRITE, texels * sizeof(cl_uint), nullptr, "texel node counts");
+            allocator_ = host::make_buffer(rt, CL_MEM_READ_WRITE, 3 * sizeof(cl_uint), nullptr, "chunk allocator");
+            rt.queue().enqueueFillBuffer(tile_chunks_, cl_uint(0), 0, table_entries * sizeof(cl_uint));
+            rt.queue().enqueueFillBuffer(allocator_, cl_uint(0), 0, 3 * sizeof(cl_uint));
+            rt.queue().enqueueFillBuffer(counts_, cl_uint(0), 0, texels * sizeof(cl_uint));
+            rt.queue().enqueueFillBuffer(head_, cl_uint(0xffffffffu), 0, texels * sizeof(cl_uint));
+            slots_ = 1, pool_ = 0;
         }
+        // the generated views' tiles start empty
+        auto reset_generated_tiles = [&] {
+            for (std::size_t v = 0; v < context.views.size(); ++v) {
+                if (!context.generates(v)) continue;
+                std::size_t entries = view_tiles * (counted_ ? 1 : kChunksPerTile);
+                rt.queue().enqueueFillBuffer(fill_, cl_uint(0), v * view_tiles * sizeof(cl_uint), view_tiles * sizeof(cl_uint));
+                if (!counted_)
+                    rt.queue().enqueueFillBuffer(tile_chunks_, cl_uint(0), v * entries * sizeof(cl_uint), entries * sizeof(cl_uint));
+            }
+        };
+        std::size_t kept_slots = update ? slots_ : 0;  // slots holding the kept views' nodes
         std::array<cl_uint, 3> counters{};
+        rt.queue().enqueueReadBuffer(allocator_, CL_TRUE, 0, sizeof(counters), counters.data());
+        const cl_uint chunks_before = counters[0];
+        cl_uint pool = cl_uint(std::max<std::size_t>({std::size_t(pool_), tiles, 1}));
+        if (counted_) {  // one exact run per tile: pool = nodes (+1 so that no buffer is empty)
+            std::vector<cl_uint> host_counts, tile_first(tiles, 0);
+            slots_ = count_tiles(context, stats, host_counts, tile_first, update) + 1;
+            for (std::size_t v = 0; v < context.views.size(); ++v)
+                if (context.generates(v))
+                    rt.queue().enqueueWriteBuffer(tile_chunks_, CL_TRUE, v * view_tiles * sizeof(cl_uint), view_tiles * sizeof(cl_uint),
+                                                  tile_first.data() + v * view_tiles);
+        }
         for (int attempt = 0;; ++attempt) {
             std::size_t slots = counted_ ? slots_ : std::size_t(pool) * kChunkLength;
-            nodes = host::make_buffer(rt, CL_MEM_READ_WRITE, slots * 2 * sizeof(float), nullptr, "chunk nodes");
-            next = host::make_buffer(rt, CL_MEM_READ_WRITE, slots * sizeof(cl_uint), nullptr, "chunk links");
-            rt.queue().enqueueFillBuffer(fill, cl_uint(0), 0, tiles * sizeof(cl_uint));
-            if (!counted_) rt.queue().enqueueFillBuffer(tile_chunks, cl_uint(0), 0, tiles * kChunksPerTile * sizeof(cl_uint));
-            rt.queue().enqueueFillBuffer(allocator, cl_uint(0), 0, 3 * sizeof(cl_uint));
-            for (cl_uint v = 0; v < context.views.size(); ++v)
+            nodes_ = grow_buffer(rt, nodes_, kept_slots * 2 * sizeof(float), slots * 2 * sizeof(float), "chunk nodes");
+            next_ = grow_buffer(rt, next_, kept_slots * sizeof(cl_uint), slots * sizeof(cl_uint), "chunk links");
+            reset_generated_tiles();
+            counters = {chunks_before, 0, 0};
+            rt.queue().enqueueWriteBuffer(allocator_, CL_TRUE, 0, sizeof(counters), counters.data());
+            for (cl_uint v = 0; v < context.views.size(); ++v) {
+                if (!context.generates(v)) continue;
                 stats.stage_ms["dsm_build"] += context.run_view(context.defines, "dsm_build", v, [&](cl::Kernel& k, int arg) {
-                    k.setArg(arg++, fill);
-                    k.setArg(arg++, tile_chunks);
-                    k.setArg(arg++, nodes);
-                    k.setArg(arg++, next);
+                    k.setArg(arg++, fill_);
+                    k.setArg(arg++, tile_chunks_);
+                    k.setArg(arg++, nodes_);
+                    k.setArg(arg++, next_);
                     k.setArg(arg++, head_);
-                    k.setArg(arg++, counts);
-                    k.setArg(arg++, allocator);
+                    k.setArg(arg++, counts_);
+                    k.setArg(arg++, allocator_);
                     k.setArg(arg, pool);
                 });
-            rt.queue().enqueueReadBuffer(allocator, CL_TRUE, 0, sizeof(counters), counters.data());
+            }
+            rt.queue().enqueueReadBuffer(allocator_, CL_TRUE, 0, sizeof(counters), counters.data());
             if (counters[1] == 0) break;
             if (counters[0] <= pool) throw Error("--dsm-res: a tile holds more than " +
                                                  std::to_string(kChunkLength * kChunksPerTile) +
@@ -93,32 +121,47 @@ public:
             if (attempt > 0) throw Error("chunked storage: the pool ran out twice (internal error)");
             pool = counters[0];
         }
-        if (!counted_) slots_ = std::size_t(pool) * kChunkLength;
+        if (!counted_) {
+            pool_ = pool;
+            slots_ = std::size_t(pool) * kChunkLength;
+        }
         // rearranged for reading: one float4 per slot
-        std::size_t slots = slots_;
-        texture_ = host::make_buffer(rt, CL_MEM_READ_WRITE, slots * 4 * sizeof(float), nullptr, "chunk texture");
+        texture_ = host::make_buffer(rt, CL_MEM_READ_WRITE, slots_ * 4 * sizeof(float), nullptr, "chunk texture");
         cl::Kernel rearrange(rt.program(context.program, context.defines), "dsm_rearrange");
-        rearrange.setArg(0, nodes);
-        rearrange.setArg(1, next);
+        rearrange.setArg(0, nodes_);
+        rearrange.setArg(1, next_);
         rearrange.setArg(2, texture_);
         cl::Event event;
-        rt.queue().enqueueNDRangeKernel(rearrange, cl::NullRange, cl::NDRange(slots), cl::NullRange, nullptr, &event);
+        rt.queue().enqueueNDRangeKernel(rearrange, cl::NullRange, cl::NDRange(slots_), cl::NullRange, nullptr, &event);
         event.wait();
         stats.stage_ms["dsm_rearrange"] = host::Runtime::event_ms(event);
 
-        std::vector<cl_uint> host_counts(texels);
-        rt.queue().enqueueReadBuffer(counts, CL_TRUE, 0, texels * sizeof(cl_uint), host_counts.data());
-        summarize_counts(host_counts, context.views, context.texels_per_view, stats);
+        counts_host_.resize(texels);
+        rt.queue().enqueueReadBuffer(counts_, CL_TRUE, 0, texels * sizeof(cl_uint), counts_host_.data());
+        summarize_counts(counts_host_, context.views, context.texels_per_view, stats);
         heads_host_.resize(texels);
         rt.queue().enqueueReadBuffer(head_, CL_TRUE, 0, texels * sizeof(cl_uint), heads_host_.data());
-        counts_host_ = host_counts;
+        // garbage: slots taken but no longer reachable (superseded nodes of regenerated views,
+        // chunks lost in races) against the slots taken — the counted runs of every tile, or the
+        // chunks handed out and those the tile tables point to
+        std::size_t taken = slots_, live = stats.nodes + 1;
+        if (!counted_) {
+            std::vector<cl_uint> table(table_entries);
+            rt.queue().enqueueReadBuffer(tile_chunks_, CL_TRUE, 0, table_entries * sizeof(cl_uint), table.data());
+            taken = std::size_t(std::min(counters[0], pool)) * kChunkLength;
+            live = std::size_t(std::count_if(table.begin(), table.end(), [](cl_uint c) { return c != 0; })) * kChunkLength;
+        }
+        garbage_fraction_ = taken > 0 ? double(taken - std::min(live, taken)) / double(taken) : 0.0;
         std::size_t node_bytes = 4 * sizeof(float);  // per slot of the chunk texture
         std::size_t tables = texels * 2 * sizeof(cl_uint) + tiles * ((counted_ ? 1 : kChunksPerTile) + 1) * sizeof(cl_uint);
         // wasted: unfilled slots of allocated chunks (Knecht Table 5.11), chunks lost in races,
-        // the pool's unused tail; counted allocation wastes only the one spare slot
+        // the pool's unused tail, superseded nodes of regenerated views; counted allocation of a
+        // fresh build wastes only the one spare slot
         stats.bytes_used = slots_ * node_bytes + tables;
         stats.bytes_wasted = (slots_ - stats.nodes) * node_bytes;
     }
+
+    double garbage_fraction() const override { return garbage_fraction_; }
 
     int bind_for_reading(cl::Kernel& kernel, int arg) const override {
         kernel.setArg(arg++, head_);
@@ -147,8 +190,10 @@ public:
 
 private:
     bool counted_;
-    std::size_t slots_ = 0;
-    cl::Buffer head_, texture_;
+    std::size_t tiles_ = 0, slots_ = 0;  // slots: of the node arrays (counted: + 1 spare)
+    cl_uint pool_ = 0;                   // chunks of the pool (on demand)
+    double garbage_fraction_ = 0;
+    cl::Buffer fill_, tile_chunks_, nodes_, next_, head_, counts_, allocator_, texture_;
     std::vector<cl_uint> heads_host_, counts_host_;
 };
 

@@ -15,29 +15,43 @@ public:
     void build(BuildContext& context, DsmStats& stats) override {
         host::Runtime& rt = context.runtime;
         std::size_t texels = context.views.size() * context.texels_per_view;
-        std::vector<cl_uint> host_counts = count_nodes(context, stats);
+        bool update = counts_.size() == texels && !context.regenerate.empty();
+        std::vector<cl_uint> host_counts = count_nodes(context, stats, update ? counts_ : std::vector<cl_uint>{});
 
         auto start = std::chrono::steady_clock::now();
-        texel_first_.assign(texels + 1, 0);
+        std::vector<cl_uint> texel_first(texels + 1, 0);
         for (std::size_t i = 0; i < texels; ++i) {
-            unsigned long long next = (unsigned long long)texel_first_[i] + host_counts[i];
+            unsigned long long next = (unsigned long long)texel_first[i] + host_counts[i];
             if (next > 0x7fffffffull) throw Error("--dsm-res/--eps: more than 2^31 deep shadow map nodes");
-            texel_first_[i + 1] = cl_uint(next);
+            texel_first[i + 1] = cl_uint(next);
         }
         stats.stage_ms["dsm_prefix_sum"] =
             std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
         summarize_counts(host_counts, context.views, context.texels_per_view, stats);
 
         // one spare node: lookups of empty texels at the end read in bounds
-        std::size_t node_count = std::size_t(texel_first_.back()) + 1;
+        std::size_t node_count = std::size_t(texel_first.back()) + 1;
+        cl::Buffer nodes = host::make_buffer(rt, CL_MEM_READ_WRITE, node_count * 2 * sizeof(float), nullptr, "deep shadow map nodes");
+        for (std::size_t v = 0; update && v < context.views.size(); ++v) {
+            // a kept view's nodes are one run: move it to its new place
+            std::size_t first = v * context.texels_per_view, last = first + context.texels_per_view;
+            std::size_t run = std::size_t(texel_first_[last] - texel_first_[first]) * 2 * sizeof(float);
+            if (context.generates(v) || run == 0) continue;
+            rt.queue().enqueueCopyBuffer(nodes_, nodes, std::size_t(texel_first_[first]) * 2 * sizeof(float),
+                                         std::size_t(texel_first[first]) * 2 * sizeof(float), run);
+        }
+        texel_first_ = std::move(texel_first);
+        counts_ = std::move(host_counts);
+        nodes_ = nodes;
         texel_first_buffer_ = host::make_buffer(rt, CL_MEM_READ_ONLY, texel_first_.size() * sizeof(cl_uint), texel_first_.data(),
                                                 "deep shadow map offsets");
-        nodes_ = host::make_buffer(rt, CL_MEM_READ_WRITE, node_count * 2 * sizeof(float), nullptr, "deep shadow map nodes");
-        for (cl_uint v = 0; v < context.views.size(); ++v)
+        for (cl_uint v = 0; v < context.views.size(); ++v) {
+            if (!context.generates(v)) continue;
             stats.stage_ms["dsm_build"] += context.run_view(context.defines, "dsm_build", v, [&](cl::Kernel& k, int arg) {
                 k.setArg(arg++, texel_first_buffer_);
                 k.setArg(arg, nodes_);
             });
+        }
         stats.bytes_used = stats.nodes * 2 * sizeof(float) + texel_first_.size() * sizeof(cl_uint);
         stats.bytes_wasted = 2 * sizeof(float);  // the spare node
     }
@@ -63,7 +77,7 @@ public:
     }
 
 private:
-    std::vector<cl_uint> texel_first_;
+    std::vector<cl_uint> texel_first_, counts_;
     cl::Buffer texel_first_buffer_, nodes_;
 };
 

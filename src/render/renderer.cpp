@@ -46,10 +46,11 @@ struct PreparedScene {
     bool use_images = false, use_dsm = false;
 };
 
-// Everything the prepared scene depends on: volumes (identity, size, a sample of their voxels,
-// placement, transfer function, step, material), lights, and the options that shape the device
-// data and the deep shadow maps — not the camera, the image size or the shading options.
-std::string preparation_key(const Scene& scene, const RenderOptions& o, bool use_images) {
+// Everything the prepared scene depends on except the lights: volumes (identity, size, a sample
+// of their voxels, placement, transfer function, step, material), the number of lights and of
+// their views, and the options that shape the device data and the deep shadow maps — not the
+// camera, the image size or the shading options.
+std::string volumes_key(const Scene& scene, const RenderOptions& o, bool use_images) {
     std::ostringstream key;
     key.precision(9);
     for (const VolumeInstance& vi : scene.volumes) {
@@ -66,23 +67,79 @@ std::string preparation_key(const Scene& scene, const RenderOptions& o, bool use
         key << ' ' << vi.step_voxels << ' ' << vi.opacity_unit << ' ' << vi.material.ambient << ' ' << vi.material.diffuse
             << ' ' << vi.material.specular << ' ' << vi.material.shininess;
     }
-    for (const Light& l : scene.lights) {
-        key << " L" << int(l.type) << ' ' << l.intensity << ' ' << l.cone_angle_deg << ' ' << l.cone_softness << ' '
-            << l.att_constant << ' ' << l.att_linear << ' ' << l.att_quadratic;
-        for (float f : l.position) key << ' ' << f;
-        for (float f : l.direction) key << ' ' << f;
-        for (float f : l.color) key << ' ' << f;
-    }
+    key << " L";
+    for (const Light& l : scene.lights) key << ' ' << (l.type == LightType::Point ? 6 : 1);  // views per light
     bool maps = o.shadows == ShadowTechnique::Dsm || o.shadows == ShadowTechnique::ShadowMap;  // one preparation
     key << " O" << (maps ? 99 : int(o.shadows)) << ' ' << o.dsm_resolution << ' ' << o.dsm_epsilon << ' ' << o.dsm_storage << ' '
         << o.dsm_precompression << ' ' << o.dsm_prefilter << ' ' << use_images;
     return key.str();
 }
 
+// What a light's deep shadow maps depend on besides the volumes: where it is and how it shines
+// (not its colour, intensity or attenuation, which only shading reads).
+std::string light_view_key(const Light& l) {
+    std::ostringstream key;
+    key.precision(9);
+    key << int(l.type) << ' ' << l.cone_angle_deg;
+    for (float f : l.position) key << ' ' << f;
+    for (float f : l.direction) key << ' ' << f;
+    return key.str();
+}
+
+void copy_dsm_stats(const memory::DsmStats& d, const std::string& storage, RenderStats& stats) {
+    stats.dsm_views = d.views;
+    stats.dsm_views_generated = d.views_generated;
+    stats.dsm_storage = storage;
+    stats.dsm_nodes = d.nodes;
+    stats.dsm_mean_nodes_per_texel = d.mean_nodes_per_texel;
+    stats.dsm_max_nodes_per_texel = d.max_nodes_per_texel;
+    stats.dsm_bytes_used = d.bytes_used;
+    stats.dsm_bytes_wasted = d.bytes_wasted;
+    stats.dsm_capped_texels = d.capped_texels;
+}
+
+shadows::DsmBuildOptions dsm_build_options(const RenderOptions& o) {
+    return {o.dsm_resolution, o.dsm_epsilon, o.dsm_storage, o.dsm_precompression, o.dsm_prefilter};
+}
+
 PreparedScene prepare_anew(host::Runtime& runtime, const Scene& scene, const RenderOptions& options, RenderStats& stats);
 
+// Regenerates, in `prepared`, the deep shadow maps of the lights marked in `changed` and uploads
+// every light's shading parameters; the others' maps are kept (Knecht §3.2 "Deep Shadow Map
+// Re-Generation": a DSM is rebuilt only when its light or the scene changed).
+// Returns the number of views generated.
+int update_lights(host::Runtime& runtime, const Scene& scene, const RenderOptions& options, const std::vector<bool>& changed,
+                   PreparedScene& prepared, RenderStats& stats) {
+    auto start = clock_type::now();
+    prepared.packed.lights = packing::pack_lights(scene);
+    std::vector<DsmViewGpu> views;
+    if (prepared.use_dsm) views = shadows::make_dsm_views(scene, prepared.packed, options.dsm_resolution);
+    runtime.queue().enqueueWriteBuffer(prepared.device.lights, CL_TRUE, 0, prepared.packed.lights.size() * sizeof(LightGpu),
+                                       prepared.packed.lights.data());
+    stats.stage_ms["host_prepare"] = ms_since(start);
+    if (!prepared.use_dsm) return 0;
+    std::vector<bool> regenerate(views.size(), false);
+    bool any = false;
+    for (std::size_t i = 0; i < scene.lights.size(); ++i) {
+        const LightGpu& l = prepared.packed.lights[i];
+        for (cl_uint v = l.view_first; v < l.view_first + l.view_count; ++v) regenerate[v] = changed[i];
+        any = any || changed[i];
+    }
+    if (!any) return 0;
+    // superseded nodes stay in the pools of the on-demand backends until the set is built anew
+    if (prepared.dsm.storage->garbage_fraction() > 0.5)
+        prepared.dsm = shadows::build_deep_shadow_maps(runtime, scene, prepared.packed, prepared.device, views,
+                                                       dsm_build_options(options));
+    else
+        shadows::regenerate_deep_shadow_maps(runtime, scene, prepared.packed, prepared.device, views, dsm_build_options(options),
+                                             prepared.dsm, regenerate);
+    for (auto& [stage, ms] : prepared.dsm.stats.stage_ms) stats.stage_ms[stage] = ms;
+    return prepared.dsm.stats.views_generated;
+}
+
 // The prepared scene of the last call when nothing it depends on changed (a moved camera
-// rebuilds nothing: Knecht §3.2 "Deep Shadow Map Re-Generation"), else a new one.
+// rebuilds nothing: Knecht §3.2 "Deep Shadow Map Re-Generation"), with the maps of moved lights
+// regenerated, else a new one.
 std::shared_ptr<PreparedScene> prepare(host::Runtime& runtime, const Scene& scene, const RenderOptions& options,
                                        RenderStats& stats) {
     validate_scene(scene, scene.source);
@@ -90,29 +147,31 @@ std::shared_ptr<PreparedScene> prepare(host::Runtime& runtime, const Scene& scen
                       (options.storage == VolumeStorage::Auto && runtime.info().is_gpu);
     struct Kept {
         std::string key;
+        std::vector<std::string> light_keys;
         std::shared_ptr<PreparedScene> prepared;
-        RenderStats stats;
     };
-    std::string key = preparation_key(scene, options, use_images);
+    std::string key = volumes_key(scene, options, use_images);
+    std::vector<std::string> light_keys;
+    for (const Light& l : scene.lights) light_keys.push_back(light_view_key(l));
     auto& slot = runtime.kept_state("renderer.prepared_scene");
     auto kept = std::static_pointer_cast<Kept>(slot);
     if (kept && kept->key == key) {
+        std::vector<bool> changed(light_keys.size());
+        for (std::size_t i = 0; i < light_keys.size(); ++i) changed[i] = light_keys[i] != kept->light_keys[i];
         stats.reused_preparation = true;
-        stats.dsm_views = kept->stats.dsm_views;
-        stats.dsm_nodes = kept->stats.dsm_nodes;
-        stats.dsm_mean_nodes_per_texel = kept->stats.dsm_mean_nodes_per_texel;
-        stats.dsm_max_nodes_per_texel = kept->stats.dsm_max_nodes_per_texel;
-        stats.dsm_bytes_used = kept->stats.dsm_bytes_used;
-        stats.dsm_bytes_wasted = kept->stats.dsm_bytes_wasted;
-        stats.dsm_capped_texels = kept->stats.dsm_capped_texels;
-        stats.dsm_storage = kept->stats.dsm_storage;
+        int generated = update_lights(runtime, scene, options, changed, *kept->prepared, stats);
+        kept->light_keys = light_keys;
+        if (kept->prepared->use_dsm) {
+            copy_dsm_stats(kept->prepared->dsm.stats, options.dsm_storage, stats);
+            stats.dsm_views_generated = generated;
+        }
         return kept->prepared;
     }
     slot.reset();  // free the old device data before allocating the new
     auto fresh = std::make_shared<Kept>();
     fresh->key = key;
+    fresh->light_keys = light_keys;
     fresh->prepared = std::make_shared<PreparedScene>(prepare_anew(runtime, scene, options, stats));
-    fresh->stats = stats;
     slot = fresh;
     return fresh->prepared;
 }
@@ -132,20 +191,10 @@ PreparedScene prepare_anew(host::Runtime& runtime, const Scene& scene, const Ren
     prepared.device = packing::upload_scene(runtime, scene, prepared.packed, prepared.use_images);
     stats.stage_ms["upload"] = prepared.device.upload_ms;
     if (prepared.use_dsm) {
-        prepared.dsm = shadows::build_deep_shadow_maps(
-            runtime, scene, prepared.packed, prepared.device, views,
-            {options.dsm_resolution, options.dsm_epsilon, options.dsm_storage, options.dsm_precompression,
-             options.dsm_prefilter});
-        const memory::DsmStats& d = prepared.dsm.stats;
-        for (auto& [stage, ms] : d.stage_ms) stats.stage_ms[stage] = ms;
-        stats.dsm_views = d.views;
-        stats.dsm_storage = options.dsm_storage;
-        stats.dsm_nodes = d.nodes;
-        stats.dsm_mean_nodes_per_texel = d.mean_nodes_per_texel;
-        stats.dsm_max_nodes_per_texel = d.max_nodes_per_texel;
-        stats.dsm_bytes_used = d.bytes_used;
-        stats.dsm_bytes_wasted = d.bytes_wasted;
-        stats.dsm_capped_texels = d.capped_texels;
+        prepared.dsm = shadows::build_deep_shadow_maps(runtime, scene, prepared.packed, prepared.device, views,
+                                                       dsm_build_options(options));
+        for (auto& [stage, ms] : prepared.dsm.stats.stage_ms) stats.stage_ms[stage] = ms;
+        copy_dsm_stats(prepared.dsm.stats, options.dsm_storage, stats);
     }
     return prepared;
 }
@@ -195,6 +244,7 @@ std::string RenderStats::to_json() const {
                     {"bytes_used", dsm_bytes_used},
                     {"bytes_wasted", dsm_bytes_wasted},
                     {"capped_texels", dsm_capped_texels},
+                    {"views_generated", dsm_views_generated},
                     {"storage", dsm_storage}};
     }
     return j.dump(2);

@@ -66,6 +66,26 @@ BrickRanges compute_brick_ranges(const Volume& volume) {
     return r;
 }
 
+std::vector<LightGpu> pack_lights(const Scene& scene) {
+    std::vector<LightGpu> lights;
+    for (const Light& l : scene.lights) {
+        LightGpu g{};
+        g.type = l.type == LightType::Directional ? SOMBRA_LIGHT_DIRECTIONAL
+                 : l.type == LightType::Spot      ? SOMBRA_LIGHT_SPOT
+                                                  : SOMBRA_LIGHT_POINT;
+        g.position = f4(l.position);
+        g.direction = f4(normalized(l.direction));
+        g.color = f4(l.color[0] * l.intensity, l.color[1] * l.intensity, l.color[2] * l.intensity);
+        float half = l.cone_angle_deg * 3.14159265358979f / 180.f;
+        g.cos_outer = std::cos(half);
+        g.cos_inner = std::cos(half * (1.f - l.cone_softness));
+        if (g.cos_inner <= g.cos_outer) g.cos_inner = g.cos_outer + 1e-6f;  // smoothstep needs edge0 < edge1
+        g.att_constant = l.att_constant, g.att_linear = l.att_linear, g.att_quadratic = l.att_quadratic;
+        lights.push_back(g);
+    }
+    return lights;
+}
+
 PackedScene pack_scene(const Scene& scene) {
     PackedScene packed;
     std::size_t data_offset = 0, image_z = 0;
@@ -127,21 +147,7 @@ PackedScene pack_scene(const Scene& scene) {
         g.specular = vi.material.specular, g.shininess = vi.material.shininess;
         packed.volumes.push_back(g);
     }
-    for (const Light& l : scene.lights) {
-        LightGpu g{};
-        g.type = l.type == LightType::Directional ? SOMBRA_LIGHT_DIRECTIONAL
-                 : l.type == LightType::Spot      ? SOMBRA_LIGHT_SPOT
-                                                  : SOMBRA_LIGHT_POINT;
-        g.position = f4(l.position);
-        g.direction = f4(normalized(l.direction));
-        g.color = f4(l.color[0] * l.intensity, l.color[1] * l.intensity, l.color[2] * l.intensity);
-        float half = l.cone_angle_deg * 3.14159265358979f / 180.f;
-        g.cos_outer = std::cos(half);
-        g.cos_inner = std::cos(half * (1.f - l.cone_softness));
-        if (g.cos_inner <= g.cos_outer) g.cos_inner = g.cos_outer + 1e-6f;  // smoothstep needs edge0 < edge1
-        g.att_constant = l.att_constant, g.att_linear = l.att_linear, g.att_quadratic = l.att_quadratic;
-        packed.lights.push_back(g);
-    }
+    packed.lights = pack_lights(scene);
     return packed;
 }
 

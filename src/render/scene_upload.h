@@ -31,6 +31,7 @@ struct PackedScene {
     std::vector<std::array<float, 16>> voxel_to_world;  // row-major, per volume
 };
 PackedScene pack_scene(const Scene& scene);
+std::vector<LightGpu> pack_lights(const Scene& scene);  // the lights part of pack_scene
 
 CameraGpu pack_camera(const Scene& scene, int width, int height);
 

@@ -33,6 +33,9 @@ DeviceDsm start_dsm(host::Runtime& runtime, const std::vector<DsmViewGpu>& views
 // Generates into the backend; the backend sets max_nodes per view (it bounds the lookups' search),
 // so the views go to the device again.
 void finish_dsm(host::Runtime& runtime, DeviceDsm& dsm, memory::BuildContext& context) {
+    dsm.stats.stage_ms.clear();
+    dsm.stats.views_generated = 0;
+    for (std::size_t v = 0; v < context.views.size(); ++v) dsm.stats.views_generated += context.generates(v) ? 1 : 0;
     dsm.storage->build(context, dsm.stats);
     runtime.queue().enqueueWriteBuffer(dsm.views_buffer, CL_TRUE, 0, context.views.size() * sizeof(DsmViewGpu),
                                        context.views.data());
@@ -84,16 +87,16 @@ DevicePrecompression upload_precompression(host::Runtime& runtime, const Scene& 
             host::make_buffer(runtime, ro, count.size(), count.data(), "pre-compression tables")};
 }
 
-}  // namespace
-
-namespace {
+void generate(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
+              const packing::DeviceScene& device_scene, std::vector<DsmViewGpu> views, const DsmBuildOptions& options,
+              DeviceDsm& dsm, const std::vector<bool>& regenerate);
 
 // Pre-filtering (Lokovic–Veach; Hadwiger §3.1): the map at twice the resolution (2×2 sub-pixel
 // rays per texel, compact storage, ε/2), then dsm_prefilter.cl merges each texel's sub-pixel
 // functions under the filter kernel and compresses the sum (ε/2) into the chosen backend.
-DeviceDsm build_prefiltered(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
-                            const packing::DeviceScene& device_scene, std::vector<DsmViewGpu> views,
-                            const DsmBuildOptions& options) {
+void generate_prefiltered(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
+                          const packing::DeviceScene& device_scene, std::vector<DsmViewGpu> views, const DsmBuildOptions& options,
+                          DeviceDsm& dsm, const std::vector<bool>& regenerate) {
     if (options.prefilter != "box" && options.prefilter != "tent")
         throw Error("--prefilter: unknown filter '" + options.prefilter + "' (none, box, tent)");
     std::vector<DsmViewGpu> fine_views = views;
@@ -107,15 +110,14 @@ DeviceDsm build_prefiltered(host::Runtime& runtime, const Scene& scene, const pa
     fine_options.epsilon = 0.5f * options.epsilon;
     fine_options.storage = "compact";
     fine_options.prefilter = "none";
-    DeviceDsm fine = build_deep_shadow_maps(runtime, scene, packed, device_scene, fine_views, fine_options);
+    DeviceDsm fine = start_dsm(runtime, fine_views, fine_options);  // only the regenerated views
+    generate(runtime, scene, packed, device_scene, fine_views, fine_options, fine, regenerate);
 
-    DeviceDsm dsm = start_dsm(runtime, views, options);
-    for (auto& [stage, ms] : fine.stats.stage_ms) dsm.stats.stage_ms["dsm_fine_" + stage.substr(4)] = ms;
     std::vector<std::string> defines{"SOMBRA_LANES=1"};
     if (options.prefilter == "tent") defines.push_back("SOMBRA_PREFILTER_TENT");
     for (auto& d : dsm.storage->defines()) defines.push_back(d);
     memory::BuildContext context{runtime, views, defines, std::size_t(options.resolution) * std::size_t(options.resolution),
-                                 "dsm_prefilter.cl", {}};
+                                 "dsm_prefilter.cl", regenerate, {}};
     float merge_epsilon = 0.5f * options.epsilon;
     context.run_view = [&](const std::vector<std::string>& program_defines, const char* kernel_name, cl_uint view,
                            const std::function<void(cl::Kernel&, int)>& bind) {
@@ -130,17 +132,16 @@ DeviceDsm build_prefiltered(host::Runtime& runtime, const Scene& scene, const pa
         return run_over_texels(runtime, kernel, options.resolution);
     };
     finish_dsm(runtime, dsm, context);
-    return dsm;
+    for (auto& [stage, ms] : fine.stats.stage_ms) dsm.stats.stage_ms["dsm_fine_" + stage.substr(4)] = ms;
 }
 
-}  // namespace
-
-DeviceDsm build_deep_shadow_maps(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
-                                 const packing::DeviceScene& device_scene, std::vector<DsmViewGpu> views,
-                                 const DsmBuildOptions& options) {
+// Generates the `regenerate` views (empty: all) of `dsm` into its storage.
+void generate(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
+              const packing::DeviceScene& device_scene, std::vector<DsmViewGpu> views, const DsmBuildOptions& options,
+              DeviceDsm& dsm, const std::vector<bool>& regenerate) {
     if (!(options.epsilon >= 0.f) || !std::isfinite(options.epsilon)) throw Error("--eps: must be ≥ 0");
-    if (options.prefilter != "none") return build_prefiltered(runtime, scene, packed, device_scene, views, options);
-    DeviceDsm dsm = start_dsm(runtime, views, options);
+    if (options.prefilter != "none")
+        return generate_prefiltered(runtime, scene, packed, device_scene, views, options, dsm, regenerate);
 
     auto defines = volume_pass_defines(scene, device_scene.uses_images, true);
     defines.push_back("SOMBRA_LANES=1");
@@ -151,7 +152,7 @@ DeviceDsm build_deep_shadow_maps(host::Runtime& runtime, const Scene& scene, con
         defines.push_back("SOMBRA_DSM_PRECOMPRESSED");
     }
     memory::BuildContext context{runtime, views, defines, std::size_t(options.resolution) * std::size_t(options.resolution),
-                                 "dsm_build.cl", {}};
+                                 "dsm_build.cl", regenerate, {}};
     context.run_view = [&](const std::vector<std::string>& program_defines, const char* kernel_name, cl_uint view,
                            const std::function<void(cl::Kernel&, int)>& bind) {
         cl::Kernel kernel(runtime.program("dsm_build.cl", program_defines), kernel_name);
@@ -175,7 +176,25 @@ DeviceDsm build_deep_shadow_maps(host::Runtime& runtime, const Scene& scene, con
         return run_over_texels(runtime, kernel, options.resolution);
     };
     finish_dsm(runtime, dsm, context);
+}
+
+}  // namespace
+
+DeviceDsm build_deep_shadow_maps(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
+                                 const packing::DeviceScene& device_scene, std::vector<DsmViewGpu> views,
+                                 const DsmBuildOptions& options) {
+    DeviceDsm dsm = start_dsm(runtime, views, options);
+    generate(runtime, scene, packed, device_scene, views, options, dsm, {});
     return dsm;
+}
+
+void regenerate_deep_shadow_maps(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
+                                 const packing::DeviceScene& device_scene, std::vector<DsmViewGpu> views,
+                                 const DsmBuildOptions& options, DeviceDsm& dsm, const std::vector<bool>& regenerate) {
+    if (views.size() != dsm.views.size() || regenerate.size() != views.size())
+        throw Error("deep shadow maps: the views of a regeneration must match the maps built (internal error)");
+    runtime.queue().enqueueWriteBuffer(dsm.views_buffer, CL_TRUE, 0, views.size() * sizeof(DsmViewGpu), views.data());
+    generate(runtime, scene, packed, device_scene, views, options, dsm, regenerate);
 }
 
 }  // namespace sombra::shadows

@@ -31,6 +31,12 @@ DeviceDsm build_deep_shadow_maps(host::Runtime& runtime, const Scene& scene, con
                                  const packing::DeviceScene& device_scene, std::vector<DsmViewGpu> views,
                                  const DsmBuildOptions& options);
 
+// Regenerates the views marked in `regenerate` (those of changed lights) in `dsm`, built before
+// by build_deep_shadow_maps with the same options and as many views; the others keep their nodes.
+void regenerate_deep_shadow_maps(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
+                                 const packing::DeviceScene& device_scene, std::vector<DsmViewGpu> views,
+                                 const DsmBuildOptions& options, DeviceDsm& dsm, const std::vector<bool>& regenerate);
+
 // -D defines of every pass over the scene's volumes.
 std::vector<std::string> volume_pass_defines(const Scene& scene, bool use_images, bool skip_empty);
 
