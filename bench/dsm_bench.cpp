@@ -129,12 +129,53 @@ void measure_error(sombra::Context& context, const sombra::Scene& scene, int lig
 }
 
 // render() keeps the last prepared scene (device data and deep shadow maps) in the Context and
-// reuses it when only the camera or image changed; a 1×1 render without shadows replaces it, so
-// that every measured render generates its maps again.
-void forget_preparation(sombra::Context& context, const sombra::Scene& scene) {
-    sombra::RenderOptions tiny;
-    tiny.width = tiny.height = 1;
-    sombra::render(context, scene, tiny);
+// reuses it when only the camera, image or lights changed; released, every measured render
+// generates its maps again.
+void forget_preparation(sombra::Context& context, const sombra::Scene&) { context.release_prepared_scenes(); }
+
+// Knecht §3.2 "Deep Shadow Map Re-Generation": the maps of a moved light are regenerated, the
+// others kept. Per storage: generation time of the whole set, and of the set after each light in
+// turn moves a little (medians over `runs` moves), with the views regenerated.
+std::string measure_regeneration(sombra::Context& context, sombra::Scene scene, const sombra::RenderOptions& base,
+                                 const std::vector<std::string>& storages, int resolution, float epsilon, int runs) {
+    auto generation_ms = [](const sombra::RenderStats& stats) {
+        double sum = 0;
+        for (const auto& [stage, ms] : stats.stage_ms)
+            if (stage.rfind("dsm_", 0) == 0) sum += ms;
+        return sum;
+    };
+    std::ostringstream table;
+    table << "| storage | res | ε | all views: gen ms | moved light | views regenerated, per move | gen ms (partial moves) | ÷ all |\n"
+          << "|---|---|---|---|---|---|---|---|\n";
+    for (const std::string& storage : storages) {
+        sombra::RenderOptions options = base;
+        options.shadows = sombra::ShadowTechnique::Dsm;
+        options.dsm_resolution = resolution, options.dsm_epsilon = epsilon;
+        set_dsm_storage(options, storage, 0);
+        std::vector<double> all;
+        for (int i = 0; i <= runs; ++i) {  // the first is the warm-up
+            forget_preparation(context, scene);
+            double ms = generation_ms(sombra::render(context, scene, options).stats);
+            if (i > 0) all.push_back(ms);
+        }
+        for (std::size_t light = 0; light < scene.lights.size(); ++light) {
+            std::vector<double> partial;
+            std::string sequence;
+            for (int i = 0; i < runs; ++i) {
+                scene.lights[light].position[0] += 0.01f;  // a small move: a new map all the same
+                scene.lights[light].direction[0] += 0.01f;
+                sombra::RenderStats stats = sombra::render(context, scene, options).stats;
+                sequence += (i ? "," : "") + std::to_string(stats.dsm_views_generated);
+                if (stats.dsm_views_generated < stats.dsm_views) partial.push_back(generation_ms(stats));
+            }
+            // a move that leaves more than half the pool superseded builds the whole set anew
+            std::string moved_ms = partial.empty() ? "–" : fixed(median(partial), 1);
+            std::string ratio = partial.empty() ? "–" : fixed(median(partial) / median(all), 2);
+            table << "| " << storage << " | " << resolution << " | " << eps_text(epsilon) << " | " << fixed(median(all), 1) << " | "
+                  << light << " | " << sequence << " | " << moved_ms << " | " << ratio << " |\n";
+        }
+    }
+    return table.str();
 }
 
 // One warm-up render, then `runs` timed ones; times are the OpenCL profiling events in the stats.
@@ -341,6 +382,9 @@ int run(int argc, char** argv) {
 
     std::string table = markdown_table(rows);
     std::cout << "\n" << table;
+    std::string regeneration = measure_regeneration(context, scene, base, o.storages, *std::max_element(o.resolutions.begin(), o.resolutions.end()), o.epsilons.front(), o.runs);
+    std::cout << "\nregeneration after a light moves (" << *std::max_element(o.resolutions.begin(), o.resolutions.end()) << "², ε " << eps_text(o.epsilons.front())
+              << "):\n" << regeneration;
     if (!o.out_dir.empty()) {
         std::filesystem::path dir(o.out_dir);
         std::filesystem::create_directories(dir);
@@ -350,6 +394,7 @@ int run(int argc, char** argv) {
                              std::to_string(o.light) + " -->\n";
         write_file(dir / "dsm_table.md", header + table);
         write_file(dir / "dsm_table.csv", csv_table(rows));
+        write_file(dir / "dsm_regeneration.md", header + regeneration);
         std::cout << "wrote " << o.out_dir << "/dsm_table.{csv,md}\n";
         plot(o, dir / "dsm_table.csv", dir / "dsm_error_vs_time.png");
     }
