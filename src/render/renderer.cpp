@@ -75,7 +75,8 @@ std::string preparation_key(const Scene& scene, const RenderOptions& o, bool use
     }
     bool maps = o.shadows == ShadowTechnique::Dsm || o.shadows == ShadowTechnique::ShadowMap;  // one preparation
     key << " O" << (maps ? 99 : int(o.shadows)) << ' ' << o.dsm_resolution << ' ' << o.dsm_epsilon << ' ' << o.dsm_storage << ' '
-        << o.dsm_precompression << ' ' << o.dsm_prefilter << ' ' << use_images;
+        << o.dsm_precompression << ' ' << o.dsm_prefilter << ' ' << o.dsm_prefilter_jitter << ' ' << o.dsm_prefilter_seed << ' '
+        << use_images;
     return key.str();
 }
 
@@ -117,6 +118,11 @@ std::shared_ptr<PreparedScene> prepare(host::Runtime& runtime, const Scene& scen
     return fresh->prepared;
 }
 
+shadows::DsmBuildOptions dsm_build_options(const RenderOptions& o) {
+    return {o.dsm_resolution, o.dsm_epsilon, o.dsm_storage, o.dsm_precompression, o.dsm_prefilter, o.dsm_prefilter_jitter,
+            o.dsm_prefilter_seed};
+}
+
 PreparedScene prepare_anew(host::Runtime& runtime, const Scene& scene, const RenderOptions& options, RenderStats& stats) {
     PreparedScene prepared;
     auto start = clock_type::now();
@@ -134,8 +140,7 @@ PreparedScene prepare_anew(host::Runtime& runtime, const Scene& scene, const Ren
     if (prepared.use_dsm) {
         prepared.dsm = shadows::build_deep_shadow_maps(
             runtime, scene, prepared.packed, prepared.device, views,
-            {options.dsm_resolution, options.dsm_epsilon, options.dsm_storage, options.dsm_precompression,
-             options.dsm_prefilter});
+            dsm_build_options(options));
         const memory::DsmStats& d = prepared.dsm.stats;
         for (auto& [stage, ms] : d.stage_ms) stats.stage_ms[stage] = ms;
         stats.dsm_views = d.views;
@@ -318,6 +323,27 @@ std::vector<DeepShadowMap> build_deep_shadow_maps(Context& context, const Scene&
         maps.back().light_name = name;
     }
     if (stats_out) *stats_out = stats;
+    return maps;
+}
+
+std::vector<DeepShadowMap> build_prefilter_sub_maps(Context& context, const Scene& scene, int light_index,
+                                                    const RenderOptions& options) {
+    host::Runtime& runtime = context.runtime();
+    check_light(scene, light_index);
+    RenderOptions scene_only = options;
+    scene_only.shadows = ShadowTechnique::None;  // the scene on the device, no maps
+    RenderStats stats;
+    std::shared_ptr<PreparedScene> kept = prepare(runtime, scene, scene_only, stats);
+    packing::PackedScene packed = kept->packed;
+    std::vector<DsmViewGpu> views = shadows::make_dsm_views(scene, packed, options.dsm_resolution);
+    shadows::SubPixelDsm sub =
+        shadows::build_sub_pixel_maps(runtime, scene, packed, kept->device, views, dsm_build_options(options));
+    const LightGpu& light = packed.lights[std::size_t(light_index)];
+    std::vector<DeepShadowMap> maps;
+    for (cl_uint v = light.view_first * sub.layout.maps; v < (light.view_first + light.view_count) * sub.layout.maps; ++v) {
+        maps.push_back(sub.dsm.storage->read_back(runtime, sub.dsm.views[v], v));
+        maps.back().light_name = "lights[" + std::to_string(light_index) + "].sub" + std::to_string(v);
+    }
     return maps;
 }
 
