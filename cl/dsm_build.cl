@@ -34,9 +34,8 @@ DSM_GENERATION_KERNEL(VOLUME_DATA_PARAM, __global const uchar* occupancy, __glob
     if (x >= v->resolution || y >= v->resolution) return;
     DSM_TEXEL_BEGIN(v, x, y);
 
-    float res = (float)v->resolution;
     float3 origin, dir;
-    dsm_view_ray(v, ((x + 0.5f) / res) * 2.0f - 1.0f, ((y + 0.5f) / res) * 2.0f - 1.0f, &origin, &dir);
+    dsm_texel_ray(v, x, y, &origin, &dir);
     VolumeRay ray;
     make_volume_ray(&ray, volumes, volume_count, l3_splat(origin), l3_splat(dir), (lfloat)(0.0f), (lfloat)(INFINITY));
     SegmentCursor cursor;

@@ -1,53 +1,52 @@
-/* sombra — deep shadow map pre-filtering (Lokovic & Veach 2000; Hadwiger §3.1: "combining the
+/* sombra — deep shadow map pre-filtering (Lokovic & Veach 2000 §5.1; Hadwiger §3.1: "combining the
  * samples of multiple subpixel rays"): each texel's visibility is the weighted sum of the
- * visibility functions of the sub-pixel rays of a map generated at twice the resolution (2×2 rays
- * per texel; a box or tent kernel over them), merged exactly at the union of their nodes — a sum
- * of piecewise-linear functions is piecewise linear between those depths — and compressed again
- * with the same on-the-fly compressor into the chosen storage backend. The fine map is in compact
- * storage (read here directly: texel_first offsets + (depth, opacity) nodes). Same kernel names
- * as dsm_build.cl, so the storage backends run it unchanged:
+ * visibility functions of its taps in the sub-pixel maps (shared/prefilter.h: positions and
+ * weights), merged exactly at the union of their nodes — a sum of piecewise-linear functions is
+ * piecewise linear between those depths — and compressed again with the same on-the-fly
+ * compressor into the chosen storage backend. The sub-pixel maps are in compact storage (read here
+ * directly: texel_first offsets + (depth, opacity) nodes), `sub_maps` of them per view, in order.
+ * Same kernel names as dsm_build.cl, so the storage backends run it unchanged:
  *   dsm_build  filtered texels into the backend's storage
  *   dsm_count  nodes per filtered texel only (SOMBRA_DSM_COUNT_ONLY)
- * Defines: SOMBRA_PREFILTER_TENT (4×4 tent kernel, weights 1 3 3 1 per axis; else the 2×2 box). */
+ * Defines: SOMBRA_PREFILTER_TENT or SOMBRA_PREFILTER_5TAP select the taps (else the 2×2 box). */
 #include "shared/types.h"
+#include "shared/prefilter.h"
 #include "lanes.h"
 #include "dsm_generation.h"
 
-#ifdef SOMBRA_PREFILTER_TENT
-#define PREFILTER_SPAN 4 /* fine texels per axis: 2x − 1 … 2x + 2 */
-#define PREFILTER_FIRST (-1)
-__constant float prefilter_weight[4] = {1.0f, 3.0f, 3.0f, 1.0f};
+#if defined(SOMBRA_PREFILTER_TENT)
+__constant int prefilter_taps[][4] = SOMBRA_PREFILTER_TENT_TAPS;
+#elif defined(SOMBRA_PREFILTER_5TAP)
+__constant int prefilter_taps[][4] = SOMBRA_PREFILTER_5TAP_TAPS;
 #else
-#define PREFILTER_SPAN 2 /* fine texels per axis: 2x, 2x + 1 */
-#define PREFILTER_FIRST 0
-__constant float prefilter_weight[2] = {1.0f, 1.0f};
+__constant int prefilter_taps[][4] = SOMBRA_PREFILTER_BOX_TAPS;
 #endif
-#define PREFILTER_TAPS (PREFILTER_SPAN * PREFILTER_SPAN)
+#define PREFILTER_TAPS ((int)(sizeof(prefilter_taps) / sizeof(prefilter_taps[0])))
 
 
-DSM_GENERATION_KERNEL(__global const DsmViewGpu* views, uint view_index, float epsilon, __global const DsmViewGpu* fine_views,
-     __global const uint* fine_first, __global const float* fine_nodes, DSM_BUILD_STORAGE_PARAMS) {
+DSM_GENERATION_KERNEL(__global const DsmViewGpu* views, uint view_index, float epsilon, __global const DsmViewGpu* sub_views,
+     uint sub_maps, uint sub_scale, __global const uint* fine_first, __global const float* fine_nodes, DSM_BUILD_STORAGE_PARAMS) {
     __global const DsmViewGpu* v = &views[view_index];
-    __global const DsmViewGpu* fine = &fine_views[view_index];
     uint x = get_global_id(0), y = get_global_id(1);
     if (x >= v->resolution || y >= v->resolution) return;
     DSM_TEXEL_BEGIN(v, x, y);
-    /* the taps: fine texels under the kernel (clamped at the map's border), their node runs */
+    /* the taps: sub-map texels under the kernel (clamped at the map's border), their node runs */
     uint next[PREFILTER_TAPS], end[PREFILTER_TAPS];
     float weight[PREFILTER_TAPS], z0[PREFILTER_TAPS], a0[PREFILTER_TAPS];
     float total = 0.0f;
-    int last = (int)fine->resolution - 1;
-    for (int j = 0; j < PREFILTER_SPAN; ++j)
-        for (int i = 0; i < PREFILTER_SPAN; ++i) {
-            int fx = clamp(2 * (int)x + PREFILTER_FIRST + i, 0, last), fy = clamp(2 * (int)y + PREFILTER_FIRST + j, 0, last);
-            uint texel = fine->first_texel + (uint)fy * fine->resolution + (uint)fx, tap = j * PREFILTER_SPAN + i;
-            next[tap] = fine_first[texel];
-            end[tap] = fine_first[texel + 1];
-            weight[tap] = prefilter_weight[i] * prefilter_weight[j];
-            z0[tap] = -INFINITY; /* no node passed yet: V = 0 */
-            a0[tap] = 0.0f;
-            total += weight[tap];
-        }
+    for (int tap = 0; tap < PREFILTER_TAPS; ++tap) {
+        __global const DsmViewGpu* sub = &sub_views[view_index * sub_maps + prefilter_taps[tap][0]];
+        int last = (int)sub->resolution - 1;
+        int fx = clamp((int)(sub_scale * x) + prefilter_taps[tap][1], 0, last);
+        int fy = clamp((int)(sub_scale * y) + prefilter_taps[tap][2], 0, last);
+        uint texel = sub->first_texel + (uint)fy * sub->resolution + (uint)fx;
+        next[tap] = fine_first[texel];
+        end[tap] = fine_first[texel + 1];
+        weight[tap] = (float)prefilter_taps[tap][3];
+        z0[tap] = -INFINITY; /* no node passed yet: V = 0 */
+        a0[tap] = 0.0f;
+        total += weight[tap];
+    }
 
     VisibilityCompressor compressor;
     compressor_init(&compressor, epsilon);

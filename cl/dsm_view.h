@@ -3,6 +3,7 @@
 #ifndef SOMBRA_DSM_VIEW_H
 #define SOMBRA_DSM_VIEW_H
 #include "shared/types.h"
+#include "shared/hash.h"
 #include "lanes.h"
 
 /* Ray through the point (ndc_x, ndc_y) ∈ [−1, 1]² of the view's image plane; t along it is the
@@ -16,6 +17,15 @@ inline void dsm_view_ray(__global const DsmViewGpu* v, float ndc_x, float ndc_y,
         *origin = v->origin.xyz + across;
         *dir = v->axis_z.xyz;
     }
+}
+
+/* The ray of texel (x, y) of a generated map: the one place a texel's ray position is chosen (the
+ * texel centre; shifted and jittered in pre-filtering's sub-pixel maps, see DsmViewGpu). */
+inline void dsm_texel_ray(__global const DsmViewGpu* v, uint x, uint y, float3* origin, float3* dir) {
+    float res = (float)v->resolution;
+    float px = sombra_texel_ray_coord(x, y, 0, v->ray_shift, v->jitter, v->jitter_seed);
+    float py = sombra_texel_ray_coord(x, y, 1, v->ray_shift, v->jitter, v->jitter_seed);
+    dsm_view_ray(v, (px / res) * 2.0f - 1.0f, (py / res) * 2.0f - 1.0f, origin, dir);
 }
 
 /* Continuous texel coordinates (texel centres at integers) and depth of points p; `covered` marks

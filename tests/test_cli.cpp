@@ -136,6 +136,18 @@ TEST_CASE("bad scenes fail with one line naming the file and the field", "[cli]"
         std::string f = scene_file("size.json", nlohmann::json::object());
         require_clean_failure(run_cli("render " + f + " -o " + out + " --width 20000"), "--width", "[1, 16384]", out);
     }
+    SECTION("unknown pre-filter options") {
+        std::string f = scene_file("prefilter.json", nlohmann::json::object());
+        std::string dsm = " --shadows dsm --dsm-res 16";
+        require_clean_failure(run_cli("render " + f + " -o " + out + dsm + " --prefilter gauss"), "--prefilter", "gauss", out);
+        require_clean_failure(run_cli("render " + f + " -o " + out + dsm + " --prefilter 5tap --prefilter-jitter maybe"),
+                              "--prefilter-jitter", "maybe", out);
+        CliRun ok = run_cli("render " + f + " -o " + out + dsm + " --prefilter 5tap --prefilter-jitter 3");
+        INFO(ok.stderr_text);
+        CHECK(ok.exit_code == 0);
+        CHECK(std::filesystem::exists(out));
+        std::filesystem::remove(out);
+    }
 }
 
 TEST_CASE("NaN voxels are rejected, or sanitized on request", "[cli]") {

@@ -2,13 +2,17 @@
 // reference for every light type, ε extremes, stiff cases, deep EXR export.
 #include <catch2/catch.hpp>
 
+#include <array>
 #include <cmath>
+#include <map>
 #include <random>
+#include <sstream>
 
 #include "reference/raycaster_ref.h"
 #include "render/scene_upload.h"
 #include "shadows/dsm_views.h"
 #include "shared/hash.h"
+#include "shared/prefilter.h"
 #include "test_support.h"
 
 using namespace sombra;
@@ -106,6 +110,16 @@ double texel_opacity(const DeepShadowMap& map, std::size_t texel, double z) {
     return std::clamp(a.opacity + f * (b.opacity - a.opacity), 0.0, 1.0);
 }
 
+// The ray through (nx, ny) ∈ [−1, 1]² of a view's image plane (cl/dsm_view.h dsm_view_ray).
+void texel_ray(const DsmViewGpu& v, float nx, float ny, Vec3& origin, Vec3& dir) {
+    Vec3 across;
+    for (int k = 0; k < 3; ++k) across[k] = nx * v.extent_x * v.axis_x.s[k] + ny * v.extent_y * v.axis_y.s[k];
+    for (int k = 0; k < 3; ++k) {
+        origin[k] = v.perspective ? v.origin.s[k] : v.origin.s[k] + across[k];
+        dir[k] = v.perspective ? v.axis_z.s[k] + across[k] : v.axis_z.s[k];
+    }
+}
+
 }  // namespace
 
 TEST_CASE("DSM generation kernel against the CPU reference: |V' − V| ≤ ε at every sample", "[dsm]") {
@@ -121,13 +135,8 @@ TEST_CASE("DSM generation kernel against the CPU reference: |V' − V| ≤ ε at
             std::size_t samples = 0, nodes = 0;
             for (int y = 0; y < res; ++y)
                 for (int x = 0; x < res; ++x) {
-                    float nx = ((x + 0.5f) / res) * 2 - 1, ny = ((y + 0.5f) / res) * 2 - 1;
-                    Vec3 across, origin, dir;
-                    for (int k = 0; k < 3; ++k) across[k] = nx * v.extent_x * v.axis_x.s[k] + ny * v.extent_y * v.axis_y.s[k];
-                    for (int k = 0; k < 3; ++k) {
-                        origin[k] = v.perspective ? v.origin.s[k] : v.origin.s[k] + across[k];
-                        dir[k] = v.perspective ? v.axis_z.s[k] + across[k] : v.axis_z.s[k];
-                    }
+                    Vec3 origin, dir;
+                    texel_ray(v, ((x + 0.5f) / res) * 2 - 1, ((y + 0.5f) / res) * 2 - 1, origin, dir);
                     auto reference = reference::visibility_samples(s, origin, dir, sombra_pixel_jitter(x, y, 0));
                     std::size_t texel = std::size_t(y) * res + x;
                     for (auto& r : reference) worst = std::max(worst, std::fabs(texel_opacity(maps[0], texel, r.t) - r.alpha));
@@ -316,7 +325,7 @@ TEST_CASE("deep shadow maps are rebuilt only when the light, the scene or the tr
 
 TEST_CASE("a moved light regenerates its own maps only, and the image equals a fresh build's", "[dsm]") {
     for (const char* storage : {"atlas", "chunked", "chunked-ondemand", "compact"}) {
-        for (const char* prefilter : {"none", "box"}) {
+        for (const char* prefilter : {"none", "box", "5tap"}) {
             INFO("storage " << storage << ", prefilter " << prefilter);
             Context context("cpu"), fresh_context("cpu");  // their own kept state
             auto fresh_render = [&](const Scene& scene, const RenderOptions& options) {
@@ -353,10 +362,11 @@ TEST_CASE("a moved light regenerates its own maps only, and the image equals a f
     }
 }
 
-TEST_CASE("pre-compressed visibility tables remove the error of coarse sampling on an isosurface TF", "[dsm][precompression]") {
-    // density falls linearly with the radius; the step transfer function makes an isosurface at
-    // half the radius (Hadwiger Fig. 2–3)
-    const int n = 32;
+namespace {
+
+// Density falls linearly with the radius; the step transfer function makes an isosurface at half
+// the radius (Hadwiger Fig. 2–3), lit by a directional light.
+Scene isosurface_ball_scene(int n) {
     Volume ball;
     ball.dims = {n, n, n};
     ball.voxels.resize(std::size_t(n) * n * n);
@@ -371,6 +381,15 @@ TEST_CASE("pre-compressed visibility tables remove the error of coarse sampling 
     s.volumes[0].volume = std::make_shared<const Volume>(ball);
     s.volumes[0].transform = make_transform({0, 0, 0}, {0, 0, 0}, {1.f / n, 1.f / n, 1.f / n});
     s.volumes[0].transfer_function.opacity_points = {{0.f, 0.f}, {0.499f, 0.f}, {0.5f, 0.3f}, {1.f, 0.3f}};
+    s.lights[0].direction = {0.3f, -1.f, 0.2f};
+    return s;
+}
+
+}  // namespace
+
+TEST_CASE("pre-compressed visibility tables remove the error of coarse sampling on an isosurface TF", "[dsm][precompression]") {
+    const int n = 32;
+    Scene s = isosurface_ball_scene(n);
     s.volumes[0].step_voxels = 2.f;  // coarse: two voxels per step
     s.lights[0].direction = {0.3f, -1.f, 0.2f};
     auto points = random_points(3000, 0.3f, 8);  // in and around the isosurface (radius ≈ 0.25)
@@ -384,43 +403,174 @@ TEST_CASE("pre-compressed visibility tables remove the error of coarse sampling 
     CHECK(with.mean < 0.5 * without.mean);
 }
 
-TEST_CASE("pre-filtering: each texel is the box-filtered visibility of its 2×2 sub-pixel rays within ε", "[dsm][prefilter]") {
+namespace {
+
+// The taps of a pre-filter (cl/shared/prefilter.h): {sub-map, dx, dy, weight}.
+std::vector<std::array<int, 4>> prefilter_taps(const std::string& filter) {
+    const int box[][4] = SOMBRA_PREFILTER_BOX_TAPS, tent[][4] = SOMBRA_PREFILTER_TENT_TAPS, quincunx[][4] = SOMBRA_PREFILTER_5TAP_TAPS;
+    std::vector<std::array<int, 4>> taps;
+    auto add = [&](const auto& table) {
+        for (const auto& t : table) taps.push_back({t[0], t[1], t[2], t[3]});
+    };
+    if (filter == "box") add(box);
+    if (filter == "tent") add(tent);
+    if (filter == "5tap") add(quincunx);
+    return taps;
+}
+
+bool same_nodes(const DeepShadowMap& a, const DeepShadowMap& b) {
+    if (a.first != b.first || a.nodes.size() != b.nodes.size()) return false;
+    for (std::size_t i = 0; i < a.nodes.size(); ++i)
+        if (a.nodes[i].depth != b.nodes[i].depth || a.nodes[i].opacity != b.nodes[i].opacity) return false;
+    return true;
+}
+
+}  // namespace
+
+TEST_CASE("pre-filtering: each texel is the weighted sum of its taps' sub-pixel functions within ε", "[dsm][prefilter]") {
     Scene s = smoke_scene(LightType::Spot);
     const int res = 16;
     const float epsilon = 0.02f;
-    RenderOptions filtered = dsm_options(res, epsilon);
-    filtered.dsm_prefilter = "box";
-    RenderOptions fine = dsm_options(2 * res, 0.5f * epsilon);  // the sub-pixel map the filter merges
-    fine.dsm_storage = "compact";
-    auto lo = build_deep_shadow_maps(test::context(), s, 0, filtered)[0];
-    auto hi = build_deep_shadow_maps(test::context(), s, 0, fine)[0];
-    double worst = 0;
-    std::size_t checked = 0;
-    for (int y = 0; y < res; ++y)
-        for (int x = 0; x < res; ++x) {
-            std::size_t taps[4] = {std::size_t(2 * y) * 2 * res + 2 * x, std::size_t(2 * y) * 2 * res + 2 * x + 1,
-                                   std::size_t(2 * y + 1) * 2 * res + 2 * x, std::size_t(2 * y + 1) * 2 * res + 2 * x + 1};
-            for (std::size_t t : taps)
-                for (std::uint32_t k = hi.first[t]; k < hi.first[t + 1]; ++k) {
-                    double z = hi.nodes[k].depth, expected = 0;
-                    for (std::size_t u : taps) expected += 0.25 * texel_opacity(hi, u, z);
-                    worst = std::max(worst, std::fabs(texel_opacity(lo, std::size_t(y) * res + x, z) - expected));
-                    ++checked;
+    for (const char* filter : {"box", "tent", "5tap"})
+        for (bool jitter : {false, true}) {
+            RenderOptions o = dsm_options(res, epsilon);
+            o.dsm_prefilter = filter;
+            o.dsm_prefilter_jitter = jitter;
+            auto lo = build_deep_shadow_maps(test::context(), s, 0, o)[0];
+            auto subs = build_prefilter_sub_maps(test::context(), s, 0, o);
+            auto taps = prefilter_taps(filter);
+            int scale = std::string(filter) == "5tap" ? 1 : 2;
+            REQUIRE(subs.size() == (std::string(filter) == "5tap" ? 2u : 1u));
+            double total = 0, worst = 0;
+            for (auto& t : taps) total += t[3];
+            std::size_t checked = 0;
+            for (int y = 0; y < res; ++y)
+                for (int x = 0; x < res; ++x) {
+                    std::vector<std::pair<const DeepShadowMap*, std::size_t>> texels;
+                    for (auto& t : taps) {
+                        const DeepShadowMap& m = subs[std::size_t(t[0])];
+                        int fx = std::clamp(scale * x + t[1], 0, m.width - 1), fy = std::clamp(scale * y + t[2], 0, m.height - 1);
+                        texels.push_back({&m, std::size_t(fy) * m.width + fx});
+                    }
+                    for (auto& [m, texel] : texels)
+                        for (std::uint32_t k = m->first[texel]; k < m->first[texel + 1]; ++k) {
+                            double z = m->nodes[k].depth, expected = 0;
+                            for (std::size_t t = 0; t < taps.size(); ++t)
+                                expected += taps[t][3] / total * texel_opacity(*texels[t].first, texels[t].second, z);
+                            worst = std::max(worst, std::fabs(texel_opacity(lo, std::size_t(y) * res + x, z) - expected));
+                            ++checked;
+                        }
                 }
+            INFO(filter << (jitter ? " jittered" : "") << ": max |V'_filtered − Σ w V'_sub| " << worst << " over " << checked
+                        << " depths");
+            CHECK(checked > 100);
+            CHECK(worst <= 0.5 * epsilon + 1e-4);
         }
-    INFO("max |V'_filtered − Σ w V'_sub| " << worst << " over " << checked << " depths");
-    CHECK(checked > 100);
-    CHECK(worst <= 0.5 * epsilon + 1e-4);
 
     // and the filtered map is a usable shadow: finite, close to the reference
     auto points = random_points(300, 0.45f, 21);
-    for (const char* filter : {"box", "tent"}) {
+    for (const char* filter : {"box", "tent", "5tap"}) {
         RenderOptions o = dsm_options(64, 0.01f);
         o.dsm_prefilter = filter;
         Errors e = against_reference(s, points, shadow_transmittance(test::context(), s, 0, points, o).transmittance);
         INFO(filter << ": mean " << e.mean << ", max " << e.max);
         CHECK(e.non_finite == 0);
         CHECK(e.mean < 0.02);
+    }
+}
+
+TEST_CASE("pre-filtering: jittered sub-pixel rays stay in their cells and the kernel casts them there", "[dsm][prefilter]") {
+    Scene s = smoke_scene(LightType::Spot);
+    packing::PackedScene packed = packing::pack_scene(s);
+    const int res = 12;
+    std::vector<DsmViewGpu> views = shadows::make_dsm_views(s, packed, res);
+    for (const char* filter : {"box", "tent", "5tap"}) {
+        auto sub = shadows::sub_pixel_views(views, filter, true, 7);
+        auto taps = prefilter_taps(filter);
+        // each tap's ray, in texels of the view, within ¼ texel of its nominal position
+        // (prefilter.h) and, for the box and the 5-tap centre, inside the texel
+        double worst = 0;
+        int outside = 0;
+        for (int y = 0; y < res; ++y)
+            for (int x = 0; x < res; ++x)
+                for (auto& t : taps) {
+                    const DsmViewGpu& v = sub.views[std::size_t(t[0])];
+                    int fx = sub.scale * x + t[1], fy = sub.scale * y + t[2];
+                    if (fx < 0 || fy < 0 || fx >= sub.resolution || fy >= sub.resolution) continue;  // clamped taps
+                    double pos[2];
+                    for (int axis = 0; axis < 2; ++axis) {
+                        double p = sombra_texel_ray_coord(cl_uint(fx), cl_uint(fy), cl_uint(axis), v.ray_shift, v.jitter, v.jitter_seed);
+                        double ndc = (p / sub.resolution * 2 - 1) * (axis ? v.extent_y / views[0].extent_y : v.extent_x / views[0].extent_x);
+                        pos[axis] = (ndc * 0.5 + 0.5) * res;  // texel (x, y) spans [x, x + 1)
+                    }
+                    double nominal[2];
+                    for (int axis = 0; axis < 2; ++axis) {
+                        int d = t[1 + axis], c = axis ? y : x;
+                        nominal[axis] = sub.scale == 2 ? c + (d + 0.5) / 2 : (t[0] == 0 ? c + 0.5 : c + d);
+                        worst = std::max(worst, std::fabs(pos[axis] - nominal[axis]));
+                    }
+                    bool own_texel = std::string(filter) == "box" || (std::string(filter) == "5tap" && t[0] == 0);
+                    if (own_texel && (std::floor(pos[0]) != x || std::floor(pos[1]) != y)) ++outside;
+                }
+        INFO(filter << ": max |ray − nominal position| " << worst << " texels; " << outside << " rays outside their texel");
+        CHECK(worst <= 0.25 + 1e-5);
+        CHECK(worst > 0.15);  // jittered
+        CHECK(outside == 0);
+    }
+
+    // the generation kernel casts the rays at those positions: the 5-tap sub-maps against the CPU
+    // reference along the same rays, |V' − V| ≤ ε/2
+    RenderOptions o = dsm_options(res, 0.02f);
+    o.dsm_prefilter = "5tap";
+    o.dsm_prefilter_seed = 7;
+    auto maps = build_prefilter_sub_maps(test::context(), s, 0, o);
+    auto sub = shadows::sub_pixel_views(views, "5tap", true, 7);
+    REQUIRE(maps.size() == 2);
+    double worst = 0;
+    for (std::size_t m = 0; m < 2; ++m) {
+        const DsmViewGpu& v = sub.views[m];
+        for (int y = 0; y < sub.resolution; ++y)
+            for (int x = 0; x < sub.resolution; ++x) {
+                float px = sombra_texel_ray_coord(cl_uint(x), cl_uint(y), 0, v.ray_shift, v.jitter, v.jitter_seed);
+                float py = sombra_texel_ray_coord(cl_uint(x), cl_uint(y), 1, v.ray_shift, v.jitter, v.jitter_seed);
+                Vec3 origin, dir;
+                texel_ray(v, (px / sub.resolution) * 2 - 1, (py / sub.resolution) * 2 - 1, origin, dir);
+                auto reference = reference::visibility_samples(s, origin, dir, sombra_pixel_jitter(x, y, cl_uint(m)));
+                for (auto& r : reference)
+                    worst = std::max(worst, std::fabs(texel_opacity(maps[m], std::size_t(y) * sub.resolution + x, r.t) - r.alpha));
+            }
+    }
+    INFO("jittered 5-tap sub-maps: max |V' − V| " << worst);
+    CHECK(worst <= 0.01 + 2e-4);
+}
+
+TEST_CASE("pre-filtering: jitter is deterministic per seed; 5tap renders with every storage backend", "[dsm][prefilter]") {
+    Scene s = smoke_scene(LightType::Spot);
+    RenderOptions o = dsm_options(24, 0.02f);
+    o.dsm_prefilter = "5tap";
+    auto first = build_deep_shadow_maps(test::context(), s, 0, o)[0];
+    o.dsm_prefilter_seed = 2;
+    auto other_seed = build_deep_shadow_maps(test::context(), s, 0, o)[0];
+    o.dsm_prefilter_jitter = false;
+    auto unjittered = build_deep_shadow_maps(test::context(), s, 0, o)[0];
+    o.dsm_prefilter_jitter = true;
+    o.dsm_prefilter_seed = 1;
+    auto again = build_deep_shadow_maps(test::context(), s, 0, o)[0];  // rebuilt: the options changed in between
+    CHECK(same_nodes(first, again));
+    CHECK_FALSE(same_nodes(first, other_seed));
+    CHECK_FALSE(same_nodes(first, unjittered));
+
+    RenderResult reference_image;
+    for (const char* storage : {"compact", "atlas", "chunked", "chunked-ondemand"}) {
+        o.dsm_storage = storage;
+        auto map = build_deep_shadow_maps(test::context(), s, 0, o)[0];
+        INFO(storage);
+        CHECK(same_nodes(map, first));
+        for (const DsmNode& n : map.nodes) REQUIRE((std::isfinite(n.depth) && n.opacity >= 0.f && n.opacity <= 1.f));
+        RenderResult r = render(test::context(), s, o);
+        for (float v : r.image.rgba) REQUIRE(std::isfinite(v));
+        if (reference_image.image.rgba.empty()) reference_image = r;
+        CHECK(test::compare(r.image, reference_image.image).max_abs <= 1e-5);
     }
 }
 
@@ -464,5 +614,87 @@ TEST_CASE("DSM lookup kernel against a CPU lookup of the read-back map (projecti
             INFO(storage << ", light " << int(type) << ": max |kernel − CPU| " << worst);
             CHECK(worst < 1e-4);
         }
+    }
+}
+
+// Measured (mean |ΔT| in the penumbra, point reference / texel-filtered reference):
+//   ball 24²: none 0.084 / 0.056, box 0.112 / 0.056, tent 0.140 / 0.080, 5tap 0.120 / 0.065
+//   ball 48²: none 0.067 / 0.042, box 0.073 / 0.036, tent 0.092 / 0.053, 5tap 0.084 / 0.047
+//   rods 24²: none 0.232 / 0.164, box 0.267 / 0.140, tent 0.319 / 0.173, 5tap 0.295 / 0.155
+//   rods 48²: none 0.123 / 0.091, box 0.144 / 0.078, tent 0.182 / 0.110, 5tap 0.162 / 0.092
+// (jitter adds 0.002–0.012). Pre-filtering is a low-pass: it brings the map closer to the
+// visibility filtered over the texel (Lokovic–Veach's goal: no aliasing of sub-texel detail),
+// but further from the point-sampled reference, which the unfiltered map matches best.
+TEST_CASE("pre-filtering: error near a sharp shadow edge against the point and the texel-filtered reference", "[dsm][prefilter]") {
+    Scene s = isosurface_ball_scene(32);  // a nearly opaque ball: its shadow has a sharp edge
+    bool rods_scene = GENERATE(false, true);
+    if (rods_scene) {  // thin rods, a third of a texel wide at 24²
+        const int n = 64;
+        Volume rods;
+        rods.dims = {n, n, n};
+        rods.voxels.assign(std::size_t(n) * n * n, 0.f);
+        for (int z = 0; z < n; ++z)
+            for (int y = 20; y < 44; ++y)
+                for (int x = 3; x < n - 3; x += 7) rods.voxels[std::size_t(x + (z * 3) / n) + n * (std::size_t(y) + n * std::size_t(z))] = 1.f;
+        rods.update_range();
+        s.volumes[0].volume = std::make_shared<const Volume>(rods);
+        s.volumes[0].transform = make_transform({0, 0, 0}, {0, 0, 0}, {1.f / n, 1.f / n, 1.f / n});
+        s.volumes[0].transfer_function.opacity_points = {{0.f, 0.f}, {1.f, 0.5f}};
+        s.lights[0].direction = {0.05f, -1.f, 0.03f};
+    }
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<float> across(-0.45f, 0.45f), below(-0.45f, -0.3f);
+    std::vector<Vec3> points(2500);
+    for (auto& p : points) p = {across(rng), below(rng), across(rng)};
+    std::vector<double> reference(points.size());
+    for (std::size_t i = 0; i < points.size(); ++i) reference[i] = reference_transmittance(s, 0, points[i]);
+    for (int res : {24, 48}) {
+        // what pre-filtering approximates: the reference box-filtered over the texel's footprint
+        // (4×4 points across the light's image plane)
+        packing::PackedScene packed = packing::pack_scene(s);
+        DsmViewGpu v = shadows::make_dsm_views(s, packed, res)[0];
+        double tx = 2.0 * v.extent_x / res, ty = 2.0 * v.extent_y / res;
+        std::map<std::string, std::vector<double>> values;
+        for (const char* filter : {"none", "box", "tent", "5tap"})
+            for (bool jitter : {false, true}) {
+                if (std::string(filter) == "none" && jitter) continue;
+                RenderOptions o = dsm_options(res, 0.01f);
+                o.dsm_prefilter = filter;
+                o.dsm_prefilter_jitter = jitter;
+                values[std::string(filter) + (jitter ? "+jitter" : "")] = shadow_transmittance(test::context(), s, 0, points, o).transmittance;
+            }
+        // the penumbra: points where the reference or any map is neither lit nor shadowed
+        auto partial = [](double t) { return t > 0.02 && t < 0.98; };
+        std::vector<std::size_t> penumbra;
+        for (std::size_t i = 0; i < points.size(); ++i) {
+            bool in = partial(reference[i]);
+            for (auto& [name, t] : values) in = in || partial(t[i]);
+            if (in) penumbra.push_back(i);
+        }
+        std::map<std::size_t, double> filtered;
+        for (std::size_t i : penumbra) {
+            double sum = 0;
+            for (int b = 0; b < 4; ++b)
+                for (int a = 0; a < 4; ++a) {
+                    Vec3 q = points[i];
+                    for (int k = 0; k < 3; ++k) q[k] += float(((a + 0.5) / 4 - 0.5) * tx * v.axis_x.s[k] + ((b + 0.5) / 4 - 0.5) * ty * v.axis_y.s[k]);
+                    sum += reference_transmittance(s, 0, q);
+                }
+            filtered[i] = sum / 16;
+        }
+        std::map<std::string, double> point_error, filtered_error;
+        std::ostringstream report;
+        for (auto& [name, t] : values) {
+            for (std::size_t i : penumbra) {
+                REQUIRE(std::isfinite(t[i]));
+                point_error[name] += std::fabs(t[i] - reference[i]) / double(penumbra.size());
+                filtered_error[name] += std::fabs(t[i] - filtered[i]) / double(penumbra.size());
+            }
+            report << name << " " << point_error[name] << " / " << filtered_error[name] << "; ";
+        }
+        INFO((rods_scene ? "rods " : "ball ") << res << "², " << penumbra.size()
+                                              << " penumbra points, mean |ΔT| point / filtered reference: " << report.str());
+        CHECK(penumbra.size() > 100);
+        if (rods_scene) CHECK(filtered_error["box"] < 0.95 * filtered_error["none"]);  // sub-texel detail
     }
 }

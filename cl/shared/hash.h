@@ -25,4 +25,14 @@ SB_INLINE float sombra_pixel_jitter(sb_hash_uint x, sb_hash_uint y, sb_hash_uint
     return (float)(h >> 8) * (1.0f / 16777216.0f);
 }
 
+/* Coordinate along `axis` (0: x, 1: y) of texel (x, y)'s ray in a DSM view's image plane, in
+ * texels from the map's corner (DsmViewGpu): the texel centre, shifted by `shift`, plus stratified
+ * jitter (Lokovic & Veach 2000 §5.1) uniform in [−jitter/2, jitter/2) when jitter > 0. */
+SB_INLINE float sombra_texel_ray_coord(sb_hash_uint x, sb_hash_uint y, sb_hash_uint axis, float shift, float jitter,
+                                       sb_hash_uint seed) {
+    float p = (float)(axis ? y : x) + 0.5f + shift;
+    if (jitter > 0.0f) p += jitter * (sombra_pixel_jitter(x, y, seed ^ (axis * 0x9e3779b9u)) - 0.5f);
+    return p;
+}
+
 #endif /* SOMBRA_SHARED_HASH_H */

@@ -81,6 +81,13 @@ typedef struct {
     sb_uint first_texel; /* index of texel (0, 0) in the storage's per-texel arrays */
     sb_uint max_nodes;   /* most nodes in one texel: bounds the binary search of lookups */
     float near_depth, far_depth; /* depth range of the scene's boxes in this view */
+    /* Texel (x, y)'s ray passes through (x + ½ + ray_shift + jitter·(h − ½), …) texels of the image
+     * plane, h a hash of (x, y, jitter_seed) (shared/hash.h sombra_texel_ray_coord). 0, 0 in maps
+     * that are looked up; only the sub-pixel maps of pre-filtering shift or jitter their rays. */
+    float ray_shift;
+    float jitter;        /* stratified jitter: the extent of the ray's range in texels (≤ 1) */
+    sb_uint jitter_seed;
+    sb_uint pad0;
 } DsmViewGpu;
 
 typedef struct {

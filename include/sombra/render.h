@@ -35,9 +35,14 @@ struct RenderOptions {
     // functions cast shadows from where they lie rather than from the next sample.
     bool dsm_precompression = false;
     // Pre-filtering (Lokovic–Veach; Hadwiger §3.1): "none", "box" (each texel averages 2×2
-    // sub-pixel rays) or "tent" (4×4 sub-pixel rays weighted 1 3 3 1 per axis), combined exactly
-    // and compressed again; total error ≤ ε against the filtered visibility of the sub-pixel rays.
+    // sub-pixel rays), "tent" (4×4 sub-pixel rays weighted 1 3 3 1 per axis) or "5tap" (the
+    // centre ½ and the 4 corners ⅛ each, Hadwiger's 5-tap kernel; cl/shared/prefilter.h), combined
+    // exactly and compressed again; total error ≤ ε against the filtered visibility of the
+    // sub-pixel rays. With dsm_prefilter_jitter, each sub-pixel ray lies at a hashed position
+    // (seeded by dsm_prefilter_seed) in its own cell instead of the cell's centre.
     std::string dsm_prefilter = "none";
+    bool dsm_prefilter_jitter = true;
+    unsigned dsm_prefilter_seed = 1;
     VolumeStorage storage = VolumeStorage::Auto;
     bool empty_space_skipping = true;
     float termination_transmittance = 1e-3f;  // early ray termination threshold on t_acc
@@ -95,6 +100,12 @@ ShadowQuery shadow_transmittance(Context& context, const Scene& scene, int light
 // light), built with options.dsm_resolution / dsm_epsilon and read back to the host.
 std::vector<DeepShadowMap> build_deep_shadow_maps(Context& context, const Scene& scene, int light_index,
                                                   const RenderOptions& options, RenderStats* stats = nullptr);
+
+// The sub-pixel maps a pre-filtered DSM of one light merges (options.dsm_prefilter ≠ "none"),
+// each generated with ε/2: for every view of the light, its sub-maps in order (box, tent: one map
+// at twice the resolution; 5tap: centres, corners; cl/shared/prefilter.h). For tests and tools.
+std::vector<DeepShadowMap> build_prefilter_sub_maps(Context& context, const Scene& scene, int light_index,
+                                                    const RenderOptions& options);
 
 // PNG (8-bit sRGB) or EXR (float linear) by extension, through OpenImageIO. Writes to a temporary
 // file in the same folder and renames it, so a failed write leaves no partial file.

@@ -131,8 +131,11 @@ int run(int argc, char** argv) {
     render->add_option("--storage", dsm_storage, "deep shadow map storage: atlas, chunked, chunked-ondemand (Knecht) or compact")
         ->check(CLI::IsMember({"atlas", "chunked", "chunked-ondemand", "compact"}));
     render->add_flag("--precompression", precompression, "pre-compressed visibility tables for DSM generation (Hadwiger §3.2)");
-    render->add_option("--prefilter", prefilter, "DSM pre-filtering: none, box (2×2 sub-pixel rays) or tent (4×4)")
-        ->check(CLI::IsMember({"none", "box", "tent"}));
+    std::string prefilter_jitter = "on";
+    render->add_option("--prefilter", prefilter,
+                       "DSM pre-filtering: none, box (2×2 sub-pixel rays), tent (4×4) or 5tap (centre + 4 corners)")
+        ->check(CLI::IsMember({"none", "box", "tent", "5tap"}));
+    render->add_option("--prefilter-jitter", prefilter_jitter, "jittered sub-pixel rays: on (seed 1), off, or a seed");
     render->add_option("--eps", dsm_epsilon, "deep shadow map compression error bound ε (Knecht Eq. 3.1)")
         ->check(CLI::Range(0.0f, 1e6f));
     render->add_option("--volume-storage", storage, "auto (buffer on CPUs, image on GPUs), buffer or image")
@@ -163,8 +166,9 @@ int run(int argc, char** argv) {
         sub->add_option("--storage", dsm_storage, "deep shadow map storage: atlas, chunked, chunked-ondemand (Knecht) or compact")
             ->check(CLI::IsMember({"atlas", "chunked", "chunked-ondemand", "compact"}));
         sub->add_flag("--precompression", precompression, "pre-compressed visibility tables (Hadwiger §3.2)");
-        sub->add_option("--prefilter", prefilter, "DSM pre-filtering: none, box or tent")
-            ->check(CLI::IsMember({"none", "box", "tent"}));
+        sub->add_option("--prefilter", prefilter, "DSM pre-filtering: none, box, tent or 5tap")
+            ->check(CLI::IsMember({"none", "box", "tent", "5tap"}));
+        sub->add_option("--prefilter-jitter", prefilter_jitter, "jittered sub-pixel rays: on (seed 1), off, or a seed");
         sub->add_option("--eps", dsm_epsilon, "compression error bound ε")->check(CLI::Range(0.0f, 1e6f));
         sub->add_option("--stats", stats_path, "write build times and DSM sizes as JSON");
     }
@@ -210,6 +214,13 @@ int run(int argc, char** argv) {
     options.dsm_storage = dsm_storage;
     options.dsm_precompression = precompression;
     options.dsm_prefilter = prefilter;
+    options.dsm_prefilter_jitter = prefilter_jitter != "off";
+    if (prefilter_jitter != "on" && prefilter_jitter != "off") {
+        bool digits = !prefilter_jitter.empty() && prefilter_jitter.size() <= 9 &&
+                      std::all_of(prefilter_jitter.begin(), prefilter_jitter.end(), [](char c) { return c >= '0' && c <= '9'; });
+        if (!digits) throw sombra::Error("--prefilter-jitter: expected on, off or a seed (0 … 999999999), got '" + prefilter_jitter + "'");
+        options.dsm_prefilter_seed = unsigned(std::stoul(prefilter_jitter));
+    }
     if (dsm->parsed()) return write_dsm(context, scene, light_index, options, output, stats_path);
     if (visibility->parsed()) return print_visibility(context, scene, light_index, options, points_path, stats_path);
     sombra::RenderResult result = sombra::render(context, scene, options);

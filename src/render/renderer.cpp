@@ -71,7 +71,8 @@ std::string volumes_key(const Scene& scene, const RenderOptions& o, bool use_ima
     for (const Light& l : scene.lights) key << ' ' << (l.type == LightType::Point ? 6 : 1);  // views per light
     bool maps = o.shadows == ShadowTechnique::Dsm || o.shadows == ShadowTechnique::ShadowMap;  // one preparation
     key << " O" << (maps ? 99 : int(o.shadows)) << ' ' << o.dsm_resolution << ' ' << o.dsm_epsilon << ' ' << o.dsm_storage << ' '
-        << o.dsm_precompression << ' ' << o.dsm_prefilter << ' ' << use_images;
+        << o.dsm_precompression << ' ' << o.dsm_prefilter << ' ' << o.dsm_prefilter_jitter << ' ' << o.dsm_prefilter_seed << ' '
+        << use_images;
     return key.str();
 }
 
@@ -99,7 +100,8 @@ void copy_dsm_stats(const memory::DsmStats& d, const std::string& storage, Rende
 }
 
 shadows::DsmBuildOptions dsm_build_options(const RenderOptions& o) {
-    return {o.dsm_resolution, o.dsm_epsilon, o.dsm_storage, o.dsm_precompression, o.dsm_prefilter};
+    return {o.dsm_resolution, o.dsm_epsilon, o.dsm_storage, o.dsm_precompression, o.dsm_prefilter, o.dsm_prefilter_jitter,
+            o.dsm_prefilter_seed};
 }
 
 PreparedScene prepare_anew(host::Runtime& runtime, const Scene& scene, const RenderOptions& options, RenderStats& stats);
@@ -368,6 +370,27 @@ std::vector<DeepShadowMap> build_deep_shadow_maps(Context& context, const Scene&
         maps.back().light_name = name;
     }
     if (stats_out) *stats_out = stats;
+    return maps;
+}
+
+std::vector<DeepShadowMap> build_prefilter_sub_maps(Context& context, const Scene& scene, int light_index,
+                                                    const RenderOptions& options) {
+    host::Runtime& runtime = context.runtime();
+    check_light(scene, light_index);
+    RenderOptions scene_only = options;
+    scene_only.shadows = ShadowTechnique::None;  // the scene on the device, no maps
+    RenderStats stats;
+    std::shared_ptr<PreparedScene> kept = prepare(runtime, scene, scene_only, stats);
+    packing::PackedScene packed = kept->packed;
+    std::vector<DsmViewGpu> views = shadows::make_dsm_views(scene, packed, options.dsm_resolution);
+    shadows::SubPixelDsm sub =
+        shadows::build_sub_pixel_maps(runtime, scene, packed, kept->device, views, dsm_build_options(options));
+    const LightGpu& light = packed.lights[std::size_t(light_index)];
+    std::vector<DeepShadowMap> maps;
+    for (cl_uint v = light.view_first * sub.layout.maps; v < (light.view_first + light.view_count) * sub.layout.maps; ++v) {
+        maps.push_back(sub.dsm.storage->read_back(runtime, sub.dsm.views[v], v));
+        maps.back().light_name = "lights[" + std::to_string(light_index) + "].sub" + std::to_string(v);
+    }
     return maps;
 }
 

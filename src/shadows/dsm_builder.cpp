@@ -91,30 +91,33 @@ void generate(host::Runtime& runtime, const Scene& scene, const packing::PackedS
               const packing::DeviceScene& device_scene, std::vector<DsmViewGpu> views, const DsmBuildOptions& options,
               DeviceDsm& dsm, const std::vector<bool>& regenerate);
 
-// Pre-filtering (Lokovic–Veach; Hadwiger §3.1): the map at twice the resolution (2×2 sub-pixel
-// rays per texel, compact storage, ε/2), then dsm_prefilter.cl merges each texel's sub-pixel
-// functions under the filter kernel and compresses the sum (ε/2) into the chosen backend.
+// The sub-pixel maps of the `regenerate` views (empty: all); the others' stay empty.
+SubPixelDsm generate_sub_pixel_maps(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
+                                    const packing::DeviceScene& device_scene, const std::vector<DsmViewGpu>& views,
+                                    const DsmBuildOptions& options, const std::vector<bool>& regenerate) {
+    SubPixelDsm sub{sub_pixel_views(views, options.prefilter, options.prefilter_jitter, options.prefilter_seed), {}};
+    DsmBuildOptions sub_options = options;
+    sub_options.resolution = sub.layout.resolution;
+    sub_options.epsilon = 0.5f * options.epsilon;
+    sub_options.storage = "compact";
+    sub_options.prefilter = "none";
+    std::vector<bool> sub_regenerate;
+    for (bool r : regenerate) sub_regenerate.insert(sub_regenerate.end(), std::size_t(sub.layout.maps), r);
+    sub.dsm = start_dsm(runtime, sub.layout.views, sub_options);
+    generate(runtime, scene, packed, device_scene, sub.layout.views, sub_options, sub.dsm, sub_regenerate);
+    return sub;
+}
+
+// Pre-filtering (Lokovic–Veach; Hadwiger §3.1): the sub-pixel maps (ε/2), then dsm_prefilter.cl
+// merges each texel's taps under the filter kernel and compresses the sum (ε/2) into the chosen
+// backend.
 void generate_prefiltered(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
                           const packing::DeviceScene& device_scene, std::vector<DsmViewGpu> views, const DsmBuildOptions& options,
                           DeviceDsm& dsm, const std::vector<bool>& regenerate) {
-    if (options.prefilter != "box" && options.prefilter != "tent")
-        throw Error("--prefilter: unknown filter '" + options.prefilter + "' (none, box, tent)");
-    std::vector<DsmViewGpu> fine_views = views;
-    std::size_t fine_texels = std::size_t(options.resolution) * options.resolution * 4;
-    for (std::size_t v = 0; v < fine_views.size(); ++v) {
-        fine_views[v].resolution = cl_uint(options.resolution * 2);
-        fine_views[v].first_texel = cl_uint(v * fine_texels);
-    }
-    DsmBuildOptions fine_options = options;
-    fine_options.resolution = options.resolution * 2;
-    fine_options.epsilon = 0.5f * options.epsilon;
-    fine_options.storage = "compact";
-    fine_options.prefilter = "none";
-    DeviceDsm fine = start_dsm(runtime, fine_views, fine_options);  // only the regenerated views
-    generate(runtime, scene, packed, device_scene, fine_views, fine_options, fine, regenerate);
-
+    SubPixelDsm sub = generate_sub_pixel_maps(runtime, scene, packed, device_scene, views, options, regenerate);
     std::vector<std::string> defines{"SOMBRA_LANES=1"};
     if (options.prefilter == "tent") defines.push_back("SOMBRA_PREFILTER_TENT");
+    if (options.prefilter == "5tap") defines.push_back("SOMBRA_PREFILTER_5TAP");
     for (auto& d : dsm.storage->defines()) defines.push_back(d);
     memory::BuildContext context{runtime, views, defines, std::size_t(options.resolution) * std::size_t(options.resolution),
                                  "dsm_prefilter.cl", regenerate, {}};
@@ -126,13 +129,15 @@ void generate_prefiltered(host::Runtime& runtime, const Scene& scene, const pack
         kernel.setArg(a++, dsm.views_buffer);
         kernel.setArg(a++, view);
         kernel.setArg(a++, merge_epsilon);
-        kernel.setArg(a++, fine.views_buffer);
-        a = fine.storage->bind_for_reading(kernel, a);  // compact: offsets, nodes
+        kernel.setArg(a++, sub.dsm.views_buffer);
+        kernel.setArg(a++, cl_uint(sub.layout.maps));
+        kernel.setArg(a++, cl_uint(sub.layout.scale));
+        a = sub.dsm.storage->bind_for_reading(kernel, a);  // compact: offsets, nodes
         bind(kernel, a);
         return run_over_texels(runtime, kernel, options.resolution);
     };
     finish_dsm(runtime, dsm, context);
-    for (auto& [stage, ms] : fine.stats.stage_ms) dsm.stats.stage_ms["dsm_fine_" + stage.substr(4)] = ms;
+    for (auto& [stage, ms] : sub.dsm.stats.stage_ms) dsm.stats.stage_ms["dsm_fine_" + stage.substr(4)] = ms;
 }
 
 // Generates the `regenerate` views (empty: all) of `dsm` into its storage.
@@ -179,6 +184,12 @@ void generate(host::Runtime& runtime, const Scene& scene, const packing::PackedS
 }
 
 }  // namespace
+
+SubPixelDsm build_sub_pixel_maps(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
+                                 const packing::DeviceScene& device_scene, const std::vector<DsmViewGpu>& views,
+                                 const DsmBuildOptions& options) {
+    return generate_sub_pixel_maps(runtime, scene, packed, device_scene, views, options, {});
+}
 
 DeviceDsm build_deep_shadow_maps(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
                                  const packing::DeviceScene& device_scene, std::vector<DsmViewGpu> views,

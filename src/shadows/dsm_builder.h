@@ -8,6 +8,7 @@
 
 #include "memory/dsm_storage.h"
 #include "render/scene_upload.h"
+#include "shadows/dsm_views.h"
 #include "sombra/shadows.h"
 
 namespace sombra::shadows {
@@ -17,7 +18,9 @@ struct DsmBuildOptions {
     float epsilon = 0.02f;          // Knecht Eq. 3.1
     std::string storage = "atlas";  // atlas, chunked, compact
     bool precompression = false;    // pre-compressed visibility tables (Hadwiger §3.2)
-    std::string prefilter = "none"; // none, box (2×2 sub-pixel rays) or tent (4×4, weights 1 3 3 1)
+    std::string prefilter = "none"; // none, box, tent or 5tap (cl/shared/prefilter.h)
+    bool prefilter_jitter = true;   // stratified jitter of the sub-pixel rays
+    unsigned prefilter_seed = 1;
 };
 
 struct DeviceDsm {
@@ -36,6 +39,16 @@ DeviceDsm build_deep_shadow_maps(host::Runtime& runtime, const Scene& scene, con
 void regenerate_deep_shadow_maps(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
                                  const packing::DeviceScene& device_scene, std::vector<DsmViewGpu> views,
                                  const DsmBuildOptions& options, DeviceDsm& dsm, const std::vector<bool>& regenerate);
+
+// The sub-pixel maps of a pre-filtered build (options.prefilter ≠ "none"): each ray generated with
+// ε/2 into compact storage, the input of dsm_prefilter.cl.
+struct SubPixelDsm {
+    SubPixelMaps layout;
+    DeviceDsm dsm;
+};
+SubPixelDsm build_sub_pixel_maps(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
+                                 const packing::DeviceScene& device_scene, const std::vector<DsmViewGpu>& views,
+                                 const DsmBuildOptions& options);
 
 // -D defines of every pass over the scene's volumes.
 std::vector<std::string> volume_pass_defines(const Scene& scene, bool use_images, bool skip_empty);

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <glm/glm.hpp>
 
+#include "shared/hash.h"
 #include "sombra/error.h"
 
 namespace sombra::shadows {
@@ -105,6 +106,38 @@ std::vector<DsmViewGpu> make_dsm_views(const Scene& scene, packing::PackedScene&
     if (views.size() * std::size_t(resolution) * resolution >= 0xffffffffull)
         throw Error("--dsm-res: too many texels for 32-bit indices");
     return views;
+}
+
+SubPixelMaps sub_pixel_views(const std::vector<DsmViewGpu>& views, const std::string& filter, bool jitter, unsigned seed) {
+    if (filter != "box" && filter != "tent" && filter != "5tap")
+        throw Error("--prefilter: unknown filter '" + filter + "' (none, box, tent, 5tap)");
+    SubPixelMaps sub;
+    int n = views.empty() ? 0 : int(views.front().resolution);
+    bool quincunx = filter == "5tap";
+    // box, tent: the view at 2N, each ray anywhere in its fine cell (a quarter texel). 5tap: the
+    // view widened by one texel (N + 1 texels of the same size, centred), so texel centres are the
+    // view's corners; map 0 shifts them by ½ to the view's texel centres. Jitter ±¼ texel keeps
+    // each quincunx ray in its own cell (the diamond |dx| + |dy| ≤ ½).
+    sub.maps = quincunx ? 2 : 1;
+    sub.scale = quincunx ? 1 : 2;
+    sub.resolution = quincunx ? n + 1 : 2 * n;
+    std::size_t texels = std::size_t(sub.resolution) * sub.resolution;
+    if (views.size() * sub.maps * texels >= 0xffffffffull) throw Error("--dsm-res: too many texels for 32-bit indices");
+    for (const DsmViewGpu& view : views)
+        for (int m = 0; m < sub.maps; ++m) {
+            DsmViewGpu v = view;
+            v.resolution = cl_uint(sub.resolution);
+            v.first_texel = cl_uint(sub.views.size() * texels);
+            if (quincunx) {
+                float widen = float(n + 1) / float(n);
+                v.extent_x *= widen, v.extent_y *= widen;
+                v.ray_shift = m == 0 ? 0.5f : 0.f;
+            }
+            v.jitter = jitter ? (quincunx ? 0.5f : 1.f) : 0.f;
+            v.jitter_seed = sombra_hash(seed + sombra_hash(cl_uint(sub.views.size())));
+            sub.views.push_back(v);
+        }
+    return sub;
 }
 
 }  // namespace sombra::shadows

@@ -2,6 +2,7 @@
 // spot light (its cone), six 90° cube faces for a point light, one orthographic view fitted to
 // the scene for a directional light; depth ranges fitted to the objects.
 #pragma once
+#include <string>
 #include <vector>
 
 #include "render/scene_upload.h"
@@ -14,5 +15,17 @@ std::vector<std::array<float, 3>> scene_box_corners(const packing::PackedScene& 
 // Views for every light, in light order; sets packed.lights[i].view_first / view_count.
 // first_texel of each view is laid out consecutively (resolution² texels per view).
 std::vector<DsmViewGpu> make_dsm_views(const Scene& scene, packing::PackedScene& packed, int resolution);
+
+// The sub-pixel maps a pre-filter merges (Lokovic & Veach 2000 §5.1; taps and sampling positions
+// in cl/shared/prefilter.h): `maps` views of resolution² texels per DSM view, in view order;
+// texel (x, y) of a DSM view reads sub-map texels (scale·x + dx, scale·y + dy).
+struct SubPixelMaps {
+    std::vector<DsmViewGpu> views;
+    int maps = 1, scale = 2, resolution = 0;
+};
+
+// filter: box, tent or 5tap (else an Error naming --prefilter). With `jitter`, every sub-pixel
+// ray is moved by a hash of (texel, seed, sub-map) within its cell: ±¼ texel of the DSM view.
+SubPixelMaps sub_pixel_views(const std::vector<DsmViewGpu>& views, const std::string& filter, bool jitter, unsigned seed);
 
 }  // namespace sombra::shadows
