@@ -49,7 +49,7 @@ struct PreparedScene {
 // Everything the prepared scene depends on: volumes (identity, size, a sample of their voxels,
 // placement, transfer function, step, material), lights, and the options that shape the device
 // data and the deep shadow maps — not the camera, the image size or the shading options.
-std::string preparation_key(const Scene& scene, const RenderOptions& o, bool use_images) {
+std::string preparation_key(const Scene& scene, const RenderOptions& o, bool use_images, int dsm_lanes) {
     std::ostringstream key;
     key.precision(9);
     for (const VolumeInstance& vi : scene.volumes) {
@@ -75,7 +75,7 @@ std::string preparation_key(const Scene& scene, const RenderOptions& o, bool use
     }
     bool maps = o.shadows == ShadowTechnique::Dsm || o.shadows == ShadowTechnique::ShadowMap;  // one preparation
     key << " O" << (maps ? 99 : int(o.shadows)) << ' ' << o.dsm_resolution << ' ' << o.dsm_epsilon << ' ' << o.dsm_storage << ' '
-        << o.dsm_precompression << ' ' << o.dsm_prefilter << ' ' << use_images;
+        << o.dsm_precompression << ' ' << o.dsm_prefilter << ' ' << use_images << ' ' << dsm_lanes;
     return key.str();
 }
 
@@ -93,7 +93,7 @@ std::shared_ptr<PreparedScene> prepare(host::Runtime& runtime, const Scene& scen
         std::shared_ptr<PreparedScene> prepared;
         RenderStats stats;
     };
-    std::string key = preparation_key(scene, options, use_images);
+    std::string key = preparation_key(scene, options, use_images, host::packet_lanes(runtime, options.lanes));
     auto& slot = runtime.kept_state("renderer.prepared_scene");
     auto kept = std::static_pointer_cast<Kept>(slot);
     if (kept && kept->key == key) {
@@ -135,7 +135,7 @@ PreparedScene prepare_anew(host::Runtime& runtime, const Scene& scene, const Ren
         prepared.dsm = shadows::build_deep_shadow_maps(
             runtime, scene, prepared.packed, prepared.device, views,
             {options.dsm_resolution, options.dsm_epsilon, options.dsm_storage, options.dsm_precompression,
-             options.dsm_prefilter});
+             options.dsm_prefilter, options.lanes});
         const memory::DsmStats& d = prepared.dsm.stats;
         for (auto& [stage, ms] : d.stage_ms) stats.stage_ms[stage] = ms;
         stats.dsm_views = d.views;
@@ -206,8 +206,7 @@ RenderResult render(Context& context, const Scene& scene, const RenderOptions& o
     int height = options.height > 0 ? options.height : scene.height;
     if (width < 1 || height < 1 || width > 16384 || height > 16384)
         throw Error("--width/--height: must lie in [1, 16384]");
-    int lanes = options.lanes > 0 ? options.lanes : (runtime.info().is_gpu ? 1 : 8);
-    if (lanes != 1 && lanes != 4 && lanes != 8 && lanes != 16) throw Error("--lanes: must be 1, 4, 8 or 16");
+    int lanes = host::packet_lanes(runtime, options.lanes);
 
     RenderResult result;
     RenderStats& stats = result.stats;
@@ -233,26 +232,13 @@ RenderResult render(Context& context, const Scene& scene, const RenderOptions& o
     kernel.setArg(arg++, count_buffer);
     set_dsm_args(kernel, arg, prepared);
 
-    // Packets run on CPUs: PoCL keeps every work-item's private state of a work-group on one
-    // stack, and its default group size overflows it for 8- and 16-lane packets; 4×4 groups
-    // measured fastest here (the kernel ignores the padding of the grid).
-    std::size_t columns = std::size_t((width + lanes - 1) / lanes), rows = std::size_t(height);
-    cl::NDRange local = cl::NullRange;
-    if (lanes > 1) {
-        const std::size_t group = 4;
-        columns = (columns + group - 1) / group * group;
-        rows = (rows + group - 1) / group * group;
-        local = cl::NDRange(group, group);
-    }
-    cl::Event event;
-    runtime.queue().enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(columns, rows), local, nullptr, &event);
-    event.wait();
-    double kernel_ms = host::Runtime::event_ms(event);
+    double kernel_ms = host::run_packets(runtime, kernel, width, height, lanes);
     stats.stage_ms["camera_pass"] = kernel_ms;
 
     result.image.width = width, result.image.height = height;
     result.image.rgba.resize(pixels * 4);
     std::vector<cl_uint> counts(pixels);
+    cl::Event event;
     runtime.queue().enqueueReadBuffer(image_buffer, CL_TRUE, 0, pixels * sizeof(cl_float4), result.image.rgba.data(), nullptr, &event);
     double readback_ms = host::Runtime::event_ms(event);
     runtime.queue().enqueueReadBuffer(count_buffer, CL_TRUE, 0, pixels * sizeof(cl_uint), counts.data(), nullptr, &event);

@@ -39,15 +39,6 @@ void finish_dsm(host::Runtime& runtime, DeviceDsm& dsm, memory::BuildContext& co
     dsm.views = context.views;
 }
 
-// Runs a generation kernel over the texels of one view; returns its profiled time in ms.
-double run_over_texels(host::Runtime& runtime, cl::Kernel& kernel, int resolution) {
-    cl::Event event;
-    runtime.queue().enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(std::size_t(resolution), std::size_t(resolution)),
-                                         cl::NullRange, nullptr, &event);
-    event.wait();
-    return host::Runtime::event_ms(event);
-}
-
 // The pre-compressed visibility tables of every volume, on the device (one table per transfer
 // function and step; 256 densities per axis).
 struct DevicePrecompression {
@@ -127,7 +118,7 @@ DeviceDsm build_prefiltered(host::Runtime& runtime, const Scene& scene, const pa
         kernel.setArg(a++, fine.views_buffer);
         a = fine.storage->bind_for_reading(kernel, a);  // compact: offsets, nodes
         bind(kernel, a);
-        return run_over_texels(runtime, kernel, options.resolution);
+        return host::run_packets(runtime, kernel, options.resolution, options.resolution, 1);
     };
     finish_dsm(runtime, dsm, context);
     return dsm;
@@ -143,7 +134,8 @@ DeviceDsm build_deep_shadow_maps(host::Runtime& runtime, const Scene& scene, con
     DeviceDsm dsm = start_dsm(runtime, views, options);
 
     auto defines = volume_pass_defines(scene, device_scene.uses_images, true);
-    defines.push_back("SOMBRA_LANES=1");
+    int lanes = host::packet_lanes(runtime, options.lanes);  // packets of texels of a row
+    defines.push_back("SOMBRA_LANES=" + std::to_string(lanes));
     for (auto& d : dsm.storage->defines()) defines.push_back(d);
     DevicePrecompression precompression;
     if (options.precompression) {
@@ -172,7 +164,7 @@ DeviceDsm build_deep_shadow_maps(host::Runtime& runtime, const Scene& scene, con
             kernel.setArg(a++, precompression.count);
         }
         bind(kernel, a);
-        return run_over_texels(runtime, kernel, options.resolution);
+        return host::run_packets(runtime, kernel, options.resolution, options.resolution, lanes);
     };
     finish_dsm(runtime, dsm, context);
     return dsm;

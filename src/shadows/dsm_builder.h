@@ -18,6 +18,7 @@ struct DsmBuildOptions {
     std::string storage = "atlas";  // atlas, chunked, compact
     bool precompression = false;    // pre-compressed visibility tables (Hadwiger §3.2)
     std::string prefilter = "none"; // none, box (2×2 sub-pixel rays) or tent (4×4, weights 1 3 3 1)
+    int lanes = 0;                  // texels per work-item of dsm_build.cl (host::packet_lanes; 0: auto)
 };
 
 struct DeviceDsm {
