@@ -101,20 +101,23 @@ DSM_GENERATION_KERNEL(VOLUME_DATA_PARAM, __global const uchar* occupancy, __glob
 #endif
         lfloat sigma = lany(stepwise) ? extinction_at(volume_data, volumes, tf_tables, &ray, t, cursor.active, stepwise)
                                       : (lfloat)(0.0f);
+        /* opacity starts to rise within the sample's step, not before the previous sample */
+        lfloat first_z = fmax(LLOAD(previous_t), t - cursor.step);
         int sampling_lane[SOMBRA_LANES];
-        float t_lane[SOMBRA_LANES], step_lane[SOMBRA_LANES], sigma_lane[SOMBRA_LANES];
+        float t_lane[SOMBRA_LANES], step_lane[SOMBRA_LANES], sigma_lane[SOMBRA_LANES], first_z_lane[SOMBRA_LANES];
         LSTORE(sampling, sampling_lane);
         LSTORE(t, t_lane);
         LSTORE(cursor.step, step_lane);
+        LSTORE(first_z, first_z_lane);
         LSTORE(sigma, sigma_lane);
         /* each lane's sample goes to its own compressor */
         for (uint lane = 0; lane < SOMBRA_LANES; ++lane) {
             if (!sampling_lane[lane]) continue;
-            float t = t_lane[lane], step = step_lane[lane];
+            float t = t_lane[lane];
 #ifdef SOMBRA_DSM_PRECOMPRESSED
             if (tabled_lane[lane]) {
                 __global const PrecompressionGpu* table = &precompression[31 - clz(active_lane[lane])];
-                float last = (float)(table->size - 1);
+                float last = (float)(table->size - 1), step = step_lane[lane];
                 uint front = (uint)rint(clamp((front_lane[lane] - table->domain_min) * table->domain_scale, 0.0f, last));
                 uint back = (uint)rint(clamp((back_lane[lane] - table->domain_min) * table->domain_scale, 0.0f, last));
                 uint entry = table->entry_offset + front * table->size + back;
@@ -131,11 +134,13 @@ DSM_GENERATION_KERNEL(VOLUME_DATA_PARAM, __global const uchar* occupancy, __glob
                 continue;
             }
 #endif
-            /* opacity starts to rise within this sample's step, not before the previous sample */
-            float first_z = fmax(previous_t[lane], t - step);
-            transmittance[lane] *= exp(-sigma_lane[lane] * step); /* α_acc += α_sample (1 − α_acc), Knecht Eq. 3.2 */
-            STORE_NODES(lane, compressor_add(&compressor[lane], t, 1.0f - transmittance[lane], first_z));
             previous_t[lane] = t;
+            /* α_acc += α_sample (1 − α_acc), Knecht Eq. 3.2 (scalar exp: the same bits as 1 lane) */
+            if (sigma_lane[lane] != 0.0f) transmittance[lane] *= exp(-sigma_lane[lane] * step_lane[lane]);
+            float alpha = 1.0f - transmittance[lane];
+            /* empty space before the first opacity changes nothing in a compressor (compress.h) */
+            if (compressor[lane].started || alpha > 0.0f)
+                STORE_NODES(lane, compressor_add(&compressor[lane], t, alpha, first_z_lane[lane]));
         }
         cursor.alive &= !(LLOAD(transmittance) < DSM_TERMINATION_TRANSMITTANCE);
     }
