@@ -75,7 +75,8 @@ std::string preparation_key(const Scene& scene, const RenderOptions& o, bool use
     }
     bool maps = o.shadows == ShadowTechnique::Dsm || o.shadows == ShadowTechnique::ShadowMap;  // one preparation
     key << " O" << (maps ? 99 : int(o.shadows)) << ' ' << o.dsm_resolution << ' ' << o.dsm_epsilon << ' ' << o.dsm_storage << ' '
-        << o.dsm_precompression << ' ' << o.dsm_prefilter << ' ' << use_images << ' ' << dsm_lanes;
+        << o.dsm_precompression << ' ' << o.dsm_prefilter << ' ' << use_images;
+    if (maps) key << ' ' << dsm_lanes;  // same maps, but asking for other packets builds them so
     return key.str();
 }
 
