@@ -55,6 +55,7 @@ struct BenchOptions {
     std::string out_dir;
     std::string python = "python3";
     std::vector<std::string> storages = kDsmStorages;
+    int lanes_resolution = -1;  // resolution of the 1-lane vs 8-lane comparison; -1: the largest, 0: none
 };
 
 struct Row {
@@ -208,6 +209,28 @@ void measure_render(sombra::Context& context, const sombra::Scene& scene, const 
     }
 }
 
+// DSM generation with 1-texel and 8-texel packets (RenderOptions::lanes) side by side: the same
+// maps built `runs` times each, alternating, so that load from other processes hits both alike.
+// Returns the median generation time (sum of the dsm_* stages) per lane count.
+std::map<int, double> measure_lanes(sombra::Context& context, const sombra::Scene& scene, sombra::RenderOptions options,
+                                    int runs) {
+    std::map<int, std::vector<double>> times;
+    for (int i = -1; i < runs; ++i)  // i = −1: warm-up (program builds)
+        for (int lanes : {1, 8}) {
+            options.lanes = lanes;
+            forget_preparation(context, scene);
+            sombra::RenderStats stats;
+            sombra::build_deep_shadow_maps(context, scene, 0, options, &stats);
+            double sum = 0;
+            for (const auto& [stage, ms] : stats.stage_ms)
+                if (stage.rfind("dsm_", 0) == 0) sum += ms;
+            if (i >= 0) times[lanes].push_back(sum);
+        }
+    std::map<int, double> medians;
+    for (const auto& [lanes, t] : times) medians[lanes] = median(t);
+    return medians;
+}
+
 const Row* find_row(const std::vector<Row>& rows, const std::string& shadows) {
     for (const Row& r : rows)
         if (r.shadows == shadows) return &r;
@@ -320,6 +343,8 @@ int run(int argc, char** argv) {
     app.add_option("--python", o.python, "Python with matplotlib, for the plot");
     app.add_option("--storages", o.storages, "DSM storage backends (RenderOptions::dsm_storage), comma-separated")
         ->delimiter(',');
+    app.add_option("--lanes-resolution", o.lanes_resolution,
+                   "resolution of the DSM generation comparison 1 vs 8 lanes (CPU devices; default: the largest; 0: none)");
     CLI11_PARSE(app, argc, argv);
 
     std::string command;
@@ -381,6 +406,26 @@ int run(int argc, char** argv) {
             }
 
     std::string table = markdown_table(rows);
+    // texel packets (cl/dsm_build.cl): generation with 1 and 8 lanes in the same process
+    int lanes_resolution = o.lanes_resolution < 0 ? *std::max_element(o.resolutions.begin(), o.resolutions.end())
+                                                  : o.lanes_resolution;
+    if (lanes_resolution > 0 && !context.device().is_gpu) {
+        std::ostringstream lanes_table;
+        float epsilon = std::find(o.epsilons.begin(), o.epsilons.end(), 0.02f) != o.epsilons.end() ? 0.02f : o.epsilons[0];
+        lanes_table << "\nDSM generation, texels per work-item (alternating runs, medians of " << o.runs << "; res "
+                    << lanes_resolution << ", ε " << eps_text(epsilon) << "):\n\n"
+                    << "| storage | 1 lane ms | 8 lanes ms | speed-up |\n|---|---:|---:|---:|\n";
+        for (const std::string& storage : o.storages) {
+            sombra::RenderOptions options = base;
+            options.shadows = sombra::ShadowTechnique::Dsm;
+            options.dsm_resolution = lanes_resolution, options.dsm_epsilon = epsilon;
+            set_dsm_storage(options, storage, 0);
+            std::map<int, double> ms = measure_lanes(context, scene, options, o.runs);
+            lanes_table << "| " << storage << " | " << fixed(ms[1], 1) << " | " << fixed(ms[8], 1) << " | "
+                        << fixed(ms[1] / ms[8], 2) << " |\n";
+        }
+        table += lanes_table.str();
+    }
     std::cout << "\n" << table;
     std::string regeneration = measure_regeneration(context, scene, base, o.storages, *std::max_element(o.resolutions.begin(), o.resolutions.end()), o.epsilons.front(), o.runs);
     std::cout << "\nregeneration after a light moves (" << *std::max_element(o.resolutions.begin(), o.resolutions.end()) << "², ε " << eps_text(o.epsilons.front())

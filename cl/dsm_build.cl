@@ -1,12 +1,13 @@
-/* sombra — deep shadow map generation (Knecht Alg. 3.1; Hadwiger §3.1, §3.3): one work-item per
- * texel casts a ray from the light over the same segment traversal as the camera pass,
- * accumulates opacity (Knecht Eq. 3.2), compresses the visibility function on the fly
- * (shared/compress.h) and hands the nodes to the storage backend (dsm_storage.h). Built with
- * SOMBRA_LANES=1. Kernels:
+/* sombra — deep shadow map generation (Knecht Alg. 3.1; Hadwiger §3.1, §3.3): a work-item casts
+ * the rays of SOMBRA_LANES neighbouring texels of one row from the light as a packet (lanes.h:
+ * 8 on CPUs, 1 on GPUs) over the same segment traversal as the camera pass, accumulates each
+ * lane's opacity (Knecht Eq. 3.2), compresses each lane's visibility function on the fly with its
+ * own compressor (shared/compress.h) and hands the nodes to the lane's storage writer
+ * (dsm_storage.h). Every lane computes what the 1-lane kernel computes for its texel. Kernels:
  *   dsm_build  generation into the backend's storage
  *   dsm_count  nodes per texel only (SOMBRA_DSM_COUNT_ONLY; the compact backend's first pass)
- * Defines as render.cl: SOMBRA_VOLUME_SLOTS, SOMBRA_USE_IMAGES, SOMBRA_SKIP_EMPTY; the
- * backend's (SOMBRA_DSM_ATLAS, SOMBRA_DSM_CHUNKED); SOMBRA_DSM_PRECOMPRESSED (pre-compressed
+ * Defines as render.cl: SOMBRA_LANES, SOMBRA_VOLUME_SLOTS, SOMBRA_USE_IMAGES, SOMBRA_SKIP_EMPTY;
+ * the backend's (SOMBRA_DSM_ATLAS, SOMBRA_DSM_CHUNKED); SOMBRA_DSM_PRECOMPRESSED (pre-compressed
  * visibility tables, Hadwiger §3.2). */
 #include "shared/types.h"
 #include "shared/hash.h"
@@ -30,69 +31,118 @@ DSM_GENERATION_KERNEL(VOLUME_DATA_PARAM, __global const uchar* occupancy, __glob
 #endif
      DSM_BUILD_STORAGE_PARAMS) {
     __global const DsmViewGpu* v = &views[view_index];
-    uint x = get_global_id(0), y = get_global_id(1);
-    if (x >= v->resolution || y >= v->resolution) return;
-    DSM_TEXEL_BEGIN(v, x, y);
+    uint x0 = get_global_id(0) * SOMBRA_LANES, y = get_global_id(1);
+    if (x0 >= v->resolution || y >= v->resolution) return; /* padding of the grid */
+    uint n = min((uint)SOMBRA_LANES, v->resolution - x0);  /* texels of this packet; lanes ≥ n are padding */
+    DSM_TEXELS_BEGIN(v, x0, y, n);
 
-    float3 origin, dir;
-    dsm_texel_ray(v, x, y, &origin, &dir);
+    /* every lane's ray and jitter as the 1-lane kernel computes them (padding lanes: a copy of
+     * the row's last texel, finite and never sampled) */
+    float ox[SOMBRA_LANES], oy[SOMBRA_LANES], oz[SOMBRA_LANES], dx[SOMBRA_LANES], dy[SOMBRA_LANES], dz[SOMBRA_LANES];
+    float jitter[SOMBRA_LANES];
+    for (uint lane = 0; lane < SOMBRA_LANES; ++lane) {
+        uint x = min(x0 + lane, v->resolution - 1);
+        float3 origin, dir;
+        dsm_texel_ray(v, x, y, &origin, &dir);
+        ox[lane] = origin.x, oy[lane] = origin.y, oz[lane] = origin.z;
+        dx[lane] = dir.x, dy[lane] = dir.y, dz[lane] = dir.z;
+        jitter[lane] = sombra_pixel_jitter(x, y, view_index);
+    }
+    lmask texels = (int)x0 + LANE_INDEX < (int)v->resolution;
     VolumeRay ray;
-    make_volume_ray(&ray, volumes, volume_count, l3_splat(origin), l3_splat(dir), (lfloat)(0.0f), (lfloat)(INFINITY));
+    make_volume_ray(&ray, volumes, volume_count, l3(LLOAD(ox), LLOAD(oy), LLOAD(oz)), l3(LLOAD(dx), LLOAD(dy), LLOAD(dz)),
+                    (lfloat)(0.0f), (lfloat)(INFINITY));
     SegmentCursor cursor;
-    segment_cursor_init(&cursor, &ray, volume_count, sombra_pixel_jitter(x, y, view_index), (lmask)(1));
+    segment_cursor_init(&cursor, &ray, volume_count, LLOAD(jitter), texels);
 
-    VisibilityCompressor compressor;
-    compressor_init(&compressor, epsilon);
-    float transmittance = 1.0f, previous_t = -INFINITY;
-    uint count = 0;
+    /* per lane: the compressor, the transmittance and the previous sample's depth */
+    VisibilityCompressor compressor[SOMBRA_LANES];
+    float transmittance[SOMBRA_LANES], previous_t[SOMBRA_LANES];
+    for (uint lane = 0; lane < SOMBRA_LANES; ++lane) {
+        compressor_init(&compressor[lane], epsilon);
+        transmittance[lane] = 1.0f;
+        previous_t[lane] = -INFINITY;
+    }
 #ifdef SOMBRA_DSM_PRECOMPRESSED
-    float previous_density = 0.0f;
-    int previous_segment = -1, previous_k = -1;
+    lfloat previous_density = (lfloat)(0.0f);
+    lint previous_segment = (lint)(-1), previous_k = (lint)(-1);
 #endif
-    while (segment_cursor_next(&cursor, &ray, volumes, volume_count, occupancy)) {
-        float t = cursor.t, step = cursor.step;
-        /* opacity starts to rise within this sample's step, not before the previous sample */
-        float first_z = fmax(previous_t, t - step);
+    lmask sampling;
+    while (lany(sampling = segment_cursor_next(&cursor, &ray, volumes, volume_count, occupancy))) {
+        lfloat t = select((lfloat)(0.0f), cursor.t, sampling); /* finite positions in idle lanes */
+        lmask stepwise = sampling; /* lanes whose sample is an extinction sample */
 #ifdef SOMBRA_DSM_PRECOMPRESSED
         /* Hadwiger §3.2: in a segment of one volume, the step from the previous sample to this one
          * is replaced by its pre-compressed visibility function, so an isosurface between two
          * samples rises where it lies, not at the next sample */
-        uint active = cursor.active;
-        if (active != 0 && (active & (active - 1)) == 0) {
-            uint i = 31 - clz(active);
-            __global const VolumeGpu* v = &volumes[i];
-            float density = sample_density(volume_data, v, ray_voxel_point(&ray, i, t));
-            __global const PrecompressionGpu* table = &precompression[i];
-            bool consecutive = cursor.segment == previous_segment && cursor.k == previous_k + 1;
-            previous_segment = cursor.segment, previous_k = cursor.k;
-            float front_density = previous_density;
-            previous_density = density;
-            if (consecutive && table->size > 0) {
-                float last = (float)(table->size - 1);
-                uint front = (uint)rint(clamp((front_density - table->domain_min) * table->domain_scale, 0.0f, last));
-                uint back = (uint)rint(clamp((density - table->domain_min) * table->domain_scale, 0.0f, last));
+        lmask single = sampling & (cursor.active != 0u) & ((cursor.active & (cursor.active - 1u)) == 0u);
+        lfloat density = (lfloat)(0.0f);
+        lmask tabled = (lmask)(0);
+        for (uint i = 0; i < SOMBRA_VOLUME_SLOTS; ++i) {
+            lmask here = single & (cursor.active == (1u << i));
+            if (!lany(here)) continue;
+            density = select(density, sample_density(volume_data, &volumes[i], ray_voxel_point(&ray, i, t)), here);
+            if (precompression[i].size > 0) tabled |= here;
+        }
+        tabled &= (cursor.segment == previous_segment) & (cursor.k == previous_k + 1); /* consecutive samples */
+        lfloat front_density = previous_density;
+        previous_segment = select(previous_segment, cursor.segment, single);
+        previous_k = select(previous_k, cursor.k, single);
+        previous_density = select(previous_density, density, single);
+        stepwise &= !tabled;
+        int tabled_lane[SOMBRA_LANES];
+        uint active_lane[SOMBRA_LANES];
+        float front_lane[SOMBRA_LANES], back_lane[SOMBRA_LANES];
+        LSTORE(tabled, tabled_lane);
+        LSTORE(cursor.active, active_lane);
+        LSTORE(front_density, front_lane);
+        LSTORE(density, back_lane);
+#endif
+        lfloat sigma = lany(stepwise) ? extinction_at(volume_data, volumes, tf_tables, &ray, t, cursor.active, stepwise)
+                                      : (lfloat)(0.0f);
+        /* opacity starts to rise within the sample's step, not before the previous sample */
+        lfloat first_z = fmax(LLOAD(previous_t), t - cursor.step);
+        int sampling_lane[SOMBRA_LANES];
+        float t_lane[SOMBRA_LANES], step_lane[SOMBRA_LANES], sigma_lane[SOMBRA_LANES], first_z_lane[SOMBRA_LANES];
+        LSTORE(sampling, sampling_lane);
+        LSTORE(t, t_lane);
+        LSTORE(cursor.step, step_lane);
+        LSTORE(first_z, first_z_lane);
+        LSTORE(sigma, sigma_lane);
+        /* each lane's sample goes to its own compressor */
+        for (uint lane = 0; lane < SOMBRA_LANES; ++lane) {
+            if (!sampling_lane[lane]) continue;
+            float t = t_lane[lane];
+#ifdef SOMBRA_DSM_PRECOMPRESSED
+            if (tabled_lane[lane]) {
+                __global const PrecompressionGpu* table = &precompression[31 - clz(active_lane[lane])];
+                float last = (float)(table->size - 1), step = step_lane[lane];
+                uint front = (uint)rint(clamp((front_lane[lane] - table->domain_min) * table->domain_scale, 0.0f, last));
+                uint back = (uint)rint(clamp((back_lane[lane] - table->domain_min) * table->domain_scale, 0.0f, last));
                 uint entry = table->entry_offset + front * table->size + back;
                 uint node_count = precompressed_count[entry];
-                float start_transmittance = transmittance, start_t = t - step, fed_z = previous_t;
+                float start_transmittance = transmittance[lane], start_t = t - step, fed_z = previous_t[lane];
                 for (uint j = 0; j < node_count; ++j) {
                     float z = start_t + precompressed_fraction[4 * entry + j] * step;
                     float step_alpha = precompressed_opacity[4 * entry + j];
-                    transmittance = start_transmittance * (1.0f - step_alpha);
-                    STORE_NODES(compressor_add(&compressor, z, 1.0f - transmittance, fed_z));
+                    transmittance[lane] = start_transmittance * (1.0f - step_alpha);
+                    STORE_NODES(lane, compressor_add(&compressor[lane], z, 1.0f - transmittance[lane], fed_z));
                     fed_z = z;
                 }
-                previous_t = t;
-                if (transmittance < DSM_TERMINATION_TRANSMITTANCE) cursor.alive = 0;
+                previous_t[lane] = t;
                 continue;
             }
-        }
 #endif
-        float sigma = extinction_at(volume_data, volumes, tf_tables, &ray, t, cursor.active, 1);
-        transmittance *= exp(-sigma * step); /* α_acc += α_sample (1 − α_acc), Knecht Eq. 3.2 */
-        STORE_NODES(compressor_add(&compressor, t, 1.0f - transmittance, first_z));
-        previous_t = t;
-        if (transmittance < DSM_TERMINATION_TRANSMITTANCE) cursor.alive = 0;
+            previous_t[lane] = t;
+            /* α_acc += α_sample (1 − α_acc), Knecht Eq. 3.2 (scalar exp: the same bits as 1 lane) */
+            if (sigma_lane[lane] != 0.0f) transmittance[lane] *= exp(-sigma_lane[lane] * step_lane[lane]);
+            float alpha = 1.0f - transmittance[lane];
+            /* empty space before the first opacity changes nothing in a compressor (compress.h) */
+            if (compressor[lane].started || alpha > 0.0f)
+                STORE_NODES(lane, compressor_add(&compressor[lane], t, alpha, first_z_lane[lane]));
+        }
+        cursor.alive &= !(LLOAD(transmittance) < DSM_TERMINATION_TRANSMITTANCE);
     }
-    STORE_NODES(compressor_finish(&compressor));
-    DSM_TEXEL_END(v, x, y);
+    for (uint lane = 0; lane < n; ++lane) STORE_NODES(lane, compressor_finish(&compressor[lane]));
+    DSM_TEXELS_END(v, x0, y, n);
 }

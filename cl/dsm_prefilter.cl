@@ -29,7 +29,7 @@ DSM_GENERATION_KERNEL(__global const DsmViewGpu* views, uint view_index, float e
     __global const DsmViewGpu* v = &views[view_index];
     uint x = get_global_id(0), y = get_global_id(1);
     if (x >= v->resolution || y >= v->resolution) return;
-    DSM_TEXEL_BEGIN(v, x, y);
+    DSM_TEXELS_BEGIN(v, x, y, 1);
     /* the taps: sub-map texels under the kernel (clamped at the map's border), their node runs */
     uint next[PREFILTER_TAPS], end[PREFILTER_TAPS];
     float weight[PREFILTER_TAPS], z0[PREFILTER_TAPS], a0[PREFILTER_TAPS];
@@ -50,7 +50,6 @@ DSM_GENERATION_KERNEL(__global const DsmViewGpu* views, uint view_index, float e
 
     VisibilityCompressor compressor;
     compressor_init(&compressor, epsilon);
-    uint count = 0;
     float previous_z = -INFINITY;
     for (;;) {
         /* next depth of the union of the taps' nodes */
@@ -74,9 +73,9 @@ DSM_GENERATION_KERNEL(__global const DsmViewGpu* views, uint view_index, float e
             }
             v_sum += weight[t] * clamp(value, 0.0f, 1.0f);
         }
-        STORE_NODES(compressor_add(&compressor, z, v_sum / total, previous_z == -INFINITY ? z - fmax(fabs(z) * 1e-6f, 1e-6f) : previous_z));
+        STORE_NODES(0, compressor_add(&compressor, z, v_sum / total, previous_z == -INFINITY ? z - fmax(fabs(z) * 1e-6f, 1e-6f) : previous_z));
         previous_z = z;
     }
-    STORE_NODES(compressor_finish(&compressor));
-    DSM_TEXEL_END(v, x, y);
+    STORE_NODES(0, compressor_finish(&compressor));
+    DSM_TEXELS_END(v, x, y, 1);
 }

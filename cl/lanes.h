@@ -7,6 +7,7 @@
  *   select(a, b, m)         per lane m ? b : a (OpenCL built-in, works for both)
  *   gather(ptr, idx)        per-lane loads ptr[idx]
  *   LSTORE(v, array)        lanes to a private array (vstoreN), for per-lane writes at the end
+ *   LLOAD(array)            a private array back to lanes (vloadN), after per-lane scalar work
  *   LFROM_LANES(f), LC(v,c) build a lane vector from f(c) for every component c of the width
  *   LFROM_LANES_AS(type, f) the same for another lane type (lint, luint) */
 #ifndef SOMBRA_LANES_H
@@ -29,6 +30,7 @@ typedef int lmask;
 #define LC(v, c) (v)
 #define LANE_INDEX ((lint)(0))
 #define LSTORE(v, array) ((array)[0] = (v))
+#define LLOAD(array) ((array)[0])
 #elif SOMBRA_LANES == 4
 typedef float4 lfloat;
 typedef int4 lint;
@@ -40,6 +42,7 @@ typedef int4 lmask;
 #define LCONVERT_FLOAT(x) convert_float4(x)
 #define LFROM_LANES_AS(type, f) ((type)(f(s0), f(s1), f(s2), f(s3)))
 #define LSTORE(v, array) vstore4((v), 0, (array))
+#define LLOAD(array) vload4(0, (array))
 #define LC(v, c) ((v).c)
 #define LANE_INDEX ((lint)(0, 1, 2, 3))
 #elif SOMBRA_LANES == 8
@@ -53,6 +56,7 @@ typedef int8 lmask;
 #define LCONVERT_FLOAT(x) convert_float8(x)
 #define LFROM_LANES_AS(type, f) ((type)(f(s0), f(s1), f(s2), f(s3), f(s4), f(s5), f(s6), f(s7)))
 #define LSTORE(v, array) vstore8((v), 0, (array))
+#define LLOAD(array) vload8(0, (array))
 #define LC(v, c) ((v).c)
 #define LANE_INDEX ((lint)(0, 1, 2, 3, 4, 5, 6, 7))
 #elif SOMBRA_LANES == 16
@@ -66,6 +70,7 @@ typedef int16 lmask;
 #define LCONVERT_FLOAT(x) convert_float16(x)
 #define LFROM_LANES_AS(type, f) ((type)(f(s0), f(s1), f(s2), f(s3), f(s4), f(s5), f(s6), f(s7), f(s8), f(s9), f(sA), f(sB), f(sC), f(sD), f(sE), f(sF)))
 #define LSTORE(v, array) vstore16((v), 0, (array))
+#define LLOAD(array) vload16(0, (array))
 #define LC(v, c) ((v).c)
 #define LANE_INDEX ((lint)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15))
 #else

@@ -69,6 +69,21 @@ RenderOptions dsm_options(int resolution, float epsilon) {
     return o;
 }
 
+// Both sets of maps hold the same views with bit-identical nodes.
+void require_same_nodes(const std::vector<DeepShadowMap>& maps, const std::vector<DeepShadowMap>& reference,
+                        const std::string& what) {
+    REQUIRE(maps.size() == reference.size());
+    for (std::size_t v = 0; v < maps.size(); ++v) {
+        INFO(what << ", view " << v);
+        REQUIRE(maps[v].first == reference[v].first);
+        REQUIRE(maps[v].nodes.size() == reference[v].nodes.size());
+        for (std::size_t i = 0; i < maps[v].nodes.size(); ++i) {
+            REQUIRE(maps[v].nodes[i].depth == reference[v].nodes[i].depth);
+            REQUIRE(maps[v].nodes[i].opacity == reference[v].nodes[i].opacity);
+        }
+    }
+}
+
 }  // namespace
 
 TEST_CASE("DSM and shadow-ray transmittance against the brute-force reference, every light type", "[dsm]") {
@@ -255,22 +270,43 @@ TEST_CASE("every storage backend stores the same nodes and renders the same imag
     for (const char* storage : {"atlas", "chunked", "chunked-ondemand"}) {
         RenderOptions o = base;
         o.dsm_storage = storage;
-        auto maps = build_deep_shadow_maps(test::context(), s, 0, o);
-        REQUIRE(maps.size() == reference_maps.size());
-        for (std::size_t v = 0; v < maps.size(); ++v) {
-            INFO(storage << ", view " << v);
-            REQUIRE(maps[v].first == reference_maps[v].first);
-            for (std::size_t i = 0; i < maps[v].nodes.size(); ++i) {
-                REQUIRE(maps[v].nodes[i].depth == reference_maps[v].nodes[i].depth);
-                REQUIRE(maps[v].nodes[i].opacity == reference_maps[v].nodes[i].opacity);
-            }
-        }
+        require_same_nodes(build_deep_shadow_maps(test::context(), s, 0, o), reference_maps, storage);
         RenderResult r = render(test::context(), s, o);
         auto d = test::compare(r.image, reference_image.image);
         INFO(storage << ": max image difference " << d.max_abs);
         CHECK(d.max_abs <= 1e-5);
         CHECK(r.stats.dsm_nodes == reference_image.stats.dsm_nodes);
         CHECK(r.stats.dsm_bytes_used > 0);
+    }
+}
+
+TEST_CASE("DSM generation in packets of 8 texels stores the nodes of one texel per work-item", "[dsm][storage][lanes]") {
+    // two overlapping volumes (segments of one and of two volumes), a resolution that is not a
+    // multiple of 8 (padding lanes and columns), a spot light and a point light's cube faces
+    Scene s = smoke_scene(LightType::Spot);
+    VolumeInstance second = s.volumes[0];
+    second.transform = make_transform({0.3f, 0.1f, 0.f}, {0.f, 35.f, 10.f}, {1.f / 30, 1.f / 24, 1.f / 20});
+    s.volumes.push_back(second);
+    s.lights.push_back(smoke_scene(LightType::Point).lights[0]);
+    RenderOptions base = dsm_options(37, 0.02f);
+    base.storage = VolumeStorage::Buffer;
+    base.dsm_precompression = GENERATE(false, true);
+    for (const char* storage : {"atlas", "chunked", "chunked-ondemand", "compact"}) {
+        base.dsm_storage = storage;
+        RenderOptions scalar = base, packets = base;
+        scalar.lanes = 1;
+        packets.lanes = 8;
+        // every light's maps come from one preparation per lane count
+        std::vector<std::vector<DeepShadowMap>> reference;
+        for (int light : {0, 1}) reference.push_back(build_deep_shadow_maps(test::context(), s, light, scalar));
+        for (int light : {0, 1}) {
+            std::size_t nodes = 0;
+            for (const auto& map : reference[light]) nodes += map.nodes.size();
+            CHECK(nodes > 0);
+            require_same_nodes(build_deep_shadow_maps(test::context(), s, light, packets), reference[light],
+                               std::string(storage) + (base.dsm_precompression ? ", tables" : "") + ", light " +
+                                   std::to_string(light));
+        }
     }
 }
 

@@ -47,8 +47,9 @@ struct RenderOptions {
     bool empty_space_skipping = true;
     float termination_transmittance = 1e-3f;  // early ray termination threshold on t_acc
     unsigned jitter_seed = 1;
-    // Rays per work-item, marched together in OpenCL vector types (1, 4, 8 or 16); 0 = auto:
-    // 8 on CPU devices (PoCL runs them on the SIMD units), 1 on GPUs.
+    // Rays per work-item, marched together in OpenCL vector types (1, 4, 8 or 16), in the camera
+    // pass and in DSM generation (neighbouring pixels / texels of a row); 0 = auto: 8 on CPU
+    // devices (PoCL runs them on the SIMD units), 1 on GPUs. The maps do not depend on it.
     int lanes = 0;
 };
 

@@ -149,6 +149,27 @@ double Runtime::event_ms(const cl::Event& event) {
     return double(end - start) * 1e-6;
 }
 
+int packet_lanes(const Runtime& runtime, int requested) {
+    int lanes = requested > 0 ? requested : (runtime.info().is_gpu ? 1 : 8);
+    if (lanes != 1 && lanes != 4 && lanes != 8 && lanes != 16) throw Error("--lanes: must be 1, 4, 8 or 16");
+    return lanes;
+}
+
+double run_packets(Runtime& runtime, cl::Kernel& kernel, int width, int height, int lanes) {
+    std::size_t columns = std::size_t((width + lanes - 1) / lanes), rows = std::size_t(height);
+    cl::NDRange local = cl::NullRange;
+    if (lanes > 1) {
+        const std::size_t group = 4;
+        columns = (columns + group - 1) / group * group;
+        rows = (rows + group - 1) / group * group;
+        local = cl::NDRange(group, group);
+    }
+    cl::Event event;
+    runtime.queue().enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(columns, rows), local, nullptr, &event);
+    event.wait();
+    return Runtime::event_ms(event);
+}
+
 cl::Buffer make_buffer(Runtime& runtime, cl_mem_flags flags, std::size_t bytes, const void* host_data,
                        const std::string& what) {
     if (bytes == 0) {  // OpenCL forbids empty buffers; kernels never read past their counts

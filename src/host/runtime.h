@@ -45,6 +45,17 @@ private:
     std::map<std::string, cl::Program> programs_;
 };
 
+// Rays per work-item of the packet kernels (cl/lanes.h): `requested` (1, 4, 8 or 16; else an
+// Error naming --lanes), or when it is 0, 8 on CPU devices and 1 on GPUs.
+int packet_lanes(const Runtime& runtime, int requested);
+
+// Runs a packet kernel over width × height pixels or texels, `lanes` neighbours of a row per
+// work-item: ⌈width / lanes⌉ × height work-items, and with packets 4×4 work-groups over a grid
+// padded to them (PoCL keeps a group's private state on one stack and its default group size
+// overflows it for 8- and 16-lane packets; 4×4 measured fastest). Kernels ignore the padding.
+// Waits for it and returns its profiled time in ms.
+double run_packets(Runtime& runtime, cl::Kernel& kernel, int width, int height, int lanes);
+
 // The source of a cl/ file with every #include "…" replaced by the file's text.
 std::string expand_kernel_source(const std::string& path);
 

@@ -50,7 +50,7 @@ struct PreparedScene {
 // of their voxels, placement, transfer function, step, material), the number of lights and of
 // their views, and the options that shape the device data and the deep shadow maps — not the
 // camera, the image size or the shading options.
-std::string volumes_key(const Scene& scene, const RenderOptions& o, bool use_images) {
+std::string volumes_key(const Scene& scene, const RenderOptions& o, bool use_images, int dsm_lanes) {
     std::ostringstream key;
     key.precision(9);
     for (const VolumeInstance& vi : scene.volumes) {
@@ -73,6 +73,7 @@ std::string volumes_key(const Scene& scene, const RenderOptions& o, bool use_ima
     key << " O" << (maps ? 99 : int(o.shadows)) << ' ' << o.dsm_resolution << ' ' << o.dsm_epsilon << ' ' << o.dsm_storage << ' '
         << o.dsm_precompression << ' ' << o.dsm_prefilter << ' ' << o.dsm_prefilter_jitter << ' ' << o.dsm_prefilter_seed << ' '
         << use_images;
+    if (maps) key << ' ' << dsm_lanes;  // same maps, but asking for other packets builds them so
     return key.str();
 }
 
@@ -101,7 +102,7 @@ void copy_dsm_stats(const memory::DsmStats& d, const std::string& storage, Rende
 
 shadows::DsmBuildOptions dsm_build_options(const RenderOptions& o) {
     return {o.dsm_resolution, o.dsm_epsilon, o.dsm_storage, o.dsm_precompression, o.dsm_prefilter, o.dsm_prefilter_jitter,
-            o.dsm_prefilter_seed};
+            o.dsm_prefilter_seed, o.lanes};
 }
 
 PreparedScene prepare_anew(host::Runtime& runtime, const Scene& scene, const RenderOptions& options, RenderStats& stats);
@@ -152,7 +153,7 @@ std::shared_ptr<PreparedScene> prepare(host::Runtime& runtime, const Scene& scen
         std::vector<std::string> light_keys;
         std::shared_ptr<PreparedScene> prepared;
     };
-    std::string key = volumes_key(scene, options, use_images);
+    std::string key = volumes_key(scene, options, use_images, host::packet_lanes(runtime, options.lanes));
     std::vector<std::string> light_keys;
     for (const Light& l : scene.lights) light_keys.push_back(light_view_key(l));
     auto& slot = runtime.kept_state("renderer.prepared_scene");
@@ -258,8 +259,7 @@ RenderResult render(Context& context, const Scene& scene, const RenderOptions& o
     int height = options.height > 0 ? options.height : scene.height;
     if (width < 1 || height < 1 || width > 16384 || height > 16384)
         throw Error("--width/--height: must lie in [1, 16384]");
-    int lanes = options.lanes > 0 ? options.lanes : (runtime.info().is_gpu ? 1 : 8);
-    if (lanes != 1 && lanes != 4 && lanes != 8 && lanes != 16) throw Error("--lanes: must be 1, 4, 8 or 16");
+    int lanes = host::packet_lanes(runtime, options.lanes);
 
     RenderResult result;
     RenderStats& stats = result.stats;
@@ -285,26 +285,13 @@ RenderResult render(Context& context, const Scene& scene, const RenderOptions& o
     kernel.setArg(arg++, count_buffer);
     set_dsm_args(kernel, arg, prepared);
 
-    // Packets run on CPUs: PoCL keeps every work-item's private state of a work-group on one
-    // stack, and its default group size overflows it for 8- and 16-lane packets; 4×4 groups
-    // measured fastest here (the kernel ignores the padding of the grid).
-    std::size_t columns = std::size_t((width + lanes - 1) / lanes), rows = std::size_t(height);
-    cl::NDRange local = cl::NullRange;
-    if (lanes > 1) {
-        const std::size_t group = 4;
-        columns = (columns + group - 1) / group * group;
-        rows = (rows + group - 1) / group * group;
-        local = cl::NDRange(group, group);
-    }
-    cl::Event event;
-    runtime.queue().enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(columns, rows), local, nullptr, &event);
-    event.wait();
-    double kernel_ms = host::Runtime::event_ms(event);
+    double kernel_ms = host::run_packets(runtime, kernel, width, height, lanes);
     stats.stage_ms["camera_pass"] = kernel_ms;
 
     result.image.width = width, result.image.height = height;
     result.image.rgba.resize(pixels * 4);
     std::vector<cl_uint> counts(pixels);
+    cl::Event event;
     runtime.queue().enqueueReadBuffer(image_buffer, CL_TRUE, 0, pixels * sizeof(cl_float4), result.image.rgba.data(), nullptr, &event);
     double readback_ms = host::Runtime::event_ms(event);
     runtime.queue().enqueueReadBuffer(count_buffer, CL_TRUE, 0, pixels * sizeof(cl_uint), counts.data(), nullptr, &event);

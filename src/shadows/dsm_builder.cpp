@@ -42,15 +42,6 @@ void finish_dsm(host::Runtime& runtime, DeviceDsm& dsm, memory::BuildContext& co
     dsm.views = context.views;
 }
 
-// Runs a generation kernel over the texels of one view; returns its profiled time in ms.
-double run_over_texels(host::Runtime& runtime, cl::Kernel& kernel, int resolution) {
-    cl::Event event;
-    runtime.queue().enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(std::size_t(resolution), std::size_t(resolution)),
-                                         cl::NullRange, nullptr, &event);
-    event.wait();
-    return host::Runtime::event_ms(event);
-}
-
 // The pre-compressed visibility tables of every volume, on the device (one table per transfer
 // function and step; 256 densities per axis).
 struct DevicePrecompression {
@@ -134,7 +125,7 @@ void generate_prefiltered(host::Runtime& runtime, const Scene& scene, const pack
         kernel.setArg(a++, cl_uint(sub.layout.scale));
         a = sub.dsm.storage->bind_for_reading(kernel, a);  // compact: offsets, nodes
         bind(kernel, a);
-        return run_over_texels(runtime, kernel, options.resolution);
+        return host::run_packets(runtime, kernel, options.resolution, options.resolution, 1);
     };
     finish_dsm(runtime, dsm, context);
     for (auto& [stage, ms] : sub.dsm.stats.stage_ms) dsm.stats.stage_ms["dsm_fine_" + stage.substr(4)] = ms;
@@ -149,7 +140,8 @@ void generate(host::Runtime& runtime, const Scene& scene, const packing::PackedS
         return generate_prefiltered(runtime, scene, packed, device_scene, views, options, dsm, regenerate);
 
     auto defines = volume_pass_defines(scene, device_scene.uses_images, true);
-    defines.push_back("SOMBRA_LANES=1");
+    int lanes = host::packet_lanes(runtime, options.lanes);  // packets of texels of a row
+    defines.push_back("SOMBRA_LANES=" + std::to_string(lanes));
     for (auto& d : dsm.storage->defines()) defines.push_back(d);
     DevicePrecompression precompression;
     if (options.precompression) {
@@ -178,7 +170,7 @@ void generate(host::Runtime& runtime, const Scene& scene, const packing::PackedS
             kernel.setArg(a++, precompression.count);
         }
         bind(kernel, a);
-        return run_over_texels(runtime, kernel, options.resolution);
+        return host::run_packets(runtime, kernel, options.resolution, options.resolution, lanes);
     };
     finish_dsm(runtime, dsm, context);
 }

@@ -21,6 +21,7 @@ struct DsmBuildOptions {
     std::string prefilter = "none"; // none, box, tent or 5tap (cl/shared/prefilter.h)
     bool prefilter_jitter = true;   // stratified jitter of the sub-pixel rays
     unsigned prefilter_seed = 1;
+    int lanes = 0;                  // texels per work-item of dsm_build.cl (host::packet_lanes; 0: auto)
 };
 
 struct DeviceDsm {
