@@ -98,30 +98,8 @@ std::shared_ptr<const Mesh> mesh_of(std::vector<std::array<float, 3>> p, std::ve
 
 // The real meshes centred in front of a camera at 512² (teapot 992, bunny 3674 triangles).
 raster::Projection real_mesh_view(const std::string& file, const Vec3& rotate, raster::View* view_out) {
-    auto mesh = std::make_shared<const Mesh>(load_mesh(test::data_path(file)));
-    std::array<float, 3> lo{1e9f, 1e9f, 1e9f}, hi{-1e9f, -1e9f, -1e9f};
-    for (auto& p : mesh->positions)
-        for (int i = 0; i < 3; ++i) lo[i] = std::min(lo[i], p[i]), hi[i] = std::max(hi[i], p[i]);
-    float size = std::max({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]});
-    MeshInstance mi;
-    mi.mesh = mesh;
-    // world = T · R · S: centred at the origin, unit size
-    auto s = make_transform({0, 0, 0}, {0, 0, 0}, {1 / size, 1 / size, 1 / size});
-    auto r = make_transform({0, 0, 0}, rotate, {1, 1, 1});
-    auto t = make_transform({-(lo[0] + hi[0]) / 2 / size, -(lo[1] + hi[1]) / 2 / size, -(lo[2] + hi[2]) / 2 / size}, {0, 0, 0}, {1, 1, 1});
-    std::array<float, 16> ts{}, rts{};
-    for (int i = 0; i < 4; ++i)
-        for (int j = 0; j < 4; ++j)
-            for (int k = 0; k < 4; ++k) ts[i * 4 + j] += t[i * 4 + k] * s[k * 4 + j];
-    for (int i = 0; i < 4; ++i)
-        for (int j = 0; j < 4; ++j)
-            for (int k = 0; k < 4; ++k) rts[i * 4 + j] += r[i * 4 + k] * ts[k * 4 + j];
-    mi.transform = rts;
-    Camera cam;
-    cam.position = {0.3f, 0.4f, 1.8f};
-    cam.fov_y_deg = 40.f;
-    *view_out = raster::camera_view(cam, 512, 512);
-    return raster::project_meshes({mi}, *view_out);
+    *view_out = raster::camera_view(test::mesh_camera(), 512, 512);
+    return raster::project_meshes({test::centred_mesh(file, rotate)}, *view_out);
 }
 
 }  // namespace

@@ -137,13 +137,20 @@ typedef struct {
     sb_uint pad0;
 } ScreenTriangleGpu;
 
+/* One fragment of a pixel: a triangle crossing its ray (cl/segments.cl). A pixel's fragments,
+ * sorted by depth, bound its homogeneous segments (Knecht §3.1.2). */
+typedef struct {
+    float depth;      /* DsmViewGpu convention: distance along the ray (perspective) or view z */
+    sb_uint triangle; /* index into the rasterized ScreenTriangleGpu list */
+} FragmentGpu;
+
 /* The screen the raster and segment kernels work on. */
 typedef struct {
     sb_uint width, height;  /* pixels */
     sb_uint tiles_x, tiles_y;
     sb_uint perspective;    /* 1: q = 1 / view z; 0: q = view z */
     float extent_x, extent_y; /* perspective: tan(half field of view); orthographic: half width, height */
-    sb_uint max_fragments;  /* segments: most fragments kept per pixel */
+    sb_uint pad0;
 } RasterScreenGpu;
 
 #endif /* SOMBRA_SHARED_TYPES_H */

@@ -172,7 +172,7 @@ Projection project_meshes(const std::vector<MeshInstance>& meshes, const View& v
     return out;
 }
 
-RasterScreenGpu make_screen(const View& view, unsigned max_fragments) {
+RasterScreenGpu make_screen(const View& view) {
     check_size(view);
     RasterScreenGpu s{};
     s.width = cl_uint(view.width), s.height = cl_uint(view.height);
@@ -180,7 +180,6 @@ RasterScreenGpu make_screen(const View& view, unsigned max_fragments) {
     s.tiles_y = (s.height + SOMBRA_TILE_SIZE - 1) / SOMBRA_TILE_SIZE;
     s.perspective = view.perspective ? 1 : 0;
     s.extent_x = float(view.extent_x), s.extent_y = float(view.extent_y);
-    s.max_fragments = max_fragments;
     return s;
 }
 

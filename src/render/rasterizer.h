@@ -44,7 +44,7 @@ struct Projection {
 // Triangles wholly inside are passed on unchanged (shared corners snap alike: watertight).
 Projection project_meshes(const std::vector<MeshInstance>& meshes, const View& view);
 
-RasterScreenGpu make_screen(const View& view, unsigned max_fragments = 0);
+RasterScreenGpu make_screen(const View& view);
 
 struct Stats {
     std::size_t triangles = 0;     // screen triangles rasterized

@@ -1,6 +1,7 @@
 #include "reference/raster_ref.h"
 
 #include <algorithm>
+#include <cmath>
 #include <map>
 
 namespace sombra::reference {
@@ -68,6 +69,57 @@ std::vector<int> coverage_counts(const std::vector<ScreenTriangleGpu>& triangles
     for (const auto& t : triangles)
         for_each_covered(t, width, height, [&](int px, int py) { ++counts[std::size_t(py) * width + px]; });
     return counts;
+}
+
+}  // namespace sombra::reference
+
+namespace sombra::reference {
+
+std::vector<WorldTriangle> world_triangles(const std::vector<MeshInstance>& meshes) {
+    std::vector<WorldTriangle> out;
+    for (const auto& mi : meshes)
+        for (const auto& t : mi.mesh->triangles) {
+            WorldTriangle w;
+            for (int k = 0; k < 3; ++k) {
+                const auto& p = mi.mesh->positions[t[k]];
+                const auto& m = mi.transform;
+                for (int r = 0; r < 3; ++r)
+                    w[k][r] = double(m[r * 4]) * p[0] + double(m[r * 4 + 1]) * p[1] + double(m[r * 4 + 2]) * p[2] + m[r * 4 + 3];
+            }
+            out.push_back(w);
+        }
+    return out;
+}
+
+std::vector<std::vector<Fragment>> fragments(const std::vector<ScreenTriangleGpu>& triangles,
+                                             const std::vector<WorldTriangle>& world, const raster::View& view) {
+    using V = std::array<double, 3>;
+    auto sub = [](const V& a, const V& b) { return V{a[0] - b[0], a[1] - b[1], a[2] - b[2]}; };
+    auto dot = [](const V& a, const V& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; };
+    const int w = view.width, h = view.height;
+    std::vector<std::vector<Fragment>> out(std::size_t(w) * h);
+    for (std::size_t i = 0; i < triangles.size(); ++i) {
+        const WorldTriangle& c = world[triangles[i].source];
+        V e1 = sub(c[1], c[0]), e2 = sub(c[2], c[0]);
+        V n{e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]};
+        for_each_covered(triangles[i], w, h, [&](int px, int py) {
+            double nx = ((px + 0.5) / w * 2 - 1) * view.extent_x, ny = ((py + 0.5) / h * 2 - 1) * view.extent_y;
+            V across{nx * view.axis_x[0] + ny * view.axis_y[0], nx * view.axis_x[1] + ny * view.axis_y[1],
+                     nx * view.axis_x[2] + ny * view.axis_y[2]};
+            V o = view.origin, d = view.axis_z;
+            if (view.perspective) {
+                d = {d[0] + across[0], d[1] + across[1], d[2] + across[2]};
+                double len = std::sqrt(dot(d, d));
+                d = {d[0] / len, d[1] / len, d[2] / len};
+            } else {
+                o = {o[0] + across[0], o[1] + across[1], o[2] + across[2]};
+            }
+            out[std::size_t(py) * w + px].push_back({dot(n, sub(c[0], o)) / dot(n, d), std::uint32_t(i)});
+        });
+    }
+    for (auto& f : out)
+        std::sort(f.begin(), f.end(), [](const Fragment& a, const Fragment& b) { return a.depth < b.depth; });
+    return out;
 }
 
 }  // namespace sombra::reference

@@ -20,3 +20,26 @@ std::vector<TileList> tile_lists(const std::vector<ScreenTriangleGpu>& triangles
 std::vector<int> coverage_counts(const std::vector<ScreenTriangleGpu>& triangles, int width, int height);
 
 }  // namespace sombra::reference
+
+#include <array>
+
+#include "render/rasterizer.h"
+
+namespace sombra::reference {
+
+using WorldTriangle = std::array<std::array<double, 3>, 3>;
+
+// The world corners of every source triangle of the instances, in project_meshes' order.
+std::vector<WorldTriangle> world_triangles(const std::vector<MeshInstance>& meshes);
+
+// Per pixel (y·width + x): the screen triangles that cover it (covers()), each with the depth at
+// which the pixel's ray meets its source triangle's world plane (double; raster::View's depth
+// convention), sorted near to far.
+struct Fragment {
+    double depth;
+    std::uint32_t triangle;
+};
+std::vector<std::vector<Fragment>> fragments(const std::vector<ScreenTriangleGpu>& triangles,
+                                             const std::vector<WorldTriangle>& world, const raster::View& view);
+
+}  // namespace sombra::reference
