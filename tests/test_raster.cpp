@@ -96,6 +96,21 @@ std::shared_ptr<const Mesh> mesh_of(std::vector<std::array<float, 3>> p, std::ve
     return std::make_shared<const Mesh>(m);
 }
 
+// The single screen triangle of one world triangle (wholly inside the view).
+ScreenTriangleGpu project_one(std::vector<std::array<float, 3>> corners, const raster::View& v) {
+    MeshInstance mi;
+    mi.mesh = mesh_of(std::move(corners), {{0, 1, 2}});
+    auto proj = raster::project_meshes({mi}, v);
+    REQUIRE(proj.triangles.size() == 1);
+    return proj.triangles[0];
+}
+
+// Corner k of t lies on the centre of pixel (px, py), within the snapping.
+void check_corner_on_pixel(const ScreenTriangleGpu& t, int k, int px, int py) {
+    CHECK(std::abs(t.x.s[k] - (px * kSub + kSub / 2)) <= 1);
+    CHECK(std::abs(t.y.s[k] - (py * kSub + kSub / 2)) <= 1);
+}
+
 // The real meshes centred in front of a camera at 512² (teapot 992, bunny 3674 triangles).
 raster::Projection real_mesh_view(const std::string& file, const Vec3& rotate, raster::View* view_out) {
     *view_out = raster::camera_view(test::mesh_camera(), 512, 512);
@@ -317,14 +332,77 @@ TEST_CASE("raster: projection follows the camera pass and DSM pixel conventions"
         return std::array<float, 3>{float(cam.position[0] + dist * d[0] / len), float(cam.position[1] + dist * d[1] / len),
                                     float(cam.position[2] + dist * d[2] / len)};
     };
-    MeshInstance mi;
-    mi.mesh = mesh_of({point_of_pixel(10, 7, 2.0), point_of_pixel(50, 9, 2.5), point_of_pixel(20, 33, 3.0)}, {{0, 1, 2}});
-    auto proj = raster::project_meshes({mi}, v);
-    REQUIRE(proj.triangles.size() == 1);
-    const auto& t = proj.triangles[0];
-    CHECK(std::abs(t.x.s[0] - (10 * kSub + kSub / 2)) <= 1);
-    CHECK(std::abs(t.y.s[0] - (7 * kSub + kSub / 2)) <= 1);
-    CHECK(std::abs(t.x.s[2] - (20 * kSub + kSub / 2)) <= 1);
-    CHECK(std::abs(t.y.s[2] - (33 * kSub + kSub / 2)) <= 1);
+    auto t = project_one({point_of_pixel(10, 7, 2.0), point_of_pixel(50, 9, 2.5), point_of_pixel(20, 33, 3.0)}, v);
+    check_corner_on_pixel(t, 0, 10, 7);
+    check_corner_on_pixel(t, 2, 20, 33);
     CHECK(reference::covers(t, 25, 15));
+}
+
+TEST_CASE("raster: clipped quads stay watertight (guard band, near plane)", "[raster]") {
+    raster::View v;
+    v.origin = {0, 1, 0};
+    v.axis_y = {0, -1, 0};  // screen y down
+    v.axis_z = {0, 0, 1};
+    v.axis_x = {-1, 0, 0};
+    v.extent_x = 0.6, v.extent_y = 0.4;
+    v.near_depth = 0.05;
+    v.width = 77, v.height = 53;
+    SECTION("a huge wall in front: every pixel exactly once") {
+        MeshInstance wall;
+        wall.mesh = mesh_of({{-500, -300, 4}, {700, -400, 5}, {600, 500, 6}, {-400, 450, 3}, {1, 2, 4.5f}},
+                            {{0, 1, 4}, {1, 2, 4}, {2, 3, 4}, {3, 0, 4}, {4, 4, 0}});  // a fan around a point on screen
+        auto proj = raster::project_meshes({wall}, v);
+        CHECK(proj.clipped == 5);  // the degenerate one too
+        CHECK(proj.culled == 0);
+        auto counts = counts_of(run_kernel(proj.triangles, v.width, v.height), v.width, v.height);
+        for (int c : counts) REQUIRE(c == 1);
+    }
+    SECTION("a ground plane through the near plane: below the horizon once, above never") {
+        MeshInstance ground;
+        ground.mesh = mesh_of({{-50, 0, -50}, {50, 0, -50}, {50, 0, 60}, {-50, 0, 60}, {0, 0, 3}},
+                              {{0, 1, 4}, {1, 2, 4}, {2, 3, 4}, {3, 0, 4}});  // a fan around a point ahead
+        auto proj = raster::project_meshes({ground}, v);
+        CHECK(proj.clipped >= 2);
+        auto kernel = run_kernel(proj.triangles, v.width, v.height);
+        require_same(kernel, reference::tile_lists(proj.triangles, v.width, v.height));
+        auto counts = counts_of(kernel, v.width, v.height);
+        for (int py = 0; py < v.height; ++py)
+            for (int px = 0; px < v.width; ++px) {
+                double ny = ((py + 0.5) / v.height * 2 - 1) * v.extent_y;  // ray direction's screen-down part
+                // the plane y = 0 lies 1 below the eye; far rows below the horizon end within the quad
+                int expected = ny > 0.03 ? 1 : (ny < 0 ? 0 : -1);
+                if (expected >= 0) REQUIRE(counts[std::size_t(py) * v.width + px] == expected);
+                else REQUIRE(counts[std::size_t(py) * v.width + px] <= 1);
+            }
+    }
+}
+
+TEST_CASE("raster: a DSM view's pixels are its texels, depths its ray distances", "[raster][segments]") {
+    for (cl_uint perspective : {1u, 0u}) {
+        DsmViewGpu d{};
+        d.axis_x = {{0, 1, 0, 0}}, d.axis_y = {{0, 0, 1, 0}}, d.axis_z = {{1, 0, 0, 0}};
+        d.origin = {{-3, 0.2f, 0.1f, 0}};
+        d.extent_x = perspective ? 0.4f : 1.2f, d.extent_y = perspective ? 0.3f : 0.9f;
+        d.resolution = 32, d.perspective = perspective, d.near_depth = 0.5f;
+        raster::View v = raster::dsm_view(d);
+        // cl/dsm_view.h dsm_view_ray for texel (x, y) at distance t
+        auto on_ray = [&](double x, double y, double t) {
+            double nx = (x + 0.5) / 32 * 2 - 1, ny = (y + 0.5) / 32 * 2 - 1;
+            std::array<double, 3> across{0, nx * d.extent_x, ny * d.extent_y}, o{-3, 0.2, 0.1}, dir{1, 0, 0};
+            if (perspective) {
+                dir = {1, across[1], across[2]};
+                double len = std::sqrt(dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]);
+                for (auto& c : dir) c /= len;
+            } else {
+                for (int i = 0; i < 3; ++i) o[i] += across[i];
+            }
+            return std::array<float, 3>{float(o[0] + t * dir[0]), float(o[1] + t * dir[1]), float(o[2] + t * dir[2])};
+        };
+        auto t = project_one({on_ray(3, 4, 2.0), on_ray(28, 6, 2.5), on_ray(10, 29, 3.0)}, v);
+        check_corner_on_pixel(t, 1, 28, 6);
+        // the depth plane gives the ray distance at the corners (within the snapping error)
+        double q = t.depth_plane.s[0];
+        CHECK((perspective ? 1.0 / q * std::sqrt(1 + std::pow((3.5 / 16 - 1) * 0.4, 2) + std::pow((4.5 / 16 - 1) * 0.3, 2)) : q) ==
+              Approx(2.0).epsilon(1e-3));
+    }
 }
