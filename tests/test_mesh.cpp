@@ -101,6 +101,19 @@ TEST_CASE("PLY meshes load, ASCII and binary; quads are triangulated", "[mesh]")
     CHECK(tri.positions[tri.triangles[0][1]][0] == 1.f);
 }
 
+TEST_CASE("normals are read when the file has them", "[mesh]") {
+    std::string obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 2\nf 1//1 2//1 3//1\n";
+    Mesh m = load_mesh(write_text("normals.obj", obj));
+    REQUIRE(m.normals.size() == m.positions.size());
+    for (auto& n : m.normals) CHECK(n[2] == Approx(1.f));  // unit length
+    std::string ply = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+                      "property float nx\nproperty float ny\nproperty float nz\nelement face 1\n"
+                      "property list uchar int vertex_indices\nend_header\n0 0 0 1 0 0\n1 0 0 1 0 0\n0 1 0 1 0 0\n3 0 1 2\n";
+    m = load_mesh(write_text("normals.ply", ply));
+    REQUIRE(m.normals.size() == 3);
+    CHECK(m.normals[0][0] == Approx(1.f));
+}
+
 TEST_CASE("missing and malformed mesh files fail with one line naming the file", "[mesh]") {
     require_one_line_naming(error_of([] { load_mesh("/nonexistent/m.obj"); }), "/nonexistent/m.obj", "cannot open");
     const std::vector<std::pair<std::string, std::string>> bad = {

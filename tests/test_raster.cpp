@@ -288,15 +288,18 @@ TEST_CASE("raster: degenerate, edge-on, off-screen and near-plane triangles", "[
             {5.f, 5.f, 2}, {6.f, 5.f, 2}, {5.f, 6.f, 2},           // 7–9 beyond the guard band
             {0.f, 0.f, -1}, {0.2f, 0.f, -1}, {0.f, 0.2f, -1},      // 10–12 behind the eye
             {-0.2f, -0.2f, -1}, {0.2f, -0.1f, 3}, {0.f, 0.25f, 3},  // 13–15 crossing the near plane
+            {1.4f, 0.f, 2}, {1.6f, 0.f, 2}, {1.5f, 0.2f, 2},        // 16–18 off-screen, inside the guard band
         },
         {{0, 1, 2}, {0, 1, 2}, {2, 1, 0},  // 0–2 coincident duplicates (both windings)
          {3, 3, 3}, {0, 0, 1}, {0, 1, 1},  // 3–5 corners coincide
          {0, 3, 1},                        // 6 a sliver (valid)
          {7, 8, 9}, {10, 11, 12},          // 7, 8 culled
          {13, 14, 15},                     // 9 clipped
-         {4, 5, 6}});                      // 10 edge-on
+         {4, 5, 6},                        // 10 edge-on
+         {16, 17, 18}});                   // 11 off-screen, kept
     auto proj = raster::project_meshes({mi}, v);
-    CHECK(proj.source_triangles == 11);
+    CHECK(proj.source_triangles == 12);
+    CHECK(proj.triangles.size() >= 10);
     CHECK(proj.culled == 2);   // off-screen beyond the guard band, behind the eye
     CHECK(proj.clipped == 1);  // crossing the near plane
     for (auto& t : proj.triangles)
@@ -309,7 +312,7 @@ TEST_CASE("raster: degenerate, edge-on, off-screen and near-plane triangles", "[
     CHECK(pixels_of[0] > 50);
     CHECK(pixels_of[0] == pixels_of[1]);
     CHECK(pixels_of[0] == pixels_of[2]);
-    for (cl_uint zero : {3u, 4u, 5u, 10u}) CHECK(pixels_of.count(zero) == 0);  // zero-area, edge-on
+    for (cl_uint zero : {3u, 4u, 5u, 10u, 11u}) CHECK(pixels_of.count(zero) == 0);  // zero-area, edge-on, off-screen
     CHECK(pixels_of[9] > 0);  // the clipped triangle's visible part
     auto counts = counts_of(kernel, v.width, v.height);
     for (int c : counts) CHECK(c < 8);

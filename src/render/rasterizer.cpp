@@ -126,6 +126,7 @@ Projection project_meshes(const std::vector<MeshInstance>& meshes, const View& v
     Projection out;
     cl_uint source = 0;
     for (std::size_t mi = 0; mi < meshes.size(); ++mi) {
+        if (!meshes[mi].mesh) throw Error("rasterizer: mesh instance " + std::to_string(mi) + " has no mesh");
         const Mesh& mesh = *meshes[mi].mesh;
         const auto& m = meshes[mi].transform;
         std::vector<Vec> world(mesh.positions.size());
