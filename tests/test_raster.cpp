@@ -409,3 +409,21 @@ TEST_CASE("raster: a DSM view's pixels are its texels, depths its ray distances"
               Approx(2.0).epsilon(1e-3));
     }
 }
+
+TEST_CASE("raster: a crowded tile is never truncated (more than Knecht's 64 chunks)", "[raster]") {
+    // 4500 triangles over a 16×12 screen: every tile holds 4500 entries = 71 chunks
+    std::vector<ScreenTriangleGpu> tris;
+    std::mt19937 rng(7);
+    std::uniform_int_distribution<long> jitter(0, kSub - 1);
+    for (int i = 0; i < 4500; ++i)
+        tris.push_back(tri({std::array<long, 2>{-20 * kSub - jitter(rng), -10 * kSub}, {60 * kSub, -8 * kSub - jitter(rng)},
+                            {-4 * kSub, 50 * kSub + jitter(rng)}},
+                           cl_uint(i)));
+    raster::Stats stats;
+    auto kernel = run_kernel(tris, 16, 12, &stats);
+    CHECK(stats.max_tile_entries == 4500);
+    CHECK(stats.entries == 4 * 4500);
+    CHECK(stats.chunks == 4 * 71);
+    require_same(kernel, reference::tile_lists(tris, 16, 12));
+    for (int c : counts_of(kernel, 16, 12)) CHECK(c == 4500);
+}
