@@ -5,7 +5,7 @@ packages=(
   build-essential cmake pkg-config binutils
   pocl-opencl-icd ocl-icd-opencl-dev opencl-clhpp-headers opencl-c-headers clinfo
   libglm-dev libopenimageio-dev catch2 nlohmann-json3-dev libcli11-dev
-  libniftiio-dev libznz-dev libzip-dev zlib1g-dev
+  libniftiio-dev libznz-dev libzip-dev zlib1g-dev libassimp-dev
 )
 missing=()
 for p in "${packages[@]}"; do

@@ -123,6 +123,13 @@ TEST_CASE("bad scenes fail with one line naming the file and the field", "[cli]"
                                                                                       {"opacity_points", {0, 0, 1, 1}}}}}}}});
         require_clean_failure(run_cli("render " + f + " -o " + out), "missing.nii.gz", "missing.nii.gz", out);
     }
+    SECTION("missing or malformed mesh file") {
+        std::string f = scene_file("nomesh.json", {{"meshes", nlohmann::json::array({{{"file", "missing.obj"}}})}});
+        require_clean_failure(run_cli("render " + f + " -o " + out), "missing.obj", "cannot open", out);
+        std::string bad = write_file("bad.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nend_header\n1\n");
+        f = scene_file("badmesh.json", {{"meshes", nlohmann::json::array({{{"file", bad}}})}});
+        require_clean_failure(run_cli("render " + f + " -o " + out), bad, "bad.ply", out);
+    }
     SECTION("no such device") {
         std::string f = scene_file("device.json", nlohmann::json::object());
         require_clean_failure(run_cli("render " + f + " -o " + out + " --device 42"), "--device", "42", out);

@@ -1,5 +1,6 @@
 #include "test_support.h"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <unistd.h>
@@ -32,6 +33,27 @@ TransferFunction ramp_tf(float lo, float hi, float max_alpha) {
     tf.opacity_points = {{lo, 0.f}, {hi, max_alpha}, {1.f, max_alpha}};
     if (lo <= 0.f) tf.opacity_points.erase(tf.opacity_points.begin());
     return tf;
+}
+
+MeshInstance centred_mesh(const std::string& data_file, const Vec3& rotate_deg) {
+    Mesh mesh = load_mesh(data_path(data_file));
+    std::array<float, 3> lo{1e30f, 1e30f, 1e30f}, hi{-1e30f, -1e30f, -1e30f};
+    for (auto& p : mesh.positions)
+        for (int i = 0; i < 3; ++i) lo[i] = std::min(lo[i], p[i]), hi[i] = std::max(hi[i], p[i]);
+    float size = std::max({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]});
+    for (auto& p : mesh.positions)
+        for (int i = 0; i < 3; ++i) p[i] = (p[i] - 0.5f * (lo[i] + hi[i])) / size;
+    MeshInstance mi;
+    mi.mesh = std::make_shared<const Mesh>(std::move(mesh));
+    mi.transform = make_transform({0, 0, 0}, rotate_deg, {1, 1, 1});
+    return mi;
+}
+
+Camera mesh_camera() {
+    Camera cam;
+    cam.position = {0.3f, 0.4f, 1.8f};
+    cam.fov_y_deg = 40.f;
+    return cam;
 }
 
 Scene sphere_scene(int size) {

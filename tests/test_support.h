@@ -18,6 +18,9 @@ ImageDifference compare(const Image& a, const Image& b);  // over RGB
 Scene sphere_scene(int size = 24);                 // one sphere, one directional light
 Scene overlapping_scene();                          // two rotated/scaled overlapping volumes, 3 light types
 TransferFunction ramp_tf(float lo, float hi, float max_alpha);
+// A mesh of data/ scaled to unit size, centred at the origin, then rotated (degrees about x, y, z).
+MeshInstance centred_mesh(const std::string& data_file, const Vec3& rotate_deg);
+Camera mesh_camera();  // looks at the origin from about 1.9 away; a unit-size mesh fills much of it
 
 std::string temp_dir();  // fresh folder under /tmp for this process
 std::string data_path(const std::string& relative);  // data/… of the source tree

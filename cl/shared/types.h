@@ -114,4 +114,43 @@ typedef struct {
     float domain_scale;  /* (size − 1) / (domain max − domain min) */
 } PrecompressionGpu;
 
+/* Raster stage (Knecht §3.1.1, §4.1.1): the screen is split into tiles of SOMBRA_TILE_SIZE²
+ * pixels; a tile's list holds (64-bit coverage mask, triangle) pairs in chunks of
+ * SOMBRA_TILE_CHUNK entries. Screen positions are fixed point with SOMBRA_SUBPIXEL_BITS fraction
+ * bits, so that edge functions are exact integers (one fill rule, no cracks). */
+#define SOMBRA_TILE_SIZE 8
+#define SOMBRA_TILE_CHUNK 64
+#define SOMBRA_SUBPIXEL_BITS 8
+#define SOMBRA_TRI_BACK_FACING 1u
+
+/* A triangle projected to the screen. Pixel (i, j) has its centre at (i + ½, j + ½); screen x runs
+ * along the view's axis_x, y along axis_y (for a camera: right and down). */
+typedef struct {
+    sb_int4 x;  /* fixed-point x of corners 0, 1, 2; w unused */
+    sb_int4 y;  /* fixed-point y of corners 0, 1, 2; w unused */
+    /* q(x, y) = q0 + dq/dx·(x − x0) + dq/dy·(y − y0) in pixels, (x0, y0) corner 0: q = 1 / view z
+     * (perspective) or view z (orthographic), affine over the screen. (q0, dq/dx, dq/dy, unused) */
+    sb_float4 depth_plane;
+    sb_uint source;  /* source triangle: index over all meshes' triangles, mesh after mesh */
+    sb_uint mesh;    /* mesh instance */
+    sb_uint flags;   /* SOMBRA_TRI_BACK_FACING: its world normal (right-hand rule) faces away */
+    sb_uint pad0;
+} ScreenTriangleGpu;
+
+/* One fragment of a pixel: a triangle crossing its ray (cl/segments.cl). A pixel's fragments,
+ * sorted by depth, bound its homogeneous segments (Knecht §3.1.2). */
+typedef struct {
+    float depth;      /* DsmViewGpu convention: distance along the ray (perspective) or view z */
+    sb_uint triangle; /* index into the rasterized ScreenTriangleGpu list */
+} FragmentGpu;
+
+/* The screen the raster and segment kernels work on. */
+typedef struct {
+    sb_uint width, height;  /* pixels */
+    sb_uint tiles_x, tiles_y;
+    sb_uint perspective;    /* 1: q = 1 / view z; 0: q = view z */
+    float extent_x, extent_y; /* perspective: tan(half field of view); orthographic: half width, height */
+    sb_uint pad0;
+} RasterScreenGpu;
+
 #endif /* SOMBRA_SHARED_TYPES_H */

@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "sombra/mesh.h"
 #include "sombra/transfer_function.h"
 #include "sombra/volume.h"
 
@@ -26,6 +27,21 @@ struct VolumeInstance {
     float step_voxels = 0.5f;    // ray step as a fraction of the smallest world voxel size
     float opacity_unit = 0.f;    // world length the TF opacities refer to; 0 = one (smallest) voxel
     Material material;
+    std::string name;
+};
+
+// A mesh placed in the scene: translucent geometry (issue 4). Its triangles cast and receive shadows
+// once the raster stage is wired into the camera pass and DSM generation (not yet: see README).
+struct MeshMaterial {
+    Vec3 color{0.8f, 0.8f, 0.8f};
+    float opacity = 1.f;  // of one surface crossing, in [0, 1]
+    Material phong;
+};
+
+struct MeshInstance {
+    std::shared_ptr<const Mesh> mesh;
+    std::array<float, 16> transform{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};  // object → world, row-major
+    MeshMaterial material;
     std::string name;
 };
 
@@ -51,6 +67,7 @@ struct Camera {
 
 struct Scene {
     std::vector<VolumeInstance> volumes;
+    std::vector<MeshInstance> meshes;
     std::vector<Light> lights;
     Camera camera;
     Vec3 background{0, 0, 0};
@@ -59,7 +76,7 @@ struct Scene {
     std::string source;             // file it came from
 };
 
-// Loads a scene file. Volume paths are relative to the scene file's folder. Unknown keys,
+// Loads a scene file. Volume and mesh paths are relative to the scene file's folder. Unknown keys,
 // wrong types and impossible values throw sombra::Error naming the file and the field
 // (e.g. "scene.json: lights[1].cone_angle_deg: must lie in (0, 90]").
 Scene load_scene(const std::string& path, const VolumeLoadOptions& options = {});
@@ -67,7 +84,7 @@ Scene load_scene(const std::string& path, const VolumeLoadOptions& options = {})
 // Checks values that make no sense (camera at its look-at point, zero-size volumes, …).
 void validate_scene(const Scene& scene, const std::string& where);
 
-// 4×4 row-major helpers for VolumeInstance::transform.
+// 4×4 row-major helpers for VolumeInstance::transform and MeshInstance::transform.
 std::array<float, 16> make_transform(const Vec3& translate, const Vec3& rotate_deg_xyz, const Vec3& scale);
 
 }  // namespace sombra

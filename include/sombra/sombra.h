@@ -2,6 +2,7 @@
 #pragma once
 #include "sombra/device.h"
 #include "sombra/error.h"
+#include "sombra/mesh.h"
 #include "sombra/render.h"
 #include "sombra/scene.h"
 #include "sombra/shadows.h"

@@ -96,6 +96,24 @@ std::shared_ptr<const Volume> read_generator(const json& j, const std::string& f
     return std::make_shared<const Volume>(std::move(v));
 }
 
+std::filesystem::path relative_to(const std::string& file, const std::string& name) {
+    std::filesystem::path p = name;
+    if (p.is_relative()) p = std::filesystem::path(file).parent_path() / p;
+    return p.lexically_normal();
+}
+
+// Phong coefficients of a "material" object (Knecht Eq. 3.8), each ≥ 0.
+Material read_phong(JsonFields& m, Material fallback) {
+    Material out;
+    out.ambient = m.number("ambient", fallback.ambient);
+    out.diffuse = m.number("diffuse", fallback.diffuse);
+    out.specular = m.number("specular", fallback.specular);
+    out.shininess = m.number("shininess", fallback.shininess);
+    for (auto key : {"ambient", "diffuse", "specular", "shininess"})
+        if (m.number(key, 0.f) < 0.f) m.fail(key, "must be ≥ 0");
+    return out;
+}
+
 VolumeInstance read_volume(const json& j, const std::string& file, const std::string& path,
                            const VolumeLoadOptions& options) {
     JsonFields f(j, file, path);
@@ -104,9 +122,7 @@ VolumeInstance read_volume(const json& j, const std::string& file, const std::st
     bool has_file = f.has("file"), has_generator = f.has("generator");
     if (has_file == has_generator) f.fail("", "needs exactly one of 'file' and 'generator'");
     if (has_file) {
-        std::filesystem::path p = f.string("file");
-        if (p.is_relative()) p = std::filesystem::path(file).parent_path() / p;
-        vi.volume = std::make_shared<const Volume>(load_volume(p.lexically_normal().string(), options));
+        vi.volume = std::make_shared<const Volume>(load_volume(relative_to(file, f.string("file")).string(), options));
     } else {
         vi.volume = read_generator(f.at("generator"), file, f.field("generator"));
     }
@@ -121,16 +137,31 @@ VolumeInstance read_volume(const json& j, const std::string& file, const std::st
     if (vi.opacity_unit < 0.f) f.fail("opacity_unit", "must be ≥ 0 (0: one voxel)");
     if (f.has("material")) {
         JsonFields m(f.at("material"), file, f.field("material"));
-        vi.material.ambient = m.number("ambient", vi.material.ambient);
-        vi.material.diffuse = m.number("diffuse", vi.material.diffuse);
-        vi.material.specular = m.number("specular", vi.material.specular);
-        vi.material.shininess = m.number("shininess", vi.material.shininess);
-        for (auto key : {"ambient", "diffuse", "specular", "shininess"})
-            if (m.number(key, 0.f) < 0.f) m.fail(key, "must be ≥ 0");
+        vi.material = read_phong(m, vi.material);
         m.finish();
     }
     f.finish();
     return vi;
+}
+
+MeshInstance read_mesh(const json& j, const std::string& file, const std::string& path) {
+    JsonFields f(j, file, path);
+    MeshInstance mi;
+    mi.name = f.string("name", path);
+    mi.mesh = std::make_shared<const Mesh>(load_mesh(relative_to(file, f.string("file")).string()));
+    if (f.has("transform")) mi.transform = read_transform(f.at("transform"), file, f.field("transform"));
+    if (f.has("material")) {
+        JsonFields m(f.at("material"), file, f.field("material"));
+        mi.material.color = m.vec3("color", mi.material.color);
+        for (float c : mi.material.color)
+            if (!(c >= 0.f && c <= 1.f)) m.fail("color", "must lie in [0, 1]");
+        mi.material.opacity = m.number("opacity", mi.material.opacity);
+        if (!(mi.material.opacity >= 0.f && mi.material.opacity <= 1.f)) m.fail("opacity", "must lie in [0, 1]");
+        mi.material.phong = read_phong(m, mi.material.phong);
+        m.finish();
+    }
+    f.finish();
+    return mi;
 }
 
 Light read_light(const json& j, const std::string& file, const std::string& path) {
@@ -231,6 +262,12 @@ Scene load_scene(const std::string& path, const VolumeLoadOptions& options) {
     if (!volumes.is_array() || volumes.empty()) f.fail("volumes", "must be a non-empty array");
     for (std::size_t i = 0; i < volumes.size(); ++i)
         scene.volumes.push_back(read_volume(volumes[i], path, "volumes[" + std::to_string(i) + "]", options));
+    if (f.has("meshes")) {
+        const json& meshes = f.at("meshes");
+        if (!meshes.is_array()) f.fail("meshes", "must be an array");
+        for (std::size_t i = 0; i < meshes.size(); ++i)
+            scene.meshes.push_back(read_mesh(meshes[i], path, "meshes[" + std::to_string(i) + "]"));
+    }
     if (f.has("lights")) {
         const json& lights = f.at("lights");
         if (!lights.is_array()) f.fail("lights", "must be an array");

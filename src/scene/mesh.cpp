@@ -1,0 +1,117 @@
+#include "sombra/mesh.h"
+
+#include <assimp/Importer.hpp>
+#include <assimp/postprocess.h>
+#include <assimp/scene.h>
+
+#include <cmath>
+#include <filesystem>
+
+#include "sombra/error.h"
+
+namespace sombra {
+namespace {
+
+constexpr float kPi = 3.14159265358979f;
+
+// Appends one Assimp mesh, its vertices moved by the node's accumulated transform.
+void append(Mesh& out, const aiMesh& m, const aiMatrix4x4& transform) {
+    const auto base = std::uint32_t(out.positions.size());
+    aiMatrix3x3 normal_matrix(transform);
+    normal_matrix.Inverse().Transpose();
+    for (unsigned i = 0; i < m.mNumVertices; ++i) {
+        aiVector3D p = transform * m.mVertices[i];
+        out.positions.push_back({p.x, p.y, p.z});
+        if (m.HasNormals()) {
+            aiVector3D n = (normal_matrix * m.mNormals[i]).NormalizeSafe();
+            out.normals.push_back({n.x, n.y, n.z});
+        }
+    }
+    for (unsigned f = 0; f < m.mNumFaces; ++f) {
+        const aiFace& face = m.mFaces[f];
+        if (face.mNumIndices != 3) continue;  // points and lines left by triangulation
+        out.triangles.push_back({base + face.mIndices[0], base + face.mIndices[1], base + face.mIndices[2]});
+    }
+}
+
+void walk(Mesh& out, const aiScene& scene, const aiNode& node, const aiMatrix4x4& parent, bool& mixed_normals) {
+    aiMatrix4x4 transform = parent * node.mTransformation;
+    for (unsigned i = 0; i < node.mNumMeshes; ++i) {
+        const aiMesh& m = *scene.mMeshes[node.mMeshes[i]];
+        if (!out.positions.empty() && m.HasNormals() != !out.normals.empty()) mixed_normals = true;
+        append(out, m, transform);
+    }
+    for (unsigned i = 0; i < node.mNumChildren; ++i) walk(out, scene, *node.mChildren[i], transform, mixed_normals);
+}
+
+}  // namespace
+
+void validate_mesh(const Mesh& mesh, const std::string& where) {
+    if (mesh.triangles.empty()) throw file_error(where, "", "mesh has no triangles");
+    for (std::size_t i = 0; i < mesh.positions.size(); ++i)
+        for (float c : mesh.positions[i])
+            if (!std::isfinite(c)) throw file_error(where, "vertex " + std::to_string(i), "non-finite coordinate");
+    for (std::size_t i = 0; i < mesh.triangles.size(); ++i)
+        for (auto k : mesh.triangles[i])
+            if (k >= mesh.positions.size())
+                throw file_error(where, "triangle " + std::to_string(i),
+                                 "index " + std::to_string(k) + " out of range (" +
+                                     std::to_string(mesh.positions.size()) + " vertices)");
+    if (!mesh.normals.empty() && mesh.normals.size() != mesh.positions.size())
+        throw file_error(where, "normals", "must be one per vertex");
+}
+
+Mesh load_mesh(const std::string& path) {
+    if (!std::filesystem::is_regular_file(path)) throw file_error(path, "", "cannot open file");
+    Assimp::Importer importer;
+    // Points and lines are dropped; Assimp checks its scene (face indices) before processing it.
+    importer.SetPropertyInteger(AI_CONFIG_PP_SBP_REMOVE, aiPrimitiveType_POINT | aiPrimitiveType_LINE);
+    const aiScene* scene = importer.ReadFile(
+        path, aiProcess_ValidateDataStructure | aiProcess_Triangulate | aiProcess_JoinIdenticalVertices |
+                  aiProcess_SortByPType);
+    if (!scene || (scene->mFlags & AI_SCENE_FLAGS_INCOMPLETE) || !scene->mRootNode) {
+        std::string why = importer.GetErrorString();
+        throw file_error(path, "", "cannot read mesh" + (why.empty() ? std::string() : " (" + why + ")"));
+    }
+    Mesh mesh;
+    mesh.source = path;
+    bool mixed_normals = false;
+    walk(mesh, *scene, *scene->mRootNode, aiMatrix4x4(), mixed_normals);
+    if (mixed_normals) mesh.normals.clear();  // some parts without normals: none at all
+    validate_mesh(mesh, path);
+    return mesh;
+}
+
+Mesh make_uv_sphere(int stacks, int slices, float radius) {
+    if (stacks < 2 || slices < 3) throw Error("make_uv_sphere: needs stacks ≥ 2 and slices ≥ 3");
+    Mesh m;
+    m.source = "uv_sphere";
+    m.positions.push_back({0, 0, radius});  // north pole
+    for (int i = 1; i < stacks; ++i) {
+        float theta = kPi * float(i) / float(stacks);
+        for (int j = 0; j < slices; ++j) {
+            float phi = 2.f * kPi * float(j) / float(slices);
+            m.positions.push_back({radius * std::sin(theta) * std::cos(phi), radius * std::sin(theta) * std::sin(phi),
+                                   radius * std::cos(theta)});
+        }
+    }
+    m.positions.push_back({0, 0, -radius});  // south pole
+    const auto south = std::uint32_t(m.positions.size() - 1);
+    auto ring = [&](int i, int j) { return std::uint32_t(1 + (i - 1) * slices + (j % slices)); };
+    for (int j = 0; j < slices; ++j) {  // counter-clockwise seen from outside
+        m.triangles.push_back({0, ring(1, j), ring(1, j + 1)});
+        m.triangles.push_back({south, ring(stacks - 1, j + 1), ring(stacks - 1, j)});
+    }
+    for (int i = 1; i + 1 < stacks; ++i)
+        for (int j = 0; j < slices; ++j) {
+            m.triangles.push_back({ring(i, j), ring(i + 1, j), ring(i + 1, j + 1)});
+            m.triangles.push_back({ring(i, j), ring(i + 1, j + 1), ring(i, j + 1)});
+        }
+    for (auto& p : m.positions) {
+        float len = std::sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
+        m.normals.push_back({p[0] / len, p[1] / len, p[2] / len});
+    }
+    return m;
+}
+
+}  // namespace sombra
