@@ -1,5 +1,7 @@
 // sombra tests — shared helpers: one OpenCL context per process, small scenes, image metrics.
 #pragma once
+#include <array>
+#include <memory>
 #include <string>
 
 #include "sombra/sombra.h"
@@ -18,6 +20,8 @@ ImageDifference compare(const Image& a, const Image& b);  // over RGB
 Scene sphere_scene(int size = 24);                 // one sphere, one directional light
 Scene overlapping_scene();                          // two rotated/scaled overlapping volumes, 3 light types
 TransferFunction ramp_tf(float lo, float hi, float max_alpha);
+std::shared_ptr<const Volume> constant_volume(std::array<int, 3> dims, float value);  // every voxel `value`
+TransferFunction constant_tf(float alpha);  // the same opacity α for every value
 
 std::string temp_dir();  // fresh folder under /tmp for this process
 std::string data_path(const std::string& relative);  // data/… of the source tree

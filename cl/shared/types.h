@@ -107,4 +107,28 @@ typedef struct {
     float domain_scale;  /* (size − 1) / (domain max − domain min) */
 } PrecompressionGpu;
 
+/* Fixed-point optical depth in the summed-area tables: units per unit of τ, and the most τ one
+ * cell holds (stiffer cells are clamped: exp(−4096/W²) is 0 for every W up to 40 cells). With
+ * (dims+1)³ ≤ 2^29 entries no sum overflows 2^63. */
+#define SOMBRA_SAT_UNITS_PER_TAU 4194304.0f /* 2^22 */
+#define SOMBRA_SAT_MAX_CELL_TAU 4096.0f
+#define SOMBRA_SAT_MAX_ENTRIES (1u << 29)
+
+/* One light's view of a light-aligned summed-area table (Ament §4.2.1–4.2.2; cl/lowpass.h,
+ * src/shadows/sat_grid.h). The grid holds cells of optical depth σ·h (h = cell length) as 64-bit
+ * fixed-point integers; the table is exclusive: (dims+1)³ entries, S(i,j,k) = Σ cells < (i,j,k),
+ * entry (i,j,k) at data_offset + i + (dims.x+1)·(j + (dims.y+1)·k). Lights whose directions are
+ * ± the same grid axes share one table (orthodirectional lights, Ament Eq. 14–15). */
+typedef struct {
+    sb_float4 to_grid[3];  /* grid coordinate a (in cells) = dot(to_grid[a].xyz, p) + to_grid[a].w */
+    sb_int4 dims;          /* cells along the three grid axes; w: 0 = no table for this light */
+    sb_uint data_offset;   /* first entry of this table in the shared SAT buffer */
+    sb_uint light_axis;    /* grid axis along the light (0, 1, 2) */
+    sb_uint light_positive;/* 1: the light lies towards +light_axis, 0: towards −light_axis */
+    sb_uint filter_cells;  /* lateral box width W in cells (≥ 1; Ament Eq. 13, U = V = W/2) */
+    float tau_per_unit;    /* optical depth of one fixed-point unit */
+    float cell_size;       /* world length of a cell */
+    sb_uint pad0, pad1;
+} SatGridGpu;
+
 #endif /* SOMBRA_SHARED_TYPES_H */

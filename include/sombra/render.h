@@ -1,5 +1,6 @@
 // sombra — rendering a scene into an image, with per-stage statistics.
 #pragma once
+#include <cstddef>
 #include <map>
 #include <string>
 #include <vector>
@@ -18,7 +19,11 @@ enum class VolumeStorage { Auto, Buffer, Image };  // Auto: buffer on CPU device
 // ShadowMap: the binary shadow-map baseline — per texel the depth where opacity reaches 1/2,
 // lit before it and dark behind (2×2 percentage-closer filtering); taken from the same light
 // rays as the DSM, so it costs what a DSM costs to build.
-enum class ShadowTechnique { None, Rays, Dsm, ShadowMap };
+// Lowpass: low-pass filtered soft shadows (Ament et al. 2014): exp(−τ̄), τ̄ the optical depth
+// box-filtered over lowpass_filter_width × lowpass_filter_width voxels across the light, read in
+// constant time from a light-aligned summed-area table (CSAT) per group of orthodirectional
+// directional lights. Point and spot lights fall back to shadow rays (no SSAT yet).
+enum class ShadowTechnique { None, Rays, Dsm, ShadowMap, Lowpass };
 
 struct RenderOptions {
     int width = 0, height = 0;  // 0: the scene's size
@@ -38,6 +43,11 @@ struct RenderOptions {
     // sub-pixel rays) or "tent" (4×4 sub-pixel rays weighted 1 3 3 1 per axis), combined exactly
     // and compressed again; total error ≤ ε against the filtered visibility of the sub-pixel rays.
     std::string dsm_prefilter = "none";
+    // Lowpass: filter width W in voxels of the scene's finest volume (Ament §4.2.1: U = V = W/2);
+    // changing it rebuilds no table. The tables hold at most lowpass_max_entries 64-bit entries
+    // (cells coarsen beyond that; the default keeps them ≤ 128 MiB).
+    float lowpass_filter_width = 3.f;
+    std::size_t lowpass_max_entries = std::size_t(1) << 24;
     VolumeStorage storage = VolumeStorage::Auto;
     bool empty_space_skipping = true;
     float termination_transmittance = 1e-3f;  // early ray termination threshold on t_acc
@@ -66,6 +76,9 @@ struct RenderStats {
     unsigned long long dsm_bytes_used = 0, dsm_bytes_wasted = 0;
     unsigned long long dsm_capped_texels = 0;  // texels that hit the atlas layer cap
     std::string dsm_storage;
+    // low-pass shadows (ShadowTechnique::Lowpass): summed-area tables and their memory
+    int sat_tables = 0;
+    unsigned long long sat_bytes = 0;
     // true when the scene's device data and deep shadow maps of the previous call on this
     // Context were reused (only the camera, image size or shading options changed)
     bool reused_preparation = false;

@@ -119,9 +119,13 @@ int run(int argc, char** argv) {
     render->add_option("--gradient", gradient, "central or sobel")->check(CLI::IsMember({"central", "sobel"}));
     std::string shadows = "none";
     render->add_option("--shadows", shadows,
-                       "none, rays (march from every sample to every light), dsm (deep shadow maps) or shadowmap "
-                       "(binary shadow maps, the baseline)")
-        ->check(CLI::IsMember({"none", "rays", "dsm", "shadowmap"}));
+                       "none, rays (march from every sample to every light), dsm (deep shadow maps), shadowmap "
+                       "(binary shadow maps, the baseline) or lowpass (low-pass filtered soft shadows from "
+                       "light-aligned summed-area tables, Ament 2014)")
+        ->check(CLI::IsMember({"none", "rays", "dsm", "shadowmap", "lowpass"}));
+    float filter_width = 3.f;
+    render->add_option("--filter", filter_width, "lowpass: box filter width in voxels (softness of the shadows)")
+        ->check(CLI::Range(0.0f, 4096.0f));
     int dsm_resolution = 512;
     float dsm_epsilon = 0.02f;
     std::string dsm_storage = "atlas";
@@ -204,7 +208,9 @@ int run(int argc, char** argv) {
     options.shadows = shadows == "rays"        ? sombra::ShadowTechnique::Rays
                       : shadows == "dsm"       ? sombra::ShadowTechnique::Dsm
                       : shadows == "shadowmap" ? sombra::ShadowTechnique::ShadowMap
+                      : shadows == "lowpass"   ? sombra::ShadowTechnique::Lowpass
                                                : sombra::ShadowTechnique::None;
+    options.lowpass_filter_width = filter_width;
     options.dsm_resolution = dsm_resolution;
     options.dsm_epsilon = dsm_epsilon;
     options.dsm_storage = dsm_storage;

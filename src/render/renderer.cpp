@@ -8,6 +8,7 @@
 #include "render/scene_upload.h"
 #include "shadows/dsm_builder.h"
 #include "shadows/dsm_views.h"
+#include "shadows/sat_grid.h"
 #include "sombra/error.h"
 #include "sombra/render.h"
 
@@ -28,6 +29,7 @@ std::vector<std::string> camera_pass_defines(const Scene& scene, const RenderOpt
     if (options.gradient == GradientMethod::Sobel) defines.push_back("SOMBRA_SOBEL");
     if (!scene.lights.empty()) defines.push_back("SOMBRA_HAS_LIGHTS");
     if (!scene.lights.empty() && options.shadows == ShadowTechnique::Rays) defines.push_back("SOMBRA_SHADOW_RAYS");
+    if (!scene.lights.empty() && options.shadows == ShadowTechnique::Lowpass) defines.push_back("SOMBRA_SHADOW_LOWPASS");
     bool maps = options.shadows == ShadowTechnique::Dsm || options.shadows == ShadowTechnique::ShadowMap;
     if (!scene.lights.empty() && maps) {
         defines.push_back("SOMBRA_SHADOW_DSM");
@@ -43,7 +45,8 @@ struct PreparedScene {
     packing::PackedScene packed;
     packing::DeviceScene device;
     shadows::DeviceDsm dsm;
-    bool use_images = false, use_dsm = false;
+    shadows::DeviceSat sat;  // low-pass shadows: light-aligned summed-area tables
+    bool use_images = false, use_dsm = false, use_sat = false;
 };
 
 // Everything the prepared scene depends on: volumes (identity, size, a sample of their voxels,
@@ -75,7 +78,7 @@ std::string preparation_key(const Scene& scene, const RenderOptions& o, bool use
     }
     bool maps = o.shadows == ShadowTechnique::Dsm || o.shadows == ShadowTechnique::ShadowMap;  // one preparation
     key << " O" << (maps ? 99 : int(o.shadows)) << ' ' << o.dsm_resolution << ' ' << o.dsm_epsilon << ' ' << o.dsm_storage << ' '
-        << o.dsm_precompression << ' ' << o.dsm_prefilter << ' ' << use_images;
+        << o.dsm_precompression << ' ' << o.dsm_prefilter << ' ' << use_images << ' ' << o.lowpass_max_entries;
     return key.str();
 }
 
@@ -106,6 +109,8 @@ std::shared_ptr<PreparedScene> prepare(host::Runtime& runtime, const Scene& scen
         stats.dsm_bytes_wasted = kept->stats.dsm_bytes_wasted;
         stats.dsm_capped_texels = kept->stats.dsm_capped_texels;
         stats.dsm_storage = kept->stats.dsm_storage;
+        stats.sat_tables = kept->stats.sat_tables;
+        stats.sat_bytes = kept->stats.sat_bytes;
         return kept->prepared;
     }
     slot.reset();  // free the old device data before allocating the new
@@ -147,6 +152,13 @@ PreparedScene prepare_anew(host::Runtime& runtime, const Scene& scene, const Ren
         stats.dsm_bytes_wasted = d.bytes_wasted;
         stats.dsm_capped_texels = d.capped_texels;
     }
+    prepared.use_sat = options.shadows == ShadowTechnique::Lowpass && !scene.lights.empty();
+    if (prepared.use_sat) {
+        prepared.sat = shadows::build_light_sats(runtime, scene, prepared.packed, prepared.device, options.lowpass_max_entries);
+        for (auto& [stage, ms] : prepared.sat.stage_ms) stats.stage_ms[stage] = ms;
+        stats.sat_tables = int(prepared.sat.frames.size());
+        stats.sat_bytes = prepared.sat.bytes;
+    }
     return prepared;
 }
 
@@ -167,6 +179,19 @@ int set_dsm_args(cl::Kernel& kernel, int arg, const PreparedScene& p) {
     if (!p.use_dsm) return arg;
     kernel.setArg(arg++, p.dsm.views_buffer);
     return p.dsm.storage->bind_for_reading(kernel, arg);
+}
+
+// The low-pass tables and their per-light grids (with this call's filter width); keeps the
+// grids buffer alive in `grids`.
+int set_sat_args(host::Runtime& runtime, cl::Kernel& kernel, int arg, const PreparedScene& p, const RenderOptions& o,
+                 cl::Buffer& grids) {
+    if (!p.use_sat) return arg;
+    if (!(o.lowpass_filter_width >= 0.f && o.lowpass_filter_width <= 4096.f))
+        throw Error("--filter: the filter width must lie in [0, 4096] voxels");
+    grids = shadows::upload_sat_grids(runtime, p.sat, o.lowpass_filter_width);
+    kernel.setArg(arg++, p.sat.data);
+    kernel.setArg(arg++, grids);
+    return arg;
 }
 
 int check_light(const Scene& scene, int light_index) {
@@ -197,6 +222,7 @@ std::string RenderStats::to_json() const {
                     {"capped_texels", dsm_capped_texels},
                     {"storage", dsm_storage}};
     }
+    if (sat_tables > 0) j["sat"] = {{"tables", sat_tables}, {"bytes", sat_bytes}};
     return j.dump(2);
 }
 
@@ -231,7 +257,8 @@ RenderResult render(Context& context, const Scene& scene, const RenderOptions& o
     int arg = set_scene_args(kernel, prepared, camera_buffer);
     kernel.setArg(arg++, image_buffer);
     kernel.setArg(arg++, count_buffer);
-    set_dsm_args(kernel, arg, prepared);
+    cl::Buffer sat_grids;
+    set_sat_args(runtime, kernel, set_dsm_args(kernel, arg, prepared), prepared, options, sat_grids);
 
     // Packets run on CPUs: PoCL keeps every work-item's private state of a work-group on one
     // stack, and its default group size overflows it for 8- and 16-lane packets; 4×4 groups
@@ -287,7 +314,8 @@ ShadowQuery shadow_transmittance(Context& context, const Scene& scene, int light
     kernel.setArg(arg++, cl_uint(light_index));
     kernel.setArg(arg++, point_buffer);
     kernel.setArg(arg++, out);
-    set_dsm_args(kernel, arg, prepared);
+    cl::Buffer sat_grids;
+    set_sat_args(runtime, kernel, set_dsm_args(kernel, arg, prepared), prepared, options, sat_grids);
     cl::Event event;
     runtime.queue().enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(points.size()), cl::NullRange, nullptr, &event);
     event.wait();

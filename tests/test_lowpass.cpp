@@ -1,0 +1,267 @@
+// sombra tests — low-pass filtered shadows (Ament et al. 2014): the light-aligned summed-area
+// tables built by cl/sat_build.cl and the filtered optical depth of cl/lowpass.h against the CPU
+// reference (tests/reference/sat_ref.h), precision, analytic media, shadow rays, extreme cases.
+#include <catch2/catch.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <random>
+
+#include "reference/sat_ref.h"
+#include "render/scene_upload.h"
+#include "shadows/sat_grid.h"
+#include "test_support.h"
+
+using namespace sombra;
+using D3 = shadows::D3;
+
+namespace {
+
+struct BuiltSat {
+    packing::PackedScene packed;
+    packing::DeviceScene device;
+    shadows::DeviceSat sat;
+};
+
+BuiltSat build(const Scene& scene, std::size_t max_entries = std::size_t(1) << 24) {
+    auto& rt = test::context().runtime();
+    BuiltSat b;
+    b.packed = packing::pack_scene(scene);
+    b.device = packing::upload_scene(rt, scene, b.packed, false);
+    b.sat = shadows::build_light_sats(rt, scene, b.packed, b.device, max_entries);
+    return b;
+}
+
+Light directional(const D3& direction) {
+    Light l;
+    l.direction = {float(direction[0]), float(direction[1]), float(direction[2])};
+    return l;
+}
+
+// One volume of n³ voxels scaled to the world box [−0.5, 0.5]³ (rotated by `rotate_deg`).
+Scene one_volume(std::shared_ptr<const Volume> volume, const TransferFunction& tf, std::vector<Light> lights,
+                 const Vec3& rotate_deg = {0, 0, 0}) {
+    Scene s;
+    VolumeInstance vi;
+    float scale = 1.f / float(volume->dims[0]);
+    vi.volume = std::move(volume);
+    vi.transfer_function = tf;
+    vi.transform = make_transform({0, 0, 0}, rotate_deg, {scale, scale, scale});
+    s.volumes.push_back(vi);
+    s.lights = std::move(lights);
+    s.width = s.height = 32;
+    return s;
+}
+
+std::vector<Vec3> random_points(int count, float half, unsigned seed) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<float> u(-half, half);
+    std::vector<Vec3> points;
+    for (int i = 0; i < count; ++i) points.push_back({u(rng), u(rng), u(rng)});
+    return points;
+}
+
+std::vector<double> lowpass(const Scene& scene, int light, const std::vector<Vec3>& points, float filter) {
+    RenderOptions o;
+    o.shadows = ShadowTechnique::Lowpass;
+    o.lowpass_filter_width = filter;
+    return shadow_transmittance(test::context(), scene, light, points, o).transmittance;
+}
+
+std::vector<double> shadow_rays(const Scene& scene, int light, const std::vector<Vec3>& points) {
+    RenderOptions o;
+    o.shadows = ShadowTechnique::Rays;
+    return shadow_transmittance(test::context(), scene, light, points, o).transmittance;
+}
+
+D3 d3(const Vec3& v) { return {v[0], v[1], v[2]}; }
+
+Scene cloud_scene() {
+    return one_volume(std::make_shared<const Volume>(make_cloud_noise(20, 5)), test::ramp_tf(0.1f, 0.6f, 0.6f),
+                      {directional({0.3, -0.5, -0.8})}, {20.f, 35.f, 0.f});
+}
+
+}  // namespace
+
+TEST_CASE("CSAT: device cells and box sums match the CPU reference on a random volume", "[lowpass]") {
+    Scene scene = cloud_scene();
+    BuiltSat b = build(scene);
+    REQUIRE(b.sat.frames.size() == 1);
+    const shadows::SatFrame& frame = b.sat.frames[0];
+    auto table = shadows::read_sat(test::context().runtime(), b.sat, 0);
+    reference::CellGrid device = reference::cells_of_table(table, frame.dims);
+    reference::CellGrid ref = reference::sat_cells(scene, frame);
+    double max_cell = *std::max_element(ref.cells.begin(), ref.cells.end()), worst = 0;
+    REQUIRE(max_cell > 0.05);
+    for (std::size_t i = 0; i < ref.cells.size(); ++i) worst = std::max(worst, std::fabs(device.cells[i] - ref.cells[i]));
+    CHECK(worst <= 2e-3 * max_cell);  // transfer-function table vs direct evaluation
+    std::mt19937 rng(3);
+    for (int trial = 0; trial < 300; ++trial) {
+        std::array<int, 3> lo, hi;
+        for (int a = 0; a < 3; ++a) {
+            std::uniform_int_distribution<int> pick(0, frame.dims[std::size_t(a)]);
+            int x = pick(rng), y = pick(rng);
+            lo[std::size_t(a)] = std::min(x, y), hi[std::size_t(a)] = std::max(x, y);
+        }
+        double sat = double(std::int64_t(reference::sat_box(table, frame.dims, lo, hi))) / SOMBRA_SAT_UNITS_PER_TAU;
+        double brute = reference::box_sum(ref, {double(lo[0]), double(lo[1]), double(lo[2])}, {double(hi[0]), double(hi[1]), double(hi[2])});
+        double brute_device = reference::box_sum(device, {double(lo[0]), double(lo[1]), double(lo[2])}, {double(hi[0]), double(hi[1]), double(hi[2])});
+        CHECK(sat == Approx(brute_device).margin(1e-9));  // integer sums are exact
+        CHECK(sat == Approx(brute).epsilon(3e-3).margin(1e-4));
+    }
+}
+
+TEST_CASE("CSAT precision: 64-bit fixed point against a double SAT (float32 for comparison)", "[lowpass]") {
+    reference::CellGrid grid;
+    grid.dims = {128, 128, 128};
+    std::mt19937 rng(11);
+    std::uniform_real_distribution<double> value(0.0, 0.25);
+    for (std::size_t i = 0; i < 128u * 128u * 128u; ++i) grid.cells.push_back(i % 7 == 0 ? 0.0 : value(rng));
+    auto exact = reference::build_sat<double>(grid, [](double x) { return x; });
+    auto fixed = reference::build_sat<std::uint64_t>(grid, [](double x) { return shadows::sat_fixed_point(x); });
+    auto single = reference::build_sat<float>(grid, [](double x) { return float(x); });
+    double fixed_max = 0, fixed_mean = 0, float_max = 0, float_mean = 0, bound_violations = 0;
+    const int trials = 3000;
+    for (int trial = 0; trial < trials; ++trial) {
+        std::array<int, 3> lo, hi;
+        std::uniform_int_distribution<int> pick(0, 128);
+        for (std::size_t a = 0; a < 3; ++a) {
+            int x = pick(rng), y = pick(rng);
+            lo[a] = std::min(x, y), hi[a] = std::max(x, y);
+        }
+        double reference = reference::sat_box(exact, grid.dims, lo, hi);
+        double cells = double(hi[0] - lo[0]) * (hi[1] - lo[1]) * (hi[2] - lo[2]);
+        double f = double(std::int64_t(reference::sat_box(fixed, grid.dims, lo, hi))) / SOMBRA_SAT_UNITS_PER_TAU;
+        double s = reference::sat_box(single, grid.dims, lo, hi);
+        double ef = std::fabs(f - reference), es = std::fabs(s - reference);
+        // per cell: rounding to a unit (2^-23) and τ's float rounding (2^-24 relative)
+        // (+ the double SAT's own cancellation, ~10⁻¹¹ here)
+        if (ef > cells * std::ldexp(1.0, -23) + reference * std::ldexp(1.0, -24) + 1e-8) ++bound_violations;
+        fixed_max = std::max(fixed_max, ef), fixed_mean += ef / trials;
+        float_max = std::max(float_max, es), float_mean += es / trials;
+    }
+    std::printf("SAT precision, 128³ random cells, %d boxes, |box − double SAT| max/mean: fixed point %.3g/%.3g, "
+                "float32 %.3g/%.3g\n", trials, fixed_max, fixed_mean, float_max, float_mean);
+    CHECK(bound_violations == 0);
+    CHECK(fixed_max < 1e-3);
+    CHECK(fixed_max * 100 < float_max);
+}
+
+TEST_CASE("CSAT: the kernel's filtered optical depth matches the CPU reference", "[lowpass]") {
+    Scene scene = cloud_scene();
+    BuiltSat b = build(scene);
+    const shadows::SatFrame& frame = b.sat.frames[0];
+    reference::CellGrid device = reference::cells_of_table(shadows::read_sat(test::context().runtime(), b.sat, 0), frame.dims);
+    reference::CellGrid ref = reference::sat_cells(scene, frame);
+    auto points = random_points(300, 0.6f, 5);
+    for (int width : {1, 3, 6}) {
+        auto t = lowpass(scene, 0, points, float(width));
+        for (std::size_t i = 0; i < points.size(); ++i) {
+            INFO("W " << width << " point " << i);
+            double own = reference::filtered_depth(device, frame, 2, true, width, d3(points[i]));
+            double direct = reference::filtered_depth(ref, frame, 2, true, width, d3(points[i]));
+            CHECK(t[i] == Approx(std::exp(-own)).margin(2e-5));
+            CHECK(t[i] == Approx(std::exp(-direct)).margin(2e-3));
+        }
+    }
+}
+
+TEST_CASE("CSAT: a one-voxel filter approaches the shadow rays, wider filters depart", "[lowpass]") {
+    Scene scene = one_volume(std::make_shared<const Volume>(make_gaussian_blobs(32, 6, 4)), test::ramp_tf(0.1f, 0.8f, 0.3f),
+                             {directional({-0.4, -0.7, -0.5})});
+    auto points = random_points(400, 0.4f, 9);
+    auto rays = shadow_rays(scene, 0, points);
+    double mean[2] = {0, 0}, worst[2] = {0, 0};
+    float widths[2] = {1.f, 9.f};
+    for (int w = 0; w < 2; ++w) {
+        auto t = lowpass(scene, 0, points, widths[w]);
+        for (std::size_t i = 0; i < points.size(); ++i) {
+            REQUIRE(std::isfinite(t[i]));
+            double e = std::fabs(t[i] - rays[i]);
+            mean[w] += e / double(points.size()), worst[w] = std::max(worst[w], e);
+        }
+    }
+    std::printf("lowpass vs shadow rays, |ΔT| mean/max: W=1 %.4f/%.4f, W=9 %.4f/%.4f\n", mean[0], worst[0], mean[1], worst[1]);
+    CHECK(mean[0] < 0.01);
+    CHECK(worst[0] < 0.06);
+    CHECK(mean[0] < mean[1]);
+}
+
+TEST_CASE("CSAT: homogeneous medium against exp(−σ·d), oblique and axis-aligned lights", "[lowpass]") {
+    const int n = 32;
+    const float alpha = 0.04f;
+    double sigma = -std::log(1.0 - alpha) * n;  // per world unit: opacity_unit = one voxel = 1/n
+    auto volume = test::constant_volume({n, n, n}, 1.f);
+    for (D3 dir : {D3{-0.3, -0.5, -0.8}, D3{0, 0, -1}, D3{1, 0, 0}, D3{0, -1, 0}}) {
+        Scene scene = one_volume(volume, test::constant_tf(alpha), {directional(dir)});
+        double len = std::sqrt(dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]);
+        D3 toward = {-dir[0] / len, -dir[1] / len, -dir[2] / len};
+        shadows::SatFrame frame = shadows::make_csat_frame(packing::pack_scene(scene), toward, std::size_t(1) << 24);
+        auto chord = [&](const D3& p) {  // to the box face [−0.5, 0.5]³ towards the light
+            double d = INFINITY;
+            for (std::size_t a = 0; a < 3; ++a)
+                if (toward[a] != 0) d = std::min(d, ((toward[a] > 0 ? 0.5 : -0.5) - p[a]) / toward[a]);
+            return std::max(d, 0.0);
+        };
+        bool axis = std::fabs(std::fabs(toward[0]) + std::fabs(toward[1]) + std::fabs(toward[2]) - 1) < 1e-9;
+        auto points = random_points(150, 0.3f, 2);
+        for (int width : {1, 5}) {
+            auto t = lowpass(scene, 0, points, float(width));
+            for (std::size_t i = 0; i < points.size(); ++i) {
+                // Ament Eq. 4 with the exact τ of 16 × 16 sub-rays over the W × W patch across l
+                double expected = 0, w = double(width) / n;
+                for (int a = 0; a < 16; ++a)
+                    for (int b = 0; b < 16; ++b) {
+                        double u = ((a + 0.5) / 16 - 0.5) * (width > 1 ? w : 0), v = ((b + 0.5) / 16 - 0.5) * (width > 1 ? w : 0);
+                        D3 p;
+                        for (std::size_t r = 0; r < 3; ++r) p[r] = points[i][r] + u * frame.axes[0][r] + v * frame.axes[1][r];
+                        expected += sigma * chord(p) / 256;
+                    }
+                INFO("direction " << dir[0] << "," << dir[1] << "," << dir[2] << " W " << width << " point " << i);
+                // axis-aligned: the cells are the voxels; oblique: the cells' staircase boundary
+                CHECK(-std::log(t[i]) == Approx(expected).epsilon(axis ? 1e-4 : 0.03).margin(axis ? 1e-4 : 1.5 * sigma / n));
+            }
+        }
+    }
+}
+
+TEST_CASE("CSAT: empty and saturated volumes give finite transmittance in [0, 1]", "[lowpass]") {
+    auto points = random_points(100, 0.7f, 4);
+    Scene empty = one_volume(test::constant_volume({12, 12, 12}, 0.f), test::constant_tf(0.f), {directional({0.2, -1, -0.3})});
+    for (double t : lowpass(empty, 0, points, 3.f)) CHECK(t == 1.0);
+    Scene stiff = one_volume(test::constant_volume({12, 12, 12}, 1.f), test::constant_tf(1.f), {directional({0.2, -1, -0.3})});
+    auto inner = random_points(50, 0.3f, 6);
+    for (float width : {0.f, 1.f, 7.f, 40.f}) {
+        for (double t : lowpass(stiff, 0, points, width)) CHECK((std::isfinite(t) && t >= 0.0 && t <= 1.0));
+        if (width <= 1.f)  // wider boxes reach past the volume, where σ = 0
+            for (double t : lowpass(stiff, 0, inner, width)) CHECK(t < 1e-3);
+    }
+    RenderOptions o;
+    o.shadows = ShadowTechnique::Lowpass;
+    RenderResult r = render(test::context(), stiff, o);
+    for (float v : r.image.rgba) REQUIRE(std::isfinite(v));
+    CHECK(r.stats.sat_tables == 1);
+    o.lowpass_filter_width = -1.f;
+    CHECK_THROWS_WITH(render(test::context(), stiff, o), Catch::Contains("--filter"));
+}
+
+TEST_CASE("CSAT: six orthodirectional lights share one table and match separately built ones", "[lowpass]") {
+    std::vector<Light> six;
+    for (D3 d : {D3{1, 0, 0}, D3{-1, 0, 0}, D3{0, 1, 0}, D3{0, -1, 0}, D3{0, 0, 1}, D3{0, 0, -1}}) six.push_back(directional(d));
+    auto volume = std::make_shared<const Volume>(make_cloud_noise(20, 8));
+    Scene all = one_volume(volume, test::ramp_tf(0.1f, 0.6f, 0.5f), six);
+    BuiltSat shared = build(all);
+    CHECK(shared.sat.frames.size() == 1);  // Ament §4.2.2: one CSAT for the six lights
+    auto points = random_points(150, 0.55f, 12);
+    for (int l = 0; l < 6; ++l) {
+        Scene alone = one_volume(volume, test::ramp_tf(0.1f, 0.6f, 0.5f), {six[std::size_t(l)]});
+        for (float width : {1.f, 4.f}) {
+            auto a = lowpass(all, l, points, width), b = lowpass(alone, 0, points, width);
+            for (std::size_t i = 0; i < points.size(); ++i) {
+                INFO("light " << l << " W " << width << " point " << i);
+                CHECK(a[i] == Approx(b[i]).margin(1e-4));
+            }
+        }
+    }
+}
