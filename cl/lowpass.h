@@ -9,6 +9,7 @@
 #ifndef SOMBRA_LOWPASS_H
 #define SOMBRA_LOWPASS_H
 #include "shared/types.h"
+#pragma OPENCL EXTENSION cl_khr_fp64 : enable
 
 inline size_t sat_entry(int4 n, int i, int j, int k) {
     return (size_t)i + (size_t)(n.x + 1) * ((size_t)j + (size_t)(n.y + 1) * (size_t)k);
@@ -66,6 +67,60 @@ inline float csat_filtered_depth(__global const ulong* sat, __global const SatGr
         sum += weight * (float)sat_box(s, n, (int3)(lo[0], lo[1], lo[2]), (int3)(hi[0], hi[1], hi[2]));
     }
     return sum * g->tau_per_unit / (float)(width * width);
+}
+
+/* S at a real grid position: trilinear in the integer entries (exact for cell-wise constant
+ * cells), in double: the entries reach 2^50 and more, the boxes built from them are small. */
+inline double sat_at(__global const ulong* s, int4 n, double3 g) {
+    g = clamp(g, (double3)(0.0), convert_double3(n.xyz));
+    int3 i = min(convert_int3(floor(g)), n.xyz - 1);
+    i = max(i, (int3)(0));
+    double3 f = g - convert_double3(i);
+    double sum = 0.0;
+    for (int c = 0; c < 8; ++c) {
+        int3 o = (int3)(c & 1, (c >> 1) & 1, (c >> 2) & 1);
+        int3 e = min(i + o, n.xyz);
+        double w = (o.x ? f.x : 1.0 - f.x) * (o.y ? f.y : 1.0 - f.y) * (o.z ? f.z : 1.0 - f.z);
+        if (w != 0.0) sum += w * (double)s[sat_entry(n, e.x, e.y, e.z)];
+    }
+    return sum;
+}
+
+/* Σ cells over the real box [lo, hi) (grid units): 8 corners of S. */
+inline double sat_box_real(__global const ulong* s, int4 n, double3 lo, double3 hi) {
+    return sat_at(s, n, hi) - sat_at(s, n, (double3)(lo.x, hi.y, hi.z)) - sat_at(s, n, (double3)(hi.x, lo.y, hi.z)) -
+           sat_at(s, n, (double3)(hi.x, hi.y, lo.z)) + sat_at(s, n, (double3)(lo.x, lo.y, hi.z)) +
+           sat_at(s, n, (double3)(lo.x, hi.y, lo.z)) + sat_at(s, n, (double3)(hi.x, lo.y, lo.z)) - sat_at(s, n, lo);
+}
+
+/* Box-filtered optical depth from world point p towards point light g (Ament Eq. 16–24): the
+ * tangential W × W patch at p (Eq. 16) seen from the light spans φ ± U/(R sin θ), θ ± U/R; the
+ * spherical pyramid runs from the light to p (Eq. 21–22). τ̄ = Σ(σ·Δr·w_θ)·Δφ·Δθ / Ω_box (the
+ * solid-angle average over the pyramid's rays, Eq. 24). Boxes across φ = ±π wrap; near the
+ * poles the box takes every φ. */
+inline float ssat_filtered_depth(__global const ulong* sat, __global const SsatGridGpu* g, float3 p) {
+    __global const ulong* s = sat + g->data_offset;
+    int4 n = g->dims;
+    double3 d = convert_double3(p - g->light.xyz);
+    double x = dot(d, convert_double3(g->axes[0].xyz)), y = dot(d, convert_double3(g->axes[1].xyz));
+    double z = dot(d, convert_double3(g->axes[2].xyz));
+    double r = sqrt(x * x + y * y + z * z);
+    if (!(r > 1e-9)) return 0.0f; /* at the light */
+    double theta = acos(clamp(z / r, -1.0, 1.0)), phi = atan2(y, x);
+    double u = g->half_width, h_theta = fmin(u / r, M_PI), h_phi = u / (r * fmax(sin(theta), 1e-9));
+    double theta_lo = fmax(theta - h_theta, 0.0), theta_hi = fmin(theta + h_theta, M_PI);
+    bool all_phi = h_phi >= M_PI;
+    double solid_angle = (all_phi ? 2.0 * M_PI : 2.0 * h_phi) * (cos(theta_lo) - cos(theta_hi));
+    double3 start = convert_double3(g->start.xyz), cell = convert_double3(g->cell.xyz);
+    double3 lo = ((double3)(phi - h_phi, theta_lo, start.z) - start) / cell;
+    double3 hi = ((double3)(phi + h_phi, theta_hi, r) - start) / cell;
+    if (all_phi) lo.x = 0.0, hi.x = n.x;
+    double sum = sat_box_real(s, n, lo, hi);
+    if (g->wrap_phi && !all_phi) { /* the part of the box beyond ±π, on the other side */
+        if (lo.x < 0.0) sum += sat_box_real(s, n, (double3)(lo.x + n.x, lo.y, lo.z), (double3)(n.x, hi.y, hi.z));
+        if (hi.x > n.x) sum += sat_box_real(s, n, (double3)(0.0, lo.y, lo.z), (double3)(hi.x - n.x, hi.y, hi.z));
+    }
+    return solid_angle > 0.0 ? (float)(sum * cell.x * cell.y * g->tau_per_unit / solid_angle) : 0.0f;
 }
 
 #endif

@@ -19,7 +19,7 @@
 #endif
 #ifdef SOMBRA_SHADOW_LOWPASS
 #include "lowpass.h"
-#define LOWPASS_PARAMS , __global const ulong* sat, __global const SatGridGpu* sat_grids
+#define LOWPASS_PARAMS , __global const ulong* sat, __global const SatGridGpu* sat_grids, __global const SsatGridGpu* ssat_grids
 #else
 #define LOWPASS_PARAMS
 #endif
@@ -46,6 +46,7 @@ typedef struct {
 #ifdef SOMBRA_SHADOW_LOWPASS
     __global const ulong* sat;
     __global const SatGridGpu* sat_grids;
+    __global const SsatGridGpu* ssat_grids;
 #endif
 } CameraState;
 
@@ -81,14 +82,23 @@ inline lfloat shadow_ray(VOLUME_DATA_PARAM, const CameraState* state, __global c
 
 #ifdef SOMBRA_SHADOW_LOWPASS
 /* Low-pass filtered shadow: exp(−τ̄) with τ̄ the box-filtered optical depth from the light's CSAT
- * (Ament Eq. 4, 13, 15). Lights without a table (point and spot lights: no SSAT yet) fall back
- * to the shadow ray. */
+ * (directional lights, Ament Eq. 4, 13, 15) or SSAT (point and spot lights, Eq. 24). A light
+ * without a table falls back to the shadow ray. */
 inline lfloat lowpass_shadow(VOLUME_DATA_PARAM, const CameraState* state, uint light_index, lfloat3 p, lmask lanes) {
     __global const SatGridGpu* g = &state->sat_grids[light_index];
-    if (g->dims.w == 0) return shadow_ray(volume_data, state, &state->lights[light_index], p, lanes);
+    __global const SsatGridGpu* sphere = &state->ssat_grids[light_index];
+    lfloat depth;
+    if (g->dims.w != 0) {
 #define SOMBRA_LOWPASS_LANE(c) csat_filtered_depth(state->sat, g, (float3)(LC(p.x, c), LC(p.y, c), LC(p.z, c)))
-    lfloat depth = LFROM_LANES(SOMBRA_LOWPASS_LANE);
+        depth = LFROM_LANES(SOMBRA_LOWPASS_LANE);
 #undef SOMBRA_LOWPASS_LANE
+    } else if (sphere->dims.w != 0) {
+#define SOMBRA_LOWPASS_LANE(c) ssat_filtered_depth(state->sat, sphere, (float3)(LC(p.x, c), LC(p.y, c), LC(p.z, c)))
+        depth = LFROM_LANES(SOMBRA_LOWPASS_LANE);
+#undef SOMBRA_LOWPASS_LANE
+    } else {
+        return shadow_ray(volume_data, state, &state->lights[light_index], p, lanes);
+    }
     return exp(-depth);
 }
 #endif
@@ -249,6 +259,7 @@ __kernel void render_camera(VOLUME_DATA_PARAM, __global const uchar* occupancy, 
 #ifdef SOMBRA_SHADOW_LOWPASS
     state.sat = sat;
     state.sat_grids = sat_grids;
+    state.ssat_grids = ssat_grids;
 #endif
 #define SOMBRA_JITTER_LANE(c) sombra_pixel_jitter((uint)LC(xs, c), y, camera->jitter_seed)
     state.jitter = LFROM_LANES(SOMBRA_JITTER_LANE);
@@ -303,6 +314,7 @@ __kernel void shadow_probe(VOLUME_DATA_PARAM, __global const uchar* occupancy, _
 #elif defined(SOMBRA_SHADOW_LOWPASS)
     state.sat = sat;
     state.sat_grids = sat_grids;
+    state.ssat_grids = ssat_grids;
     transmittance[i] = lowpass_shadow(volume_data, &state, light_index, l3(points[i].x, points[i].y, points[i].z), 1);
 #else
     transmittance[i] = shadow_ray(volume_data, &state, &lights[light_index], l3(points[i].x, points[i].y, points[i].z), 1);

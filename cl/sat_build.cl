@@ -45,6 +45,29 @@ __kernel void sat_resample(VOLUME_DATA_PARAM, __global const float* tf_tables, _
     }
 }
 
+/* SSAT (Ament §4.2.3): work-item (i, j) is the ray of cells (φ_i, θ_j, r_0 … r_n.z−1) from the
+ * light, sampled at their centres; a cell holds σ·Δr·w_θ (shared/types.h, SsatGridGpu). */
+__kernel void ssat_resample(VOLUME_DATA_PARAM, __global const float* tf_tables, __global const VolumeGpu* volumes,
+                            uint volume_count, __global ulong* sat, __global const SsatGridGpu* grid) {
+    int4 n = grid->dims;
+    int i = get_global_id(0), j = get_global_id(1);
+    if (i >= n.x || j >= n.y) return;
+    float phi = grid->start.x + (i + 0.5f) * grid->cell.x;
+    float theta0 = grid->start.y + j * grid->cell.y, theta1 = theta0 + grid->cell.y;
+    float theta = theta0 + 0.5f * grid->cell.y;
+    float w_theta = (cos(theta0) - cos(theta1)) / grid->cell.y;
+    float3 dir = sin(theta) * cos(phi) * grid->axes[0].xyz + sin(theta) * sin(phi) * grid->axes[1].xyz +
+                 cos(theta) * grid->axes[2].xyz;
+    __global ulong* s = sat + grid->data_offset;
+    ulong running = 0;
+    for (int k = 0; k < n.z; ++k) {
+        float r = grid->start.z + (k + 0.5f) * grid->cell.z;
+        float sigma = extinction_at_point(volume_data, volumes, volume_count, tf_tables, grid->light.xyz + r * dir);
+        running += sat_fixed_point(sigma * grid->cell.z * w_theta);
+        s[sat_entry(n, i + 1, j + 1, k + 1)] = running;
+    }
+}
+
 /* Work-item (a, b): the line along `axis` (0 or 1) through entries a + 1, b + 1 of the other two
  * axes (in increasing axis order), turned into its inclusive prefix sums. */
 __kernel void sat_scan(__global ulong* sat, uint data_offset, int4 n, uint axis) {

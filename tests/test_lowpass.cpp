@@ -77,6 +77,25 @@ std::vector<double> shadow_rays(const Scene& scene, int light, const std::vector
 
 D3 d3(const Vec3& v) { return {v[0], v[1], v[2]}; }
 
+// |T_lowpass − T_shadow rays| of light 0 over the points, mean and max, for W = 1 and W = 9.
+struct RayErrors {
+    double mean[2] = {0, 0}, worst[2] = {0, 0};
+};
+RayErrors errors_to_rays(const Scene& scene, const std::vector<Vec3>& points) {
+    auto rays = shadow_rays(scene, 0, points);
+    RayErrors r;
+    float widths[2] = {1.f, 9.f};
+    for (int w = 0; w < 2; ++w) {
+        auto t = lowpass(scene, 0, points, widths[w]);
+        for (std::size_t i = 0; i < points.size(); ++i) {
+            REQUIRE(std::isfinite(t[i]));
+            double e = std::fabs(t[i] - rays[i]);
+            r.mean[w] += e / double(points.size()), r.worst[w] = std::max(r.worst[w], e);
+        }
+    }
+    return r;
+}
+
 Scene cloud_scene() {
     return one_volume(std::make_shared<const Volume>(make_cloud_noise(20, 5)), test::ramp_tf(0.1f, 0.6f, 0.6f),
                       {directional({0.3, -0.5, -0.8})}, {20.f, 35.f, 0.f});
@@ -89,7 +108,7 @@ TEST_CASE("CSAT: device cells and box sums match the CPU reference on a random v
     BuiltSat b = build(scene);
     REQUIRE(b.sat.frames.size() == 1);
     const shadows::SatFrame& frame = b.sat.frames[0];
-    auto table = shadows::read_sat(test::context().runtime(), b.sat, 0);
+    auto table = shadows::read_sat(test::context().runtime(), b.sat, b.sat.offsets[0], frame.entries());
     reference::CellGrid device = reference::cells_of_table(table, frame.dims);
     reference::CellGrid ref = reference::sat_cells(scene, frame);
     double max_cell = *std::max_element(ref.cells.begin(), ref.cells.end()), worst = 0;
@@ -152,7 +171,7 @@ TEST_CASE("CSAT: the kernel's filtered optical depth matches the CPU reference",
     Scene scene = cloud_scene();
     BuiltSat b = build(scene);
     const shadows::SatFrame& frame = b.sat.frames[0];
-    reference::CellGrid device = reference::cells_of_table(shadows::read_sat(test::context().runtime(), b.sat, 0), frame.dims);
+    reference::CellGrid device = reference::cells_of_table(shadows::read_sat(test::context().runtime(), b.sat, b.sat.offsets[0], frame.entries()), frame.dims);
     reference::CellGrid ref = reference::sat_cells(scene, frame);
     auto points = random_points(300, 0.6f, 5);
     for (int width : {1, 3, 6}) {
@@ -171,21 +190,11 @@ TEST_CASE("CSAT: a one-voxel filter approaches the shadow rays, wider filters de
     Scene scene = one_volume(std::make_shared<const Volume>(make_gaussian_blobs(32, 6, 4)), test::ramp_tf(0.1f, 0.8f, 0.3f),
                              {directional({-0.4, -0.7, -0.5})});
     auto points = random_points(400, 0.4f, 9);
-    auto rays = shadow_rays(scene, 0, points);
-    double mean[2] = {0, 0}, worst[2] = {0, 0};
-    float widths[2] = {1.f, 9.f};
-    for (int w = 0; w < 2; ++w) {
-        auto t = lowpass(scene, 0, points, widths[w]);
-        for (std::size_t i = 0; i < points.size(); ++i) {
-            REQUIRE(std::isfinite(t[i]));
-            double e = std::fabs(t[i] - rays[i]);
-            mean[w] += e / double(points.size()), worst[w] = std::max(worst[w], e);
-        }
-    }
-    std::printf("lowpass vs shadow rays, |ΔT| mean/max: W=1 %.4f/%.4f, W=9 %.4f/%.4f\n", mean[0], worst[0], mean[1], worst[1]);
-    CHECK(mean[0] < 0.01);
-    CHECK(worst[0] < 0.06);
-    CHECK(mean[0] < mean[1]);
+    RayErrors e = errors_to_rays(scene, points);
+    std::printf("CSAT vs shadow rays, |ΔT| mean/max: W=1 %.4f/%.4f, W=9 %.4f/%.4f\n", e.mean[0], e.worst[0], e.mean[1], e.worst[1]);
+    CHECK(e.mean[0] < 0.01);
+    CHECK(e.worst[0] < 0.06);
+    CHECK(e.mean[0] < e.mean[1]);
 }
 
 TEST_CASE("CSAT: homogeneous medium against exp(−σ·d), oblique and axis-aligned lights", "[lowpass]") {
@@ -263,5 +272,95 @@ TEST_CASE("CSAT: six orthodirectional lights share one table and match separatel
                 CHECK(a[i] == Approx(b[i]).margin(1e-4));
             }
         }
+    }
+}
+
+namespace {
+
+Light point_light(const D3& position) {
+    Light l;
+    l.type = LightType::Point;
+    l.position = {float(position[0]), float(position[1]), float(position[2])};
+    return l;
+}
+
+// Σ over random integer boxes of a device table against brute-force sums of the reference cells.
+void check_box_sums(const std::vector<std::uint64_t>& table, const reference::CellGrid& ref, unsigned seed) {
+    std::mt19937 rng(seed);
+    reference::CellGrid device = reference::cells_of_table(table, ref.dims);
+    for (int trial = 0; trial < 300; ++trial) {
+        std::array<int, 3> lo, hi;
+        for (std::size_t a = 0; a < 3; ++a) {
+            std::uniform_int_distribution<int> pick(0, ref.dims[a]);
+            int x = pick(rng), y = pick(rng);
+            lo[a] = std::min(x, y), hi[a] = std::max(x, y);
+        }
+        std::array<double, 3> flo = {double(lo[0]), double(lo[1]), double(lo[2])}, fhi = {double(hi[0]), double(hi[1]), double(hi[2])};
+        double sat = double(std::int64_t(reference::sat_box(table, ref.dims, lo, hi))) / SOMBRA_SAT_UNITS_PER_TAU;
+        CHECK(sat == Approx(reference::box_sum(device, flo, fhi)).margin(1e-9));  // integer sums are exact
+        CHECK(sat == Approx(reference::box_sum(ref, flo, fhi)).epsilon(3e-3).margin(2e-4));
+    }
+}
+
+}  // namespace
+
+TEST_CASE("SSAT: device cells and box sums match the CPU reference, light outside and inside", "[lowpass]") {
+    for (D3 light : {D3{1.6, 0.5, -0.4}, D3{0.1, -0.05, 0.15}}) {
+        Scene scene = one_volume(std::make_shared<const Volume>(make_cloud_noise(16, 3)), test::ramp_tf(0.1f, 0.6f, 0.6f),
+                                 {point_light(light)}, {10.f, -20.f, 5.f});
+        BuiltSat b = build(scene, std::size_t(1) << 18);
+        const SsatGridGpu& g = b.sat.spheres[0];
+        REQUIRE(g.dims.s[3] == 1);
+        CHECK(g.wrap_phi == (light[0] < 1 ? 1u : 0u));
+        auto table = shadows::read_sat(test::context().runtime(), b.sat, g.data_offset, shadows::ssat_entries(g));
+        reference::CellGrid ref = reference::ssat_cells(scene, g);
+        reference::CellGrid device = reference::cells_of_table(table, ref.dims);
+        double max_cell = *std::max_element(ref.cells.begin(), ref.cells.end()), worst = 0;
+        REQUIRE(max_cell > 0.01);
+        for (std::size_t i = 0; i < ref.cells.size(); ++i) worst = std::max(worst, std::fabs(device.cells[i] - ref.cells[i]));
+        INFO("light " << light[0] << "," << light[1] << "," << light[2]);
+        CHECK(worst <= 5e-3 * max_cell);
+        check_box_sums(table, ref, 7);
+    }
+}
+
+TEST_CASE("SSAT: homogeneous medium against exp(−σ·d), point light outside, inside and on a face", "[lowpass]") {
+    const int n = 32;
+    const float alpha = 0.04f;
+    double sigma = -std::log(1.0 - alpha) * n;
+    auto volume = test::constant_volume({n, n, n}, 1.f);
+    for (D3 light : {D3{1.7, 0.6, 0.9}, D3{0.12, -0.2, 0.05}, D3{0.5, 0.1, -0.1}}) {
+        Scene scene = one_volume(volume, test::constant_tf(alpha), {point_light(light)});
+        auto points = random_points(150, 0.35f, 3);
+        auto t = lowpass(scene, 0, points, 1.f);
+        auto rays = shadow_rays(scene, 0, points);
+        double mean = 0;
+        for (std::size_t i = 0; i < points.size(); ++i) {
+            D3 p = d3(points[i]), d = {light[0] - p[0], light[1] - p[1], light[2] - p[2]};
+            double len = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]), chord = len;
+            for (std::size_t a = 0; a < 3; ++a)  // from p towards the light, until the box face
+                if (d[a] != 0) chord = std::min(chord, ((d[a] > 0 ? 0.5 : -0.5) - p[a]) / (d[a] / len));
+            INFO("light " << light[0] << "," << light[1] << "," << light[2] << " point " << i);
+            REQUIRE(std::isfinite(t[i]));
+            CHECK((t[i] >= 0.0 && t[i] <= 1.0));
+            // W = 1 voxel: the pyramid's rays differ from the centre ray by ≤ half a voxel
+            CHECK(-std::log(t[i]) == Approx(sigma * chord).epsilon(0.04).margin(2.0 * sigma / n));
+            mean += std::fabs(t[i] - rays[i]) / double(points.size());
+        }
+        CHECK(mean < 0.01);
+    }
+}
+
+TEST_CASE("SSAT: a one-voxel filter approaches the shadow rays of a point light", "[lowpass]") {
+    for (D3 light : {D3{-1.2, 0.8, 0.9}, D3{0.05, 0.1, -0.1}}) {
+        Scene scene = one_volume(std::make_shared<const Volume>(make_gaussian_blobs(32, 6, 4)), test::ramp_tf(0.1f, 0.8f, 0.3f),
+                                 {point_light(light)});
+        auto points = random_points(300, 0.4f, 13);
+        RayErrors e = errors_to_rays(scene, points);
+        std::printf("SSAT (light %g,%g,%g) vs shadow rays, |ΔT| mean/max: W=1 %.4f/%.4f, W=9 %.4f/%.4f\n", light[0], light[1],
+                    light[2], e.mean[0], e.worst[0], e.mean[1], e.worst[1]);
+        CHECK(e.mean[0] < 0.01);
+        CHECK(e.worst[0] < 0.08);
+        CHECK(e.mean[0] < e.mean[1]);
     }
 }

@@ -131,4 +131,21 @@ typedef struct {
     sb_uint pad0, pad1;
 } SatGridGpu;
 
+/* A point light's spherical summed-area table (SSAT, Ament §4.2.3): a regular grid over azimuth φ,
+ * polar angle θ and radius r around the light, r along grid axis 2. A cell holds σ·Δr·w_θ with
+ * w_θ = (cos θ_j − cos θ_j+1)/Δθ (its solid angle over Δφ·Δθ), so a box sum × Δφ·Δθ / (the box's
+ * solid angle) is the solid-angle average of the optical depth of the rays in the spherical
+ * pyramid (Eq. 22–24). Same fixed point and table layout as SatGridGpu. */
+typedef struct {
+    sb_float4 axes[3];    /* world directions of the spherical frame: x (φ = 0, θ = π/2), y, z (θ = 0) */
+    sb_float4 light;      /* light position (xyz) */
+    sb_float4 start;      /* φ, θ, r of the grid's first corner */
+    sb_float4 cell;       /* Δφ, Δθ, Δr */
+    sb_int4 dims;         /* cells along φ, θ, r; w: 0 = no table for this light */
+    sb_uint data_offset;  /* first entry of this table in the shared SAT buffer */
+    sb_uint wrap_phi;     /* 1: the grid spans all φ (light inside the bounds), boxes wrap at ±π */
+    float half_width;     /* U = V: half the filter width in world units (Eq. 16) */
+    float tau_per_unit;
+} SsatGridGpu;
+
 #endif /* SOMBRA_SHARED_TYPES_H */

@@ -21,8 +21,8 @@ enum class VolumeStorage { Auto, Buffer, Image };  // Auto: buffer on CPU device
 // rays as the DSM, so it costs what a DSM costs to build.
 // Lowpass: low-pass filtered soft shadows (Ament et al. 2014): exp(−τ̄), τ̄ the optical depth
 // box-filtered over lowpass_filter_width × lowpass_filter_width voxels across the light, read in
-// constant time from a light-aligned summed-area table (CSAT) per group of orthodirectional
-// directional lights. Point and spot lights fall back to shadow rays (no SSAT yet).
+// constant time from a light-aligned summed-area table: a Cartesian one (CSAT) per group of
+// orthodirectional directional lights, a spherical one (SSAT) per point or spot light.
 enum class ShadowTechnique { None, Rays, Dsm, ShadowMap, Lowpass };
 
 struct RenderOptions {

@@ -157,6 +157,7 @@ PreparedScene prepare_anew(host::Runtime& runtime, const Scene& scene, const Ren
         prepared.sat = shadows::build_light_sats(runtime, scene, prepared.packed, prepared.device, options.lowpass_max_entries);
         for (auto& [stage, ms] : prepared.sat.stage_ms) stats.stage_ms[stage] = ms;
         stats.sat_tables = int(prepared.sat.frames.size());
+        for (const SsatGridGpu& g : prepared.sat.spheres) stats.sat_tables += g.dims.s[3] != 0;
         stats.sat_bytes = prepared.sat.bytes;
     }
     return prepared;
@@ -182,15 +183,16 @@ int set_dsm_args(cl::Kernel& kernel, int arg, const PreparedScene& p) {
 }
 
 // The low-pass tables and their per-light grids (with this call's filter width); keeps the
-// grids buffer alive in `grids`.
+// grid buffers alive in `grids`.
 int set_sat_args(host::Runtime& runtime, cl::Kernel& kernel, int arg, const PreparedScene& p, const RenderOptions& o,
-                 cl::Buffer& grids) {
+                 shadows::SatGridBuffers& grids) {
     if (!p.use_sat) return arg;
     if (!(o.lowpass_filter_width >= 0.f && o.lowpass_filter_width <= 4096.f))
         throw Error("--filter: the filter width must lie in [0, 4096] voxels");
     grids = shadows::upload_sat_grids(runtime, p.sat, o.lowpass_filter_width);
     kernel.setArg(arg++, p.sat.data);
-    kernel.setArg(arg++, grids);
+    kernel.setArg(arg++, grids.cartesian);
+    kernel.setArg(arg++, grids.spherical);
     return arg;
 }
 
@@ -257,7 +259,7 @@ RenderResult render(Context& context, const Scene& scene, const RenderOptions& o
     int arg = set_scene_args(kernel, prepared, camera_buffer);
     kernel.setArg(arg++, image_buffer);
     kernel.setArg(arg++, count_buffer);
-    cl::Buffer sat_grids;
+    shadows::SatGridBuffers sat_grids;
     set_sat_args(runtime, kernel, set_dsm_args(kernel, arg, prepared), prepared, options, sat_grids);
 
     // Packets run on CPUs: PoCL keeps every work-item's private state of a work-group on one
@@ -314,7 +316,7 @@ ShadowQuery shadow_transmittance(Context& context, const Scene& scene, int light
     kernel.setArg(arg++, cl_uint(light_index));
     kernel.setArg(arg++, point_buffer);
     kernel.setArg(arg++, out);
-    cl::Buffer sat_grids;
+    shadows::SatGridBuffers sat_grids;
     set_sat_args(runtime, kernel, set_dsm_args(kernel, arg, prepared), prepared, options, sat_grids);
     cl::Event event;
     runtime.queue().enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(points.size()), cl::NullRange, nullptr, &event);

@@ -36,6 +36,16 @@ std::vector<D3> scene_corners(const packing::PackedScene& packed, double& voxel_
     return corners;
 }
 
+// A unit vector ⟂ w, from the world axis least aligned with w.
+D3 perpendicular(const D3& w) {
+    int least = 0;
+    for (int a = 1; a < 3; ++a)
+        if (std::fabs(w[std::size_t(a)]) < std::fabs(w[std::size_t(least)])) least = a;
+    D3 e{0, 0, 0};
+    e[std::size_t(least)] = 1;
+    return normalized(cross(e, w));
+}
+
 // The axis of `frame` that ±`towards_light` lies along, or −1.
 int shared_axis(const SatFrame& frame, const D3& towards_light, bool& positive) {
     for (int a = 0; a < 3; ++a) {
@@ -61,13 +71,8 @@ D3 SatFrame::cell_centre(int i, int j, int k) const {
 SatFrame make_csat_frame(const packing::PackedScene& packed, const D3& towards_light, std::size_t max_entries) {
     SatFrame f;
     D3 w = normalized(towards_light);
-    // r_u ⟂ l from the world axis least aligned with l; r_v = l × r_u so that r_u × r_v = l (Ament Eq. 9)
-    int least = 0;
-    for (int a = 1; a < 3; ++a)
-        if (std::fabs(w[std::size_t(a)]) < std::fabs(w[std::size_t(least)])) least = a;
-    D3 e{0, 0, 0};
-    e[std::size_t(least)] = 1;
-    D3 u = normalized(cross(e, w)), v = cross(w, u);
+    // r_v = l × r_u so that r_u × r_v = l (Ament Eq. 9)
+    D3 u = perpendicular(w), v = cross(w, u);
     f.axes = {u, v, w};
     std::vector<D3> corners = scene_corners(packed, f.voxel_size);
     if (corners.empty() || !(f.voxel_size > 0)) throw Error("--shadows lowpass: the scene has no volume to build a summed-area table of");
@@ -97,13 +102,123 @@ std::uint64_t sat_fixed_point(double tau) {
     return std::uint64_t(std::nearbyint(float(float(clamped) * SOMBRA_SAT_UNITS_PER_TAU)));
 }
 
+SsatGridGpu make_ssat_grid(const packing::PackedScene& packed, const D3& light, std::size_t max_entries) {
+    double voxel = 0;
+    std::vector<D3> corners = scene_corners(packed, voxel);
+    if (corners.empty() || !(voxel > 0)) throw Error("--shadows lowpass: the scene has no volume to build a summed-area table of");
+    D3 lo{INFINITY, INFINITY, INFINITY}, hi{-INFINITY, -INFINITY, -INFINITY};
+    for (const D3& c : corners)
+        for (std::size_t a = 0; a < 3; ++a) lo[a] = std::min(lo[a], c[a]), hi[a] = std::max(hi[a], c[a]);
+    D3 centre, outside{0, 0, 0};
+    for (std::size_t a = 0; a < 3; ++a) {
+        centre[a] = 0.5 * (lo[a] + hi[a]);
+        outside[a] = std::max({lo[a] - light[a], light[a] - hi[a], 0.0});
+    }
+    double r_min = std::sqrt(dot(outside, outside)), r_max = 0;
+    for (const D3& c : corners) {
+        D3 d = {c[0] - light[0], c[1] - light[1], c[2] - light[2]};
+        r_max = std::max(r_max, std::sqrt(dot(d, d)));
+    }
+    D3 to_centre = {centre[0] - light[0], centre[1] - light[1], centre[2] - light[2]};
+    double centre_distance = std::sqrt(dot(to_centre, to_centre));
+    D3 x = centre_distance > 1e-9 * r_max ? normalized(to_centre) : D3{1, 0, 0};
+    D3 z = perpendicular(x), y = cross(z, x);
+    // angles the scene subtends: points along every box edge (θ's extremes may lie inside an edge)
+    bool whole = r_min <= 0;
+    double phi_lo = INFINITY, phi_hi = -INFINITY, theta_lo = INFINITY, theta_hi = -INFINITY;
+    for (std::size_t box = 0; !whole && box < corners.size(); box += 8)
+        for (int c0 = 0; c0 < 8; ++c0)
+            for (int axis = 0; axis < 3; ++axis) {
+                int c1 = c0 | (1 << axis);
+                if (c1 == c0) continue;
+                for (int t = 0; t <= 32; ++t) {
+                    D3 d;
+                    for (std::size_t r = 0; r < 3; ++r)
+                        d[r] = corners[box + std::size_t(c0)][r] + (corners[box + std::size_t(c1)][r] - corners[box + std::size_t(c0)][r]) * t / 32.0 - light[r];
+                    double len = std::sqrt(dot(d, d)), px = dot(d, x) / len;
+                    if (px < std::cos(80.0 * M_PI / 180.0)) whole = true;  // a cone wider than 80°
+                    double phi = std::atan2(dot(d, y), dot(d, x)), theta = std::acos(std::clamp(dot(d, z) / len, -1.0, 1.0));
+                    phi_lo = std::min(phi_lo, phi), phi_hi = std::max(phi_hi, phi);
+                    theta_lo = std::min(theta_lo, theta), theta_hi = std::max(theta_hi, theta);
+                }
+            }
+    double margin = 0.02 * std::max(phi_hi - phi_lo, theta_hi - theta_lo);
+    if (whole) phi_lo = -M_PI, phi_hi = M_PI, theta_lo = 0, theta_hi = M_PI, r_min = 0;
+    else phi_lo -= margin, phi_hi += margin, theta_lo = std::max(theta_lo - margin, 0.0), theta_hi = std::min(theta_hi + margin, M_PI);
+    double r_ref = whole ? 0.5 * r_max : centre_distance;
+    SsatGridGpu g{};
+    int dims[3];
+    for (double k = 1;; k *= 1.05) {
+        double across = voxel * k / r_ref;
+        dims[0] = std::max(1, int(std::ceil((phi_hi - phi_lo) / across)));
+        dims[1] = std::max(1, int(std::ceil((theta_hi - theta_lo) / across)));
+        dims[2] = std::max(1, int(std::ceil((r_max - r_min) / (voxel * k))));
+        std::size_t entries = std::size_t(dims[0] + 1) * std::size_t(dims[1] + 1) * std::size_t(dims[2] + 1);
+        if (entries <= std::min<std::size_t>(max_entries, SOMBRA_SAT_MAX_ENTRIES)) break;
+    }
+    g.axes[0] = f4(x), g.axes[1] = f4(y), g.axes[2] = f4(z);
+    g.light = f4(light);
+    g.start = f4({phi_lo, theta_lo, r_min});
+    g.cell = f4({(phi_hi - phi_lo) / dims[0], (theta_hi - theta_lo) / dims[1], (r_max - r_min) / dims[2]});
+    g.dims = {{dims[0], dims[1], dims[2], 1}};
+    g.wrap_phi = whole ? 1 : 0;
+    g.tau_per_unit = 1.f / SOMBRA_SAT_UNITS_PER_TAU;
+    return g;
+}
+
+namespace {
+
+// Prefix sums along grid axes 0 and 1 of one table (axis 2 was summed by its resample kernel).
+double scan_table(host::Runtime& runtime, cl::Kernel& scan, const cl::Buffer& data, std::size_t offset, cl_int4 n) {
+    double ms = 0;
+    cl::Event event;
+    for (cl_uint axis = 0; axis < 2; ++axis) {
+        scan.setArg(0, data);
+        scan.setArg(1, cl_uint(offset));
+        scan.setArg(2, n);
+        scan.setArg(3, axis);
+        std::size_t other = std::size_t(axis == 0 ? n.s[1] : n.s[0]);
+        runtime.queue().enqueueNDRangeKernel(scan, cl::NullRange, cl::NDRange(other, std::size_t(n.s[2])), cl::NullRange,
+                                             nullptr, &event);
+        event.wait();
+        ms += host::Runtime::event_ms(event);
+    }
+    return ms;
+}
+
+// The arguments every resample kernel starts with; returns the next index.
+int set_volume_args(cl::Kernel& kernel, const packing::PackedScene& packed, const packing::DeviceScene& device_scene,
+                    const cl::Buffer& data) {
+    int a = 0;
+    if (device_scene.uses_images) kernel.setArg(a++, device_scene.voxel_image);
+    else kernel.setArg(a++, device_scene.voxel_buffer);
+    kernel.setArg(a++, device_scene.tf_tables);
+    kernel.setArg(a++, device_scene.volumes);
+    kernel.setArg(a++, cl_uint(packed.volumes.size()));
+    kernel.setArg(a++, data);
+    return a;
+}
+
+double run_2d(host::Runtime& runtime, cl::Kernel& kernel, int nx, int ny) {
+    cl::Event event;
+    runtime.queue().enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(std::size_t(nx), std::size_t(ny)), cl::NullRange,
+                                         nullptr, &event);
+    event.wait();
+    return host::Runtime::event_ms(event);
+}
+
+}  // namespace
+
 DeviceSat build_light_sats(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
                            const packing::DeviceScene& device_scene, std::size_t max_entries) {
     DeviceSat sat;
+    scene_corners(packed, sat.voxel_size);
     std::vector<int> table_of(packed.lights.size(), -1);
+    std::size_t total = 0;
     for (std::size_t l = 0; l < packed.lights.size(); ++l) {
         const LightGpu& light = packed.lights[l];
         SatGridGpu g{};
+        SsatGridGpu sphere{};
         if (light.type == SOMBRA_LIGHT_DIRECTIONAL) {
             D3 towards = {-light.direction.s[0], -light.direction.s[1], -light.direction.s[2]};
             bool positive = true;
@@ -112,6 +227,8 @@ DeviceSat build_light_sats(host::Runtime& runtime, const Scene& scene, const pac
             for (; t < sat.frames.size() && axis < 0; ++t) axis = shared_axis(sat.frames[t], towards, positive);
             if (axis < 0) {  // a new table (Ament Alg. 1: recomputeCSAT)
                 sat.frames.push_back(make_csat_frame(packed, towards, max_entries));
+                sat.offsets.push_back(total);
+                total += sat.frames.back().entries();
                 axis = 2, positive = true, t = sat.frames.size();
             }
             const SatFrame& f = sat.frames[t - 1];
@@ -125,18 +242,19 @@ DeviceSat build_light_sats(host::Runtime& runtime, const Scene& scene, const pac
             g.tau_per_unit = 1.f / SOMBRA_SAT_UNITS_PER_TAU;
             g.cell_size = float(f.cell_size);
             g.filter_cells = 1;
-            table_of[l] = int(t - 1);
+            g.data_offset = cl_uint(sat.offsets[t - 1]);
+        } else {  // Ament Alg. 1: recomputeSSAT, one per point light
+            sphere = make_ssat_grid(packed, {light.position.s[0], light.position.s[1], light.position.s[2]}, max_entries);
+            sphere.data_offset = cl_uint(total);
+            total += ssat_entries(sphere);
         }
+        if (total > 0xffffffffull) throw Error("--shadows lowpass: summed-area tables exceed 2^32 entries");
         sat.grids.push_back(g);
+        sat.spheres.push_back(sphere);
     }
-    std::size_t total = 0;
-    for (const SatFrame& f : sat.frames) sat.offsets.push_back(total), total += f.entries();
-    if (total > 0xffffffffull) throw Error("--shadows lowpass: summed-area tables exceed 2^32 entries");
-    for (std::size_t l = 0; l < sat.grids.size(); ++l)
-        if (table_of[l] >= 0) sat.grids[l].data_offset = cl_uint(sat.offsets[std::size_t(table_of[l])]);
     sat.bytes = total * sizeof(cl_ulong);
     sat.data = host::make_buffer(runtime, CL_MEM_READ_WRITE, sat.bytes, nullptr, "summed-area tables");
-    if (sat.frames.empty()) return sat;
+    if (total == 0) return sat;
 
     cl::Event event;
     runtime.queue().enqueueFillBuffer(sat.data, cl_ulong(0), 0, sat.bytes, nullptr, &event);
@@ -145,17 +263,11 @@ DeviceSat build_light_sats(host::Runtime& runtime, const Scene& scene, const pac
     auto defines = volume_pass_defines(scene, device_scene.uses_images, false);
     defines.push_back("SOMBRA_LANES=1");
     cl::Program& program = runtime.program("sat_build.cl", defines);
-    cl::Kernel resample(program, "sat_resample"), scan(program, "sat_scan");
+    cl::Kernel resample(program, "sat_resample"), resample_sphere(program, "ssat_resample"), scan(program, "sat_scan");
     for (std::size_t t = 0; t < sat.frames.size(); ++t) {
         const SatFrame& f = sat.frames[t];
         cl_int4 n = {{f.dims[0], f.dims[1], f.dims[2], 1}};
-        int a = 0;
-        if (device_scene.uses_images) resample.setArg(a++, device_scene.voxel_image);
-        else resample.setArg(a++, device_scene.voxel_buffer);
-        resample.setArg(a++, device_scene.tf_tables);
-        resample.setArg(a++, device_scene.volumes);
-        resample.setArg(a++, cl_uint(packed.volumes.size()));
-        resample.setArg(a++, sat.data);
+        int a = set_volume_args(resample, packed, device_scene, sat.data);
         resample.setArg(a++, cl_uint(sat.offsets[t]));
         resample.setArg(a++, n);
         resample.setArg(a++, f4(f.origin));
@@ -164,39 +276,34 @@ DeviceSat build_light_sats(host::Runtime& runtime, const Scene& scene, const pac
             resample.setArg(a++, f4({r[0] * f.cell_size, r[1] * f.cell_size, r[2] * f.cell_size}));
         }
         resample.setArg(a++, float(f.cell_size));
-        runtime.queue().enqueueNDRangeKernel(resample, cl::NullRange, cl::NDRange(std::size_t(f.dims[0]), std::size_t(f.dims[1])),
-                                             cl::NullRange, nullptr, &event);
-        event.wait();
-        sat.stage_ms["sat_resample"] += host::Runtime::event_ms(event);
-        for (cl_uint axis = 0; axis < 2; ++axis) {  // axis 2 was summed by sat_resample
-            scan.setArg(0, sat.data);
-            scan.setArg(1, cl_uint(sat.offsets[t]));
-            scan.setArg(2, n);
-            scan.setArg(3, axis);
-            std::size_t other = std::size_t(axis == 0 ? f.dims[1] : f.dims[0]);
-            runtime.queue().enqueueNDRangeKernel(scan, cl::NullRange, cl::NDRange(other, std::size_t(f.dims[2])),
-                                                 cl::NullRange, nullptr, &event);
-            event.wait();
-            sat.stage_ms["sat_scan"] += host::Runtime::event_ms(event);
-        }
+        sat.stage_ms["sat_resample"] += run_2d(runtime, resample, f.dims[0], f.dims[1]);
+        sat.stage_ms["sat_scan"] += scan_table(runtime, scan, sat.data, sat.offsets[t], n);
+    }
+    for (const SsatGridGpu& sphere : sat.spheres) {
+        if (sphere.dims.s[3] == 0) continue;
+        cl::Buffer grid = host::make_buffer(runtime, CL_MEM_READ_ONLY, sizeof(SsatGridGpu), &sphere, "SSAT grid");
+        int a = set_volume_args(resample_sphere, packed, device_scene, sat.data);
+        resample_sphere.setArg(a++, grid);
+        sat.stage_ms["ssat_resample"] += run_2d(runtime, resample_sphere, sphere.dims.s[0], sphere.dims.s[1]);
+        sat.stage_ms["sat_scan"] += scan_table(runtime, scan, sat.data, sphere.data_offset, sphere.dims);
     }
     return sat;
 }
 
-cl::Buffer upload_sat_grids(host::Runtime& runtime, const DeviceSat& sat, float filter_voxels) {
+SatGridBuffers upload_sat_grids(host::Runtime& runtime, const DeviceSat& sat, float filter_voxels) {
     std::vector<SatGridGpu> grids = sat.grids;
-    for (std::size_t l = 0; l < grids.size(); ++l) {
-        if (grids[l].dims.s[3] == 0) continue;
-        double cells = std::round(double(filter_voxels) * sat.frames[0].voxel_size / grids[l].cell_size);
-        grids[l].filter_cells = cl_uint(std::clamp(cells, 1.0, 4096.0));
-    }
-    return host::make_buffer(runtime, CL_MEM_READ_ONLY, grids.size() * sizeof(SatGridGpu), grids.data(), "SAT grids");
+    std::vector<SsatGridGpu> spheres = sat.spheres;
+    double width = std::max(double(filter_voxels), 1.0) * sat.voxel_size;  // at least one voxel
+    for (SatGridGpu& g : grids)
+        if (g.dims.s[3] != 0) g.filter_cells = cl_uint(std::clamp(std::round(width / g.cell_size), 1.0, 4096.0));
+    for (SsatGridGpu& g : spheres) g.half_width = float(0.5 * width);  // Ament Eq. 16: U = V = W/2
+    return {host::make_buffer(runtime, CL_MEM_READ_ONLY, grids.size() * sizeof(SatGridGpu), grids.data(), "SAT grids"),
+            host::make_buffer(runtime, CL_MEM_READ_ONLY, spheres.size() * sizeof(SsatGridGpu), spheres.data(), "SSAT grids")};
 }
 
-std::vector<std::uint64_t> read_sat(host::Runtime& runtime, const DeviceSat& sat, std::size_t table) {
-    std::vector<std::uint64_t> out(sat.frames.at(table).entries());
-    runtime.queue().enqueueReadBuffer(sat.data, CL_TRUE, sat.offsets[table] * sizeof(cl_ulong), out.size() * sizeof(cl_ulong),
-                                      out.data());
+std::vector<std::uint64_t> read_sat(host::Runtime& runtime, const DeviceSat& sat, std::size_t offset, std::size_t entries) {
+    std::vector<std::uint64_t> out(entries);
+    runtime.queue().enqueueReadBuffer(sat.data, CL_TRUE, offset * sizeof(cl_ulong), entries * sizeof(cl_ulong), out.data());
     return out;
 }
 

@@ -34,28 +34,43 @@ struct SatFrame {
 // has at most `max_entries` entries.
 SatFrame make_csat_frame(const packing::PackedScene& packed, const D3& towards_light, std::size_t max_entries);
 
+// A point (or spot) light's spherical grid (SSAT, Ament §4.2.3): φ, θ around a frame whose x axis
+// points from the light to the scene, r from the light. A light outside the scene's bounds gets
+// the angles the scene subtends; a light inside them (or seeing it over more than 80°) the whole
+// sphere, wrapping at φ = ±π. Cells of one voxel along r and of one voxel at the scene's distance
+// across, coarsened until the table has at most `max_entries` entries. half_width is left 0.
+SsatGridGpu make_ssat_grid(const packing::PackedScene& packed, const D3& light_position, std::size_t max_entries);
+inline std::size_t ssat_entries(const SsatGridGpu& g) {
+    return std::size_t(g.dims.s[0] + 1) * std::size_t(g.dims.s[1] + 1) * std::size_t(g.dims.s[2] + 1);
+}
+
 // Fixed-point cell value, as the kernels round it (shared/types.h).
 std::uint64_t sat_fixed_point(double tau);
 
 struct DeviceSat {
-    std::vector<SatFrame> frames;      // one per table
-    std::vector<SatGridGpu> grids;     // one per light; dims.w = 0: the light has no table
-    std::vector<std::size_t> offsets;  // first entry of each table in `data`
+    std::vector<SatFrame> frames;      // one per CSAT
+    std::vector<SatGridGpu> grids;     // one per light; dims.w = 0: the light has no CSAT
+    std::vector<SsatGridGpu> spheres;  // one per light; dims.w = 0: the light has no SSAT
+    std::vector<std::size_t> offsets;  // first entry of each CSAT in `data`
+    double voxel_size = 0;             // the unit of the filter width
     cl::Buffer data;                   // every table, cl_ulong entries
     std::size_t bytes = 0;
     std::map<std::string, double> stage_ms;
 };
 
 // One CSAT per group of directional lights whose directions are ± the axes of one frame
-// (orthodirectional lights, Ament §4.2.2); other lights get no table.
+// (orthodirectional lights, Ament §4.2.2); one SSAT per point or spot light (§4.2.3).
 DeviceSat build_light_sats(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
                            const packing::DeviceScene& device_scene, std::size_t max_entries);
 
-// The per-light grids with the lateral box width for a filter of `filter_voxels` voxels, on the
-// device (the table itself does not depend on it: changing the filter rebuilds nothing).
-cl::Buffer upload_sat_grids(host::Runtime& runtime, const DeviceSat& sat, float filter_voxels);
+// The per-light grids with the box width for a filter of `filter_voxels` voxels, on the device
+// (the tables do not depend on it: changing the filter rebuilds nothing).
+struct SatGridBuffers {
+    cl::Buffer cartesian, spherical;
+};
+SatGridBuffers upload_sat_grids(host::Runtime& runtime, const DeviceSat& sat, float filter_voxels);
 
-// Table `table` read back to the host (tests, bench).
-std::vector<std::uint64_t> read_sat(host::Runtime& runtime, const DeviceSat& sat, std::size_t table);
+// `entries` entries from `offset` of the tables, read back to the host (tests, bench).
+std::vector<std::uint64_t> read_sat(host::Runtime& runtime, const DeviceSat& sat, std::size_t offset, std::size_t entries);
 
 }  // namespace sombra::shadows

@@ -20,6 +20,26 @@ CellGrid sat_cells(const Scene& scene, const shadows::SatFrame& frame) {
     return g;
 }
 
+CellGrid ssat_cells(const Scene& scene, const SsatGridGpu& grid) {
+    CellGrid g;
+    g.dims = {grid.dims.s[0], grid.dims.s[1], grid.dims.s[2]};
+    auto v = [](const cl_float4& f, int i) { return double(f.s[i]); };
+    for (int k = 0; k < g.dims[2]; ++k)
+        for (int j = 0; j < g.dims[1]; ++j)
+            for (int i = 0; i < g.dims[0]; ++i) {
+                double phi = v(grid.start, 0) + (i + 0.5) * v(grid.cell, 0);
+                double theta0 = v(grid.start, 1) + j * v(grid.cell, 1), theta = theta0 + 0.5 * v(grid.cell, 1);
+                double r = v(grid.start, 2) + (k + 0.5) * v(grid.cell, 2);
+                double w = (std::cos(theta0) - std::cos(theta0 + v(grid.cell, 1))) / v(grid.cell, 1);
+                double d[3] = {std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta)};
+                Vec3 p;
+                for (int a = 0; a < 3; ++a)
+                    p[std::size_t(a)] = float(v(grid.light, a) + r * (d[0] * v(grid.axes[0], a) + d[1] * v(grid.axes[1], a) + d[2] * v(grid.axes[2], a)));
+                g.cells.push_back(extinction_at_point(scene, p) * v(grid.cell, 2) * w);
+            }
+    return g;
+}
+
 CellGrid cells_of_table(const std::vector<std::uint64_t>& table, const std::array<int, 3>& dims) {
     CellGrid g;
     g.dims = dims;

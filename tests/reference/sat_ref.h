@@ -21,6 +21,10 @@ struct CellGrid {
 // evaluated directly, extinction_at_point).
 CellGrid sat_cells(const Scene& scene, const shadows::SatFrame& frame);
 
+// Cells σ·Δr·w_θ of a point light's spherical grid (SSAT, Ament §4.2.3), σ at the cell centre,
+// w_θ = (cos θ_j − cos θ_j+1)/Δθ.
+CellGrid ssat_cells(const Scene& scene, const SsatGridGpu& grid);
+
 // The cells of a device table (exclusive SAT, fixed point), recovered by differencing, as τ.
 CellGrid cells_of_table(const std::vector<std::uint64_t>& table, const std::array<int, 3>& dims);
 
