@@ -62,10 +62,12 @@ std::vector<Vec3> random_points(int count, float half, unsigned seed) {
     return points;
 }
 
-std::vector<double> lowpass(const Scene& scene, int light, const std::vector<Vec3>& points, float filter) {
+std::vector<double> lowpass(const Scene& scene, int light, const std::vector<Vec3>& points, float filter,
+                            const std::string& kernel = "box") {
     RenderOptions o;
     o.shadows = ShadowTechnique::Lowpass;
     o.lowpass_filter_width = filter;
+    o.lowpass_filter_kernel = kernel;
     return shadow_transmittance(test::context(), scene, light, points, o).transmittance;
 }
 
@@ -81,12 +83,12 @@ D3 d3(const Vec3& v) { return {v[0], v[1], v[2]}; }
 struct RayErrors {
     double mean[2] = {0, 0}, worst[2] = {0, 0};
 };
-RayErrors errors_to_rays(const Scene& scene, const std::vector<Vec3>& points) {
+RayErrors errors_to_rays(const Scene& scene, const std::vector<Vec3>& points, const std::string& kernel = "box") {
     auto rays = shadow_rays(scene, 0, points);
     RayErrors r;
     float widths[2] = {1.f, 9.f};
     for (int w = 0; w < 2; ++w) {
-        auto t = lowpass(scene, 0, points, widths[w]);
+        auto t = lowpass(scene, 0, points, widths[w], kernel);
         for (std::size_t i = 0; i < points.size(); ++i) {
             REQUIRE(std::isfinite(t[i]));
             double e = std::fabs(t[i] - rays[i]);
@@ -363,4 +365,48 @@ TEST_CASE("SSAT: a one-voxel filter approaches the shadow rays of a point light"
         CHECK(e.worst[0] < 0.08);
         CHECK(e.mean[0] < e.mean[1]);
     }
+}
+
+TEST_CASE("Gaussian filter (Eq. 25): kernel vs CPU reference, homogeneous medium, closer to shadow rays than the box", "[lowpass]") {
+    Scene scene = cloud_scene();
+    BuiltSat b = build(scene);
+    const shadows::SatFrame& frame = b.sat.frames[0];
+    reference::CellGrid device = reference::cells_of_table(shadows::read_sat(test::context().runtime(), b.sat, b.sat.offsets[0], frame.entries()), frame.dims);
+    auto points = random_points(200, 0.6f, 15);
+    for (int width : {1, 4, 9}) {
+        auto t = lowpass(scene, 0, points, float(width), "gauss");
+        for (std::size_t i = 0; i < points.size(); ++i) {
+            INFO("W " << width << " point " << i);
+            CHECK(t[i] == Approx(std::exp(-reference::gauss_filtered_depth(device, frame, 2, true, width, d3(points[i])))).margin(2e-5));
+        }
+    }
+    // homogeneous cube, light along an axis: every sub-box has the same optical depth
+    const int n = 32;
+    double sigma = -std::log(1.0 - 0.04) * n;
+    auto cube = test::constant_volume({n, n, n}, 1.f);
+    auto inner = random_points(100, 0.3f, 16);
+    for (Light light : {directional({0, -1, 0}), [] { Light l; l.type = LightType::Point; l.position = {0.1f, 1.5f, -0.2f}; return l; }()}) {
+        Scene s = one_volume(cube, test::constant_tf(0.04f), {light});
+        auto t = lowpass(s, 0, inner, 5.f, "gauss");
+        for (std::size_t i = 0; i < inner.size(); ++i) {
+            D3 p = d3(inner[i]);
+            double chord = 0.5 - p[1];
+            if (light.type == LightType::Point) {  // to the top face y = 0.5, along the ray to the light
+                D3 d = {light.position[0] - p[0], light.position[1] - p[1], light.position[2] - p[2]};
+                chord = (0.5 - p[1]) * std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) / d[1];
+            }
+            INFO("light type " << int(light.type) << " point " << i);
+            CHECK(-std::log(t[i]) == Approx(sigma * chord).epsilon(0.04).margin(2.0 * sigma / n));
+        }
+    }
+    Scene blobs = one_volume(std::make_shared<const Volume>(make_gaussian_blobs(32, 6, 4)), test::ramp_tf(0.1f, 0.8f, 0.3f),
+                             {directional({-0.4, -0.7, -0.5})});
+    auto many = random_points(300, 0.4f, 9);
+    RayErrors box = errors_to_rays(blobs, many), gauss = errors_to_rays(blobs, many, "gauss");
+    std::printf("W=9 vs shadow rays, |ΔT| mean: box %.4f, gauss %.4f\n", box.mean[1], gauss.mean[1]);
+    CHECK(gauss.mean[1] < box.mean[1]);
+    RenderOptions o;
+    o.shadows = ShadowTechnique::Lowpass;
+    o.lowpass_filter_kernel = "tent";
+    CHECK_THROWS_WITH(render(test::context(), blobs, o), Catch::Contains("--filter-kernel"));
 }

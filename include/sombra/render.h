@@ -47,6 +47,9 @@ struct RenderOptions {
     // changing it rebuilds no table. The tables hold at most lowpass_max_entries 64-bit entries
     // (cells coarsen beyond that; the default keeps them ≤ 128 MiB).
     float lowpass_filter_width = 3.f;
+    // "box" (Ament Eq. 11–13) or "gauss": a Gaussian with σ = W/4 over the W × W patch, as 5 × 5
+    // sub-boxes of the same tables (Ament §4.3, Eq. 25; 25 SAT boxes per lookup instead of one).
+    std::string lowpass_filter_kernel = "box";
     std::size_t lowpass_max_entries = std::size_t(1) << 24;
     VolumeStorage storage = VolumeStorage::Auto;
     bool empty_space_skipping = true;

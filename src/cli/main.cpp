@@ -126,6 +126,9 @@ int run(int argc, char** argv) {
     float filter_width = 3.f;
     render->add_option("--filter", filter_width, "lowpass: box filter width in voxels (softness of the shadows)")
         ->check(CLI::Range(0.0f, 4096.0f));
+    std::string filter_kernel = "box";
+    render->add_option("--filter-kernel", filter_kernel, "lowpass: box (one SAT box) or gauss (5×5 sub-boxes, Ament Eq. 25)")
+        ->check(CLI::IsMember({"box", "gauss"}));
     int dsm_resolution = 512;
     float dsm_epsilon = 0.02f;
     std::string dsm_storage = "atlas";
@@ -211,6 +214,7 @@ int run(int argc, char** argv) {
                       : shadows == "lowpass"   ? sombra::ShadowTechnique::Lowpass
                                                : sombra::ShadowTechnique::None;
     options.lowpass_filter_width = filter_width;
+    options.lowpass_filter_kernel = filter_kernel;
     options.dsm_resolution = dsm_resolution;
     options.dsm_epsilon = dsm_epsilon;
     options.dsm_storage = dsm_storage;

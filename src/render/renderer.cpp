@@ -29,7 +29,12 @@ std::vector<std::string> camera_pass_defines(const Scene& scene, const RenderOpt
     if (options.gradient == GradientMethod::Sobel) defines.push_back("SOMBRA_SOBEL");
     if (!scene.lights.empty()) defines.push_back("SOMBRA_HAS_LIGHTS");
     if (!scene.lights.empty() && options.shadows == ShadowTechnique::Rays) defines.push_back("SOMBRA_SHADOW_RAYS");
-    if (!scene.lights.empty() && options.shadows == ShadowTechnique::Lowpass) defines.push_back("SOMBRA_SHADOW_LOWPASS");
+    if (!scene.lights.empty() && options.shadows == ShadowTechnique::Lowpass) {
+        defines.push_back("SOMBRA_SHADOW_LOWPASS");
+        if (options.lowpass_filter_kernel == "gauss") defines.push_back("SOMBRA_LOWPASS_GAUSS");
+        else if (options.lowpass_filter_kernel != "box")
+            throw Error("--filter-kernel: must be box or gauss, got '" + options.lowpass_filter_kernel + "'");
+    }
     bool maps = options.shadows == ShadowTechnique::Dsm || options.shadows == ShadowTechnique::ShadowMap;
     if (!scene.lights.empty() && maps) {
         defines.push_back("SOMBRA_SHADOW_DSM");

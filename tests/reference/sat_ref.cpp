@@ -102,9 +102,12 @@ template float sat_box(const std::vector<float>&, const std::array<int, 3>&, con
 template std::uint64_t sat_box(const std::vector<std::uint64_t>&, const std::array<int, 3>&, const std::array<int, 3>&,
                                const std::array<int, 3>&);
 
-double filtered_depth(const CellGrid& grid, const shadows::SatFrame& frame, int axis, bool positive, int width,
-                      const std::array<double, 3>& p) {
-    std::array<double, 3> lo, hi;
+namespace {
+
+// The box of Ament Eq. 10 in cell units: W × W across `axis` centred on p, along it to the face
+// towards the light.
+void patch_box(const CellGrid& grid, const shadows::SatFrame& frame, int axis, bool positive, int width,
+               const std::array<double, 3>& p, std::array<double, 3>& lo, std::array<double, 3>& hi) {
     for (std::size_t a = 0; a < 3; ++a) {
         double c = 0;
         for (std::size_t r = 0; r < 3; ++r) c += (p[r] - frame.origin[r]) * frame.axes[a][r];
@@ -113,7 +116,34 @@ double filtered_depth(const CellGrid& grid, const shadows::SatFrame& frame, int 
         else if (positive) lo[a] = c, hi[a] = grid.dims[a];
         else lo[a] = 0, hi[a] = c;
     }
+}
+
+double normal_mass(double a, double b) { return 0.5 * (std::erf(b / std::sqrt(2.0)) - std::erf(a / std::sqrt(2.0))); }
+
+}  // namespace
+
+double filtered_depth(const CellGrid& grid, const shadows::SatFrame& frame, int axis, bool positive, int width,
+                      const std::array<double, 3>& p) {
+    std::array<double, 3> lo, hi;
+    patch_box(grid, frame, axis, positive, width, p, lo, hi);
     return box_sum(grid, lo, hi) / double(width * width);
+}
+
+double gauss_filtered_depth(const CellGrid& grid, const shadows::SatFrame& frame, int axis, bool positive, int width,
+                            const std::array<double, 3>& p, int k) {
+    std::array<double, 3> lo, hi;
+    patch_box(grid, frame, axis, positive, width, p, lo, hi);
+    std::size_t a0 = axis == 0 ? 1 : 0, a1 = axis == 2 ? 1 : 2;
+    double step = double(width) / k, sum = 0, weights = 0;
+    for (int i = 0; i < k; ++i)
+        for (int j = 0; j < k; ++j) {
+            std::array<double, 3> sub_lo = lo, sub_hi = hi;
+            sub_lo[a0] = lo[a0] + i * step, sub_hi[a0] = sub_lo[a0] + step;
+            sub_lo[a1] = lo[a1] + j * step, sub_hi[a1] = sub_lo[a1] + step;
+            double w = normal_mass(-2.0 + 4.0 * i / k, -2.0 + 4.0 * (i + 1) / k) * normal_mass(-2.0 + 4.0 * j / k, -2.0 + 4.0 * (j + 1) / k);
+            sum += w * box_sum(grid, sub_lo, sub_hi) / (step * step), weights += w;
+        }
+    return sum / weights;
 }
 
 }  // namespace sombra::reference

@@ -43,4 +43,9 @@ T sat_box(const std::vector<T>& sat, const std::array<int, 3>& dims, const std::
 double filtered_depth(const CellGrid& grid, const shadows::SatFrame& frame, int axis, bool positive, int width,
                       const std::array<double, 3>& p);
 
+// Gaussian-filtered optical depth (Ament §4.3, Eq. 25): the same patch cut into k × k sub-boxes,
+// their mean optical depths weighted by the mass of a Gaussian (σ = W/4, truncated at ±2σ).
+double gauss_filtered_depth(const CellGrid& grid, const shadows::SatFrame& frame, int axis, bool positive, int width,
+                            const std::array<double, 3>& p, int k = 5);
+
 }  // namespace sombra::reference
