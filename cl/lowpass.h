@@ -155,6 +155,41 @@ inline float csat_filtered_depth(__global const ulong* sat, __global const SatGr
     return sum * g->tau_per_unit / (float)(width * width);
 }
 
+/* Baselines on one volume-aligned SAT (Schlegel et al. 2011). Ambient occlusion: the mean σ in the
+ * cube of side W cells around p times W/2 cells, the optical depth of an average ray of that
+ * radius (no direction). */
+inline float sat_ambient_depth(__global const ulong* sat, __global const SatGridGpu* g, float3 p) {
+    double3 c;
+    for (int a = 0; a < 3; ++a) ((double*)&c)[a] = dot(g->to_grid[a].xyz, p) + g->to_grid[a].w;
+    double radius = 0.5 * g->filter_cells;
+    double box = sat_box_real(sat + g->data_offset, g->dims, c - radius, c + radius, false);
+    return (float)(box * g->tau_per_unit / (8.0 * radius * radius));
+}
+
+/* Cone shadows: the cone of half angle atan(cone_tan) from p towards the light (unit vector
+ * `towards`, up to world distance `reach`) as a series of cubes of growing size along its axis,
+ * each read from the SAT in constant time: τ = Σ mean σ(cube) · its length. */
+inline float sat_cone_depth(__global const ulong* sat, __global const SatGridGpu* g, float3 p, float3 towards, float reach) {
+    __global const ulong* s = sat + g->data_offset;
+    double3 c, d;
+    for (int a = 0; a < 3; ++a) {
+        ((double*)&c)[a] = dot(g->to_grid[a].xyz, p) + g->to_grid[a].w;
+        ((double*)&d)[a] = dot(g->to_grid[a].xyz, towards) * g->cell_size; /* unit vector in grid axes */
+    }
+    double3 n = convert_double3(g->dims.xyz);
+    double t_max = fmin((double)reach / g->cell_size, 4.0 * (n.x + n.y + n.z));
+    double tau = 0.0, t = 0.5;
+    for (int i = 0; i < 256 && t < t_max; ++i) {
+        double radius = fmax(0.5, t * g->cone_tan), span = fmin(2.0 * radius, t_max - t);
+        double3 centre = c + (t + 0.5 * span) * d;
+        if (any(centre + radius < 0.0) || any(centre - radius > n)) break; /* left the grid */
+        double box = sat_box_real(s, g->dims, centre - radius, centre + radius, false);
+        tau += box / (8.0 * radius * radius * radius) * span;
+        t += span;
+    }
+    return (float)(tau * g->tau_per_unit);
+}
+
 /* Box-filtered optical depth from world point p towards point light g (Ament Eq. 16–24): the
  * tangential W × W patch at p (Eq. 16) seen from the light spans φ ± U/(R sin θ), θ ± U/R; the
  * spherical pyramid runs from the light to p (Eq. 21–22). τ̄ = Σ(σ·Δr·w_θ)·Δφ·Δθ / Ω_box (the

@@ -6,7 +6,9 @@
  * SOMBRA_SKIP_EMPTY (brick skipping), SOMBRA_HAS_LIGHTS (any light in the scene),
  * SOMBRA_SHADOW_RAYS (shadow term by marching towards each light), SOMBRA_SHADOW_DSM (shadow term
  * from deep shadow maps), SOMBRA_SHADOW_BINARY (with SOMBRA_SHADOW_DSM: binary shadow maps),
- * SOMBRA_SHADOW_LOWPASS (low-pass filtered shadows from light-aligned summed-area tables). */
+ * SOMBRA_SHADOW_LOWPASS (low-pass filtered shadows from light-aligned summed-area tables; with
+ * SOMBRA_LOWPASS_GAUSS Gaussian filtered; with SOMBRA_LOWPASS_AO or SOMBRA_LOWPASS_CONE the SAT
+ * ambient-occlusion or cone-shadow baselines on one volume-aligned table). */
 #include "shared/types.h"
 #include "shared/hash.h"
 #include "lanes.h"
@@ -81,6 +83,16 @@ inline lfloat shadow_ray(VOLUME_DATA_PARAM, const CameraState* state, __global c
 #endif
 
 #ifdef SOMBRA_SHADOW_LOWPASS
+#ifdef SOMBRA_LOWPASS_CONE
+/* Cone shadows towards one light from world point p (the cone's axis: to the light). */
+inline float cone_lane(__global const ulong* sat, __global const SatGridGpu* g, __global const LightGpu* light,
+                       bool directional, float3 p) {
+    float3 to_light = directional ? -light->direction.xyz : light->position.xyz - p;
+    float reach = directional ? INFINITY : length(to_light);
+    return sat_cone_depth(sat, g, p, to_light / fmax(length(to_light), 1e-30f), reach);
+}
+#endif
+
 /* Low-pass filtered shadow: exp(−τ̄) with τ̄ the box-filtered optical depth from the light's CSAT
  * (directional lights, Ament Eq. 4, 13, 15) or SSAT (point and spot lights, Eq. 24). A light
  * without a table falls back to the shadow ray. */
@@ -88,6 +100,17 @@ inline lfloat lowpass_shadow(VOLUME_DATA_PARAM, const CameraState* state, uint l
     __global const SatGridGpu* g = &state->sat_grids[light_index];
     __global const SsatGridGpu* sphere = &state->ssat_grids[light_index];
     lfloat depth;
+#if defined(SOMBRA_LOWPASS_AO)
+#define SOMBRA_LOWPASS_LANE(c) sat_ambient_depth(state->sat, g, (float3)(LC(p.x, c), LC(p.y, c), LC(p.z, c)))
+    depth = LFROM_LANES(SOMBRA_LOWPASS_LANE);
+#undef SOMBRA_LOWPASS_LANE
+#elif defined(SOMBRA_LOWPASS_CONE)
+    __global const LightGpu* light = &state->lights[light_index];
+    bool directional = light->type == SOMBRA_LIGHT_DIRECTIONAL;
+#define SOMBRA_CONE_LANE(c) cone_lane(state->sat, g, light, directional, (float3)(LC(p.x, c), LC(p.y, c), LC(p.z, c)))
+    depth = LFROM_LANES(SOMBRA_CONE_LANE);
+#undef SOMBRA_CONE_LANE
+#else
     if (g->dims.w != 0) {
 #define SOMBRA_LOWPASS_LANE(c) csat_filtered_depth(state->sat, g, (float3)(LC(p.x, c), LC(p.y, c), LC(p.z, c)))
         depth = LFROM_LANES(SOMBRA_LOWPASS_LANE);
@@ -99,6 +122,7 @@ inline lfloat lowpass_shadow(VOLUME_DATA_PARAM, const CameraState* state, uint l
     } else {
         return shadow_ray(volume_data, state, &state->lights[light_index], p, lanes);
     }
+#endif
     return exp(-depth);
 }
 #endif

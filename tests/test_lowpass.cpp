@@ -63,9 +63,11 @@ std::vector<Vec3> random_points(int count, float half, unsigned seed) {
 }
 
 std::vector<double> lowpass(const Scene& scene, int light, const std::vector<Vec3>& points, float filter,
-                            const std::string& kernel = "box") {
+                            const std::string& kernel = "box", ShadowTechnique technique = ShadowTechnique::Lowpass,
+                            float cone_deg = 10.f) {
     RenderOptions o;
-    o.shadows = ShadowTechnique::Lowpass;
+    o.shadows = technique;
+    o.cone_angle_deg = cone_deg;
     o.lowpass_filter_width = filter;
     o.lowpass_filter_kernel = kernel;
     return shadow_transmittance(test::context(), scene, light, points, o).transmittance;
@@ -409,4 +411,51 @@ TEST_CASE("Gaussian filter (Eq. 25): kernel vs CPU reference, homogeneous medium
     o.shadows = ShadowTechnique::Lowpass;
     o.lowpass_filter_kernel = "tent";
     CHECK_THROWS_WITH(render(test::context(), blobs, o), Catch::Contains("--filter-kernel"));
+}
+
+TEST_CASE("Baselines: SAT ambient occlusion and cone shadows vs CPU reference, homogeneous medium, shadow rays", "[lowpass]") {
+    Scene scene = cloud_scene();
+    scene.lights.push_back([] { Light l; l.type = LightType::Point; l.position = {0.9f, 0.7f, -0.4f}; return l; }());
+    auto& rt = test::context().runtime();
+    packing::PackedScene packed = packing::pack_scene(scene);
+    packing::DeviceScene device_scene = packing::upload_scene(rt, scene, packed, false);
+    shadows::DeviceSat sat = shadows::build_volume_sat(rt, scene, packed, device_scene, std::size_t(1) << 24);
+    const shadows::SatFrame& frame = sat.frames[0];
+    reference::CellGrid cells = reference::cells_of_table(shadows::read_sat(rt, sat, 0, frame.entries()), frame.dims);
+    auto points = random_points(150, 0.6f, 21);
+    for (int width : {1, 4}) {
+        auto t = lowpass(scene, 0, points, float(width), "box", ShadowTechnique::Ao);
+        for (std::size_t i = 0; i < points.size(); ++i)
+            CHECK(t[i] == Approx(std::exp(-reference::ambient_depth(cells, frame, width, d3(points[i])))).margin(2e-5));
+    }
+    for (int light = 0; light < 2; ++light)
+        for (float angle : {3.f, 15.f}) {
+            auto t = lowpass(scene, light, points, 1.f, "box", ShadowTechnique::Cone, angle);
+            for (std::size_t i = 0; i < points.size(); ++i) {
+                const Light& l = scene.lights[std::size_t(light)];
+                D3 p = d3(points[i]), towards = {-l.direction[0], -l.direction[1], -l.direction[2]};
+                double reach = INFINITY;
+                if (l.type == LightType::Point) {
+                    towards = {l.position[0] - p[0], l.position[1] - p[1], l.position[2] - p[2]};
+                    reach = std::sqrt(towards[0] * towards[0] + towards[1] * towards[1] + towards[2] * towards[2]);
+                }
+                double len = std::sqrt(towards[0] * towards[0] + towards[1] * towards[1] + towards[2] * towards[2]);
+                for (double& x : towards) x /= len;
+                INFO("light " << light << " angle " << angle << " point " << i);
+                double expected = reference::cone_depth(cells, frame, std::tan(angle * M_PI / 180), p, towards, reach);
+                CHECK(t[i] == Approx(std::exp(-expected)).margin(1e-4));
+            }
+        }
+    // homogeneous cube: AO inside is exp(−σ·W/2 voxels); a narrow cone along an axis is exp(−σ·d)
+    const int n = 32;
+    double sigma = -std::log(1.0 - 0.04) * n;
+    Scene cube = one_volume(test::constant_volume({n, n, n}, 1.f), test::constant_tf(0.04f), {directional({0, 0, -1})});
+    auto inner = random_points(100, 0.3f, 22);
+    for (double t : lowpass(cube, 0, inner, 6.f, "box", ShadowTechnique::Ao)) CHECK(t == Approx(std::exp(-sigma * 3.0 / n)).epsilon(1e-4));
+    auto cone = lowpass(cube, 0, inner, 1.f, "box", ShadowTechnique::Cone, 2.f);
+    for (std::size_t i = 0; i < inner.size(); ++i)
+        CHECK(-std::log(cone[i]) == Approx(sigma * (0.5 - inner[i][2])).epsilon(0.05).margin(1.0 * sigma / n));
+    Scene empty = one_volume(test::constant_volume({8, 8, 8}, 0.f), test::constant_tf(0.f), {directional({0.3, -1, 0.2})});
+    for (auto technique : {ShadowTechnique::Ao, ShadowTechnique::Cone})
+        for (double t : lowpass(empty, 0, inner, 3.f, "box", technique)) CHECK(t == 1.0);
 }

@@ -128,7 +128,8 @@ typedef struct {
     sb_uint filter_cells;  /* lateral box width W in cells (≥ 1; Ament Eq. 13, U = V = W/2) */
     float tau_per_unit;    /* optical depth of one fixed-point unit */
     float cell_size;       /* world length of a cell */
-    sb_uint pad0, pad1;
+    float cone_tan;        /* cone shadows: tangent of the cone's half angle */
+    sb_uint pad1;
 } SatGridGpu;
 
 /* A point light's spherical summed-area table (SSAT, Ament §4.2.3): a regular grid over azimuth φ,

@@ -23,7 +23,11 @@ enum class VolumeStorage { Auto, Buffer, Image };  // Auto: buffer on CPU device
 // box-filtered over lowpass_filter_width × lowpass_filter_width voxels across the light, read in
 // constant time from a light-aligned summed-area table: a Cartesian one (CSAT) per group of
 // orthodirectional directional lights, a spherical one (SSAT) per point or spot light.
-enum class ShadowTechnique { None, Rays, Dsm, ShadowMap, Lowpass };
+// Ao, Cone: the baselines of Ament Table 1 (Schlegel et al. 2011) on one SAT aligned with the first
+// volume: SAT ambient occlusion (mean σ in a cube of lowpass_filter_width voxels around the
+// sample; no direction, the same term for every light) and cone shadows (the cone of half angle
+// cone_angle_deg towards each light as a series of growing cubes read from that SAT).
+enum class ShadowTechnique { None, Rays, Dsm, ShadowMap, Lowpass, Ao, Cone };
 
 struct RenderOptions {
     int width = 0, height = 0;  // 0: the scene's size
@@ -50,6 +54,7 @@ struct RenderOptions {
     // "box" (Ament Eq. 11–13) or "gauss": a Gaussian with σ = W/4 over the W × W patch, as 5 × 5
     // sub-boxes of the same tables (Ament §4.3, Eq. 25; 25 SAT boxes per lookup instead of one).
     std::string lowpass_filter_kernel = "box";
+    float cone_angle_deg = 10.f;  // ShadowTechnique::Cone: half angle of the cones
     std::size_t lowpass_max_entries = std::size_t(1) << 24;
     VolumeStorage storage = VolumeStorage::Auto;
     bool empty_space_skipping = true;

@@ -20,6 +20,10 @@ double ms_since(clock_type::time_point start) {
     return std::chrono::duration<double, std::milli>(clock_type::now() - start).count();
 }
 
+bool uses_sat(const RenderOptions& o) {
+    return o.shadows == ShadowTechnique::Lowpass || o.shadows == ShadowTechnique::Ao || o.shadows == ShadowTechnique::Cone;
+}
+
 // -D defines for the camera pass: what this scene and these options need, nothing more.
 std::vector<std::string> camera_pass_defines(const Scene& scene, const RenderOptions& options, bool use_images,
                                              int lanes) {
@@ -29,7 +33,9 @@ std::vector<std::string> camera_pass_defines(const Scene& scene, const RenderOpt
     if (options.gradient == GradientMethod::Sobel) defines.push_back("SOMBRA_SOBEL");
     if (!scene.lights.empty()) defines.push_back("SOMBRA_HAS_LIGHTS");
     if (!scene.lights.empty() && options.shadows == ShadowTechnique::Rays) defines.push_back("SOMBRA_SHADOW_RAYS");
-    if (!scene.lights.empty() && options.shadows == ShadowTechnique::Lowpass) {
+    if (!scene.lights.empty() && options.shadows == ShadowTechnique::Ao) defines.push_back("SOMBRA_LOWPASS_AO");
+    if (!scene.lights.empty() && options.shadows == ShadowTechnique::Cone) defines.push_back("SOMBRA_LOWPASS_CONE");
+    if (!scene.lights.empty() && uses_sat(options)) {
         defines.push_back("SOMBRA_SHADOW_LOWPASS");
         if (options.lowpass_filter_kernel == "gauss") defines.push_back("SOMBRA_LOWPASS_GAUSS");
         else if (options.lowpass_filter_kernel != "box")
@@ -157,9 +163,11 @@ PreparedScene prepare_anew(host::Runtime& runtime, const Scene& scene, const Ren
         stats.dsm_bytes_wasted = d.bytes_wasted;
         stats.dsm_capped_texels = d.capped_texels;
     }
-    prepared.use_sat = options.shadows == ShadowTechnique::Lowpass && !scene.lights.empty();
+    prepared.use_sat = uses_sat(options) && !scene.lights.empty();
     if (prepared.use_sat) {
-        prepared.sat = shadows::build_light_sats(runtime, scene, prepared.packed, prepared.device, options.lowpass_max_entries);
+        prepared.sat = options.shadows == ShadowTechnique::Lowpass
+                           ? shadows::build_light_sats(runtime, scene, prepared.packed, prepared.device, options.lowpass_max_entries)
+                           : shadows::build_volume_sat(runtime, scene, prepared.packed, prepared.device, options.lowpass_max_entries);
         for (auto& [stage, ms] : prepared.sat.stage_ms) stats.stage_ms[stage] = ms;
         stats.sat_tables = int(prepared.sat.frames.size());
         for (const SsatGridGpu& g : prepared.sat.spheres) stats.sat_tables += g.dims.s[3] != 0;
@@ -194,7 +202,8 @@ int set_sat_args(host::Runtime& runtime, cl::Kernel& kernel, int arg, const Prep
     if (!p.use_sat) return arg;
     if (!(o.lowpass_filter_width >= 0.f && o.lowpass_filter_width <= 4096.f))
         throw Error("--filter: the filter width must lie in [0, 4096] voxels");
-    grids = shadows::upload_sat_grids(runtime, p.sat, o.lowpass_filter_width);
+    if (!(o.cone_angle_deg > 0.f && o.cone_angle_deg <= 60.f)) throw Error("--cone-angle: must lie in (0, 60] degrees");
+    grids = shadows::upload_sat_grids(runtime, p.sat, o.lowpass_filter_width, o.cone_angle_deg);
     kernel.setArg(arg++, p.sat.data);
     kernel.setArg(arg++, grids.cartesian);
     kernel.setArg(arg++, grids.spherical);

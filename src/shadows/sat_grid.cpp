@@ -69,11 +69,23 @@ D3 SatFrame::cell_centre(int i, int j, int k) const {
 }
 
 SatFrame make_csat_frame(const packing::PackedScene& packed, const D3& towards_light, std::size_t max_entries) {
-    SatFrame f;
     D3 w = normalized(towards_light);
     // r_v = l × r_u so that r_u × r_v = l (Ament Eq. 9)
     D3 u = perpendicular(w), v = cross(w, u);
-    f.axes = {u, v, w};
+    return make_sat_frame(packed, {u, v, w}, max_entries);
+}
+
+SatFrame make_volume_sat_frame(const packing::PackedScene& packed, std::size_t max_entries) {
+    if (packed.voxel_to_world.empty()) throw Error("--shadows: the scene has no volume to build a summed-area table of");
+    const auto& m = packed.voxel_to_world[0];
+    D3 x = normalized({m[0], m[4], m[8]}), y = normalized({m[1], m[5], m[9]});
+    y = normalized({y[0] - dot(x, y) * x[0], y[1] - dot(x, y) * x[1], y[2] - dot(x, y) * x[2]});  // orthogonal even under shear
+    return make_sat_frame(packed, {x, y, cross(x, y)}, max_entries);
+}
+
+SatFrame make_sat_frame(const packing::PackedScene& packed, const std::array<D3, 3>& axes, std::size_t max_entries) {
+    SatFrame f;
+    f.axes = axes;
     std::vector<D3> corners = scene_corners(packed, f.voxel_size);
     if (corners.empty() || !(f.voxel_size > 0)) throw Error("--shadows lowpass: the scene has no volume to build a summed-area table of");
     D3 lo{INFINITY, INFINITY, INFINITY}, hi{-INFINITY, -INFINITY, -INFINITY};
@@ -207,54 +219,29 @@ double run_2d(host::Runtime& runtime, cl::Kernel& kernel, int nx, int ny) {
     return host::Runtime::event_ms(event);
 }
 
-}  // namespace
-
-DeviceSat build_light_sats(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
-                           const packing::DeviceScene& device_scene, std::size_t max_entries) {
-    DeviceSat sat;
-    scene_corners(packed, sat.voxel_size);
-    std::vector<int> table_of(packed.lights.size(), -1);
-    std::size_t total = 0;
-    for (std::size_t l = 0; l < packed.lights.size(); ++l) {
-        const LightGpu& light = packed.lights[l];
-        SatGridGpu g{};
-        SsatGridGpu sphere{};
-        if (light.type == SOMBRA_LIGHT_DIRECTIONAL) {
-            D3 towards = {-light.direction.s[0], -light.direction.s[1], -light.direction.s[2]};
-            bool positive = true;
-            int axis = -1;
-            std::size_t t = 0;
-            for (; t < sat.frames.size() && axis < 0; ++t) axis = shared_axis(sat.frames[t], towards, positive);
-            if (axis < 0) {  // a new table (Ament Alg. 1: recomputeCSAT)
-                sat.frames.push_back(make_csat_frame(packed, towards, max_entries));
-                sat.offsets.push_back(total);
-                total += sat.frames.back().entries();
-                axis = 2, positive = true, t = sat.frames.size();
-            }
-            const SatFrame& f = sat.frames[t - 1];
-            for (std::size_t a = 0; a < 3; ++a) {
-                D3 row = {f.axes[a][0] / f.cell_size, f.axes[a][1] / f.cell_size, f.axes[a][2] / f.cell_size};
-                g.to_grid[a] = f4(row, -dot(row, f.origin));
-            }
-            g.dims = {{f.dims[0], f.dims[1], f.dims[2], 1}};
-            g.light_axis = cl_uint(axis);
-            g.light_positive = positive ? 1 : 0;
-            g.tau_per_unit = 1.f / SOMBRA_SAT_UNITS_PER_TAU;
-            g.cell_size = float(f.cell_size);
-            g.filter_cells = 1;
-            g.data_offset = cl_uint(sat.offsets[t - 1]);
-        } else {  // Ament Alg. 1: recomputeSSAT, one per point light
-            sphere = make_ssat_grid(packed, {light.position.s[0], light.position.s[1], light.position.s[2]}, max_entries);
-            sphere.data_offset = cl_uint(total);
-            total += ssat_entries(sphere);
-        }
-        if (total > 0xffffffffull) throw Error("--shadows lowpass: summed-area tables exceed 2^32 entries");
-        sat.grids.push_back(g);
-        sat.spheres.push_back(sphere);
+// One light's view of CSAT frame f stored at `offset`, the light along grid axis `axis`.
+SatGridGpu sat_grid(const SatFrame& f, std::size_t offset, int axis, bool positive) {
+    SatGridGpu g{};
+    for (std::size_t a = 0; a < 3; ++a) {
+        D3 row = {f.axes[a][0] / f.cell_size, f.axes[a][1] / f.cell_size, f.axes[a][2] / f.cell_size};
+        g.to_grid[a] = f4(row, -dot(row, f.origin));
     }
+    g.dims = {{f.dims[0], f.dims[1], f.dims[2], 1}};
+    g.light_axis = cl_uint(axis);
+    g.light_positive = positive ? 1 : 0;
+    g.tau_per_unit = 1.f / SOMBRA_SAT_UNITS_PER_TAU;
+    g.cell_size = float(f.cell_size);
+    g.filter_cells = 1;
+    g.data_offset = cl_uint(offset);
+    return g;
+}
+
+// Allocates `total` entries and builds every table of `sat` into them: resample, prefix sums.
+void build_tables(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
+                  const packing::DeviceScene& device_scene, DeviceSat& sat, std::size_t total) {
     sat.bytes = total * sizeof(cl_ulong);
     sat.data = host::make_buffer(runtime, CL_MEM_READ_WRITE, sat.bytes, nullptr, "summed-area tables");
-    if (total == 0) return sat;
+    if (total == 0) return;
 
     cl::Event event;
     runtime.queue().enqueueFillBuffer(sat.data, cl_ulong(0), 0, sat.bytes, nullptr, &event);
@@ -287,15 +274,68 @@ DeviceSat build_light_sats(host::Runtime& runtime, const Scene& scene, const pac
         sat.stage_ms["ssat_resample"] += run_2d(runtime, resample_sphere, sphere.dims.s[0], sphere.dims.s[1]);
         sat.stage_ms["sat_scan"] += scan_table(runtime, scan, sat.data, sphere.data_offset, sphere.dims);
     }
+}
+
+
+}  // namespace
+
+DeviceSat build_light_sats(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
+                           const packing::DeviceScene& device_scene, std::size_t max_entries) {
+    DeviceSat sat;
+    scene_corners(packed, sat.voxel_size);
+    std::vector<int> table_of(packed.lights.size(), -1);
+    std::size_t total = 0;
+    for (std::size_t l = 0; l < packed.lights.size(); ++l) {
+        const LightGpu& light = packed.lights[l];
+        SatGridGpu g{};
+        SsatGridGpu sphere{};
+        if (light.type == SOMBRA_LIGHT_DIRECTIONAL) {
+            D3 towards = {-light.direction.s[0], -light.direction.s[1], -light.direction.s[2]};
+            bool positive = true;
+            int axis = -1;
+            std::size_t t = 0;
+            for (; t < sat.frames.size() && axis < 0; ++t) axis = shared_axis(sat.frames[t], towards, positive);
+            if (axis < 0) {  // a new table (Ament Alg. 1: recomputeCSAT)
+                sat.frames.push_back(make_csat_frame(packed, towards, max_entries));
+                sat.offsets.push_back(total);
+                total += sat.frames.back().entries();
+                axis = 2, positive = true, t = sat.frames.size();
+            }
+            g = sat_grid(sat.frames[t - 1], sat.offsets[t - 1], axis, positive);
+        } else {  // Ament Alg. 1: recomputeSSAT, one per point light
+            sphere = make_ssat_grid(packed, {light.position.s[0], light.position.s[1], light.position.s[2]}, max_entries);
+            sphere.data_offset = cl_uint(total);
+            total += ssat_entries(sphere);
+        }
+        if (total > 0xffffffffull) throw Error("--shadows lowpass: summed-area tables exceed 2^32 entries");
+        sat.grids.push_back(g);
+        sat.spheres.push_back(sphere);
+    }
+    build_tables(runtime, scene, packed, device_scene, sat, total);
     return sat;
 }
 
-SatGridBuffers upload_sat_grids(host::Runtime& runtime, const DeviceSat& sat, float filter_voxels) {
+DeviceSat build_volume_sat(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
+                           const packing::DeviceScene& device_scene, std::size_t max_entries) {
+    DeviceSat sat;
+    scene_corners(packed, sat.voxel_size);
+    sat.frames.push_back(make_volume_sat_frame(packed, max_entries));
+    sat.offsets.push_back(0);
+    sat.grids.assign(std::max<std::size_t>(packed.lights.size(), 1), sat_grid(sat.frames[0], 0, 2, true));
+    sat.spheres.assign(sat.grids.size(), SsatGridGpu{});
+    build_tables(runtime, scene, packed, device_scene, sat, sat.frames[0].entries());
+    return sat;
+}
+
+SatGridBuffers upload_sat_grids(host::Runtime& runtime, const DeviceSat& sat, float filter_voxels, float cone_deg) {
     std::vector<SatGridGpu> grids = sat.grids;
     std::vector<SsatGridGpu> spheres = sat.spheres;
     double width = std::max(double(filter_voxels), 1.0) * sat.voxel_size;  // at least one voxel
     for (SatGridGpu& g : grids)
-        if (g.dims.s[3] != 0) g.filter_cells = cl_uint(std::clamp(std::round(width / g.cell_size), 1.0, 4096.0));
+        if (g.dims.s[3] != 0) {
+            g.filter_cells = cl_uint(std::clamp(std::round(width / g.cell_size), 1.0, 4096.0));
+            g.cone_tan = float(std::tan(double(cone_deg) * M_PI / 180.0));
+        }
     for (SsatGridGpu& g : spheres) g.half_width = float(0.5 * width);  // Ament Eq. 16: U = V = W/2
     return {host::make_buffer(runtime, CL_MEM_READ_ONLY, grids.size() * sizeof(SatGridGpu), grids.data(), "SAT grids"),
             host::make_buffer(runtime, CL_MEM_READ_ONLY, spheres.size() * sizeof(SsatGridGpu), spheres.data(), "SSAT grids")};

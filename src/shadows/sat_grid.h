@@ -33,6 +33,10 @@ struct SatFrame {
 // over the volumes of `packed`, with cells of the smallest voxel size, coarsened until the table
 // has at most `max_entries` entries.
 SatFrame make_csat_frame(const packing::PackedScene& packed, const D3& towards_light, std::size_t max_entries);
+// The same for a frame aligned with the first volume's axes (the volume-aligned SAT of the
+// baselines, Schlegel et al. 2011), and for any orthonormal axes.
+SatFrame make_volume_sat_frame(const packing::PackedScene& packed, std::size_t max_entries);
+SatFrame make_sat_frame(const packing::PackedScene& packed, const std::array<D3, 3>& axes, std::size_t max_entries);
 
 // A point (or spot) light's spherical grid (SSAT, Ament §4.2.3): φ, θ around a frame whose x axis
 // points from the light to the scene, r from the light. A light outside the scene's bounds gets
@@ -63,12 +67,18 @@ struct DeviceSat {
 DeviceSat build_light_sats(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
                            const packing::DeviceScene& device_scene, std::size_t max_entries);
 
+// The baselines' one volume-aligned SAT (SAT ambient occlusion and cone shadows, Schlegel et al.
+// 2011): frames[0], described by grids[0] for every light.
+DeviceSat build_volume_sat(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
+                           const packing::DeviceScene& device_scene, std::size_t max_entries);
+
 // The per-light grids with the box width for a filter of `filter_voxels` voxels, on the device
 // (the tables do not depend on it: changing the filter rebuilds nothing).
 struct SatGridBuffers {
     cl::Buffer cartesian, spherical;
 };
-SatGridBuffers upload_sat_grids(host::Runtime& runtime, const DeviceSat& sat, float filter_voxels);
+// `cone_deg`: the cone shadows' half angle.
+SatGridBuffers upload_sat_grids(host::Runtime& runtime, const DeviceSat& sat, float filter_voxels, float cone_deg = 0.f);
 
 // `entries` entries from `offset` of the tables, read back to the host (tests, bench).
 std::vector<std::uint64_t> read_sat(host::Runtime& runtime, const DeviceSat& sat, std::size_t offset, std::size_t entries);

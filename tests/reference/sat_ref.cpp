@@ -146,4 +146,45 @@ double gauss_filtered_depth(const CellGrid& grid, const shadows::SatFrame& frame
     return sum / weights;
 }
 
+namespace {
+std::array<double, 3> grid_coordinates(const shadows::SatFrame& frame, const std::array<double, 3>& p) {
+    std::array<double, 3> c{};
+    for (std::size_t a = 0; a < 3; ++a) {
+        for (std::size_t r = 0; r < 3; ++r) c[a] += (p[r] - frame.origin[r]) * frame.axes[a][r];
+        c[a] /= frame.cell_size;
+    }
+    return c;
+}
+}  // namespace
+
+double ambient_depth(const CellGrid& grid, const shadows::SatFrame& frame, int width, const std::array<double, 3>& p) {
+    std::array<double, 3> c = grid_coordinates(frame, p), lo, hi;
+    double radius = 0.5 * width;
+    for (std::size_t a = 0; a < 3; ++a) lo[a] = c[a] - radius, hi[a] = c[a] + radius;
+    return box_sum(grid, lo, hi) / (8.0 * radius * radius);
+}
+
+double cone_depth(const CellGrid& grid, const shadows::SatFrame& frame, double cone_tan, const std::array<double, 3>& p,
+                  const std::array<double, 3>& towards, double reach) {
+    std::array<double, 3> c = grid_coordinates(frame, p), d{};
+    for (std::size_t a = 0; a < 3; ++a)
+        for (std::size_t r = 0; r < 3; ++r) d[a] += towards[r] * frame.axes[a][r];
+    double t_max = std::min(reach / frame.cell_size, 4.0 * (grid.dims[0] + grid.dims[1] + grid.dims[2]));
+    double tau = 0, t = 0.5;
+    for (int i = 0; i < 256 && t < t_max; ++i) {
+        double radius = std::max(0.5, t * cone_tan), span = std::min(2 * radius, t_max - t);
+        std::array<double, 3> lo, hi;
+        bool outside = false;
+        for (std::size_t a = 0; a < 3; ++a) {
+            double centre = c[a] + (t + 0.5 * span) * d[a];
+            lo[a] = centre - radius, hi[a] = centre + radius;
+            outside = outside || hi[a] < 0 || lo[a] > grid.dims[a];
+        }
+        if (outside) break;
+        tau += box_sum(grid, lo, hi) / (8 * radius * radius * radius) * span;
+        t += span;
+    }
+    return tau;
+}
+
 }  // namespace sombra::reference

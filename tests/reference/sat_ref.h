@@ -48,4 +48,12 @@ double filtered_depth(const CellGrid& grid, const shadows::SatFrame& frame, int 
 double gauss_filtered_depth(const CellGrid& grid, const shadows::SatFrame& frame, int axis, bool positive, int width,
                             const std::array<double, 3>& p, int k = 5);
 
+// The baselines on a volume-aligned grid (Schlegel et al. 2011), brute force over the cells:
+// ambient optical depth (mean σ·h in the cube of side `width` cells around p, × width/2) and cone
+// optical depth (cubes of half size max(½, t·tan) along `towards` from t = ½ cell, up to `reach`
+// world units or the grid's end).
+double ambient_depth(const CellGrid& grid, const shadows::SatFrame& frame, int width, const std::array<double, 3>& p);
+double cone_depth(const CellGrid& grid, const shadows::SatFrame& frame, double cone_tan, const std::array<double, 3>& p,
+                  const std::array<double, 3>& towards, double reach);
+
 }  // namespace sombra::reference
