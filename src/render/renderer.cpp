@@ -164,6 +164,8 @@ PreparedScene prepare_anew(host::Runtime& runtime, const Scene& scene, const Ren
         stats.dsm_capped_texels = d.capped_texels;
     }
     prepared.use_sat = uses_sat(options) && !scene.lights.empty();
+    if (prepared.use_sat && runtime.device().getInfo<CL_DEVICE_DOUBLE_FP_CONFIG>() == 0)  // cl/lowpass.h reads corners in double
+        throw Error("--shadows: the summed-area-table techniques need double precision, which " + runtime.info().name + " lacks");
     if (prepared.use_sat) {
         prepared.sat = options.shadows == ShadowTechnique::Lowpass
                            ? shadows::build_light_sats(runtime, scene, prepared.packed, prepared.device, options.lowpass_max_entries)
