@@ -5,11 +5,13 @@
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
+#include <random>
 #include <sstream>
 #include <string>
+#include <thread>
 #include <vector>
 
-#include "sombra/error.h"
+#include "sombra/sombra.h"
 
 namespace sombra::bench {
 
@@ -36,5 +38,43 @@ inline void write_file(const std::filesystem::path& path, const std::string& tex
     out << text;
     if (!out) throw sombra::Error(path.string() + ": cannot write");
 }
+
+// Uniform random points in the world boxes of the scene's volumes (a volume drawn uniformly, then
+// a point in its voxel-centre box mapped by its transform); deterministic for a seed.
+inline std::vector<sombra::Vec3> random_points(const sombra::Scene& scene, int count, unsigned seed) {
+    std::mt19937 rng(seed);
+    std::uniform_int_distribution<std::size_t> pick(0, scene.volumes.size() - 1);
+    std::uniform_real_distribution<float> u(-0.5f, 0.5f);
+    std::vector<sombra::Vec3> points;
+    for (int i = 0; i < count; ++i) {
+        const sombra::VolumeInstance& vi = scene.volumes[pick(rng)];
+        float o[3];
+        for (int a = 0; a < 3; ++a) o[a] = u(rng) * float(vi.volume->dims[a] - 1) * vi.spacing[a];
+        const auto& m = vi.transform;
+        sombra::Vec3 p;
+        for (int r = 0; r < 3; ++r) p[r] = m[4 * r] * o[0] + m[4 * r + 1] * o[1] + m[4 * r + 2] * o[2] + m[4 * r + 3];
+        points.push_back(p);
+    }
+    return points;
+}
+
+// The brute-force reference at every point, on all cores (the function is pure).
+inline std::vector<double> reference_values(const sombra::Scene& scene, int light, const std::vector<sombra::Vec3>& points) {
+    std::vector<double> values(points.size());
+    unsigned workers = std::max(1u, std::thread::hardware_concurrency());
+    std::vector<std::thread> threads;
+    for (unsigned w = 0; w < workers; ++w)
+        threads.emplace_back([&, w] {
+            for (std::size_t i = w; i < points.size(); i += workers)
+                values[i] = sombra::reference_transmittance(scene, light, points[i]);
+        });
+    for (auto& t : threads) t.join();
+    return values;
+}
+
+// render() keeps the last prepared scene (device data and shadow tables) in the Context and
+// reuses it when only the camera or image changed; a 1×1 render without shadows replaces it, so
+// that the next render builds its shadow data again.
+inline void forget_preparation(sombra::Context& context, const sombra::Scene&) { context.release_prepared_scenes(); }
 
 }  // namespace sombra::bench

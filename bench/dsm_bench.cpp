@@ -25,6 +25,9 @@
 namespace {
 
 using sombra::bench::fixed;
+using sombra::bench::forget_preparation;
+using sombra::bench::random_points;
+using sombra::bench::reference_values;
 using sombra::bench::median;
 using sombra::bench::sci;
 using sombra::bench::write_file;
@@ -82,39 +85,6 @@ std::string eps_text(float e) {
     return s.str();
 }
 
-// Uniform random points in the world boxes of the scene's volumes (a volume drawn uniformly, then
-// a point in its voxel-centre box mapped by its transform); deterministic for a seed.
-std::vector<sombra::Vec3> random_points(const sombra::Scene& scene, int count, unsigned seed) {
-    std::mt19937 rng(seed);
-    std::uniform_int_distribution<std::size_t> pick(0, scene.volumes.size() - 1);
-    std::uniform_real_distribution<float> u(-0.5f, 0.5f);
-    std::vector<sombra::Vec3> points;
-    for (int i = 0; i < count; ++i) {
-        const sombra::VolumeInstance& vi = scene.volumes[pick(rng)];
-        float o[3];
-        for (int a = 0; a < 3; ++a) o[a] = u(rng) * float(vi.volume->dims[a] - 1) * vi.spacing[a];
-        const auto& m = vi.transform;
-        sombra::Vec3 p;
-        for (int r = 0; r < 3; ++r) p[r] = m[4 * r] * o[0] + m[4 * r + 1] * o[1] + m[4 * r + 2] * o[2] + m[4 * r + 3];
-        points.push_back(p);
-    }
-    return points;
-}
-
-// The brute-force reference at every point, on all cores (the function is pure).
-std::vector<double> reference_values(const sombra::Scene& scene, int light, const std::vector<sombra::Vec3>& points) {
-    std::vector<double> values(points.size());
-    unsigned workers = std::max(1u, std::thread::hardware_concurrency());
-    std::vector<std::thread> threads;
-    for (unsigned w = 0; w < workers; ++w)
-        threads.emplace_back([&, w] {
-            for (std::size_t i = w; i < points.size(); i += workers)
-                values[i] = sombra::reference_transmittance(scene, light, points[i]);
-        });
-    for (auto& t : threads) t.join();
-    return values;
-}
-
 void measure_error(sombra::Context& context, const sombra::Scene& scene, int light, const std::vector<sombra::Vec3>& points,
                    const std::vector<double>& reference, const sombra::RenderOptions& options, Row& row) {
     sombra::ShadowQuery q = sombra::shadow_transmittance(context, scene, light, points, options);
@@ -128,11 +98,6 @@ void measure_error(sombra::Context& context, const sombra::Scene& scene, int lig
     row.mean_error = sum / double(std::max<std::size_t>(points.size(), 1));
     row.max_error = max_diff;
 }
-
-// render() keeps the last prepared scene (device data and deep shadow maps) in the Context and
-// reuses it when only the camera, image or lights changed; released, every measured render
-// generates its maps again.
-void forget_preparation(sombra::Context& context, const sombra::Scene&) { context.release_prepared_scenes(); }
 
 // Knecht §3.2 "Deep Shadow Map Re-Generation": the maps of a moved light are regenerated, the
 // others kept. Per storage: generation time of the whole set, and of the set after each light in

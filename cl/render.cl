@@ -5,7 +5,10 @@
  * SOMBRA_USE_IMAGES (3D image atlas instead of a buffer), SOMBRA_SOBEL (Sobel gradients),
  * SOMBRA_SKIP_EMPTY (brick skipping), SOMBRA_HAS_LIGHTS (any light in the scene),
  * SOMBRA_SHADOW_RAYS (shadow term by marching towards each light), SOMBRA_SHADOW_DSM (shadow term
- * from deep shadow maps), SOMBRA_SHADOW_BINARY (with SOMBRA_SHADOW_DSM: binary shadow maps). */
+ * from deep shadow maps), SOMBRA_SHADOW_BINARY (with SOMBRA_SHADOW_DSM: binary shadow maps),
+ * SOMBRA_SHADOW_LOWPASS (low-pass filtered shadows from light-aligned summed-area tables; with
+ * SOMBRA_LOWPASS_GAUSS Gaussian filtered; with SOMBRA_LOWPASS_AO or SOMBRA_LOWPASS_CONE the SAT
+ * ambient-occlusion or cone-shadow baselines on one volume-aligned table). */
 #include "shared/types.h"
 #include "shared/hash.h"
 #include "lanes.h"
@@ -15,6 +18,12 @@
 #ifdef SOMBRA_SHADOW_DSM
 #include "dsm_view.h"
 #include "dsm_storage.h"
+#endif
+#ifdef SOMBRA_SHADOW_LOWPASS
+#include "lowpass.h"
+#define LOWPASS_PARAMS , __global const ulong* sat, __global const SatGridGpu* sat_grids, __global const SsatGridGpu* ssat_grids
+#else
+#define LOWPASS_PARAMS
 #endif
 
 /* What every sample of the camera pass reads and accumulates. */
@@ -36,9 +45,14 @@ typedef struct {
     DsmSearchHint hints[SOMBRA_LIGHT_SLOTS * 4]; /* per light and bilinear corner: the last node found */
 #endif
 #endif
+#ifdef SOMBRA_SHADOW_LOWPASS
+    __global const ulong* sat;
+    __global const SatGridGpu* sat_grids;
+    __global const SsatGridGpu* ssat_grids;
+#endif
 } CameraState;
 
-#ifdef SOMBRA_SHADOW_RAYS
+#if defined(SOMBRA_SHADOW_RAYS) || defined(SOMBRA_SHADOW_LOWPASS)
 /* Shadow-ray baseline: transmittance exp(−Σσ·Δ) from p to the light, marched over the same
  * segments as the camera rays, stopping once it falls below 10⁻⁶ (course slides: shadow rays). */
 inline lfloat shadow_ray(VOLUME_DATA_PARAM, const CameraState* state, __global const LightGpu* light, lfloat3 p,
@@ -65,6 +79,51 @@ inline lfloat shadow_ray(VOLUME_DATA_PARAM, const CameraState* state, __global c
         cursor.alive &= !(optical_depth > 13.8155f); /* exp(−13.8) = 10⁻⁶ */
     }
     return exp(-optical_depth);
+}
+#endif
+
+#ifdef SOMBRA_SHADOW_LOWPASS
+#ifdef SOMBRA_LOWPASS_CONE
+/* Cone shadows towards one light from world point p (the cone's axis: to the light). */
+inline float cone_lane(__global const ulong* sat, __global const SatGridGpu* g, __global const LightGpu* light,
+                       bool directional, float3 p) {
+    float3 to_light = directional ? -light->direction.xyz : light->position.xyz - p;
+    float reach = directional ? INFINITY : length(to_light);
+    return sat_cone_depth(sat, g, p, to_light / fmax(length(to_light), 1e-30f), reach);
+}
+#endif
+
+/* Low-pass filtered shadow: exp(−τ̄) with τ̄ the box-filtered optical depth from the light's CSAT
+ * (directional lights, Ament Eq. 4, 13, 15) or SSAT (point and spot lights, Eq. 24). A light
+ * without a table falls back to the shadow ray. */
+inline lfloat lowpass_shadow(VOLUME_DATA_PARAM, const CameraState* state, uint light_index, lfloat3 p, lmask lanes) {
+    __global const SatGridGpu* g = &state->sat_grids[light_index];
+    __global const SsatGridGpu* sphere = &state->ssat_grids[light_index];
+    lfloat depth;
+#if defined(SOMBRA_LOWPASS_AO)
+#define SOMBRA_LOWPASS_LANE(c) sat_ambient_depth(state->sat, g, (float3)(LC(p.x, c), LC(p.y, c), LC(p.z, c)))
+    depth = LFROM_LANES(SOMBRA_LOWPASS_LANE);
+#undef SOMBRA_LOWPASS_LANE
+#elif defined(SOMBRA_LOWPASS_CONE)
+    __global const LightGpu* light = &state->lights[light_index];
+    bool directional = light->type == SOMBRA_LIGHT_DIRECTIONAL;
+#define SOMBRA_CONE_LANE(c) cone_lane(state->sat, g, light, directional, (float3)(LC(p.x, c), LC(p.y, c), LC(p.z, c)))
+    depth = LFROM_LANES(SOMBRA_CONE_LANE);
+#undef SOMBRA_CONE_LANE
+#else
+    if (g->dims.w != 0) {
+#define SOMBRA_LOWPASS_LANE(c) csat_filtered_depth(state->sat, g, (float3)(LC(p.x, c), LC(p.y, c), LC(p.z, c)))
+        depth = LFROM_LANES(SOMBRA_LOWPASS_LANE);
+#undef SOMBRA_LOWPASS_LANE
+    } else if (sphere->dims.w != 0) {
+#define SOMBRA_LOWPASS_LANE(c) ssat_filtered_depth(state->sat, sphere, (float3)(LC(p.x, c), LC(p.y, c), LC(p.z, c)))
+        depth = LFROM_LANES(SOMBRA_LOWPASS_LANE);
+#undef SOMBRA_LOWPASS_LANE
+    } else {
+        return shadow_ray(volume_data, state, &state->lights[light_index], p, lanes);
+    }
+#endif
+    return exp(-depth);
 }
 #endif
 
@@ -154,11 +213,13 @@ inline lmask shade_sample(VOLUME_DATA_PARAM, CameraState* state, const VolumeRay
 #ifdef SOMBRA_HAS_LIGHTS
         normal = normal_from_gradient(v, gradient_voxel(volume_data, v, pv));
 #endif
-#if defined(SOMBRA_SHADOW_RAYS) || defined(SOMBRA_SHADOW_DSM)
+#if defined(SOMBRA_SHADOW_RAYS) || defined(SOMBRA_SHADOW_DSM) || defined(SOMBRA_SHADOW_LOWPASS)
         lmask needed = visible & !shadows_known;
         if (lany(needed)) {
             for (uint m = 0; m < light_count; ++m) {
-#ifdef SOMBRA_SHADOW_RAYS
+#if defined(SOMBRA_SHADOW_LOWPASS)
+                lfloat transmittance_to_light = lowpass_shadow(volume_data, state, m, p, needed);
+#elif defined(SOMBRA_SHADOW_RAYS)
                 lfloat transmittance_to_light = shadow_ray(volume_data, state, &state->lights[m], p, needed);
 #else
                 lfloat transmittance_to_light = dsm_shadow(state, m, p, needed);
@@ -187,6 +248,7 @@ __kernel void render_camera(VOLUME_DATA_PARAM, __global const uchar* occupancy, 
 #ifdef SOMBRA_SHADOW_DSM
                             , __global const DsmViewGpu* views, DSM_READ_PARAMS
 #endif
+                            LOWPASS_PARAMS
 ) {
     uint y = get_global_id(1);
     if (y >= camera->height) return;
@@ -218,6 +280,11 @@ __kernel void render_camera(VOLUME_DATA_PARAM, __global const uchar* occupancy, 
     DSM_READ_STATE_INIT(state);
     init_search_hints(&state);
 #endif
+#ifdef SOMBRA_SHADOW_LOWPASS
+    state.sat = sat;
+    state.sat_grids = sat_grids;
+    state.ssat_grids = ssat_grids;
+#endif
 #define SOMBRA_JITTER_LANE(c) sombra_pixel_jitter((uint)LC(xs, c), y, camera->jitter_seed)
     state.jitter = LFROM_LANES(SOMBRA_JITTER_LANE);
 #undef SOMBRA_JITTER_LANE
@@ -243,7 +310,7 @@ __kernel void render_camera(VOLUME_DATA_PARAM, __global const uchar* occupancy, 
     }
 }
 
-#if (defined(SOMBRA_SHADOW_RAYS) || defined(SOMBRA_SHADOW_DSM)) && SOMBRA_LANES == 1
+#if (defined(SOMBRA_SHADOW_RAYS) || defined(SOMBRA_SHADOW_DSM) || defined(SOMBRA_SHADOW_LOWPASS)) && SOMBRA_LANES == 1
 /* Transmittance to light `light_index` at arbitrary world points, by the technique this program
  * was built for (sombra visibility, tests). Built with SOMBRA_LANES=1. */
 __kernel void shadow_probe(VOLUME_DATA_PARAM, __global const uchar* occupancy, __global const float* tf_tables,
@@ -253,6 +320,7 @@ __kernel void shadow_probe(VOLUME_DATA_PARAM, __global const uchar* occupancy, _
 #ifdef SOMBRA_SHADOW_DSM
                            , __global const DsmViewGpu* views, DSM_READ_PARAMS
 #endif
+                           LOWPASS_PARAMS
 ) {
     size_t i = get_global_id(0);
     CameraState state;
@@ -267,6 +335,11 @@ __kernel void shadow_probe(VOLUME_DATA_PARAM, __global const uchar* occupancy, _
     DSM_READ_STATE_INIT(state);
     init_search_hints(&state);
     transmittance[i] = dsm_shadow(&state, light_index, l3(points[i].x, points[i].y, points[i].z), 1);
+#elif defined(SOMBRA_SHADOW_LOWPASS)
+    state.sat = sat;
+    state.sat_grids = sat_grids;
+    state.ssat_grids = ssat_grids;
+    transmittance[i] = lowpass_shadow(volume_data, &state, light_index, l3(points[i].x, points[i].y, points[i].z), 1);
 #else
     transmittance[i] = shadow_ray(volume_data, &state, &lights[light_index], l3(points[i].x, points[i].y, points[i].z), 1);
 #endif

@@ -77,6 +77,17 @@ TEST_CASE("sombra render writes the image and the stats", "[cli]") {
     CHECK(!j.at("device").get<std::string>().empty());
 }
 
+TEST_CASE("sombra render --shadows lowpass writes soft shadows", "[cli]") {
+    std::string scene = scene_file("lowpass.json", nlohmann::json::object());
+    std::string out = sombra::test::temp_dir() + "/lowpass.png", stats = sombra::test::temp_dir() + "/lowpass.json";
+    CliRun run = run_cli("render " + scene + " -o " + out + " --stats " + stats + " --shadows lowpass --filter 5 --filter-kernel gauss");
+    INFO(run.stderr_text);
+    REQUIRE(run.exit_code == 0);
+    CHECK(std::filesystem::exists(out));
+    std::ifstream in(stats);
+    CHECK(nlohmann::json::parse(in).at("sat").at("tables").get<int>() == 1);
+}
+
 TEST_CASE("sombra devices lists the PoCL device", "[cli]") {
     CHECK(run_cli("devices").exit_code == 0);
 }
@@ -138,6 +149,12 @@ TEST_CASE("bad scenes fail with one line naming the file and the field", "[cli]"
         std::string f = scene_file("fmt.json", nlohmann::json::object());
         std::string jpg = sombra::test::temp_dir() + "/out.jpg";
         require_clean_failure(run_cli("render " + f + " -o " + jpg), jpg, ".png or .exr", jpg);
+    }
+    SECTION("bad low-pass filter width and kernel") {
+        std::string f = scene_file("filter.json", nlohmann::json::object());
+        require_clean_failure(run_cli("render " + f + " -o " + out + " --shadows lowpass --filter -2"), "--filter", "-2", out);
+        require_clean_failure(run_cli("render " + f + " -o " + out + " --shadows lowpass --filter-kernel tent"), "--filter-kernel",
+                              "tent", out);
     }
     SECTION("impossible image size") {
         std::string f = scene_file("size.json", nlohmann::json::object());

@@ -25,23 +25,8 @@ double dot3(const D3& a, const D3& b) { return a[0] * b[0] + a[1] * b[1] + a[2] 
 double norm3(const D3& a) { return std::sqrt(dot3(a, a)); }
 D3 minus(const D3& a, const D3& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
 
-// A volume whose voxels all hold `value`.
-std::shared_ptr<const Volume> constant_volume(std::array<int, 3> dims, float value) {
-    Volume v;
-    v.dims = dims;
-    v.voxels.assign(v.voxel_count(), value);
-    v.source = "constant";
-    v.update_range();
-    return std::make_shared<const Volume>(std::move(v));
-}
-
-// Transfer function with the same opacity α for every value.
-TransferFunction constant_tf(float alpha) {
-    TransferFunction tf;
-    tf.color_points = {{0.f, 1.f, 1.f, 1.f}};
-    tf.opacity_points = {{0.f, alpha}};
-    return tf;
-}
+using test::constant_tf;
+using test::constant_volume;
 
 // σ = −ln(1 − α)/unit (README, "Opacity convention").
 double sigma_of(float alpha, double unit) { return -std::log(1.0 - double(alpha)) / unit; }

@@ -56,6 +56,22 @@ Camera mesh_camera() {
     return cam;
 }
 
+std::shared_ptr<const Volume> constant_volume(std::array<int, 3> dims, float value) {
+    Volume v;
+    v.dims = dims;
+    v.voxels.assign(v.voxel_count(), value);
+    v.source = "constant";
+    v.update_range();
+    return std::make_shared<const Volume>(std::move(v));
+}
+
+TransferFunction constant_tf(float alpha) {
+    TransferFunction tf;
+    tf.color_points = {{0.f, 1.f, 1.f, 1.f}};
+    tf.opacity_points = {{0.f, alpha}};
+    return tf;
+}
+
 Scene sphere_scene(int size) {
     Scene s;
     VolumeInstance vi;

@@ -1,5 +1,7 @@
 // sombra tests — shared helpers: one OpenCL context per process, small scenes, image metrics.
 #pragma once
+#include <array>
+#include <memory>
 #include <string>
 
 #include "sombra/sombra.h"
@@ -21,6 +23,8 @@ TransferFunction ramp_tf(float lo, float hi, float max_alpha);
 // A mesh of data/ scaled to unit size, centred at the origin, then rotated (degrees about x, y, z).
 MeshInstance centred_mesh(const std::string& data_file, const Vec3& rotate_deg);
 Camera mesh_camera();  // looks at the origin from about 1.9 away; a unit-size mesh fills much of it
+std::shared_ptr<const Volume> constant_volume(std::array<int, 3> dims, float value);  // every voxel `value`
+TransferFunction constant_tf(float alpha);  // the same opacity α for every value
 
 std::string temp_dir();  // fresh folder under /tmp for this process
 std::string data_path(const std::string& relative);  // data/… of the source tree

@@ -152,5 +152,46 @@ typedef struct {
     float extent_x, extent_y; /* perspective: tan(half field of view); orthographic: half width, height */
     sb_uint pad0;
 } RasterScreenGpu;
+/* Fixed-point optical depth in the summed-area tables: units per unit of τ, and the most τ one
+ * cell holds (stiffer cells are clamped: exp(−4096/W²) is 0 for every W up to 40 cells). With
+ * (dims+1)³ ≤ 2^29 entries no sum overflows 2^63. */
+#define SOMBRA_SAT_UNITS_PER_TAU 4194304.0f /* 2^22 */
+#define SOMBRA_SAT_MAX_CELL_TAU 4096.0f
+#define SOMBRA_SAT_MAX_ENTRIES (1u << 29)
+
+/* One light's view of a light-aligned summed-area table (Ament §4.2.1–4.2.2; cl/lowpass.h,
+ * src/shadows/sat_grid.h). The grid holds cells of optical depth σ·h (h = cell length) as 64-bit
+ * fixed-point integers; the table is exclusive: (dims+1)³ entries, S(i,j,k) = Σ cells < (i,j,k),
+ * entry (i,j,k) at data_offset + i + (dims.x+1)·(j + (dims.y+1)·k). Lights whose directions are
+ * ± the same grid axes share one table (orthodirectional lights, Ament Eq. 14–15). */
+typedef struct {
+    sb_float4 to_grid[3];  /* grid coordinate a (in cells) = dot(to_grid[a].xyz, p) + to_grid[a].w */
+    sb_int4 dims;          /* cells along the three grid axes; w: 0 = no table for this light */
+    sb_uint data_offset;   /* first entry of this table in the shared SAT buffer */
+    sb_uint light_axis;    /* grid axis along the light (0, 1, 2) */
+    sb_uint light_positive;/* 1: the light lies towards +light_axis, 0: towards −light_axis */
+    sb_uint filter_cells;  /* lateral box width W in cells (≥ 1; Ament Eq. 13, U = V = W/2) */
+    float tau_per_unit;    /* optical depth of one fixed-point unit */
+    float cell_size;       /* world length of a cell */
+    float cone_tan;        /* cone shadows: tangent of the cone's half angle */
+    sb_uint pad1;
+} SatGridGpu;
+
+/* A point light's spherical summed-area table (SSAT, Ament §4.2.3): a regular grid over azimuth φ,
+ * polar angle θ and radius r around the light, r along grid axis 2. A cell holds σ·Δr·w_θ with
+ * w_θ = (cos θ_j − cos θ_j+1)/Δθ (its solid angle over Δφ·Δθ), so a box sum × Δφ·Δθ / (the box's
+ * solid angle) is the solid-angle average of the optical depth of the rays in the spherical
+ * pyramid (Eq. 22–24). Same fixed point and table layout as SatGridGpu. */
+typedef struct {
+    sb_float4 axes[3];    /* world directions of the spherical frame: x (φ = 0, θ = π/2), y, z (θ = 0) */
+    sb_float4 light;      /* light position (xyz) */
+    sb_float4 start;      /* φ, θ, r of the grid's first corner */
+    sb_float4 cell;       /* Δφ, Δθ, Δr */
+    sb_int4 dims;         /* cells along φ, θ, r; w: 0 = no table for this light */
+    sb_uint data_offset;  /* first entry of this table in the shared SAT buffer */
+    sb_uint wrap_phi;     /* 1: the grid spans all φ (light inside the bounds), boxes wrap at ±π */
+    float half_width;     /* U = V: half the filter width in world units (Eq. 16) */
+    float tau_per_unit;
+} SsatGridGpu;
 
 #endif /* SOMBRA_SHARED_TYPES_H */

@@ -1,5 +1,6 @@
 // sombra — rendering a scene into an image, with per-stage statistics.
 #pragma once
+#include <cstddef>
 #include <map>
 #include <string>
 #include <vector>
@@ -18,7 +19,15 @@ enum class VolumeStorage { Auto, Buffer, Image };  // Auto: buffer on CPU device
 // ShadowMap: the binary shadow-map baseline — per texel the depth where opacity reaches 1/2,
 // lit before it and dark behind (2×2 percentage-closer filtering); taken from the same light
 // rays as the DSM, so it costs what a DSM costs to build.
-enum class ShadowTechnique { None, Rays, Dsm, ShadowMap };
+// Lowpass: low-pass filtered soft shadows (Ament et al. 2014): exp(−τ̄), τ̄ the optical depth
+// box-filtered over lowpass_filter_width × lowpass_filter_width voxels across the light, read in
+// constant time from a light-aligned summed-area table: a Cartesian one (CSAT) per group of
+// orthodirectional directional lights, a spherical one (SSAT) per point or spot light.
+// Ao, Cone: the baselines of Ament Table 1 (Schlegel et al. 2011) on one SAT aligned with the first
+// volume: SAT ambient occlusion (mean σ in a cube of lowpass_filter_width voxels around the
+// sample; no direction, the same term for every light) and cone shadows (the cone of half angle
+// cone_angle_deg towards each light as a series of growing cubes read from that SAT).
+enum class ShadowTechnique { None, Rays, Dsm, ShadowMap, Lowpass, Ao, Cone };
 
 struct RenderOptions {
     int width = 0, height = 0;  // 0: the scene's size
@@ -43,6 +52,15 @@ struct RenderOptions {
     std::string dsm_prefilter = "none";
     bool dsm_prefilter_jitter = true;
     unsigned dsm_prefilter_seed = 1;
+    // Lowpass: filter width W in voxels of the scene's finest volume (Ament §4.2.1: U = V = W/2);
+    // changing it rebuilds no table. The tables hold at most lowpass_max_entries 64-bit entries
+    // (cells coarsen beyond that; the default keeps them ≤ 128 MiB).
+    float lowpass_filter_width = 3.f;
+    // "box" (Ament Eq. 11–13) or "gauss": a Gaussian with σ = W/4 over the W × W patch, as 5 × 5
+    // sub-boxes of the same tables (Ament §4.3, Eq. 25; 25 SAT boxes per lookup instead of one).
+    std::string lowpass_filter_kernel = "box";
+    float cone_angle_deg = 10.f;  // ShadowTechnique::Cone: half angle of the cones
+    std::size_t lowpass_max_entries = std::size_t(1) << 24;
     VolumeStorage storage = VolumeStorage::Auto;
     bool empty_space_skipping = true;
     float termination_transmittance = 1e-3f;  // early ray termination threshold on t_acc
@@ -73,6 +91,9 @@ struct RenderStats {
     unsigned long long dsm_capped_texels = 0;  // texels that hit the atlas layer cap
     int dsm_views_generated = 0;  // by this call: all views, those of the lights that moved, or none
     std::string dsm_storage;
+    // low-pass shadows (ShadowTechnique::Lowpass): summed-area tables and their memory
+    int sat_tables = 0;
+    unsigned long long sat_bytes = 0;
     // true when the scene's device data of the previous call on this Context were reused (only
     // the camera, image size, shading options or lights changed); the deep shadow maps of lights
     // that did not move are reused too (dsm_views_generated counts those regenerated)

@@ -119,9 +119,19 @@ int run(int argc, char** argv) {
     render->add_option("--gradient", gradient, "central or sobel")->check(CLI::IsMember({"central", "sobel"}));
     std::string shadows = "none";
     render->add_option("--shadows", shadows,
-                       "none, rays (march from every sample to every light), dsm (deep shadow maps) or shadowmap "
-                       "(binary shadow maps, the baseline)")
-        ->check(CLI::IsMember({"none", "rays", "dsm", "shadowmap"}));
+                       "none, rays (march from every sample to every light), dsm (deep shadow maps), shadowmap "
+                       "(binary shadow maps, the baseline) or lowpass (low-pass filtered soft shadows from "
+                       "light-aligned summed-area tables, Ament 2014), ao (SAT ambient occlusion) or cone (SAT cone "
+                       "shadows, Schlegel 2011)")
+        ->check(CLI::IsMember({"none", "rays", "dsm", "shadowmap", "lowpass", "ao", "cone"}));
+    float filter_width = 3.f;
+    render->add_option("--filter", filter_width, "lowpass: filter width in voxels (softness of the shadows); ao: cube side")
+        ->check(CLI::Range(0.0f, 4096.0f));
+    float cone_angle = 10.f;
+    render->add_option("--cone-angle", cone_angle, "cone: half angle of the shadow cones in degrees")->check(CLI::Range(0.01f, 60.0f));
+    std::string filter_kernel = "box";
+    render->add_option("--filter-kernel", filter_kernel, "lowpass: box (one SAT box) or gauss (5×5 sub-boxes, Ament Eq. 25)")
+        ->check(CLI::IsMember({"box", "gauss"}));
     int dsm_resolution = 512;
     float dsm_epsilon = 0.02f;
     std::string dsm_storage = "atlas";
@@ -208,7 +218,13 @@ int run(int argc, char** argv) {
     options.shadows = shadows == "rays"        ? sombra::ShadowTechnique::Rays
                       : shadows == "dsm"       ? sombra::ShadowTechnique::Dsm
                       : shadows == "shadowmap" ? sombra::ShadowTechnique::ShadowMap
+                      : shadows == "lowpass"   ? sombra::ShadowTechnique::Lowpass
+                      : shadows == "ao"        ? sombra::ShadowTechnique::Ao
+                      : shadows == "cone"      ? sombra::ShadowTechnique::Cone
                                                : sombra::ShadowTechnique::None;
+    options.lowpass_filter_width = filter_width;
+    options.lowpass_filter_kernel = filter_kernel;
+    options.cone_angle_deg = cone_angle;
     options.dsm_resolution = dsm_resolution;
     options.dsm_epsilon = dsm_epsilon;
     options.dsm_storage = dsm_storage;

@@ -8,6 +8,7 @@
 #include "render/scene_upload.h"
 #include "shadows/dsm_builder.h"
 #include "shadows/dsm_views.h"
+#include "shadows/sat_grid.h"
 #include "sombra/error.h"
 #include "sombra/render.h"
 
@@ -19,6 +20,10 @@ double ms_since(clock_type::time_point start) {
     return std::chrono::duration<double, std::milli>(clock_type::now() - start).count();
 }
 
+bool uses_sat(const RenderOptions& o) {
+    return o.shadows == ShadowTechnique::Lowpass || o.shadows == ShadowTechnique::Ao || o.shadows == ShadowTechnique::Cone;
+}
+
 // -D defines for the camera pass: what this scene and these options need, nothing more.
 std::vector<std::string> camera_pass_defines(const Scene& scene, const RenderOptions& options, bool use_images,
                                              int lanes) {
@@ -28,6 +33,14 @@ std::vector<std::string> camera_pass_defines(const Scene& scene, const RenderOpt
     if (options.gradient == GradientMethod::Sobel) defines.push_back("SOMBRA_SOBEL");
     if (!scene.lights.empty()) defines.push_back("SOMBRA_HAS_LIGHTS");
     if (!scene.lights.empty() && options.shadows == ShadowTechnique::Rays) defines.push_back("SOMBRA_SHADOW_RAYS");
+    if (!scene.lights.empty() && options.shadows == ShadowTechnique::Ao) defines.push_back("SOMBRA_LOWPASS_AO");
+    if (!scene.lights.empty() && options.shadows == ShadowTechnique::Cone) defines.push_back("SOMBRA_LOWPASS_CONE");
+    if (!scene.lights.empty() && uses_sat(options)) {
+        defines.push_back("SOMBRA_SHADOW_LOWPASS");
+        if (options.lowpass_filter_kernel == "gauss") defines.push_back("SOMBRA_LOWPASS_GAUSS");
+        else if (options.lowpass_filter_kernel != "box")
+            throw Error("--filter-kernel: must be box or gauss, got '" + options.lowpass_filter_kernel + "'");
+    }
     bool maps = options.shadows == ShadowTechnique::Dsm || options.shadows == ShadowTechnique::ShadowMap;
     if (!scene.lights.empty() && maps) {
         defines.push_back("SOMBRA_SHADOW_DSM");
@@ -43,8 +56,26 @@ struct PreparedScene {
     packing::PackedScene packed;
     packing::DeviceScene device;
     shadows::DeviceDsm dsm;
-    bool use_images = false, use_dsm = false;
+    shadows::DeviceSat sat;  // low-pass shadows: light-aligned summed-area tables
+    bool use_images = false, use_dsm = false, use_sat = false;
 };
+
+// What a light's deep shadow maps depend on besides the volumes: where it is and how it shines
+// (not its colour, intensity or attenuation, which only shading reads).
+std::string light_view_key(const Light& l) {
+    std::ostringstream key;
+    key.precision(9);
+    key << int(l.type) << ' ' << l.cone_angle_deg;
+    for (float f : l.position) key << ' ' << f;
+    for (float f : l.direction) key << ' ' << f;
+    return key.str();
+}
+
+void copy_sat_stats(const shadows::DeviceSat& sat, RenderStats& stats) {
+    stats.sat_tables = int(sat.frames.size());
+    for (const SsatGridGpu& g : sat.spheres) stats.sat_tables += g.dims.s[3] != 0;
+    stats.sat_bytes = sat.bytes;
+}
 
 // Everything the prepared scene depends on except the lights: volumes (identity, size, a sample
 // of their voxels, placement, transfer function, step, material), the number of lights and of
@@ -72,21 +103,13 @@ std::string volumes_key(const Scene& scene, const RenderOptions& o, bool use_ima
     bool maps = o.shadows == ShadowTechnique::Dsm || o.shadows == ShadowTechnique::ShadowMap;  // one preparation
     key << " O" << (maps ? 99 : int(o.shadows)) << ' ' << o.dsm_resolution << ' ' << o.dsm_epsilon << ' ' << o.dsm_storage << ' '
         << o.dsm_precompression << ' ' << o.dsm_prefilter << ' ' << o.dsm_prefilter_jitter << ' ' << o.dsm_prefilter_seed << ' '
-        << use_images;
+        << use_images << ' ' << o.lowpass_max_entries;
     if (maps) key << ' ' << dsm_lanes;  // same maps, but asking for other packets builds them so
+    if (uses_sat(o))  // the light-aligned tables follow every light
+        for (const Light& l : scene.lights) key << ' ' << light_view_key(l);
     return key.str();
 }
 
-// What a light's deep shadow maps depend on besides the volumes: where it is and how it shines
-// (not its colour, intensity or attenuation, which only shading reads).
-std::string light_view_key(const Light& l) {
-    std::ostringstream key;
-    key.precision(9);
-    key << int(l.type) << ' ' << l.cone_angle_deg;
-    for (float f : l.position) key << ' ' << f;
-    for (float f : l.direction) key << ' ' << f;
-    return key.str();
-}
 
 void copy_dsm_stats(const memory::DsmStats& d, const std::string& storage, RenderStats& stats) {
     stats.dsm_views = d.views;
@@ -168,6 +191,7 @@ std::shared_ptr<PreparedScene> prepare(host::Runtime& runtime, const Scene& scen
             copy_dsm_stats(kept->prepared->dsm.stats, options.dsm_storage, stats);
             stats.dsm_views_generated = generated;
         }
+        if (kept->prepared->use_sat) copy_sat_stats(kept->prepared->sat, stats);
         return kept->prepared;
     }
     slot.reset();  // free the old device data before allocating the new
@@ -199,6 +223,16 @@ PreparedScene prepare_anew(host::Runtime& runtime, const Scene& scene, const Ren
         for (auto& [stage, ms] : prepared.dsm.stats.stage_ms) stats.stage_ms[stage] = ms;
         copy_dsm_stats(prepared.dsm.stats, options.dsm_storage, stats);
     }
+    prepared.use_sat = uses_sat(options) && !scene.lights.empty();
+    if (prepared.use_sat && runtime.device().getInfo<CL_DEVICE_DOUBLE_FP_CONFIG>() == 0)  // cl/lowpass.h reads corners in double
+        throw Error("--shadows: the summed-area-table techniques need double precision, which " + runtime.info().name + " lacks");
+    if (prepared.use_sat) {
+        prepared.sat = options.shadows == ShadowTechnique::Lowpass
+                           ? shadows::build_light_sats(runtime, scene, prepared.packed, prepared.device, options.lowpass_max_entries)
+                           : shadows::build_volume_sat(runtime, scene, prepared.packed, prepared.device, options.lowpass_max_entries);
+        for (auto& [stage, ms] : prepared.sat.stage_ms) stats.stage_ms[stage] = ms;
+        copy_sat_stats(prepared.sat, stats);
+    }
     return prepared;
 }
 
@@ -219,6 +253,21 @@ int set_dsm_args(cl::Kernel& kernel, int arg, const PreparedScene& p) {
     if (!p.use_dsm) return arg;
     kernel.setArg(arg++, p.dsm.views_buffer);
     return p.dsm.storage->bind_for_reading(kernel, arg);
+}
+
+// The low-pass tables and their per-light grids (with this call's filter width); keeps the
+// grid buffers alive in `grids`.
+int set_sat_args(host::Runtime& runtime, cl::Kernel& kernel, int arg, const PreparedScene& p, const RenderOptions& o,
+                 shadows::SatGridBuffers& grids) {
+    if (!p.use_sat) return arg;
+    if (!(o.lowpass_filter_width >= 0.f && o.lowpass_filter_width <= 4096.f))
+        throw Error("--filter: the filter width must lie in [0, 4096] voxels");
+    if (!(o.cone_angle_deg > 0.f && o.cone_angle_deg <= 60.f)) throw Error("--cone-angle: must lie in (0, 60] degrees");
+    grids = shadows::upload_sat_grids(runtime, p.sat, o.lowpass_filter_width, o.cone_angle_deg);
+    kernel.setArg(arg++, p.sat.data);
+    kernel.setArg(arg++, grids.cartesian);
+    kernel.setArg(arg++, grids.spherical);
+    return arg;
 }
 
 int check_light(const Scene& scene, int light_index) {
@@ -250,6 +299,7 @@ std::string RenderStats::to_json() const {
                     {"views_generated", dsm_views_generated},
                     {"storage", dsm_storage}};
     }
+    if (sat_tables > 0) j["sat"] = {{"tables", sat_tables}, {"bytes", sat_bytes}};
     return j.dump(2);
 }
 
@@ -283,7 +333,8 @@ RenderResult render(Context& context, const Scene& scene, const RenderOptions& o
     int arg = set_scene_args(kernel, prepared, camera_buffer);
     kernel.setArg(arg++, image_buffer);
     kernel.setArg(arg++, count_buffer);
-    set_dsm_args(kernel, arg, prepared);
+    shadows::SatGridBuffers sat_grids;
+    set_sat_args(runtime, kernel, set_dsm_args(kernel, arg, prepared), prepared, options, sat_grids);
 
     double kernel_ms = host::run_packets(runtime, kernel, width, height, lanes);
     stats.stage_ms["camera_pass"] = kernel_ms;
@@ -326,7 +377,8 @@ ShadowQuery shadow_transmittance(Context& context, const Scene& scene, int light
     kernel.setArg(arg++, cl_uint(light_index));
     kernel.setArg(arg++, point_buffer);
     kernel.setArg(arg++, out);
-    set_dsm_args(kernel, arg, prepared);
+    shadows::SatGridBuffers sat_grids;
+    set_sat_args(runtime, kernel, set_dsm_args(kernel, arg, prepared), prepared, options, sat_grids);
     cl::Event event;
     runtime.queue().enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(points.size()), cl::NullRange, nullptr, &event);
     event.wait();

@@ -215,6 +215,18 @@ std::vector<VisibilitySample> visibility_samples(const Scene& scene, const Vec3&
     return out;
 }
 
+double extinction_at_point(const Scene& scene, const Vec3& p) {
+    double sigma = 0;
+    for (const auto& vi : scene.volumes) {
+        RefVolume rv = prepare(vi);
+        V3 q = rv.world_to_voxel.point(from(p));
+        bool inside = true;
+        for (int a = 0; a < 3; ++a) inside = inside && q[a] >= -0.5 && q[a] <= vi.volume->dims[a] - 0.5;
+        if (inside) sigma += extinction(vi.transfer_function, sample_trilinear(*vi.volume, q[0], q[1], q[2]), rv.opacity_unit);
+    }
+    return sigma;
+}
+
 double sample_trilinear(const Volume& v, double x, double y, double z) {
     double p[3] = {std::clamp(x, 0.0, v.dims[0] - 1.0), std::clamp(y, 0.0, v.dims[1] - 1.0), std::clamp(z, 0.0, v.dims[2] - 1.0)};
     int i0[3], i1[3];

@@ -27,6 +27,10 @@ struct VisibilitySample {
 std::vector<VisibilitySample> visibility_samples(const Scene& scene, const Vec3& origin, const Vec3& dir, double jitter,
                                                  double stop_transmittance = 1e-4);
 
+// Extinction σ (per world unit) at world point p: the sum over the volumes whose box
+// [−0.5, dims − 0.5] (voxel space) holds p, the transfer function evaluated directly.
+double extinction_at_point(const Scene& scene, const Vec3& p);
+
 // Trilinear density at a continuous voxel position, clamped to the edge (for unit tests).
 double sample_trilinear(const Volume& volume, double x, double y, double z);
 

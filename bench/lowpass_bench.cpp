@@ -1,0 +1,172 @@
+// sombra_bench_lowpass — the analogue of Ament et al. 2014 Table 1 on this device: per shadow
+// method (single scattering = shadow rays, SAT ambient occlusion, SAT cone shadows, low-pass
+// filtered shadows with box and Gaussian kernels) the SAT memory, the time to rebuild the shadow
+// data after a transfer-function change and after a light move, the camera-pass time, and the
+// transmittance error against shadow rays; then the time against the filter width. Markdown and
+// CSV into --out. Times: OpenCL profiling events, medians of --runs after a warm-up.
+#include <CLI/CLI.hpp>
+#include "host/guarded_main.h"
+#include "bench_util.h"
+
+#include <cmath>
+#include <iostream>
+#include <map>
+
+#include "sombra/sombra.h"
+
+namespace {
+
+using sombra::bench::fixed;
+using sombra::bench::median;
+using sombra::bench::sci;
+
+struct BenchOptions {
+    std::string scene = SOMBRA_DEFAULT_SCENE;
+    int width = 256, height = 256, runs = 2, points = 1000;
+    float filter = 7.f, cone_deg = 10.f;
+    std::vector<float> widths{1, 3, 5, 7, 9, 11, 15};
+    std::string device = "auto", out_dir;
+};
+
+struct Method {
+    std::string name;
+    sombra::ShadowTechnique technique;
+    std::string kernel = "box";
+};
+
+struct Row {
+    std::string method;
+    float filter = 0;
+    double sat_mb = 0, tf_change_ms = 0, light_move_ms = 0, render_ms = 0;
+    double mean_error = 0, max_error = 0;  // |T − T_shadow rays| over the points and lights
+};
+
+// Sum of the stages that (re)build shadow data: the SATs (sat_*, ssat_*).
+double rebuild_ms(const sombra::RenderStats& stats) {
+    double sum = 0;
+    for (const auto& [stage, ms] : stats.stage_ms)
+        if (stage.rfind("sat_", 0) == 0 || stage.rfind("ssat_", 0) == 0) sum += ms;
+    return sum;
+}
+
+// A copy of the scene with the transfer functions' opacities scaled by `f` (a TF change).
+sombra::Scene with_opacity(sombra::Scene scene, float f) {
+    for (auto& vi : scene.volumes)
+        for (auto& point : vi.transfer_function.opacity_points) point.alpha *= f;
+    return scene;
+}
+
+// A copy with every light turned by a small angle about z (a light move).
+sombra::Scene with_lights_turned(sombra::Scene scene, float radians) {
+    float c = std::cos(radians), s = std::sin(radians);
+    for (auto& l : scene.lights) {
+        auto turn = [&](sombra::Vec3& v) { v = {c * v[0] - s * v[1], s * v[0] + c * v[1], v[2]}; };
+        turn(l.direction), turn(l.position);
+    }
+    return scene;
+}
+
+Row measure(sombra::Context& context, const sombra::Scene& scene, const BenchOptions& o, const Method& m, float filter,
+            const std::vector<sombra::Vec3>& points, const std::vector<std::vector<double>>& rays) {
+    sombra::RenderOptions options;
+    options.width = o.width, options.height = o.height;
+    options.shadows = m.technique;
+    options.lowpass_filter_width = filter;
+    options.lowpass_filter_kernel = m.kernel;
+    options.cone_angle_deg = o.cone_deg;
+    Row row;
+    row.method = m.name, row.filter = filter;
+    std::vector<double> tf, move, render;
+    sombra::render(context, scene, options);  // warm-up: programs, kernel cache
+    for (int i = 0; i < o.runs; ++i) {
+        sombra::RenderStats changed = sombra::render(context, with_opacity(scene, i % 2 ? 1.f : 0.999f), options).stats;
+        tf.push_back(rebuild_ms(changed));
+        sombra::RenderStats moved = sombra::render(context, with_lights_turned(scene, 0.01f * float(i + 1)), options).stats;
+        move.push_back(rebuild_ms(moved));
+        sombra::RenderStats again = sombra::render(context, with_lights_turned(scene, 0.01f * float(i + 1)), options).stats;
+        render.push_back(again.stage_ms.at("camera_pass"));  // shadow data reused
+        row.sat_mb = double(again.sat_bytes) / (1 << 20);
+    }
+    row.tf_change_ms = median(tf), row.light_move_ms = median(move), row.render_ms = median(render);
+    double sum = 0;
+    std::size_t count = 0;
+    for (std::size_t l = 0; l < scene.lights.size(); ++l) {
+        auto t = sombra::shadow_transmittance(context, scene, int(l), points, options).transmittance;
+        for (std::size_t i = 0; i < points.size(); ++i) {
+            double d = std::fabs(t[i] - rays[l][i]);
+            sum += d, ++count, row.max_error = std::max(row.max_error, d);
+        }
+    }
+    row.mean_error = sum / double(std::max<std::size_t>(count, 1));
+    return row;
+}
+
+std::string markdown(const std::vector<Row>& rows) {
+    std::ostringstream s;
+    s << "| method | filter | SAT MB | TF change ms | light move ms | render ms | mean \\|ΔT\\| vs rays | max \\|ΔT\\| |\n"
+         "|---|---:|---:|---:|---:|---:|---:|---:|\n";
+    for (const Row& r : rows)
+        s << "| " << r.method << " | " << (r.filter > 0 ? fixed(r.filter, 0) : "–") << " | " << fixed(r.sat_mb, 1) << " | "
+          << fixed(r.tf_change_ms, 1) << " | " << fixed(r.light_move_ms, 1) << " | " << fixed(r.render_ms, 1) << " | "
+          << sci(r.mean_error) << " | " << sci(r.max_error) << " |\n";
+    return s.str();
+}
+
+std::string csv(const std::vector<Row>& rows) {
+    std::ostringstream s;
+    s << "method,filter,sat_mb,tf_change_ms,light_move_ms,render_ms,mean_abs_error,max_abs_error\n";
+    for (const Row& r : rows)
+        s << r.method << ',' << r.filter << ',' << fixed(r.sat_mb, 3) << ',' << fixed(r.tf_change_ms, 3) << ','
+          << fixed(r.light_move_ms, 3) << ',' << fixed(r.render_ms, 3) << ',' << r.mean_error << ',' << r.max_error << '\n';
+    return s.str();
+}
+
+int run(int argc, char** argv) {
+    BenchOptions o;
+    CLI::App app{"sombra low-pass filtered shadows: the analogue of Ament et al. 2014 Table 1"};
+    app.add_option("--scene", o.scene, "scene file (JSON)");
+    app.add_option("--width", o.width, "image width")->check(CLI::Range(1, 16384));
+    app.add_option("--height", o.height, "image height")->check(CLI::Range(1, 16384));
+    app.add_option("--runs", o.runs, "timed repetitions per row, after one warm-up")->check(CLI::PositiveNumber);
+    app.add_option("--points", o.points, "random points in the volumes for the error against shadow rays")->check(CLI::PositiveNumber);
+    app.add_option("--filter", o.filter, "filter width in voxels of the method rows")->check(CLI::Range(0.f, 4096.f));
+    app.add_option("--cone-angle", o.cone_deg, "cone shadows: half angle in degrees")->check(CLI::Range(0.01f, 60.f));
+    app.add_option("--widths", o.widths, "filter widths of the time-vs-width rows, comma-separated")->delimiter(',');
+    app.add_option("--device", o.device, "OpenCL device: auto, cpu, gpu, or an index from `sombra devices`");
+    app.add_option("--out", o.out_dir, "write lowpass_table.md and lowpass_table.csv into this folder");
+    CLI11_PARSE(app, argc, argv);
+
+    sombra::Scene scene = sombra::load_scene(o.scene);
+    sombra::Context context(o.device);
+    auto points = sombra::bench::random_points(scene, o.points, 7);
+    std::vector<std::vector<double>> rays;
+    sombra::RenderOptions ray_options;
+    ray_options.shadows = sombra::ShadowTechnique::Rays;
+    for (std::size_t l = 0; l < scene.lights.size(); ++l)
+        rays.push_back(sombra::shadow_transmittance(context, scene, int(l), points, ray_options).transmittance);
+    using T = sombra::ShadowTechnique;
+    std::vector<Method> methods = {{"SS (shadow rays)", T::Rays}, {"AO (SAT)", T::Ao}, {"CS (SAT cones)", T::Cone},
+                                   {"FS box (CSAT/SSAT)", T::Lowpass}, {"FS gauss (CSAT/SSAT)", T::Lowpass, "gauss"}};
+    std::vector<Row> rows, widths;
+    for (const Method& m : methods) {
+        rows.push_back(measure(context, scene, o, m, m.technique == T::Rays || m.technique == T::Cone ? 0.f : o.filter, points, rays));
+        std::cout << markdown({rows.back()}) << std::flush;
+    }
+    for (float w : o.widths) widths.push_back(measure(context, scene, o, methods[3], w, points, rays));
+    std::string text = "## Methods (" + std::to_string(o.width) + "×" + std::to_string(o.height) + ", " + context.device().name +
+                       ")\n\n" + markdown(rows) + "\n## Low-pass box filter: time and error against the filter width\n\n" +
+                       markdown(widths);
+    std::cout << "\n" << text;
+    if (!o.out_dir.empty()) {
+        std::filesystem::create_directories(o.out_dir);
+        sombra::bench::write_file(std::filesystem::path(o.out_dir) / "lowpass_table.md", text);
+        std::vector<Row> all = rows;
+        all.insert(all.end(), widths.begin(), widths.end());
+        sombra::bench::write_file(std::filesystem::path(o.out_dir) / "lowpass_table.csv", csv(all));
+    }
+    return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) { return sombra::host::guarded_main("sombra_bench_lowpass", run, argc, argv); }

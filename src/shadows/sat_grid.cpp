@@ -1,0 +1,350 @@
+#include "shadows/sat_grid.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "shadows/dsm_builder.h"
+#include "sombra/error.h"
+
+namespace sombra::shadows {
+namespace {
+
+double dot(const D3& a, const D3& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+D3 cross(const D3& a, const D3& b) { return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]}; }
+D3 normalized(const D3& a) {
+    double n = std::sqrt(dot(a, a));
+    return {a[0] / n, a[1] / n, a[2] / n};
+}
+cl_float4 f4(const D3& v, double w = 0) { return {{float(v[0]), float(v[1]), float(v[2]), float(w)}}; }
+
+// World corners of every volume's box [−0.5, dims − 0.5] and the smallest world voxel length.
+std::vector<D3> scene_corners(const packing::PackedScene& packed, double& voxel_size) {
+    std::vector<D3> corners;
+    voxel_size = INFINITY;
+    for (std::size_t v = 0; v < packed.volumes.size(); ++v) {
+        const auto& m = packed.voxel_to_world[v];
+        const auto& dims = packed.volumes[v].dims.s;
+        for (int c = 0; c < 3; ++c) voxel_size = std::min(voxel_size, std::sqrt(double(m[c]) * m[c] + double(m[4 + c]) * m[4 + c] + double(m[8 + c]) * m[8 + c]));
+        for (int corner = 0; corner < 8; ++corner) {
+            double q[3];
+            for (int a = 0; a < 3; ++a) q[a] = (corner >> a) & 1 ? dims[a] - 0.5 : -0.5;
+            D3 p;
+            for (int r = 0; r < 3; ++r) p[std::size_t(r)] = m[std::size_t(4 * r)] * q[0] + m[std::size_t(4 * r + 1)] * q[1] + m[std::size_t(4 * r + 2)] * q[2] + m[std::size_t(4 * r + 3)];
+            corners.push_back(p);
+        }
+    }
+    return corners;
+}
+
+// A unit vector ⟂ w, from the world axis least aligned with w.
+D3 perpendicular(const D3& w) {
+    int least = 0;
+    for (int a = 1; a < 3; ++a)
+        if (std::fabs(w[std::size_t(a)]) < std::fabs(w[std::size_t(least)])) least = a;
+    D3 e{0, 0, 0};
+    e[std::size_t(least)] = 1;
+    return normalized(cross(e, w));
+}
+
+// The axis of `frame` that ±`towards_light` lies along, or −1.
+int shared_axis(const SatFrame& frame, const D3& towards_light, bool& positive) {
+    for (int a = 0; a < 3; ++a) {
+        double c = dot(frame.axes[std::size_t(a)], towards_light);
+        if (std::fabs(c) > 1.0 - 1e-6) {
+            positive = c > 0;
+            return a;
+        }
+    }
+    return -1;
+}
+
+}  // namespace
+
+D3 SatFrame::cell_centre(int i, int j, int k) const {
+    D3 p = origin;
+    double c[3] = {i + 0.5, j + 0.5, k + 0.5};
+    for (int a = 0; a < 3; ++a)
+        for (int r = 0; r < 3; ++r) p[std::size_t(r)] += c[a] * cell_size * axes[std::size_t(a)][std::size_t(r)];
+    return p;
+}
+
+SatFrame make_csat_frame(const packing::PackedScene& packed, const D3& towards_light, std::size_t max_entries) {
+    D3 w = normalized(towards_light);
+    // r_v = l × r_u so that r_u × r_v = l (Ament Eq. 9)
+    D3 u = perpendicular(w), v = cross(w, u);
+    return make_sat_frame(packed, {u, v, w}, max_entries);
+}
+
+SatFrame make_volume_sat_frame(const packing::PackedScene& packed, std::size_t max_entries) {
+    if (packed.voxel_to_world.empty()) throw Error("--shadows: the scene has no volume to build a summed-area table of");
+    const auto& m = packed.voxel_to_world[0];
+    D3 x = normalized({m[0], m[4], m[8]}), y = normalized({m[1], m[5], m[9]});
+    y = normalized({y[0] - dot(x, y) * x[0], y[1] - dot(x, y) * x[1], y[2] - dot(x, y) * x[2]});  // orthogonal even under shear
+    return make_sat_frame(packed, {x, y, cross(x, y)}, max_entries);
+}
+
+SatFrame make_sat_frame(const packing::PackedScene& packed, const std::array<D3, 3>& axes, std::size_t max_entries) {
+    SatFrame f;
+    f.axes = axes;
+    std::vector<D3> corners = scene_corners(packed, f.voxel_size);
+    if (corners.empty() || !(f.voxel_size > 0)) throw Error("--shadows lowpass: the scene has no volume to build a summed-area table of");
+    D3 lo{INFINITY, INFINITY, INFINITY}, hi{-INFINITY, -INFINITY, -INFINITY};
+    for (const D3& p : corners)
+        for (std::size_t a = 0; a < 3; ++a) {
+            double c = dot(p, f.axes[a]);
+            lo[a] = std::min(lo[a], c), hi[a] = std::max(hi[a], c);
+        }
+    f.cell_size = f.voxel_size;
+    for (;;) {
+        for (std::size_t a = 0; a < 3; ++a) f.dims[a] = std::max(1, int(std::ceil((hi[a] - lo[a]) / f.cell_size - 1e-6)));
+        if (f.entries() <= std::min<std::size_t>(max_entries, SOMBRA_SAT_MAX_ENTRIES)) break;
+        f.cell_size *= 1.05;
+    }
+    // centred on the bounds: mirrored lights (±l) see the same cells
+    f.origin = {0, 0, 0};
+    for (std::size_t a = 0; a < 3; ++a) {
+        double start = 0.5 * (lo[a] + hi[a]) - 0.5 * f.dims[a] * f.cell_size;
+        for (std::size_t r = 0; r < 3; ++r) f.origin[r] += start * f.axes[a][r];
+    }
+    return f;
+}
+
+std::uint64_t sat_fixed_point(double tau) {
+    double clamped = std::clamp(tau, 0.0, double(SOMBRA_SAT_MAX_CELL_TAU));
+    return std::uint64_t(std::nearbyint(float(float(clamped) * SOMBRA_SAT_UNITS_PER_TAU)));
+}
+
+SsatGridGpu make_ssat_grid(const packing::PackedScene& packed, const D3& light, std::size_t max_entries) {
+    double voxel = 0;
+    std::vector<D3> corners = scene_corners(packed, voxel);
+    if (corners.empty() || !(voxel > 0)) throw Error("--shadows lowpass: the scene has no volume to build a summed-area table of");
+    D3 lo{INFINITY, INFINITY, INFINITY}, hi{-INFINITY, -INFINITY, -INFINITY};
+    for (const D3& c : corners)
+        for (std::size_t a = 0; a < 3; ++a) lo[a] = std::min(lo[a], c[a]), hi[a] = std::max(hi[a], c[a]);
+    D3 centre, outside{0, 0, 0};
+    for (std::size_t a = 0; a < 3; ++a) {
+        centre[a] = 0.5 * (lo[a] + hi[a]);
+        outside[a] = std::max({lo[a] - light[a], light[a] - hi[a], 0.0});
+    }
+    double r_min = std::sqrt(dot(outside, outside)), r_max = 0;
+    for (const D3& c : corners) {
+        D3 d = {c[0] - light[0], c[1] - light[1], c[2] - light[2]};
+        r_max = std::max(r_max, std::sqrt(dot(d, d)));
+    }
+    D3 to_centre = {centre[0] - light[0], centre[1] - light[1], centre[2] - light[2]};
+    double centre_distance = std::sqrt(dot(to_centre, to_centre));
+    D3 x = centre_distance > 1e-9 * r_max ? normalized(to_centre) : D3{1, 0, 0};
+    D3 z = perpendicular(x), y = cross(z, x);
+    // angles the scene subtends: points along every box edge (θ's extremes may lie inside an edge)
+    bool whole = r_min <= 0;
+    double phi_lo = INFINITY, phi_hi = -INFINITY, theta_lo = INFINITY, theta_hi = -INFINITY;
+    for (std::size_t box = 0; !whole && box < corners.size(); box += 8)
+        for (int c0 = 0; c0 < 8; ++c0)
+            for (int axis = 0; axis < 3; ++axis) {
+                int c1 = c0 | (1 << axis);
+                if (c1 == c0) continue;
+                for (int t = 0; t <= 32; ++t) {
+                    D3 d;
+                    for (std::size_t r = 0; r < 3; ++r)
+                        d[r] = corners[box + std::size_t(c0)][r] + (corners[box + std::size_t(c1)][r] - corners[box + std::size_t(c0)][r]) * t / 32.0 - light[r];
+                    double len = std::sqrt(dot(d, d)), px = dot(d, x) / len;
+                    if (px < std::cos(80.0 * M_PI / 180.0)) whole = true;  // a cone wider than 80°
+                    double phi = std::atan2(dot(d, y), dot(d, x)), theta = std::acos(std::clamp(dot(d, z) / len, -1.0, 1.0));
+                    phi_lo = std::min(phi_lo, phi), phi_hi = std::max(phi_hi, phi);
+                    theta_lo = std::min(theta_lo, theta), theta_hi = std::max(theta_hi, theta);
+                }
+            }
+    double margin = 0.02 * std::max(phi_hi - phi_lo, theta_hi - theta_lo);
+    if (whole) phi_lo = -M_PI, phi_hi = M_PI, theta_lo = 0, theta_hi = M_PI, r_min = 0;
+    else phi_lo -= margin, phi_hi += margin, theta_lo = std::max(theta_lo - margin, 0.0), theta_hi = std::min(theta_hi + margin, M_PI);
+    double r_ref = whole ? 0.5 * r_max : centre_distance;
+    SsatGridGpu g{};
+    int dims[3];
+    for (double k = 1;; k *= 1.05) {
+        double across = voxel * k / r_ref;
+        dims[0] = std::max(1, int(std::ceil((phi_hi - phi_lo) / across)));
+        dims[1] = std::max(1, int(std::ceil((theta_hi - theta_lo) / across)));
+        dims[2] = std::max(1, int(std::ceil((r_max - r_min) / (voxel * k))));
+        std::size_t entries = std::size_t(dims[0] + 1) * std::size_t(dims[1] + 1) * std::size_t(dims[2] + 1);
+        if (entries <= std::min<std::size_t>(max_entries, SOMBRA_SAT_MAX_ENTRIES)) break;
+    }
+    g.axes[0] = f4(x), g.axes[1] = f4(y), g.axes[2] = f4(z);
+    g.light = f4(light);
+    g.start = f4({phi_lo, theta_lo, r_min});
+    g.cell = f4({(phi_hi - phi_lo) / dims[0], (theta_hi - theta_lo) / dims[1], (r_max - r_min) / dims[2]});
+    g.dims = {{dims[0], dims[1], dims[2], 1}};
+    g.wrap_phi = whole ? 1 : 0;
+    g.tau_per_unit = 1.f / SOMBRA_SAT_UNITS_PER_TAU;
+    return g;
+}
+
+namespace {
+
+// Prefix sums along grid axes 0 and 1 of one table (axis 2 was summed by its resample kernel).
+double scan_table(host::Runtime& runtime, cl::Kernel& scan, const cl::Buffer& data, std::size_t offset, cl_int4 n) {
+    double ms = 0;
+    cl::Event event;
+    for (cl_uint axis = 0; axis < 2; ++axis) {
+        scan.setArg(0, data);
+        scan.setArg(1, cl_uint(offset));
+        scan.setArg(2, n);
+        scan.setArg(3, axis);
+        std::size_t other = std::size_t(axis == 0 ? n.s[1] : n.s[0]);
+        runtime.queue().enqueueNDRangeKernel(scan, cl::NullRange, cl::NDRange(other, std::size_t(n.s[2])), cl::NullRange,
+                                             nullptr, &event);
+        event.wait();
+        ms += host::Runtime::event_ms(event);
+    }
+    return ms;
+}
+
+// The arguments every resample kernel starts with; returns the next index.
+int set_volume_args(cl::Kernel& kernel, const packing::PackedScene& packed, const packing::DeviceScene& device_scene,
+                    const cl::Buffer& data) {
+    int a = 0;
+    if (device_scene.uses_images) kernel.setArg(a++, device_scene.voxel_image);
+    else kernel.setArg(a++, device_scene.voxel_buffer);
+    kernel.setArg(a++, device_scene.tf_tables);
+    kernel.setArg(a++, device_scene.volumes);
+    kernel.setArg(a++, cl_uint(packed.volumes.size()));
+    kernel.setArg(a++, data);
+    return a;
+}
+
+double run_2d(host::Runtime& runtime, cl::Kernel& kernel, int nx, int ny) {
+    cl::Event event;
+    runtime.queue().enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(std::size_t(nx), std::size_t(ny)), cl::NullRange,
+                                         nullptr, &event);
+    event.wait();
+    return host::Runtime::event_ms(event);
+}
+
+// One light's view of CSAT frame f stored at `offset`, the light along grid axis `axis`.
+SatGridGpu sat_grid(const SatFrame& f, std::size_t offset, int axis, bool positive) {
+    SatGridGpu g{};
+    for (std::size_t a = 0; a < 3; ++a) {
+        D3 row = {f.axes[a][0] / f.cell_size, f.axes[a][1] / f.cell_size, f.axes[a][2] / f.cell_size};
+        g.to_grid[a] = f4(row, -dot(row, f.origin));
+    }
+    g.dims = {{f.dims[0], f.dims[1], f.dims[2], 1}};
+    g.light_axis = cl_uint(axis);
+    g.light_positive = positive ? 1 : 0;
+    g.tau_per_unit = 1.f / SOMBRA_SAT_UNITS_PER_TAU;
+    g.cell_size = float(f.cell_size);
+    g.filter_cells = 1;
+    g.data_offset = cl_uint(offset);
+    return g;
+}
+
+// Allocates `total` entries and builds every table of `sat` into them: resample, prefix sums.
+void build_tables(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
+                  const packing::DeviceScene& device_scene, DeviceSat& sat, std::size_t total) {
+    sat.bytes = total * sizeof(cl_ulong);
+    sat.data = host::make_buffer(runtime, CL_MEM_READ_WRITE, sat.bytes, nullptr, "summed-area tables");
+    if (total == 0) return;
+
+    cl::Event event;
+    runtime.queue().enqueueFillBuffer(sat.data, cl_ulong(0), 0, sat.bytes, nullptr, &event);
+    event.wait();
+    sat.stage_ms["sat_clear"] = host::Runtime::event_ms(event);
+    auto defines = volume_pass_defines(scene, device_scene.uses_images, false);
+    defines.push_back("SOMBRA_LANES=1");
+    cl::Program& program = runtime.program("sat_build.cl", defines);
+    cl::Kernel resample(program, "sat_resample"), resample_sphere(program, "ssat_resample"), scan(program, "sat_scan");
+    for (std::size_t t = 0; t < sat.frames.size(); ++t) {
+        const SatFrame& f = sat.frames[t];
+        cl_int4 n = {{f.dims[0], f.dims[1], f.dims[2], 1}};
+        int a = set_volume_args(resample, packed, device_scene, sat.data);
+        resample.setArg(a++, cl_uint(sat.offsets[t]));
+        resample.setArg(a++, n);
+        resample.setArg(a++, f4(f.origin));
+        for (std::size_t axis = 0; axis < 3; ++axis) {
+            const D3& r = f.axes[axis];
+            resample.setArg(a++, f4({r[0] * f.cell_size, r[1] * f.cell_size, r[2] * f.cell_size}));
+        }
+        resample.setArg(a++, float(f.cell_size));
+        sat.stage_ms["sat_resample"] += run_2d(runtime, resample, f.dims[0], f.dims[1]);
+        sat.stage_ms["sat_scan"] += scan_table(runtime, scan, sat.data, sat.offsets[t], n);
+    }
+    for (const SsatGridGpu& sphere : sat.spheres) {
+        if (sphere.dims.s[3] == 0) continue;
+        cl::Buffer grid = host::make_buffer(runtime, CL_MEM_READ_ONLY, sizeof(SsatGridGpu), &sphere, "SSAT grid");
+        int a = set_volume_args(resample_sphere, packed, device_scene, sat.data);
+        resample_sphere.setArg(a++, grid);
+        sat.stage_ms["ssat_resample"] += run_2d(runtime, resample_sphere, sphere.dims.s[0], sphere.dims.s[1]);
+        sat.stage_ms["sat_scan"] += scan_table(runtime, scan, sat.data, sphere.data_offset, sphere.dims);
+    }
+}
+
+
+}  // namespace
+
+DeviceSat build_light_sats(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
+                           const packing::DeviceScene& device_scene, std::size_t max_entries) {
+    DeviceSat sat;
+    scene_corners(packed, sat.voxel_size);
+    std::vector<int> table_of(packed.lights.size(), -1);
+    std::size_t total = 0;
+    for (std::size_t l = 0; l < packed.lights.size(); ++l) {
+        const LightGpu& light = packed.lights[l];
+        SatGridGpu g{};
+        SsatGridGpu sphere{};
+        if (light.type == SOMBRA_LIGHT_DIRECTIONAL) {
+            D3 towards = {-light.direction.s[0], -light.direction.s[1], -light.direction.s[2]};
+            bool positive = true;
+            int axis = -1;
+            std::size_t t = 0;
+            for (; t < sat.frames.size() && axis < 0; ++t) axis = shared_axis(sat.frames[t], towards, positive);
+            if (axis < 0) {  // a new table (Ament Alg. 1: recomputeCSAT)
+                sat.frames.push_back(make_csat_frame(packed, towards, max_entries));
+                sat.offsets.push_back(total);
+                total += sat.frames.back().entries();
+                axis = 2, positive = true, t = sat.frames.size();
+            }
+            g = sat_grid(sat.frames[t - 1], sat.offsets[t - 1], axis, positive);
+        } else {  // Ament Alg. 1: recomputeSSAT, one per point light
+            sphere = make_ssat_grid(packed, {light.position.s[0], light.position.s[1], light.position.s[2]}, max_entries);
+            sphere.data_offset = cl_uint(total);
+            total += ssat_entries(sphere);
+        }
+        if (total > 0xffffffffull) throw Error("--shadows lowpass: summed-area tables exceed 2^32 entries");
+        sat.grids.push_back(g);
+        sat.spheres.push_back(sphere);
+    }
+    build_tables(runtime, scene, packed, device_scene, sat, total);
+    return sat;
+}
+
+DeviceSat build_volume_sat(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
+                           const packing::DeviceScene& device_scene, std::size_t max_entries) {
+    DeviceSat sat;
+    scene_corners(packed, sat.voxel_size);
+    sat.frames.push_back(make_volume_sat_frame(packed, max_entries));
+    sat.offsets.push_back(0);
+    sat.grids.assign(std::max<std::size_t>(packed.lights.size(), 1), sat_grid(sat.frames[0], 0, 2, true));
+    sat.spheres.assign(sat.grids.size(), SsatGridGpu{});
+    build_tables(runtime, scene, packed, device_scene, sat, sat.frames[0].entries());
+    return sat;
+}
+
+SatGridBuffers upload_sat_grids(host::Runtime& runtime, const DeviceSat& sat, float filter_voxels, float cone_deg) {
+    std::vector<SatGridGpu> grids = sat.grids;
+    std::vector<SsatGridGpu> spheres = sat.spheres;
+    double width = std::max(double(filter_voxels), 1.0) * sat.voxel_size;  // at least one voxel
+    for (SatGridGpu& g : grids)
+        if (g.dims.s[3] != 0) {
+            g.filter_cells = cl_uint(std::clamp(std::round(width / g.cell_size), 1.0, 4096.0));
+            g.cone_tan = float(std::tan(double(cone_deg) * M_PI / 180.0));
+        }
+    for (SsatGridGpu& g : spheres) g.half_width = float(0.5 * width);  // Ament Eq. 16: U = V = W/2
+    return {host::make_buffer(runtime, CL_MEM_READ_ONLY, grids.size() * sizeof(SatGridGpu), grids.data(), "SAT grids"),
+            host::make_buffer(runtime, CL_MEM_READ_ONLY, spheres.size() * sizeof(SsatGridGpu), spheres.data(), "SSAT grids")};
+}
+
+std::vector<std::uint64_t> read_sat(host::Runtime& runtime, const DeviceSat& sat, std::size_t offset, std::size_t entries) {
+    std::vector<std::uint64_t> out(entries);
+    runtime.queue().enqueueReadBuffer(sat.data, CL_TRUE, offset * sizeof(cl_ulong), entries * sizeof(cl_ulong), out.data());
+    return out;
+}
+
+}  // namespace sombra::shadows

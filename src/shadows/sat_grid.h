@@ -1,0 +1,86 @@
+// sombra — light-aligned summed-area tables for low-pass filtered shadows (Ament et al. 2014
+// §4.2.1–4.2.2): a Cartesian SAT (CSAT) per group of orthodirectional directional lights, built on
+// the device by cl/sat_build.cl and read by cl/lowpass.h.
+#pragma once
+#include <CL/opencl.hpp>
+
+#include <array>
+#include <cstdint>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "render/scene_upload.h"
+
+namespace sombra::shadows {
+
+using D3 = std::array<double, 3>;
+
+// A grid aligned with a light: axes[2] points towards the (first) light, axes[0] × axes[1] =
+// axes[2] (Ament Eq. 9). Cell (i, j, k) covers origin + [i, i+1]·h·axes[0] + … ; the grid is
+// centred on the scene's bounds, which it contains.
+struct SatFrame {
+    std::array<D3, 3> axes;
+    D3 origin;
+    std::array<int, 3> dims{0, 0, 0};
+    double cell_size = 0;   // h, world units
+    double voxel_size = 0;  // smallest world voxel of the scene: the unit of the filter width
+    std::size_t entries() const { return std::size_t(dims[0] + 1) * std::size_t(dims[1] + 1) * std::size_t(dims[2] + 1); }
+    D3 cell_centre(int i, int j, int k) const;  // world position
+};
+
+// The frame for a light shining towards `towards_light` (unit vector from the scene to the light)
+// over the volumes of `packed`, with cells of the smallest voxel size, coarsened until the table
+// has at most `max_entries` entries.
+SatFrame make_csat_frame(const packing::PackedScene& packed, const D3& towards_light, std::size_t max_entries);
+// The same for a frame aligned with the first volume's axes (the volume-aligned SAT of the
+// baselines, Schlegel et al. 2011), and for any orthonormal axes.
+SatFrame make_volume_sat_frame(const packing::PackedScene& packed, std::size_t max_entries);
+SatFrame make_sat_frame(const packing::PackedScene& packed, const std::array<D3, 3>& axes, std::size_t max_entries);
+
+// A point (or spot) light's spherical grid (SSAT, Ament §4.2.3): φ, θ around a frame whose x axis
+// points from the light to the scene, r from the light. A light outside the scene's bounds gets
+// the angles the scene subtends; a light inside them (or seeing it over more than 80°) the whole
+// sphere, wrapping at φ = ±π. Cells of one voxel along r and of one voxel at the scene's distance
+// across, coarsened until the table has at most `max_entries` entries. half_width is left 0.
+SsatGridGpu make_ssat_grid(const packing::PackedScene& packed, const D3& light_position, std::size_t max_entries);
+inline std::size_t ssat_entries(const SsatGridGpu& g) {
+    return std::size_t(g.dims.s[0] + 1) * std::size_t(g.dims.s[1] + 1) * std::size_t(g.dims.s[2] + 1);
+}
+
+// Fixed-point cell value, as the kernels round it (shared/types.h).
+std::uint64_t sat_fixed_point(double tau);
+
+struct DeviceSat {
+    std::vector<SatFrame> frames;      // one per CSAT
+    std::vector<SatGridGpu> grids;     // one per light; dims.w = 0: the light has no CSAT
+    std::vector<SsatGridGpu> spheres;  // one per light; dims.w = 0: the light has no SSAT
+    std::vector<std::size_t> offsets;  // first entry of each CSAT in `data`
+    double voxel_size = 0;             // the unit of the filter width
+    cl::Buffer data;                   // every table, cl_ulong entries
+    std::size_t bytes = 0;
+    std::map<std::string, double> stage_ms;
+};
+
+// One CSAT per group of directional lights whose directions are ± the axes of one frame
+// (orthodirectional lights, Ament §4.2.2); one SSAT per point or spot light (§4.2.3).
+DeviceSat build_light_sats(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
+                           const packing::DeviceScene& device_scene, std::size_t max_entries);
+
+// The baselines' one volume-aligned SAT (SAT ambient occlusion and cone shadows, Schlegel et al.
+// 2011): frames[0], described by grids[0] for every light.
+DeviceSat build_volume_sat(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
+                           const packing::DeviceScene& device_scene, std::size_t max_entries);
+
+// The per-light grids with the box width for a filter of `filter_voxels` voxels, on the device
+// (the tables do not depend on it: changing the filter rebuilds nothing).
+struct SatGridBuffers {
+    cl::Buffer cartesian, spherical;
+};
+// `cone_deg`: the cone shadows' half angle.
+SatGridBuffers upload_sat_grids(host::Runtime& runtime, const DeviceSat& sat, float filter_voxels, float cone_deg = 0.f);
+
+// `entries` entries from `offset` of the tables, read back to the host (tests, bench).
+std::vector<std::uint64_t> read_sat(host::Runtime& runtime, const DeviceSat& sat, std::size_t offset, std::size_t entries);
+
+}  // namespace sombra::shadows

@@ -1,0 +1,479 @@
+// sombra tests — low-pass filtered shadows (Ament et al. 2014): the light-aligned summed-area
+// tables built by cl/sat_build.cl and the filtered optical depth of cl/lowpass.h against the CPU
+// reference (tests/reference/sat_ref.h), precision, analytic media, shadow rays, extreme cases.
+#include <catch2/catch.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <random>
+
+#include "reference/sat_ref.h"
+#include "render/scene_upload.h"
+#include "shadows/sat_grid.h"
+#include "test_support.h"
+
+using namespace sombra;
+using D3 = shadows::D3;
+
+namespace {
+
+struct BuiltSat {
+    packing::PackedScene packed;
+    packing::DeviceScene device;
+    shadows::DeviceSat sat;
+};
+
+BuiltSat build(const Scene& scene, std::size_t max_entries = std::size_t(1) << 24) {
+    auto& rt = test::context().runtime();
+    BuiltSat b;
+    b.packed = packing::pack_scene(scene);
+    b.device = packing::upload_scene(rt, scene, b.packed, false);
+    b.sat = shadows::build_light_sats(rt, scene, b.packed, b.device, max_entries);
+    return b;
+}
+
+Light directional(const D3& direction) {
+    Light l;
+    l.direction = {float(direction[0]), float(direction[1]), float(direction[2])};
+    return l;
+}
+
+// One volume of n³ voxels scaled to the world box [−0.5, 0.5]³ (rotated by `rotate_deg`).
+Scene one_volume(std::shared_ptr<const Volume> volume, const TransferFunction& tf, std::vector<Light> lights,
+                 const Vec3& rotate_deg = {0, 0, 0}) {
+    Scene s;
+    VolumeInstance vi;
+    float scale = 1.f / float(volume->dims[0]);
+    vi.volume = std::move(volume);
+    vi.transfer_function = tf;
+    vi.transform = make_transform({0, 0, 0}, rotate_deg, {scale, scale, scale});
+    s.volumes.push_back(vi);
+    s.lights = std::move(lights);
+    s.width = s.height = 32;
+    return s;
+}
+
+std::vector<Vec3> random_points(int count, float half, unsigned seed) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<float> u(-half, half);
+    std::vector<Vec3> points;
+    for (int i = 0; i < count; ++i) points.push_back({u(rng), u(rng), u(rng)});
+    return points;
+}
+
+std::vector<double> lowpass(const Scene& scene, int light, const std::vector<Vec3>& points, float filter,
+                            const std::string& kernel = "box", ShadowTechnique technique = ShadowTechnique::Lowpass,
+                            float cone_deg = 10.f) {
+    RenderOptions o;
+    o.shadows = technique;
+    o.cone_angle_deg = cone_deg;
+    o.lowpass_filter_width = filter;
+    o.lowpass_filter_kernel = kernel;
+    return shadow_transmittance(test::context(), scene, light, points, o).transmittance;
+}
+
+std::vector<double> shadow_rays(const Scene& scene, int light, const std::vector<Vec3>& points) {
+    RenderOptions o;
+    o.shadows = ShadowTechnique::Rays;
+    return shadow_transmittance(test::context(), scene, light, points, o).transmittance;
+}
+
+D3 d3(const Vec3& v) { return {v[0], v[1], v[2]}; }
+
+// |T_lowpass − T_shadow rays| of light 0 over the points, mean and max, for W = 1 and W = 9.
+struct RayErrors {
+    double mean[2] = {0, 0}, worst[2] = {0, 0};
+};
+RayErrors errors_to_rays(const Scene& scene, const std::vector<Vec3>& points, const std::string& kernel = "box") {
+    auto rays = shadow_rays(scene, 0, points);
+    RayErrors r;
+    float widths[2] = {1.f, 9.f};
+    for (int w = 0; w < 2; ++w) {
+        auto t = lowpass(scene, 0, points, widths[w], kernel);
+        for (std::size_t i = 0; i < points.size(); ++i) {
+            REQUIRE(std::isfinite(t[i]));
+            double e = std::fabs(t[i] - rays[i]);
+            r.mean[w] += e / double(points.size()), r.worst[w] = std::max(r.worst[w], e);
+        }
+    }
+    return r;
+}
+
+Scene cloud_scene() {
+    return one_volume(std::make_shared<const Volume>(make_cloud_noise(20, 5)), test::ramp_tf(0.1f, 0.6f, 0.6f),
+                      {directional({0.3, -0.5, -0.8})}, {20.f, 35.f, 0.f});
+}
+
+}  // namespace
+
+TEST_CASE("CSAT: device cells and box sums match the CPU reference on a random volume", "[lowpass]") {
+    Scene scene = cloud_scene();
+    BuiltSat b = build(scene);
+    REQUIRE(b.sat.frames.size() == 1);
+    const shadows::SatFrame& frame = b.sat.frames[0];
+    auto table = shadows::read_sat(test::context().runtime(), b.sat, b.sat.offsets[0], frame.entries());
+    reference::CellGrid device = reference::cells_of_table(table, frame.dims);
+    reference::CellGrid ref = reference::sat_cells(scene, frame);
+    double max_cell = *std::max_element(ref.cells.begin(), ref.cells.end()), worst = 0;
+    REQUIRE(max_cell > 0.05);
+    for (std::size_t i = 0; i < ref.cells.size(); ++i) worst = std::max(worst, std::fabs(device.cells[i] - ref.cells[i]));
+    CHECK(worst <= 2e-3 * max_cell);  // transfer-function table vs direct evaluation
+    std::mt19937 rng(3);
+    for (int trial = 0; trial < 300; ++trial) {
+        std::array<int, 3> lo, hi;
+        for (int a = 0; a < 3; ++a) {
+            std::uniform_int_distribution<int> pick(0, frame.dims[std::size_t(a)]);
+            int x = pick(rng), y = pick(rng);
+            lo[std::size_t(a)] = std::min(x, y), hi[std::size_t(a)] = std::max(x, y);
+        }
+        double sat = double(std::int64_t(reference::sat_box(table, frame.dims, lo, hi))) / SOMBRA_SAT_UNITS_PER_TAU;
+        double brute = reference::box_sum(ref, {double(lo[0]), double(lo[1]), double(lo[2])}, {double(hi[0]), double(hi[1]), double(hi[2])});
+        double brute_device = reference::box_sum(device, {double(lo[0]), double(lo[1]), double(lo[2])}, {double(hi[0]), double(hi[1]), double(hi[2])});
+        CHECK(sat == Approx(brute_device).margin(1e-9));  // integer sums are exact
+        CHECK(sat == Approx(brute).epsilon(3e-3).margin(1e-4));
+    }
+}
+
+TEST_CASE("CSAT precision: 64-bit fixed point against a double SAT (float32 for comparison)", "[lowpass]") {
+    reference::CellGrid grid;
+    grid.dims = {128, 128, 128};
+    std::mt19937 rng(11);
+    std::uniform_real_distribution<double> value(0.0, 0.25);
+    for (std::size_t i = 0; i < 128u * 128u * 128u; ++i) grid.cells.push_back(i % 7 == 0 ? 0.0 : value(rng));
+    auto exact = reference::build_sat<double>(grid, [](double x) { return x; });
+    auto fixed = reference::build_sat<std::uint64_t>(grid, [](double x) { return shadows::sat_fixed_point(x); });
+    auto single = reference::build_sat<float>(grid, [](double x) { return float(x); });
+    double fixed_max = 0, fixed_mean = 0, float_max = 0, float_mean = 0, bound_violations = 0;
+    const int trials = 3000;
+    for (int trial = 0; trial < trials; ++trial) {
+        std::array<int, 3> lo, hi;
+        std::uniform_int_distribution<int> pick(0, 128);
+        for (std::size_t a = 0; a < 3; ++a) {
+            int x = pick(rng), y = pick(rng);
+            lo[a] = std::min(x, y), hi[a] = std::max(x, y);
+        }
+        double reference = reference::sat_box(exact, grid.dims, lo, hi);
+        double cells = double(hi[0] - lo[0]) * (hi[1] - lo[1]) * (hi[2] - lo[2]);
+        double f = double(std::int64_t(reference::sat_box(fixed, grid.dims, lo, hi))) / SOMBRA_SAT_UNITS_PER_TAU;
+        double s = reference::sat_box(single, grid.dims, lo, hi);
+        double ef = std::fabs(f - reference), es = std::fabs(s - reference);
+        // per cell: rounding to a unit (2^-23) and τ's float rounding (2^-24 relative)
+        // (+ the double SAT's own cancellation, ~10⁻¹¹ here)
+        if (ef > cells * std::ldexp(1.0, -23) + reference * std::ldexp(1.0, -24) + 1e-8) ++bound_violations;
+        fixed_max = std::max(fixed_max, ef), fixed_mean += ef / trials;
+        float_max = std::max(float_max, es), float_mean += es / trials;
+    }
+    std::printf("SAT precision, 128³ random cells, %d boxes, |box − double SAT| max/mean: fixed point %.3g/%.3g, "
+                "float32 %.3g/%.3g\n", trials, fixed_max, fixed_mean, float_max, float_mean);
+    CHECK(bound_violations == 0);
+    CHECK(fixed_max < 1e-3);
+    CHECK(fixed_max * 100 < float_max);
+}
+
+TEST_CASE("CSAT: the kernel's filtered optical depth matches the CPU reference", "[lowpass]") {
+    Scene scene = cloud_scene();
+    BuiltSat b = build(scene);
+    const shadows::SatFrame& frame = b.sat.frames[0];
+    reference::CellGrid device = reference::cells_of_table(shadows::read_sat(test::context().runtime(), b.sat, b.sat.offsets[0], frame.entries()), frame.dims);
+    reference::CellGrid ref = reference::sat_cells(scene, frame);
+    auto points = random_points(300, 0.6f, 5);
+    for (int width : {1, 3, 6}) {
+        auto t = lowpass(scene, 0, points, float(width));
+        for (std::size_t i = 0; i < points.size(); ++i) {
+            INFO("W " << width << " point " << i);
+            double own = reference::filtered_depth(device, frame, 2, true, width, d3(points[i]));
+            double direct = reference::filtered_depth(ref, frame, 2, true, width, d3(points[i]));
+            CHECK(t[i] == Approx(std::exp(-own)).margin(2e-5));
+            CHECK(t[i] == Approx(std::exp(-direct)).margin(2e-3));
+        }
+    }
+}
+
+TEST_CASE("CSAT: a one-voxel filter approaches the shadow rays, wider filters depart", "[lowpass]") {
+    Scene scene = one_volume(std::make_shared<const Volume>(make_gaussian_blobs(32, 6, 4)), test::ramp_tf(0.1f, 0.8f, 0.3f),
+                             {directional({-0.4, -0.7, -0.5})});
+    auto points = random_points(400, 0.4f, 9);
+    RayErrors e = errors_to_rays(scene, points);
+    std::printf("CSAT vs shadow rays, |ΔT| mean/max: W=1 %.4f/%.4f, W=9 %.4f/%.4f\n", e.mean[0], e.worst[0], e.mean[1], e.worst[1]);
+    CHECK(e.mean[0] < 0.01);
+    CHECK(e.worst[0] < 0.06);
+    CHECK(e.mean[0] < e.mean[1]);
+}
+
+TEST_CASE("CSAT: homogeneous medium against exp(−σ·d), oblique and axis-aligned lights", "[lowpass]") {
+    const int n = 32;
+    const float alpha = 0.04f;
+    double sigma = -std::log(1.0 - alpha) * n;  // per world unit: opacity_unit = one voxel = 1/n
+    auto volume = test::constant_volume({n, n, n}, 1.f);
+    for (D3 dir : {D3{-0.3, -0.5, -0.8}, D3{0, 0, -1}, D3{1, 0, 0}, D3{0, -1, 0}}) {
+        Scene scene = one_volume(volume, test::constant_tf(alpha), {directional(dir)});
+        double len = std::sqrt(dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]);
+        D3 toward = {-dir[0] / len, -dir[1] / len, -dir[2] / len};
+        shadows::SatFrame frame = shadows::make_csat_frame(packing::pack_scene(scene), toward, std::size_t(1) << 24);
+        auto chord = [&](const D3& p) {  // to the box face [−0.5, 0.5]³ towards the light
+            double d = INFINITY;
+            for (std::size_t a = 0; a < 3; ++a)
+                if (toward[a] != 0) d = std::min(d, ((toward[a] > 0 ? 0.5 : -0.5) - p[a]) / toward[a]);
+            return std::max(d, 0.0);
+        };
+        bool axis = std::fabs(std::fabs(toward[0]) + std::fabs(toward[1]) + std::fabs(toward[2]) - 1) < 1e-9;
+        auto points = random_points(150, 0.3f, 2);
+        for (int width : {1, 5}) {
+            auto t = lowpass(scene, 0, points, float(width));
+            for (std::size_t i = 0; i < points.size(); ++i) {
+                // Ament Eq. 4 with the exact τ of 16 × 16 sub-rays over the W × W patch across l
+                double expected = 0, w = double(width) / n;
+                for (int a = 0; a < 16; ++a)
+                    for (int b = 0; b < 16; ++b) {
+                        double u = ((a + 0.5) / 16 - 0.5) * (width > 1 ? w : 0), v = ((b + 0.5) / 16 - 0.5) * (width > 1 ? w : 0);
+                        D3 p;
+                        for (std::size_t r = 0; r < 3; ++r) p[r] = points[i][r] + u * frame.axes[0][r] + v * frame.axes[1][r];
+                        expected += sigma * chord(p) / 256;
+                    }
+                INFO("direction " << dir[0] << "," << dir[1] << "," << dir[2] << " W " << width << " point " << i);
+                // axis-aligned: the cells are the voxels; oblique: the cells' staircase boundary
+                CHECK(-std::log(t[i]) == Approx(expected).epsilon(axis ? 1e-4 : 0.03).margin(axis ? 1e-4 : 1.5 * sigma / n));
+            }
+        }
+    }
+}
+
+TEST_CASE("CSAT: empty and saturated volumes give finite transmittance in [0, 1]", "[lowpass]") {
+    auto points = random_points(100, 0.7f, 4);
+    Scene empty = one_volume(test::constant_volume({12, 12, 12}, 0.f), test::constant_tf(0.f), {directional({0.2, -1, -0.3})});
+    for (double t : lowpass(empty, 0, points, 3.f)) CHECK(t == 1.0);
+    Scene stiff = one_volume(test::constant_volume({12, 12, 12}, 1.f), test::constant_tf(1.f), {directional({0.2, -1, -0.3})});
+    auto inner = random_points(50, 0.3f, 6);
+    for (float width : {0.f, 1.f, 7.f, 40.f}) {
+        for (double t : lowpass(stiff, 0, points, width)) CHECK((std::isfinite(t) && t >= 0.0 && t <= 1.0));
+        if (width <= 1.f)  // wider boxes reach past the volume, where σ = 0
+            for (double t : lowpass(stiff, 0, inner, width)) CHECK(t < 1e-3);
+    }
+    RenderOptions o;
+    o.shadows = ShadowTechnique::Lowpass;
+    RenderResult r = render(test::context(), stiff, o);
+    for (float v : r.image.rgba) REQUIRE(std::isfinite(v));
+    CHECK(r.stats.sat_tables == 1);
+    o.lowpass_filter_width = -1.f;
+    CHECK_THROWS_WITH(render(test::context(), stiff, o), Catch::Contains("--filter"));
+}
+
+TEST_CASE("CSAT: six orthodirectional lights share one table and match separately built ones", "[lowpass]") {
+    std::vector<Light> six;
+    for (D3 d : {D3{1, 0, 0}, D3{-1, 0, 0}, D3{0, 1, 0}, D3{0, -1, 0}, D3{0, 0, 1}, D3{0, 0, -1}}) six.push_back(directional(d));
+    auto volume = std::make_shared<const Volume>(make_cloud_noise(20, 8));
+    Scene all = one_volume(volume, test::ramp_tf(0.1f, 0.6f, 0.5f), six);
+    BuiltSat shared = build(all);
+    CHECK(shared.sat.frames.size() == 1);  // Ament §4.2.2: one CSAT for the six lights
+    auto points = random_points(150, 0.55f, 12);
+    for (int l = 0; l < 6; ++l) {
+        Scene alone = one_volume(volume, test::ramp_tf(0.1f, 0.6f, 0.5f), {six[std::size_t(l)]});
+        for (float width : {1.f, 4.f}) {
+            auto a = lowpass(all, l, points, width), b = lowpass(alone, 0, points, width);
+            for (std::size_t i = 0; i < points.size(); ++i) {
+                INFO("light " << l << " W " << width << " point " << i);
+                CHECK(a[i] == Approx(b[i]).margin(1e-4));
+            }
+        }
+    }
+}
+
+namespace {
+
+Light point_light(const D3& position) {
+    Light l;
+    l.type = LightType::Point;
+    l.position = {float(position[0]), float(position[1]), float(position[2])};
+    return l;
+}
+
+// Σ over random integer boxes of a device table against brute-force sums of the reference cells.
+void check_box_sums(const std::vector<std::uint64_t>& table, const reference::CellGrid& ref, unsigned seed) {
+    std::mt19937 rng(seed);
+    reference::CellGrid device = reference::cells_of_table(table, ref.dims);
+    for (int trial = 0; trial < 300; ++trial) {
+        std::array<int, 3> lo, hi;
+        for (std::size_t a = 0; a < 3; ++a) {
+            std::uniform_int_distribution<int> pick(0, ref.dims[a]);
+            int x = pick(rng), y = pick(rng);
+            lo[a] = std::min(x, y), hi[a] = std::max(x, y);
+        }
+        std::array<double, 3> flo = {double(lo[0]), double(lo[1]), double(lo[2])}, fhi = {double(hi[0]), double(hi[1]), double(hi[2])};
+        double sat = double(std::int64_t(reference::sat_box(table, ref.dims, lo, hi))) / SOMBRA_SAT_UNITS_PER_TAU;
+        CHECK(sat == Approx(reference::box_sum(device, flo, fhi)).margin(1e-9));  // integer sums are exact
+        CHECK(sat == Approx(reference::box_sum(ref, flo, fhi)).epsilon(3e-3).margin(2e-4));
+    }
+}
+
+}  // namespace
+
+TEST_CASE("SSAT: device cells and box sums match the CPU reference, light outside and inside", "[lowpass]") {
+    for (D3 light : {D3{1.6, 0.5, -0.4}, D3{0.1, -0.05, 0.15}}) {
+        Scene scene = one_volume(std::make_shared<const Volume>(make_cloud_noise(16, 3)), test::ramp_tf(0.1f, 0.6f, 0.6f),
+                                 {point_light(light)}, {10.f, -20.f, 5.f});
+        BuiltSat b = build(scene, std::size_t(1) << 18);
+        const SsatGridGpu& g = b.sat.spheres[0];
+        REQUIRE(g.dims.s[3] == 1);
+        CHECK(g.wrap_phi == (light[0] < 1 ? 1u : 0u));
+        auto table = shadows::read_sat(test::context().runtime(), b.sat, g.data_offset, shadows::ssat_entries(g));
+        reference::CellGrid ref = reference::ssat_cells(scene, g);
+        reference::CellGrid device = reference::cells_of_table(table, ref.dims);
+        double max_cell = *std::max_element(ref.cells.begin(), ref.cells.end()), worst = 0;
+        REQUIRE(max_cell > 0.01);
+        for (std::size_t i = 0; i < ref.cells.size(); ++i) worst = std::max(worst, std::fabs(device.cells[i] - ref.cells[i]));
+        INFO("light " << light[0] << "," << light[1] << "," << light[2]);
+        CHECK(worst <= 5e-3 * max_cell);
+        check_box_sums(table, ref, 7);
+    }
+}
+
+TEST_CASE("SSAT: homogeneous medium against exp(−σ·d), point light outside, inside and on a face", "[lowpass]") {
+    const int n = 32;
+    const float alpha = 0.04f;
+    double sigma = -std::log(1.0 - alpha) * n;
+    auto volume = test::constant_volume({n, n, n}, 1.f);
+    for (D3 light : {D3{1.7, 0.6, 0.9}, D3{0.12, -0.2, 0.05}, D3{0.5, 0.1, -0.1}}) {
+        Scene scene = one_volume(volume, test::constant_tf(alpha), {point_light(light)});
+        auto points = random_points(150, 0.35f, 3);
+        auto t = lowpass(scene, 0, points, 1.f);
+        auto rays = shadow_rays(scene, 0, points);
+        double mean = 0;
+        for (std::size_t i = 0; i < points.size(); ++i) {
+            D3 p = d3(points[i]), d = {light[0] - p[0], light[1] - p[1], light[2] - p[2]};
+            double len = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]), chord = len;
+            for (std::size_t a = 0; a < 3; ++a)  // from p towards the light, until the box face
+                if (d[a] != 0) chord = std::min(chord, ((d[a] > 0 ? 0.5 : -0.5) - p[a]) / (d[a] / len));
+            INFO("light " << light[0] << "," << light[1] << "," << light[2] << " point " << i);
+            REQUIRE(std::isfinite(t[i]));
+            CHECK((t[i] >= 0.0 && t[i] <= 1.0));
+            // W = 1 voxel: the pyramid's rays differ from the centre ray by ≤ half a voxel
+            CHECK(-std::log(t[i]) == Approx(sigma * chord).epsilon(0.04).margin(2.0 * sigma / n));
+            mean += std::fabs(t[i] - rays[i]) / double(points.size());
+        }
+        CHECK(mean < 0.01);
+    }
+}
+
+TEST_CASE("SSAT: a one-voxel filter approaches the shadow rays of a point light", "[lowpass]") {
+    for (D3 light : {D3{-1.2, 0.8, 0.9}, D3{0.05, 0.1, -0.1}}) {
+        Scene scene = one_volume(std::make_shared<const Volume>(make_gaussian_blobs(32, 6, 4)), test::ramp_tf(0.1f, 0.8f, 0.3f),
+                                 {point_light(light)});
+        auto points = random_points(300, 0.4f, 13);
+        RayErrors e = errors_to_rays(scene, points);
+        std::printf("SSAT (light %g,%g,%g) vs shadow rays, |ΔT| mean/max: W=1 %.4f/%.4f, W=9 %.4f/%.4f\n", light[0], light[1],
+                    light[2], e.mean[0], e.worst[0], e.mean[1], e.worst[1]);
+        CHECK(e.mean[0] < 0.01);
+        CHECK(e.worst[0] < 0.08);
+        CHECK(e.mean[0] < e.mean[1]);
+    }
+}
+
+TEST_CASE("Gaussian filter (Eq. 25): kernel vs CPU reference, homogeneous medium, closer to shadow rays than the box", "[lowpass]") {
+    Scene scene = cloud_scene();
+    BuiltSat b = build(scene);
+    const shadows::SatFrame& frame = b.sat.frames[0];
+    reference::CellGrid device = reference::cells_of_table(shadows::read_sat(test::context().runtime(), b.sat, b.sat.offsets[0], frame.entries()), frame.dims);
+    auto points = random_points(200, 0.6f, 15);
+    for (int width : {1, 4, 9}) {
+        auto t = lowpass(scene, 0, points, float(width), "gauss");
+        for (std::size_t i = 0; i < points.size(); ++i) {
+            INFO("W " << width << " point " << i);
+            CHECK(t[i] == Approx(std::exp(-reference::gauss_filtered_depth(device, frame, 2, true, width, d3(points[i])))).margin(2e-5));
+        }
+    }
+    // homogeneous cube, light along an axis: every sub-box has the same optical depth
+    const int n = 32;
+    double sigma = -std::log(1.0 - 0.04) * n;
+    auto cube = test::constant_volume({n, n, n}, 1.f);
+    auto inner = random_points(100, 0.3f, 16);
+    for (Light light : {directional({0, -1, 0}), [] { Light l; l.type = LightType::Point; l.position = {0.1f, 1.5f, -0.2f}; return l; }()}) {
+        Scene s = one_volume(cube, test::constant_tf(0.04f), {light});
+        auto t = lowpass(s, 0, inner, 5.f, "gauss");
+        for (std::size_t i = 0; i < inner.size(); ++i) {
+            D3 p = d3(inner[i]);
+            double chord = 0.5 - p[1];
+            if (light.type == LightType::Point) {  // to the top face y = 0.5, along the ray to the light
+                D3 d = {light.position[0] - p[0], light.position[1] - p[1], light.position[2] - p[2]};
+                chord = (0.5 - p[1]) * std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) / d[1];
+            }
+            INFO("light type " << int(light.type) << " point " << i);
+            CHECK(-std::log(t[i]) == Approx(sigma * chord).epsilon(0.04).margin(2.0 * sigma / n));
+        }
+    }
+    Scene blobs = one_volume(std::make_shared<const Volume>(make_gaussian_blobs(32, 6, 4)), test::ramp_tf(0.1f, 0.8f, 0.3f),
+                             {directional({-0.4, -0.7, -0.5})});
+    auto many = random_points(300, 0.4f, 9);
+    RayErrors box = errors_to_rays(blobs, many), gauss = errors_to_rays(blobs, many, "gauss");
+    std::printf("W=9 vs shadow rays, |ΔT| mean: box %.4f, gauss %.4f\n", box.mean[1], gauss.mean[1]);
+    CHECK(gauss.mean[1] < box.mean[1]);
+    RenderOptions o;
+    o.shadows = ShadowTechnique::Lowpass;
+    o.lowpass_filter_kernel = "tent";
+    CHECK_THROWS_WITH(render(test::context(), blobs, o), Catch::Contains("--filter-kernel"));
+}
+
+TEST_CASE("Baselines: SAT ambient occlusion and cone shadows vs CPU reference, homogeneous medium, shadow rays", "[lowpass]") {
+    Scene scene = cloud_scene();
+    scene.lights.push_back([] { Light l; l.type = LightType::Point; l.position = {0.9f, 0.7f, -0.4f}; return l; }());
+    auto& rt = test::context().runtime();
+    packing::PackedScene packed = packing::pack_scene(scene);
+    packing::DeviceScene device_scene = packing::upload_scene(rt, scene, packed, false);
+    shadows::DeviceSat sat = shadows::build_volume_sat(rt, scene, packed, device_scene, std::size_t(1) << 24);
+    const shadows::SatFrame& frame = sat.frames[0];
+    reference::CellGrid cells = reference::cells_of_table(shadows::read_sat(rt, sat, 0, frame.entries()), frame.dims);
+    auto points = random_points(150, 0.6f, 21);
+    for (int width : {1, 4}) {
+        auto t = lowpass(scene, 0, points, float(width), "box", ShadowTechnique::Ao);
+        for (std::size_t i = 0; i < points.size(); ++i)
+            CHECK(t[i] == Approx(std::exp(-reference::ambient_depth(cells, frame, width, d3(points[i])))).margin(2e-5));
+    }
+    for (int light = 0; light < 2; ++light)
+        for (float angle : {3.f, 15.f}) {
+            auto t = lowpass(scene, light, points, 1.f, "box", ShadowTechnique::Cone, angle);
+            for (std::size_t i = 0; i < points.size(); ++i) {
+                const Light& l = scene.lights[std::size_t(light)];
+                D3 p = d3(points[i]), towards = {-l.direction[0], -l.direction[1], -l.direction[2]};
+                double reach = INFINITY;
+                if (l.type == LightType::Point) {
+                    towards = {l.position[0] - p[0], l.position[1] - p[1], l.position[2] - p[2]};
+                    reach = std::sqrt(towards[0] * towards[0] + towards[1] * towards[1] + towards[2] * towards[2]);
+                }
+                double len = std::sqrt(towards[0] * towards[0] + towards[1] * towards[1] + towards[2] * towards[2]);
+                for (double& x : towards) x /= len;
+                INFO("light " << light << " angle " << angle << " point " << i);
+                double expected = reference::cone_depth(cells, frame, std::tan(angle * M_PI / 180), p, towards, reach);
+                CHECK(t[i] == Approx(std::exp(-expected)).margin(1e-4));
+            }
+        }
+    // homogeneous cube: AO inside is exp(−σ·W/2 voxels); a narrow cone along an axis is exp(−σ·d)
+    const int n = 32;
+    double sigma = -std::log(1.0 - 0.04) * n;
+    Scene cube = one_volume(test::constant_volume({n, n, n}, 1.f), test::constant_tf(0.04f), {directional({0, 0, -1})});
+    auto inner = random_points(100, 0.3f, 22);
+    for (double t : lowpass(cube, 0, inner, 6.f, "box", ShadowTechnique::Ao)) CHECK(t == Approx(std::exp(-sigma * 3.0 / n)).epsilon(1e-4));
+    auto cone = lowpass(cube, 0, inner, 1.f, "box", ShadowTechnique::Cone, 2.f);
+    for (std::size_t i = 0; i < inner.size(); ++i)
+        CHECK(-std::log(cone[i]) == Approx(sigma * (0.5 - inner[i][2])).epsilon(0.05).margin(1.0 * sigma / n));
+    Scene empty = one_volume(test::constant_volume({8, 8, 8}, 0.f), test::constant_tf(0.f), {directional({0.3, -1, 0.2})});
+    for (auto technique : {ShadowTechnique::Ao, ShadowTechnique::Cone})
+        for (double t : lowpass(empty, 0, inner, 3.f, "box", technique)) CHECK(t == 1.0);
+}
+
+TEST_CASE("low-pass tables follow a moved light on a kept Context", "[lowpass]") {
+    Context context("cpu"), fresh_context("cpu");  // their own kept state
+    Scene scene = cloud_scene();
+    RenderOptions o;
+    o.shadows = ShadowTechnique::Lowpass;
+    auto points = random_points(200, 0.4f, 3);
+    auto before = shadow_transmittance(context, scene, 0, points, o).transmittance;
+    scene.lights[0].direction = {-0.6f, -0.5f, 0.3f};
+    auto moved = shadow_transmittance(context, scene, 0, points, o).transmittance;
+    auto fresh = shadow_transmittance(fresh_context, scene, 0, points, o).transmittance;
+    double changed = 0;
+    for (std::size_t i = 0; i < points.size(); ++i) {
+        CHECK(moved[i] == fresh[i]);
+        changed = std::max(changed, std::fabs(double(moved[i]) - before[i]));
+    }
+    CHECK(changed > 0.05);
+}
