@@ -210,7 +210,7 @@ inline lmask shade_sample(VOLUME_DATA_PARAM, CameraState* state, const VolumeRay
         lmask visible = sigma > 0.0f;
         if (!lany(visible)) continue;
         lfloat3 normal = l3((lfloat)(0.0f), (lfloat)(0.0f), (lfloat)(0.0f));
-#ifdef SOMBRA_HAS_LIGHTS
+#if defined(SOMBRA_HAS_LIGHTS) && !defined(SOMBRA_SCATTERING)
         normal = normal_from_gradient(v, gradient_voxel(volume_data, v, pv));
 #endif
 #if defined(SOMBRA_SHADOW_RAYS) || defined(SOMBRA_SHADOW_DSM) || defined(SOMBRA_SHADOW_LOWPASS)
@@ -229,8 +229,13 @@ inline lmask shade_sample(VOLUME_DATA_PARAM, CameraState* state, const VolumeRay
             shadows_known |= needed;
         }
 #endif
+#ifdef SOMBRA_SCATTERING
+        lfloat3 shaded = scatter_shade(state->lights, light_count, state->camera->ambient_intensity, state->camera->phase_g, v,
+                                       c.color, p, state->to_viewer, shadow);
+#else
         lfloat3 shaded = phong_shade(state->lights, light_count, state->camera->ambient_intensity, v, c.color, p, normal,
                                      state->to_viewer, shadow);
+#endif
         sigma_sum += sigma;
         color_sum = l3_mad(shaded, sigma, color_sum);
     }

@@ -4,6 +4,7 @@
 #define SOMBRA_SHADING_H
 #include "shared/types.h"
 #include "lanes.h"
+#include "shared/phase.h"
 
 /* Unit vectors from p towards the light, and the light's intensity factor at p: distance
  * attenuation 1/(c + l·d + q·d²) for point and spot lights, times the spot cone's smooth edge. */
@@ -53,6 +54,25 @@ inline lfloat3 phong_shade(__global const LightGpu* lights, uint light_count, fl
                                    weight * (diffuse * color.z + specular) * lights[m].color.z));
     }
     return result;
+}
+
+/* Single scattering with shadows (Ament et al. 2014 Eq. 1–3): the radiance a sample scatters
+ * towards the viewer, per unit extinction, with albedo c (the transfer function's colour):
+ * c [k_a i_a + Σ_m 4π p(θ_m) f_m i_m · shadow_m], p Henyey–Greenstein with asymmetry g. The phase
+ * is scaled by 4π so that isotropic scattering has unit gain (as a head-on diffuse k_d = 1). */
+inline lfloat3 scatter_shade(__global const LightGpu* lights, uint light_count, float ambient_intensity, float g,
+                             __global const VolumeGpu* material, lfloat3 color, lfloat3 p, lfloat3 to_viewer,
+                             const lfloat* shadow) {
+    lfloat gain = (lfloat)(material->ambient * ambient_intensity);
+    lfloat3 light_sum = l3((lfloat)(0.0f), (lfloat)(0.0f), (lfloat)(0.0f));
+    for (uint m = 0; m < light_count; ++m) {
+        lfloat3 to_light;
+        lfloat incidence = light_incidence(&lights[m], p, &to_light);
+        lfloat cos_theta = -l3_dot(to_light, to_viewer); /* light travels along −to_light */
+        lfloat weight = incidence * shadow[m] * (4.0f * M_PI_F) * SOMBRA_HG_PHASE(g, cos_theta);
+        light_sum = l3_add(light_sum, l3(weight * lights[m].color.x, weight * lights[m].color.y, weight * lights[m].color.z));
+    }
+    return l3(color.x * (gain + light_sum.x), color.y * (gain + light_sum.y), color.z * (gain + light_sum.z));
 }
 
 #endif

@@ -5,6 +5,7 @@
 
 #include "reference/raycaster_ref.h"
 #include "test_support.h"
+#include "shared/phase.h"
 
 using namespace sombra;
 
@@ -162,4 +163,52 @@ TEST_CASE("public API renders the default CT scene", "[render][api]") {
     Image back = read_image(exr);
     CHECK(test::compare(back, r.image).max_abs < 1e-6);
     CHECK(read_image(png).width == 64);
+}
+
+TEST_CASE("single scattering: the Henyey-Greenstein phase integrates to one, isotropic at g = 0", "[render][scattering]") {
+    for (float g : {-0.9f, -0.5f, 0.f, 0.3f, 0.8f, 0.95f}) {
+        // ∫ p dω = 2π ∫_{-1}^{1} p(μ) dμ, midpoint rule in μ
+        const int n = 200000;
+        double integral = 0;
+        for (int i = 0; i < n; ++i) {
+            float mu = -1.f + 2.f * (float(i) + 0.5f) / float(n);
+            integral += double(SOMBRA_HG_PHASE(g, mu)) * 2.0 / n;
+        }
+        integral *= 2.0 * 3.14159265358979;
+        INFO("g " << g);
+        CHECK(std::fabs(integral - 1.0) < 2e-3);
+    }
+    CHECK(std::fabs(SOMBRA_HG_PHASE(0.f, 0.37f) - 1.f / (4.f * 3.14159265f)) < 1e-7f);
+}
+
+TEST_CASE("single scattering: isotropic equals head-on Phong in a homogeneous medium; forward scattering is brighter towards the light", "[render][scattering]") {
+    Scene s;
+    VolumeInstance vi;
+    vi.volume = test::constant_volume({8, 8, 8}, 0.5f);
+    vi.transfer_function = test::constant_tf(0.2f);
+    vi.transform = make_transform({0, 0, 0}, {0, 0, 0}, {1.f / 8, 1.f / 8, 1.f / 8});
+    vi.material.ambient = 0.f, vi.material.diffuse = 1.f, vi.material.specular = 0.f;
+    s.volumes.push_back(vi);
+    Light l;
+    l.type = LightType::Directional;
+    l.direction = {0.2f, -0.3f, 1.f};  // travels towards the camera (at +z)
+    s.lights.push_back(l);
+    s.camera.position = {0, 0, 2.5f};
+    RenderOptions o;
+    o.width = o.height = 24;
+    o.shadows = ShadowTechnique::Rays;
+    Image phong = render(test::context(), s, o).image;
+    o.shading = ShadingModel::Scattering;
+    Image isotropic = render(test::context(), s, o).image;
+    CHECK(test::compare(phong, isotropic).max_abs < 1e-5);
+    auto centre = [](const Image& im) { return im.rgba[(std::size_t(im.height / 2) * im.width + im.width / 2) * 4]; };
+    o.phase_g = 0.7f;
+    float forward = centre(render(test::context(), s, o).image);
+    o.phase_g = -0.7f;
+    float backward = centre(render(test::context(), s, o).image);
+    INFO("backward " << backward << ", isotropic " << centre(isotropic) << ", forward " << forward);
+    CHECK(forward > 1.5f * centre(isotropic));
+    CHECK(centre(isotropic) > 1.5f * backward);
+    o.phase_g = 1.f;
+    CHECK_THROWS_WITH(render(test::context(), s, o), Catch::Contains("--phase-g"));
 }

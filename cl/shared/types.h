@@ -101,7 +101,7 @@ typedef struct {
     float ambient_intensity;       /* i_a of Knecht Eq. 3.8 */
     float termination_transmittance; /* early ray termination below this t_acc */
     sb_uint jitter_seed;
-    sb_uint pad0;
+    float phase_g; /* single scattering (SOMBRA_SCATTERING): Henyey–Greenstein asymmetry g */
 } CameraGpu;
 
 /* A volume's pre-compressed visibility table (Hadwiger §3.2; src/shadows/precompression.h):

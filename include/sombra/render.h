@@ -29,9 +29,17 @@ enum class VolumeStorage { Auto, Buffer, Image };  // Auto: buffer on CPU device
 // cone_angle_deg towards each light as a series of growing cubes read from that SAT).
 enum class ShadowTechnique { None, Rays, Dsm, ShadowMap, Lowpass, Ao, Cone };
 
+// Phong: local illumination from gradient normals (course slides; Knecht Eq. 3.9). Scattering:
+// single scattering with shadows (Ament et al. 2014 Eq. 1–3): each sample scatters
+// c·[k_a i_a + Σ_m 4π p(θ_m) i_m f_m T_m] towards the viewer, p the Henyey–Greenstein phase of
+// asymmetry phase_g (0 isotropic, > 0 forward), scaled by 4π so isotropic scattering has unit gain.
+enum class ShadingModel { Phong, Scattering };
+
 struct RenderOptions {
     int width = 0, height = 0;  // 0: the scene's size
     GradientMethod gradient = GradientMethod::CentralDifferences;
+    ShadingModel shading = ShadingModel::Phong;
+    float phase_g = 0.f;  // Henyey–Greenstein g in (−1, 1), ShadingModel::Scattering only
     ShadowTechnique shadows = ShadowTechnique::None;
     int dsm_resolution = 512;   // texels per side of every deep shadow map view
     float dsm_epsilon = 0.02f;  // compression error bound (Knecht Eq. 3.1)

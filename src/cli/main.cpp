@@ -117,6 +117,12 @@ int run(int argc, char** argv) {
     render->add_option("--device", device, "auto, cpu, gpu, or an index from `sombra devices`");
     render->add_option("--stats", stats_path, "write per-stage times and sample counts as JSON");
     render->add_option("--gradient", gradient, "central or sobel")->check(CLI::IsMember({"central", "sobel"}));
+    std::string shading = "phong";
+    float phase_g = 0.f;
+    render->add_option("--shading", shading,
+                       "phong (gradient normals) or scattering (single scattering with shadows, Ament 2014 Eq. 1-3)")
+        ->check(CLI::IsMember({"phong", "scattering"}));
+    render->add_option("--phase-g", phase_g, "Henyey-Greenstein asymmetry g in (-1, 1) for --shading scattering (0: isotropic)");
     std::string shadows = "none";
     render->add_option("--shadows", shadows,
                        "none, rays (march from every sample to every light), dsm (deep shadow maps), shadowmap "
@@ -209,6 +215,8 @@ int run(int argc, char** argv) {
     sombra::RenderOptions options;
     options.width = width, options.height = height;
     options.gradient = gradient == "sobel" ? sombra::GradientMethod::Sobel : sombra::GradientMethod::CentralDifferences;
+    options.shading = shading == "scattering" ? sombra::ShadingModel::Scattering : sombra::ShadingModel::Phong;
+    options.phase_g = phase_g;
     options.storage = storage == "buffer" ? sombra::VolumeStorage::Buffer
                       : storage == "image" ? sombra::VolumeStorage::Image
                                            : sombra::VolumeStorage::Auto;

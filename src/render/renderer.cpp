@@ -32,6 +32,7 @@ std::vector<std::string> camera_pass_defines(const Scene& scene, const RenderOpt
     defines.push_back("SOMBRA_LIGHT_SLOTS=" + std::to_string(std::max<std::size_t>(scene.lights.size(), 1)));
     if (options.gradient == GradientMethod::Sobel) defines.push_back("SOMBRA_SOBEL");
     if (!scene.lights.empty()) defines.push_back("SOMBRA_HAS_LIGHTS");
+    if (options.shading == ShadingModel::Scattering) defines.push_back("SOMBRA_SCATTERING");
     if (!scene.lights.empty() && options.shadows == ShadowTechnique::Rays) defines.push_back("SOMBRA_SHADOW_RAYS");
     if (!scene.lights.empty() && options.shadows == ShadowTechnique::Ao) defines.push_back("SOMBRA_LOWPASS_AO");
     if (!scene.lights.empty() && options.shadows == ShadowTechnique::Cone) defines.push_back("SOMBRA_LOWPASS_CONE");
@@ -321,6 +322,8 @@ RenderResult render(Context& context, const Scene& scene, const RenderOptions& o
     CameraGpu camera = packing::pack_camera(scene, width, height);
     camera.termination_transmittance = options.termination_transmittance;
     camera.jitter_seed = options.jitter_seed;
+    if (!(options.phase_g > -1.f && options.phase_g < 1.f)) throw Error("--phase-g: must lie in (-1, 1)");
+    camera.phase_g = options.phase_g;
     std::size_t pixels = std::size_t(width) * std::size_t(height);
     cl::Buffer camera_buffer = host::make_buffer(runtime, CL_MEM_READ_ONLY, sizeof(CameraGpu), &camera, "camera");
     cl::Buffer image_buffer = host::make_buffer(runtime, CL_MEM_WRITE_ONLY, pixels * sizeof(cl_float4), nullptr, "image");
