@@ -2,6 +2,7 @@
 // and no output file; good input writes the image and the stats.
 #include <catch2/catch.hpp>
 
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -190,4 +191,37 @@ TEST_CASE("NaN voxels are rejected, or sanitized on request", "[cli]") {
     INFO(ok.stderr_text);
     CHECK(ok.exit_code == 0);
     CHECK(std::filesystem::exists(out));
+}
+
+TEST_CASE("sombra visibility prints every technique against the reference, and rejects bad points files", "[cli]") {
+    std::string scene = scene_file("visibility.json", nlohmann::json::object());
+    std::string points = write_file("points.csv", "0,0,0\n0.1,0.05,0\n0,0.1,0.02\n");
+    std::string out = sombra::test::temp_dir() + "/visibility.csv";
+    std::string command = std::string(SOMBRA_CLI) + " visibility " + scene + " --light 0 --points " + points +
+                          " --dsm-res 32 --filter 1 >" + out + " 2>/dev/null";
+    REQUIRE(std::system(command.c_str()) == 0);
+    std::ifstream in(out);
+    std::string header, line;
+    std::getline(in, header);
+    CHECK(header == "x,y,z,reference,dsm,shadow_ray,shadow_map,lowpass,dsm_error,shadow_ray_error,shadow_map_error,lowpass_error");
+    int rows = 0;
+    while (std::getline(in, line)) {
+        std::stringstream fields(line);
+        std::string field;
+        int columns = 0;
+        while (std::getline(fields, field, ',')) {
+            double value = std::stod(field);
+            CHECK(std::isfinite(value));
+            ++columns;
+        }
+        CHECK(columns == 12);
+        ++rows;
+    }
+    CHECK(rows == 3);
+    std::string bad = write_file("bad_points.csv", "0,0,0\n0.1,zero,0\n");
+    CliRun run = run_cli("visibility " + scene + " --light 0 --points " + bad);
+    INFO("stderr: " << run.stderr_text);
+    CHECK(run.exit_code != 0);
+    CHECK(run.stderr_text.find("bad_points.csv") != std::string::npos);
+    CHECK(run.stderr_text.find("line 2") != std::string::npos);
 }

@@ -67,36 +67,44 @@ std::vector<sombra::Vec3> read_points(const std::string& path) {
     return points;
 }
 
-// sombra visibility: per point, the technique's transmittance, the brute-force reference, and
-// their difference; then the mean and max error.
+// sombra visibility: per point, each technique's transmittance (deep shadow map, shadow ray,
+// binary shadow map, low-pass filtered with --filter W), the brute-force reference, and their
+// differences; then the mean and max error of each.
 int print_visibility(sombra::Context& context, const sombra::Scene& scene, int light,
                      const sombra::RenderOptions& options, const std::string& points_path, const std::string& stats_path) {
     auto points = read_points(points_path);
-    sombra::RenderOptions dsm_options = options, ray_options = options;
-    dsm_options.shadows = sombra::ShadowTechnique::Dsm;
-    ray_options.shadows = sombra::ShadowTechnique::Rays;
-    sombra::ShadowQuery dsm = sombra::shadow_transmittance(context, scene, light, points, dsm_options);
-    sombra::ShadowQuery rays = sombra::shadow_transmittance(context, scene, light, points, ray_options);
-    sombra::RenderOptions map_options = options;
-    map_options.shadows = sombra::ShadowTechnique::ShadowMap;
-    sombra::ShadowQuery maps = sombra::shadow_transmittance(context, scene, light, points, map_options);
-    std::cout << "x,y,z,reference,dsm,shadow_ray,shadow_map,dsm_error,shadow_ray_error,shadow_map_error\n";
-    const sombra::ShadowQuery* techniques[3] = {&dsm, &rays, &maps};
-    double sum[3] = {0, 0, 0}, worst[3] = {0, 0, 0};
+    const std::pair<const char*, sombra::ShadowTechnique> techniques[] = {{"dsm", sombra::ShadowTechnique::Dsm},
+                                                                          {"shadow_ray", sombra::ShadowTechnique::Rays},
+                                                                          {"shadow_map", sombra::ShadowTechnique::ShadowMap},
+                                                                          {"lowpass", sombra::ShadowTechnique::Lowpass}};
+    constexpr int count = 4;
+    std::vector<sombra::ShadowQuery> queries;
+    for (const auto& [name, technique] : techniques) {
+        sombra::RenderOptions technique_options = options;
+        technique_options.shadows = technique;
+        queries.push_back(sombra::shadow_transmittance(context, scene, light, points, technique_options));
+    }
+    std::cout << "x,y,z,reference";
+    for (const auto& t : techniques) std::cout << "," << t.first;
+    for (const auto& t : techniques) std::cout << "," << t.first << "_error";
+    std::cout << "\n";
+    double sum[count] = {}, worst[count] = {};
     for (std::size_t i = 0; i < points.size(); ++i) {
         double reference = sombra::reference_transmittance(scene, light, points[i]);
         std::cout << points[i][0] << "," << points[i][1] << "," << points[i][2] << "," << reference;
-        for (auto* t : techniques) std::cout << "," << t->transmittance[i];
-        for (int k = 0; k < 3; ++k) {
-            double e = std::fabs(techniques[k]->transmittance[i] - reference);
+        for (const auto& q : queries) std::cout << "," << q.transmittance[i];
+        for (int k = 0; k < count; ++k) {
+            double e = std::fabs(queries[std::size_t(k)].transmittance[i] - reference);
             sum[k] += e, worst[k] = std::max(worst[k], e);
             std::cout << "," << e;
         }
         std::cout << "\n";
     }
     double n = double(std::max<std::size_t>(points.size(), 1));
-    std::cerr << "sombra: " << points.size() << " points; |T − reference| mean/max: dsm " << sum[0] / n << "/" << worst[0]
-              << ", shadow rays " << sum[1] / n << "/" << worst[1] << ", shadow map " << sum[2] / n << "/" << worst[2] << "\n";
+    std::cerr << "sombra: " << points.size() << " points; |T − reference| mean/max:";
+    for (int k = 0; k < count; ++k) std::cerr << (k ? "," : "") << " " << techniques[k].first << " " << sum[k] / n << "/" << worst[k];
+    std::cerr << " (lowpass W " << options.lowpass_filter_width << ")\n";
+    sombra::ShadowQuery& dsm = queries.front();
     if (!stats_path.empty()) write_text_file(stats_path, dsm.stats.to_json());
     return 0;
 }
@@ -188,6 +196,8 @@ int run(int argc, char** argv) {
         sub->add_option("--eps", dsm_epsilon, "compression error bound ε")->check(CLI::Range(0.0f, 1e6f));
         sub->add_option("--stats", stats_path, "write build times and DSM sizes as JSON");
     }
+    visibility->add_option("--filter", filter_width, "low-pass filter width W in voxels (Ament §4.2.1)");
+    visibility->add_option("--filter-kernel", filter_kernel, "low-pass filter kernel: box or gauss");
 
     try {
         app.parse(argc, argv);
