@@ -11,7 +11,8 @@
 namespace sombra::shadows {
 
 std::vector<std::string> volume_pass_defines(const Scene& scene, bool use_images, bool skip_empty) {
-    std::vector<std::string> defines{"SOMBRA_VOLUME_SLOTS=" + std::to_string(scene.volumes.size())};
+    // at least one slot: a scene of meshes alone has no volume, and OpenCL C has no empty arrays
+    std::vector<std::string> defines{"SOMBRA_VOLUME_SLOTS=" + std::to_string(std::max<std::size_t>(scene.volumes.size(), 1))};
     if (use_images) defines.push_back("SOMBRA_USE_IMAGES");
     if (skip_empty) defines.push_back("SOMBRA_SKIP_EMPTY");
     return defines;
