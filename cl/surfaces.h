@@ -90,16 +90,23 @@ inline void composite_surfaces(VOLUME_DATA_PARAM, CameraState* state, SurfaceCur
         lfloat3 p = l3_mad(ray->dir, t, ray->origin);
         uint light_count = state->camera->light_count;
         lfloat shadow[SOMBRA_LIGHT_SLOTS];
+        lfloat3 normal = l3(LLOAD(nx), LLOAD(ny), LLOAD(nz));
         for (uint m = 0; m < light_count; ++m) {
 #if defined(SOMBRA_SHADOW_RAYS) || defined(SOMBRA_SHADOW_DSM)
-            shadow[m] = select((lfloat)(1.0f), light_transmittance(volume_data, state, m, p, here), here);
+            /* looked up a little off the surface on the light's side, so that the surface's own
+             * step in the deep shadow map does not shadow it (bias ∝ camera distance) */
+            lfloat3 to_light;
+            light_incidence(&state->lights[m], p, &to_light);
+            lfloat bias = 2e-3f * t * select((lfloat)(1.0f), (lfloat)(-1.0f), l3_dot(normal, to_light) < 0.0f);
+            lfloat3 lookup = l3_mad(normal, bias, p);
+            shadow[m] = select((lfloat)(1.0f), light_transmittance(volume_data, state, m, lookup, here), here);
 #else
             shadow[m] = (lfloat)(1.0f);
 #endif
         }
         lfloat3 shaded = phong_shade_lanes(state->lights, light_count, state->camera->ambient_intensity, LLOAD(ka),
                                            LLOAD(kd), LLOAD(ks), LLOAD(shininess), l3(LLOAD(cr), LLOAD(cg), LLOAD(cb)), p,
-                                           l3(LLOAD(nx), LLOAD(ny), LLOAD(nz)), state->to_viewer, shadow);
+                                           normal, state->to_viewer, shadow);
         lfloat alpha = select((lfloat)(0.0f), LLOAD(opacity), here);
         state->radiance = l3_mad(shaded, alpha * state->transmittance, state->radiance);
         state->transmittance *= 1.0f - alpha;

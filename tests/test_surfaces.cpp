@@ -117,3 +117,37 @@ TEST_CASE("surfaces: an opaque quad through a volume's centre hides what lies be
         CHECK(mid(im_front)[k] > 0.f);
     }
 }
+
+TEST_CASE("surfaces in deep shadow maps: a quad of opacity a leaves 1 − a behind it, exactly its projection", "[surfaces][dsm]") {
+    Scene s = quad_scene();
+    Light spot;
+    spot.type = LightType::Spot;
+    spot.position = {0.f, 0.f, 2.f};
+    spot.direction = {0.f, 0.f, -1.f};
+    spot.cone_angle_deg = 40.f;
+    s.lights.push_back(spot);
+    s.meshes.push_back(quad(1.5f, -1.f, 1.f, {0.5f, 0.5f, 0.5f}));  // the opaque floor
+    RenderOptions o;
+    o.shadows = ShadowTechnique::Dsm;
+    o.dsm_resolution = 128;
+    // the quad's edge at x = ±0.3 projects to ±0.375 on the plane z = −0.5 (light at z = 2)
+    std::vector<Vec3> points{{0.f, 0.f, -0.5f}, {0.2f, -0.25f, -0.5f}, {0.6f, 0.f, -0.5f}, {0.f, -0.55f, -0.5f},
+                             {0.f, 0.f, 0.5f}, {0.f, 0.f, -0.9f}};
+    for (float a : {1.f, 0.35f}) {
+        Scene with = s;
+        with.meshes.push_back(quad(0.3f, 0.f, a, {1.f, 1.f, 1.f}));
+        auto t = shadow_transmittance(test::context(), with, 0, points, o).transmittance;
+        INFO("opacity " << a);
+        CHECK(t[0] == Approx(1 - a).margin(1e-5));
+        CHECK(t[1] == Approx(1 - a).margin(1e-5));
+        CHECK(t[2] == Approx(1.0).margin(1e-5));
+        CHECK(t[3] == Approx(1.0).margin(1e-5));
+        CHECK(t[4] == Approx(1.0).margin(1e-5));  // above the quad
+        CHECK(t[5] == Approx(1 - a).margin(1e-5));
+        // lanes do not change the maps
+        RenderOptions one = o;
+        one.lanes = 1;
+        auto t1 = shadow_transmittance(test::context(), with, 0, points, one).transmittance;
+        for (std::size_t i = 0; i < t.size(); ++i) CHECK(t1[i] == t[i]);
+    }
+}
