@@ -8,7 +8,7 @@
  *   dsm_count  nodes per texel only (SOMBRA_DSM_COUNT_ONLY; the compact backend's first pass)
  * Defines as render.cl: SOMBRA_LANES, SOMBRA_VOLUME_SLOTS, SOMBRA_USE_IMAGES, SOMBRA_SKIP_EMPTY;
  * the backend's (SOMBRA_DSM_ATLAS, SOMBRA_DSM_CHUNKED); SOMBRA_DSM_PRECOMPRESSED (pre-compressed
- * visibility tables, Hadwiger §3.2). */
+ * visibility tables, Hadwiger §3.2); SOMBRA_HAS_MESHES (surfaces as vertical steps, Knecht §3.2). */
 #include "shared/types.h"
 #include "shared/hash.h"
 #include "shared/compress.h"
@@ -21,6 +21,25 @@
 /* A ray stops once its transmittance falls below this: V(z) is then within 10⁻⁴ of 1. */
 #define DSM_TERMINATION_TRANSMITTANCE 1e-4f
 
+#ifdef SOMBRA_HAS_MESHES
+/* The texel's surface fragments (render/fragments.h, sorted near to far) nearer than `limit`, in
+ * depth order with the volume samples: each one a vertical step of its opacity a,
+ * α_acc += a (1 − α_acc), two nodes at its depth that the compressor never smooths away. */
+#define DSM_INSERT_SURFACES(lane, limit)                                                                     \
+    while (surface_next[lane] < surface_end[lane] && fragments[surface_next[lane]].depth < (limit)) {        \
+        FragmentGpu f = fragments[surface_next[lane]++];                                                     \
+        float a = surface_materials[screen_triangles[f.triangle].mesh].color.w;                              \
+        if (!(a > 0.0f)) continue;                                                                           \
+        float before = 1.0f - transmittance[lane];                                                           \
+        transmittance[lane] *= 1.0f - a;                                                                     \
+        STORE_NODES(lane, compressor_flush(&compressor[lane]));                                              \
+        STORE_NODES(lane, compressor_step(&compressor[lane], f.depth, before, 1.0f - transmittance[lane])); \
+        previous_t[lane] = f.depth;                                                                          \
+    }
+#else
+#define DSM_INSERT_SURFACES(lane, limit)
+#endif
+
 
 DSM_GENERATION_KERNEL(VOLUME_DATA_PARAM, __global const uchar* occupancy, __global const float* tf_tables,
      __global const VolumeGpu* volumes, uint volume_count, __global const DsmViewGpu* views, uint view_index,
@@ -28,6 +47,10 @@ DSM_GENERATION_KERNEL(VOLUME_DATA_PARAM, __global const uchar* occupancy, __glob
 #ifdef SOMBRA_DSM_PRECOMPRESSED
      __global const PrecompressionGpu* precompression, __global const float* precompressed_fraction,
      __global const float* precompressed_opacity, __global const uchar* precompressed_count,
+#endif
+#ifdef SOMBRA_HAS_MESHES
+     __global const uint* fragment_first, __global const FragmentGpu* fragments,
+     __global const ScreenTriangleGpu* screen_triangles, __global const SurfaceMaterialGpu* surface_materials,
 #endif
      DSM_BUILD_STORAGE_PARAMS) {
     __global const DsmViewGpu* v = &views[view_index];
@@ -63,6 +86,14 @@ DSM_GENERATION_KERNEL(VOLUME_DATA_PARAM, __global const uchar* occupancy, __glob
         transmittance[lane] = 1.0f;
         previous_t[lane] = -INFINITY;
     }
+#ifdef SOMBRA_HAS_MESHES
+    uint surface_next[SOMBRA_LANES], surface_end[SOMBRA_LANES];
+    for (uint lane = 0; lane < SOMBRA_LANES; ++lane) {
+        uint texel = y * v->resolution + min(x0 + lane, v->resolution - 1);
+        surface_next[lane] = fragment_first[texel];
+        surface_end[lane] = lane < n ? fragment_first[texel + 1] : surface_next[lane];
+    }
+#endif
 #ifdef SOMBRA_DSM_PRECOMPRESSED
     lfloat previous_density = (lfloat)(0.0f);
     lint previous_segment = (lint)(-1), previous_k = (lint)(-1);
@@ -113,6 +144,7 @@ DSM_GENERATION_KERNEL(VOLUME_DATA_PARAM, __global const uchar* occupancy, __glob
         for (uint lane = 0; lane < SOMBRA_LANES; ++lane) {
             if (!sampling_lane[lane]) continue;
             float t = t_lane[lane];
+            DSM_INSERT_SURFACES(lane, t);
 #ifdef SOMBRA_DSM_PRECOMPRESSED
             if (tabled_lane[lane]) {
                 __global const PrecompressionGpu* table = &precompression[31 - clz(active_lane[lane])];
@@ -143,6 +175,9 @@ DSM_GENERATION_KERNEL(VOLUME_DATA_PARAM, __global const uchar* occupancy, __glob
         }
         cursor.alive &= !(LLOAD(transmittance) < DSM_TERMINATION_TRANSMITTANCE);
     }
-    for (uint lane = 0; lane < n; ++lane) STORE_NODES(lane, compressor_finish(&compressor[lane]));
+    for (uint lane = 0; lane < n; ++lane) {
+        DSM_INSERT_SURFACES(lane, INFINITY);
+        STORE_NODES(lane, compressor_finish(&compressor[lane]));
+    }
     DSM_TEXELS_END(v, x0, y, n);
 }

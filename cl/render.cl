@@ -8,7 +8,8 @@
  * from deep shadow maps), SOMBRA_SHADOW_BINARY (with SOMBRA_SHADOW_DSM: binary shadow maps),
  * SOMBRA_SHADOW_LOWPASS (low-pass filtered shadows from light-aligned summed-area tables; with
  * SOMBRA_LOWPASS_GAUSS Gaussian filtered; with SOMBRA_LOWPASS_AO or SOMBRA_LOWPASS_CONE the SAT
- * ambient-occlusion or cone-shadow baselines on one volume-aligned table). */
+ * ambient-occlusion or cone-shadow baselines on one volume-aligned table),
+ * SOMBRA_HAS_MESHES (translucent surface fragments composited in depth order: surfaces.h). */
 #include "shared/types.h"
 #include "shared/hash.h"
 #include "lanes.h"
@@ -186,6 +187,20 @@ inline lfloat dsm_shadow(CameraState* state, uint light_index, lfloat3 p, lmask 
 }
 #endif
 
+#if defined(SOMBRA_SHADOW_RAYS) || defined(SOMBRA_SHADOW_DSM) || defined(SOMBRA_SHADOW_LOWPASS)
+/* Transmittance from p to light m by the technique the program was built for: volume samples and
+ * surface fragments (surfaces.h) read the same shadow term. */
+inline lfloat light_transmittance(VOLUME_DATA_PARAM, CameraState* state, uint m, lfloat3 p, lmask lanes) {
+#if defined(SOMBRA_SHADOW_LOWPASS)
+    return lowpass_shadow(volume_data, state, m, p, lanes);
+#elif defined(SOMBRA_SHADOW_RAYS)
+    return shadow_ray(volume_data, state, &state->lights[m], p, lanes);
+#else
+    return dsm_shadow(state, m, p, lanes);
+#endif
+}
+#endif
+
 /* One sample of all active volumes: extinction-weighted blend of their shaded colours,
  * α = 1 − exp(−Σσ·Δ), then I_acc += I_p α t_acc; t_acc *= 1 − α (Knecht Eq. 3.10–3.11).
  * Returns the lanes whose ray goes on (early ray termination). */
@@ -216,16 +231,8 @@ inline lmask shade_sample(VOLUME_DATA_PARAM, CameraState* state, const VolumeRay
 #if defined(SOMBRA_SHADOW_RAYS) || defined(SOMBRA_SHADOW_DSM) || defined(SOMBRA_SHADOW_LOWPASS)
         lmask needed = visible & !shadows_known;
         if (lany(needed)) {
-            for (uint m = 0; m < light_count; ++m) {
-#if defined(SOMBRA_SHADOW_LOWPASS)
-                lfloat transmittance_to_light = lowpass_shadow(volume_data, state, m, p, needed);
-#elif defined(SOMBRA_SHADOW_RAYS)
-                lfloat transmittance_to_light = shadow_ray(volume_data, state, &state->lights[m], p, needed);
-#else
-                lfloat transmittance_to_light = dsm_shadow(state, m, p, needed);
-#endif
-                shadow[m] = select(shadow[m], transmittance_to_light, needed);
-            }
+            for (uint m = 0; m < light_count; ++m)
+                shadow[m] = select(shadow[m], light_transmittance(volume_data, state, m, p, needed), needed);
             shadows_known |= needed;
         }
 #endif
@@ -247,6 +254,10 @@ inline lmask shade_sample(VOLUME_DATA_PARAM, CameraState* state, const VolumeRay
     return state->transmittance > state->camera->termination_transmittance;
 }
 
+#ifdef SOMBRA_HAS_MESHES
+#include "surfaces.h"
+#endif
+
 __kernel void render_camera(VOLUME_DATA_PARAM, __global const uchar* occupancy, __global const float* tf_tables,
                             __global const VolumeGpu* volumes, __global const LightGpu* lights,
                             __global const CameraGpu* camera, __global float4* image, __global uint* sample_counts
@@ -254,6 +265,9 @@ __kernel void render_camera(VOLUME_DATA_PARAM, __global const uchar* occupancy, 
                             , __global const DsmViewGpu* views, DSM_READ_PARAMS
 #endif
                             LOWPASS_PARAMS
+#ifdef SOMBRA_HAS_MESHES
+                            , SURFACE_PARAMS
+#endif
 ) {
     uint y = get_global_id(1);
     if (y >= camera->height) return;
@@ -296,9 +310,20 @@ __kernel void render_camera(VOLUME_DATA_PARAM, __global const uchar* occupancy, 
 
     SegmentCursor cursor;
     segment_cursor_init(&cursor, &ray, camera->volume_count, state.jitter, lanes);
+#ifdef SOMBRA_HAS_MESHES
+    SurfaceCursor surfaces;
+    surface_cursor_init(&surfaces, SURFACE_ARGS, xs, y, camera->width, lanes);
+#endif
     lmask sampling;
-    while (lany(sampling = segment_cursor_next(&cursor, &ray, volumes, camera->volume_count, occupancy)))
+    while (lany(sampling = segment_cursor_next(&cursor, &ray, volumes, camera->volume_count, occupancy))) {
+#ifdef SOMBRA_HAS_MESHES /* surfaces in front of the sample first (front to back) */
+        composite_surfaces(volume_data, &state, &surfaces, &ray, cursor.t, sampling);
+#endif
         cursor.alive &= shade_sample(volume_data, &state, &ray, &cursor, sampling) | !sampling;
+    }
+#ifdef SOMBRA_HAS_MESHES
+    composite_surfaces(volume_data, &state, &surfaces, &ray, (lfloat)(INFINITY), lanes);
+#endif
 
     float red[SOMBRA_LANES], green[SOMBRA_LANES], blue[SOMBRA_LANES], transmittance[SOMBRA_LANES];
     uint samples[SOMBRA_LANES];

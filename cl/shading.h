@@ -30,11 +30,11 @@ inline lfloat light_incidence(__global const LightGpu* light, lfloat3 p, lfloat3
  * N is made to face the viewer (gradients have no preferred side); N = 0 marks a vanishing
  * gradient, shaded as if lit head-on without a highlight (homogeneous media such as fog).
  * shadow[m] is the transmittance 1 − α_m from the sample to light m (Knecht Eq. 3.8). */
-inline lfloat3 phong_shade(__global const LightGpu* lights, uint light_count, float ambient_intensity,
-                           __global const VolumeGpu* material, lfloat3 color, lfloat3 p, lfloat3 normal,
-                           lfloat3 to_viewer, const lfloat* shadow) {
-    float ka = material->ambient, kd = material->diffuse, ks = material->specular;
-    lfloat3 result = l3_scale(color, (lfloat)(ka * ambient_intensity));
+/* The coefficients per lane (surface fragments of several meshes share a packet). */
+inline lfloat3 phong_shade_lanes(__global const LightGpu* lights, uint light_count, float ambient_intensity, lfloat ka,
+                                 lfloat kd, lfloat ks, lfloat shininess, lfloat3 color, lfloat3 p, lfloat3 normal,
+                                 lfloat3 to_viewer, const lfloat* shadow) {
+    lfloat3 result = l3_scale(color, ka * ambient_intensity);
     lmask has_normal = l3_dot(normal, normal) > 0.0f;
     normal = l3_select(normal, l3_scale(normal, (lfloat)(-1.0f)), l3_dot(normal, to_viewer) < 0.0f);
     for (uint m = 0; m < light_count; ++m) {
@@ -44,9 +44,9 @@ inline lfloat3 phong_shade(__global const LightGpu* lights, uint light_count, fl
         lfloat n_dot_l = fmax(n_dot_l_signed, 0.0f);
         lfloat3 reflected = l3_sub(l3_scale(normal, 2.0f * n_dot_l_signed), to_light);
         lfloat r_dot_v = fmax(l3_dot(reflected, to_viewer), 0.0f);
-        lfloat highlight = ks > 0.0f ? select((lfloat)(0.0f), pow(r_dot_v, (lfloat)(material->shininess)), n_dot_l > 0.0f)
-                                     : (lfloat)(0.0f);
-        lfloat diffuse = select((lfloat)(kd), kd * n_dot_l, has_normal); /* no normal: lit head-on */
+        lfloat highlight = lany(ks > 0.0f) ? select((lfloat)(0.0f), pow(r_dot_v, shininess), n_dot_l > 0.0f)
+                                           : (lfloat)(0.0f);
+        lfloat diffuse = select(kd, kd * n_dot_l, has_normal); /* no normal: lit head-on */
         lfloat specular = select((lfloat)(0.0f), ks * highlight, has_normal);
         lfloat weight = incidence * shadow[m];
         result = l3_add(result, l3(weight * (diffuse * color.x + specular) * lights[m].color.x,
@@ -73,6 +73,14 @@ inline lfloat3 scatter_shade(__global const LightGpu* lights, uint light_count, 
         light_sum = l3_add(light_sum, l3(weight * lights[m].color.x, weight * lights[m].color.y, weight * lights[m].color.z));
     }
     return l3(color.x * (gain + light_sum.x), color.y * (gain + light_sum.y), color.z * (gain + light_sum.z));
+}
+
+inline lfloat3 phong_shade(__global const LightGpu* lights, uint light_count, float ambient_intensity,
+                           __global const VolumeGpu* material, lfloat3 color, lfloat3 p, lfloat3 normal,
+                           lfloat3 to_viewer, const lfloat* shadow) {
+    return phong_shade_lanes(lights, light_count, ambient_intensity, (lfloat)(material->ambient), (lfloat)(material->diffuse),
+                             (lfloat)(material->specular), (lfloat)(material->shininess), color, p, normal, to_viewer,
+                             shadow);
 }
 
 #endif

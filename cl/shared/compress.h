@@ -103,4 +103,29 @@ SB_COMPRESS_INLINE CompressorOutput compressor_finish(VisibilityCompressor* c) {
     return out;
 }
 
+/* Before a vertical step (a surface, Knecht §3.2): ends the open line at the last sample as
+ * compressor_finish does; the step then starts from there. */
+SB_COMPRESS_INLINE CompressorOutput compressor_flush(VisibilityCompressor* c) {
+    CompressorOutput out = compressor_finish(c);
+    if (out.count > 0) c->origin_z = out.z[0], c->origin_alpha = out.alpha[0];
+    return out;
+}
+
+/* A vertical step at z from alpha_before to alpha_after (a surface crossing, after
+ * compressor_flush): two nodes at the same depth, never smoothed away; the next line starts at
+ * (z, alpha_after) with an open wedge. A step at the origin's depth (coincident surfaces) only
+ * moves the origin up. */
+SB_COMPRESS_INLINE CompressorOutput compressor_step(VisibilityCompressor* c, float z, float alpha_before, float alpha_after) {
+    CompressorOutput out;
+    out.count = 0;
+    if (!(c->started && c->origin_z == z)) compressor_emit(&out, z, alpha_before);
+    compressor_emit(&out, z, alpha_after);
+    c->started = 1;
+    c->origin_z = c->prev_z = z;
+    c->origin_alpha = c->prev_alpha = alpha_after;
+    c->m_lo = 0.0f;
+    c->m_hi = INFINITY;
+    return out;
+}
+
 #endif /* SOMBRA_SHARED_COMPRESS_H */

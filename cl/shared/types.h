@@ -144,6 +144,21 @@ typedef struct {
     sb_uint triangle; /* index into the rasterized ScreenTriangleGpu list */
 } FragmentGpu;
 
+/* A mesh triangle in the world, for shading surface fragments (cl/surfaces.h): indexed by
+ * ScreenTriangleGpu.source. Normals are interpolated barycentrically at the fragment's point. */
+typedef struct {
+    sb_float4 corner;    /* corner 0 */
+    sb_float4 edge1;     /* corner 1 − corner 0 */
+    sb_float4 edge2;     /* corner 2 − corner 0 */
+    sb_float4 normal[3]; /* unit normal at each corner (the face normal if the mesh has none) */
+} SurfaceTriangleGpu;
+
+/* A mesh instance's material: Phong (Knecht Eq. 3.8) and the opacity of one surface crossing. */
+typedef struct {
+    sb_float4 color;     /* rgb, a: opacity of one crossing */
+    float ambient, diffuse, specular, shininess;
+} SurfaceMaterialGpu;
+
 /* The screen the raster and segment kernels work on. */
 typedef struct {
     sb_uint width, height;  /* pixels */

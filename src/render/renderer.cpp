@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 
 #include "render/scene_upload.h"
+#include "render/surfaces.h"
 #include "shadows/dsm_builder.h"
 #include "shadows/dsm_views.h"
 #include "shadows/sat_grid.h"
@@ -33,6 +34,7 @@ std::vector<std::string> camera_pass_defines(const Scene& scene, const RenderOpt
     if (options.gradient == GradientMethod::Sobel) defines.push_back("SOMBRA_SOBEL");
     if (!scene.lights.empty()) defines.push_back("SOMBRA_HAS_LIGHTS");
     if (options.shading == ShadingModel::Scattering) defines.push_back("SOMBRA_SCATTERING");
+    if (!scene.meshes.empty()) defines.push_back("SOMBRA_HAS_MESHES");
     if (!scene.lights.empty() && options.shadows == ShadowTechnique::Rays) defines.push_back("SOMBRA_SHADOW_RAYS");
     if (!scene.lights.empty() && options.shadows == ShadowTechnique::Ao) defines.push_back("SOMBRA_LOWPASS_AO");
     if (!scene.lights.empty() && options.shadows == ShadowTechnique::Cone) defines.push_back("SOMBRA_LOWPASS_CONE");
@@ -58,6 +60,7 @@ struct PreparedScene {
     packing::DeviceScene device;
     shadows::DeviceDsm dsm;
     shadows::DeviceSat sat;  // low-pass shadows: light-aligned summed-area tables
+    surfaces::DeviceSurfaces surfaces;  // scenes with meshes
     bool use_images = false, use_dsm = false, use_sat = false;
 };
 
@@ -98,6 +101,13 @@ std::string volumes_key(const Scene& scene, const RenderOptions& o, bool use_ima
         for (auto& a : vi.transfer_function.opacity_points) key << ' ' << a.x << ' ' << a.alpha;
         key << ' ' << vi.step_voxels << ' ' << vi.opacity_unit << ' ' << vi.material.ambient << ' ' << vi.material.diffuse
             << ' ' << vi.material.specular << ' ' << vi.material.shininess;
+    }
+    for (const MeshInstance& mi : scene.meshes) {  // by identity: meshes are immutable once shared
+        key << "M" << static_cast<const void*>(mi.mesh.get());
+        for (float f : mi.transform) key << ' ' << f;
+        const MeshMaterial& m = mi.material;
+        key << ' ' << m.color[0] << ' ' << m.color[1] << ' ' << m.color[2] << ' ' << m.opacity << ' ' << m.phong.ambient << ' '
+            << m.phong.diffuse << ' ' << m.phong.specular << ' ' << m.phong.shininess;
     }
     key << " L";
     for (const Light& l : scene.lights) key << ' ' << (l.type == LightType::Point ? 6 : 1);  // views per light
@@ -141,8 +151,9 @@ int update_lights(host::Runtime& runtime, const Scene& scene, const RenderOption
     prepared.packed.lights = packing::pack_lights(scene);
     std::vector<DsmViewGpu> views;
     if (prepared.use_dsm) views = shadows::make_dsm_views(scene, prepared.packed, options.dsm_resolution);
-    runtime.queue().enqueueWriteBuffer(prepared.device.lights, CL_TRUE, 0, prepared.packed.lights.size() * sizeof(LightGpu),
-                                       prepared.packed.lights.data());
+    if (!prepared.packed.lights.empty())  // OpenCL forbids writing 0 bytes
+        runtime.queue().enqueueWriteBuffer(prepared.device.lights, CL_TRUE, 0,
+                                           prepared.packed.lights.size() * sizeof(LightGpu), prepared.packed.lights.data());
     stats.stage_ms["host_prepare"] = ms_since(start);
     if (!prepared.use_dsm) return 0;
     std::vector<bool> regenerate(views.size(), false);
@@ -218,6 +229,7 @@ PreparedScene prepare_anew(host::Runtime& runtime, const Scene& scene, const Ren
                           (options.storage == VolumeStorage::Auto && runtime.info().is_gpu);
     prepared.device = packing::upload_scene(runtime, scene, prepared.packed, prepared.use_images);
     stats.stage_ms["upload"] = prepared.device.upload_ms;
+    if (!scene.meshes.empty()) prepared.surfaces = surfaces::upload_surfaces(runtime, surfaces::pack_surfaces(scene));
     if (prepared.use_dsm) {
         prepared.dsm = shadows::build_deep_shadow_maps(runtime, scene, prepared.packed, prepared.device, views,
                                                        dsm_build_options(options));
@@ -337,7 +349,16 @@ RenderResult render(Context& context, const Scene& scene, const RenderOptions& o
     kernel.setArg(arg++, image_buffer);
     kernel.setArg(arg++, count_buffer);
     shadows::SatGridBuffers sat_grids;
-    set_sat_args(runtime, kernel, set_dsm_args(kernel, arg, prepared), prepared, options, sat_grids);
+    arg = set_sat_args(runtime, kernel, set_dsm_args(kernel, arg, prepared), prepared, options, sat_grids);
+    surfaces::ViewFragments fragments;
+    if (!scene.meshes.empty()) {  // the camera view's fragments (Knecht §3.1: raster → segments)
+        fragments = surfaces::view_fragments(runtime, scene.meshes, raster::camera_view(scene.camera, width, height));
+        stats.stage_ms["camera_raster"] = fragments.tiles.stats.count_ms + fragments.tiles.stats.write_ms;
+        stats.stage_ms["camera_fragments"] = fragments.fragments.stats.count_ms + fragments.fragments.stats.write_ms;
+        for (const cl::Buffer* b : std::initializer_list<const cl::Buffer*>{&fragments.fragments.first, &fragments.fragments.fragments, &fragments.tiles.triangles,
+                                    &prepared.surfaces.triangles, &prepared.surfaces.materials})
+            kernel.setArg(arg++, *b);
+    }
 
     double kernel_ms = host::run_packets(runtime, kernel, width, height, lanes);
     stats.stage_ms["camera_pass"] = kernel_ms;

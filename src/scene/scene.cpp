@@ -258,15 +258,19 @@ Scene load_scene(const std::string& path, const VolumeLoadOptions& options) {
     scene.background = f.vec3("background", scene.background);
     scene.ambient_intensity = f.number("ambient_intensity", scene.ambient_intensity);
     if (scene.ambient_intensity < 0.f) f.fail("ambient_intensity", "must be ≥ 0");
-    const json& volumes = f.at("volumes");
-    if (!volumes.is_array() || volumes.empty()) f.fail("volumes", "must be a non-empty array");
-    for (std::size_t i = 0; i < volumes.size(); ++i)
-        scene.volumes.push_back(read_volume(volumes[i], path, "volumes[" + std::to_string(i) + "]", options));
     if (f.has("meshes")) {
         const json& meshes = f.at("meshes");
         if (!meshes.is_array()) f.fail("meshes", "must be an array");
         for (std::size_t i = 0; i < meshes.size(); ++i)
             scene.meshes.push_back(read_mesh(meshes[i], path, "meshes[" + std::to_string(i) + "]"));
+    }
+    // a scene needs something to show: volumes, or meshes alone (then "volumes" may be left out)
+    if (f.has("volumes") || scene.meshes.empty()) {
+        const json& volumes = f.at("volumes");
+        if (!volumes.is_array() || (volumes.empty() && scene.meshes.empty()))
+            f.fail("volumes", scene.meshes.empty() ? "must be a non-empty array" : "must be an array");
+        for (std::size_t i = 0; i < volumes.size(); ++i)
+            scene.volumes.push_back(read_volume(volumes[i], path, "volumes[" + std::to_string(i) + "]", options));
     }
     if (f.has("lights")) {
         const json& lights = f.at("lights");

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 
+#include "render/surfaces.h"
 #include "shadows/precompression.h"
 
 #include "sombra/error.h"
@@ -11,7 +12,8 @@
 namespace sombra::shadows {
 
 std::vector<std::string> volume_pass_defines(const Scene& scene, bool use_images, bool skip_empty) {
-    std::vector<std::string> defines{"SOMBRA_VOLUME_SLOTS=" + std::to_string(scene.volumes.size())};
+    // at least one slot: a scene of meshes alone has no volume, and OpenCL C has no empty arrays
+    std::vector<std::string> defines{"SOMBRA_VOLUME_SLOTS=" + std::to_string(std::max<std::size_t>(scene.volumes.size(), 1))};
     if (use_images) defines.push_back("SOMBRA_USE_IMAGES");
     if (skip_empty) defines.push_back("SOMBRA_SKIP_EMPTY");
     return defines;
@@ -148,11 +150,17 @@ void generate(host::Runtime& runtime, const Scene& scene, const packing::PackedS
         precompression = upload_precompression(runtime, scene, packed, options.epsilon, dsm.stats);
         defines.push_back("SOMBRA_DSM_PRECOMPRESSED");
     }
+    surfaces::DeviceSurfaces surface_data;  // meshes: their fragments in each view become steps (Knecht §3.2)
+    if (!scene.meshes.empty()) {
+        surface_data = surfaces::upload_surfaces(runtime, surfaces::pack_surfaces(scene));
+        defines.push_back("SOMBRA_HAS_MESHES");
+    }
     memory::BuildContext context{runtime, views, defines, std::size_t(options.resolution) * std::size_t(options.resolution),
                                  "dsm_build.cl", regenerate, {}};
     context.run_view = [&](const std::vector<std::string>& program_defines, const char* kernel_name, cl_uint view,
                            const std::function<void(cl::Kernel&, int)>& bind) {
         cl::Kernel kernel(runtime.program("dsm_build.cl", program_defines), kernel_name);
+        surfaces::ViewFragments fragments;
         int a = 0;
         if (device_scene.uses_images) kernel.setArg(a++, device_scene.voxel_image);
         else kernel.setArg(a++, device_scene.voxel_buffer);
@@ -168,6 +176,17 @@ void generate(host::Runtime& runtime, const Scene& scene, const packing::PackedS
             kernel.setArg(a++, precompression.fraction);
             kernel.setArg(a++, precompression.opacity);
             kernel.setArg(a++, precompression.count);
+        }
+        if (!scene.meshes.empty()) {
+            raster::View raster_view = raster::dsm_view(views[view]);
+            // the view's near_depth is a ray distance fitted to the nearest corner, but the raster
+            // stage clips at view z (≤ ray distance): clip far closer, so that no fitted geometry is lost
+            if (raster_view.perspective) raster_view.near_depth = std::max(1e-6, 1e-4 * double(views[view].far_depth));
+            fragments = surfaces::view_fragments(runtime, scene.meshes, raster_view);
+            kernel.setArg(a++, fragments.fragments.first);
+            kernel.setArg(a++, fragments.fragments.fragments);
+            kernel.setArg(a++, fragments.tiles.triangles);
+            kernel.setArg(a++, surface_data.materials);
         }
         bind(kernel, a);
         return host::run_packets(runtime, kernel, options.resolution, options.resolution, lanes);

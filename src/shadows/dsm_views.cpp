@@ -58,6 +58,13 @@ std::vector<std::array<float, 3>> scene_box_corners(const packing::PackedScene& 
             corners.push_back(w);
         }
     }
+    for (const MeshInstance& mi : scene.meshes)  // meshes cast shadows too: their vertices bound them
+        for (const auto& p : mi.mesh->positions) {
+            const auto& m = mi.transform;
+            std::array<float, 3> w{};
+            for (int r = 0; r < 3; ++r) w[r] = m[r * 4] * p[0] + m[r * 4 + 1] * p[1] + m[r * 4 + 2] * p[2] + m[r * 4 + 3];
+            corners.push_back(w);
+        }
     return corners;
 }
 

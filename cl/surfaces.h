@@ -1,0 +1,117 @@
+/* sombra — translucent surfaces in the camera pass (issue 4; Knecht §3.1, DESIGN.md "Data flow"):
+ * each pixel's surface fragments (render/fragments.h: depth along the camera ray, sorted near to
+ * far) are composited front to back between the volume samples — a fragment before the first
+ * sample deeper than it. Colour: Phong with the normal interpolated over the triangle (turned to
+ * the viewer) and the mesh's material, times each light's shadow term at the surface point (the
+ * same function volume samples use); α: the material's opacity.
+ * Included by render.cl after CameraState and light_transmittance() with SOMBRA_HAS_MESHES. */
+#ifndef SOMBRA_SURFACES_H
+#define SOMBRA_SURFACES_H
+
+#define SURFACE_PARAMS                                                                                   \
+    __global const uint *fragment_first, __global const FragmentGpu *fragments,                         \
+        __global const ScreenTriangleGpu *screen_triangles, __global const SurfaceTriangleGpu *surface_triangles, \
+        __global const SurfaceMaterialGpu *surface_materials
+#define SURFACE_ARGS fragment_first, fragments, screen_triangles, surface_triangles, surface_materials
+
+/* Per lane: the next fragment of its pixel and the end of its list. */
+typedef struct {
+    __global const FragmentGpu* fragments;
+    __global const ScreenTriangleGpu* screen;
+    __global const SurfaceTriangleGpu* triangles;
+    __global const SurfaceMaterialGpu* materials;
+    uint next[SOMBRA_LANES], end[SOMBRA_LANES];
+} SurfaceCursor;
+
+inline void surface_cursor_init(SurfaceCursor* s, SURFACE_PARAMS, lint xs, uint y, uint width, lmask lanes) {
+    s->fragments = fragments;
+    s->screen = screen_triangles;
+    s->triangles = surface_triangles;
+    s->materials = surface_materials;
+    int x[SOMBRA_LANES], in[SOMBRA_LANES];
+    LSTORE(xs, x);
+    LSTORE(lanes, in);
+    for (int c = 0; c < SOMBRA_LANES; ++c) {
+        size_t pixel = (size_t)y * width + (size_t)(in[c] ? x[c] : 0);
+        s->next[c] = fragment_first[pixel];
+        s->end[c] = in[c] ? fragment_first[pixel + 1] : s->next[c];
+    }
+}
+
+/* Composites, in lanes `lanes`, every fragment nearer than t_limit (and stops where the ray's
+ * transmittance fell below the termination threshold). */
+inline void composite_surfaces(VOLUME_DATA_PARAM, CameraState* state, SurfaceCursor* s, const VolumeRay* ray,
+                               lfloat t_limit, lmask lanes) {
+    float limit[SOMBRA_LANES], ox[SOMBRA_LANES], oy[SOMBRA_LANES], oz[SOMBRA_LANES];
+    float dx[SOMBRA_LANES], dy[SOMBRA_LANES], dz[SOMBRA_LANES];
+    int want[SOMBRA_LANES];
+    LSTORE(t_limit, limit);
+    LSTORE(ray->origin.x, ox), LSTORE(ray->origin.y, oy), LSTORE(ray->origin.z, oz);
+    LSTORE(ray->dir.x, dx), LSTORE(ray->dir.y, dy), LSTORE(ray->dir.z, dz);
+    LSTORE(lanes & (state->transmittance > state->camera->termination_transmittance), want);
+    for (;;) {
+        /* per lane: the fragment to composite now, gathered into lane vectors */
+        float depth[SOMBRA_LANES], opacity[SOMBRA_LANES], ka[SOMBRA_LANES], kd[SOMBRA_LANES], ks[SOMBRA_LANES];
+        float shininess[SOMBRA_LANES], cr[SOMBRA_LANES], cg[SOMBRA_LANES], cb[SOMBRA_LANES];
+        float nx[SOMBRA_LANES], ny[SOMBRA_LANES], nz[SOMBRA_LANES];
+        int take[SOMBRA_LANES];
+        int any_taken = 0;
+        for (int c = 0; c < SOMBRA_LANES; ++c) {
+            take[c] = 0;
+            depth[c] = 0.0f, opacity[c] = 0.0f, ka[c] = kd[c] = ks[c] = 0.0f, shininess[c] = 1.0f;
+            cr[c] = cg[c] = cb[c] = 0.0f, nx[c] = ny[c] = nz[c] = 0.0f;
+            if (!want[c] || s->next[c] >= s->end[c]) continue;
+            FragmentGpu f = s->fragments[s->next[c]];
+            if (!(f.depth < limit[c])) continue;
+            take[c] = -1; /* vector-mask convention; LLOAD makes it a lane mask */
+            any_taken = 1;
+            s->next[c] += 1;
+            __global const ScreenTriangleGpu* st = &s->screen[f.triangle];
+            __global const SurfaceTriangleGpu* tri = &s->triangles[st->source];
+            __global const SurfaceMaterialGpu* m = &s->materials[st->mesh];
+            depth[c] = f.depth;
+            opacity[c] = m->color.w;
+            cr[c] = m->color.x, cg[c] = m->color.y, cb[c] = m->color.z;
+            ka[c] = m->ambient, kd[c] = m->diffuse, ks[c] = m->specular, shininess[c] = m->shininess;
+            /* barycentric coordinates of the fragment's point in the triangle's plane */
+            float3 q = (float3)(ox[c], oy[c], oz[c]) + f.depth * (float3)(dx[c], dy[c], dz[c]) - tri->corner.xyz, e1 = tri->edge1.xyz, e2 = tri->edge2.xyz;
+            float d00 = dot(e1, e1), d01 = dot(e1, e2), d11 = dot(e2, e2), d20 = dot(q, e1), d21 = dot(q, e2);
+            float denom = d00 * d11 - d01 * d01;
+            float v = denom != 0.0f ? clamp((d11 * d20 - d01 * d21) / denom, 0.0f, 1.0f) : 0.0f;
+            float w = denom != 0.0f ? clamp((d00 * d21 - d01 * d20) / denom, 0.0f, 1.0f - v) : 0.0f;
+            float3 n = (1.0f - v - w) * tri->normal[0].xyz + v * tri->normal[1].xyz + w * tri->normal[2].xyz;
+            float len = length(n);
+            n = len > 1e-12f ? n / len : normalize(cross(e1, e2));
+            nx[c] = n.x, ny[c] = n.y, nz[c] = n.z;
+        }
+        if (!any_taken) return;
+        lmask here = LLOAD(take);
+        lfloat t = LLOAD(depth);
+        lfloat3 p = l3_mad(ray->dir, t, ray->origin);
+        uint light_count = state->camera->light_count;
+        lfloat shadow[SOMBRA_LIGHT_SLOTS];
+        lfloat3 normal = l3(LLOAD(nx), LLOAD(ny), LLOAD(nz));
+        for (uint m = 0; m < light_count; ++m) {
+#if defined(SOMBRA_SHADOW_RAYS) || defined(SOMBRA_SHADOW_DSM) || defined(SOMBRA_SHADOW_LOWPASS)
+            /* looked up a little off the surface on the light's side, so that the surface's own
+             * step in the deep shadow map does not shadow it (bias ∝ camera distance) */
+            lfloat3 to_light;
+            light_incidence(&state->lights[m], p, &to_light);
+            lfloat bias = 2e-3f * t * select((lfloat)(1.0f), (lfloat)(-1.0f), l3_dot(normal, to_light) < 0.0f);
+            lfloat3 lookup = l3_mad(normal, bias, p);
+            shadow[m] = select((lfloat)(1.0f), light_transmittance(volume_data, state, m, lookup, here), here);
+#else
+            shadow[m] = (lfloat)(1.0f);
+#endif
+        }
+        lfloat3 shaded = phong_shade_lanes(state->lights, light_count, state->camera->ambient_intensity, LLOAD(ka),
+                                           LLOAD(kd), LLOAD(ks), LLOAD(shininess), l3(LLOAD(cr), LLOAD(cg), LLOAD(cb)), p,
+                                           normal, state->to_viewer, shadow);
+        lfloat alpha = select((lfloat)(0.0f), LLOAD(opacity), here);
+        state->radiance = l3_mad(shaded, alpha * state->transmittance, state->radiance);
+        state->transmittance *= 1.0f - alpha;
+        LSTORE(lanes & (state->transmittance > state->camera->termination_transmittance), want);
+    }
+}
+
+#endif

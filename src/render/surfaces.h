@@ -1,0 +1,31 @@
+// sombra — translucent meshes in the passes (issue 4): the per-triangle shading data and per-mesh
+// materials the kernels read (cl/surfaces.h), and a view's per-pixel fragment lists (raster stage +
+// fragment stage, render/rasterizer.h and render/fragments.h).
+#pragma once
+#include <vector>
+
+#include "render/fragments.h"
+
+namespace sombra::surfaces {
+
+// Triangles in the order of ScreenTriangleGpu::source (mesh after mesh), one material per instance.
+struct PackedSurfaces {
+    std::vector<SurfaceTriangleGpu> triangles;
+    std::vector<SurfaceMaterialGpu> materials;
+};
+PackedSurfaces pack_surfaces(const Scene& scene);
+
+struct DeviceSurfaces {
+    cl::Buffer triangles, materials;
+};
+DeviceSurfaces upload_surfaces(host::Runtime& runtime, const PackedSurfaces& packed);
+
+// A view's fragments: each pixel's covering triangles sorted near to far, with the screen
+// triangles their ids index. Times go to stage_ms[prefix + "_raster"] and [prefix + "_fragments"].
+struct ViewFragments {
+    raster::DeviceTiles tiles;
+    raster::DeviceFragments fragments;
+};
+ViewFragments view_fragments(host::Runtime& runtime, const std::vector<MeshInstance>& meshes, const raster::View& view);
+
+}  // namespace sombra::surfaces

@@ -1,0 +1,153 @@
+// Translucent surfaces in the camera pass (issue 4): fragments composited in depth order with the
+// volume samples, α = the material's opacity.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+
+#include "test_support.h"
+
+using namespace sombra;
+
+namespace {
+
+// A square of side 2·half in the plane z = z0, facing +z.
+MeshInstance quad(float half, float z0, float opacity, Vec3 color) {
+    auto mesh = std::make_shared<Mesh>();
+    mesh->positions = {{-half, -half, z0}, {half, -half, z0}, {half, half, z0}, {-half, half, z0}};
+    mesh->triangles = {{0, 1, 2}, {0, 2, 3}};
+    mesh->source = "quad";
+    MeshInstance mi;
+    mi.mesh = mesh;
+    mi.material.color = color;
+    mi.material.opacity = opacity;
+    mi.name = "quad";
+    return mi;
+}
+
+// Meshes alone before a uniform background, no lights: ambient k_a i_a c only.
+Scene quad_scene() {
+    Scene s;
+    s.camera.position = {0, 0, 3};
+    s.background = {0.2f, 0.4f, 0.6f};
+    s.width = 37, s.height = 29;
+    return s;
+}
+
+std::array<float, 3> pixel(const Image& im, int x, int y) {
+    const float* p = &im.rgba[(std::size_t(y) * im.width + x) * 4];
+    return {p[0], p[1], p[2]};
+}
+
+}  // namespace
+
+TEST_CASE("surfaces: a translucent quad of opacity a attenuates the background by exactly a", "[surfaces][render]") {
+    for (float a : {0.f, 0.25f, 0.6f, 1.f}) {
+        Scene s = quad_scene();
+        Vec3 c{1.f, 0.5f, 0.25f};
+        s.meshes.push_back(quad(0.5f, 0.f, a, c));
+        float ka = s.meshes[0].material.phong.ambient;
+        for (int lanes : {1, 8}) {
+            RenderOptions o;
+            o.lanes = lanes;
+            Image im = render(test::context(), s, o).image;
+            INFO("opacity " << a << ", lanes " << lanes);
+            auto centre = pixel(im, s.width / 2, s.height / 2), corner = pixel(im, 0, 0);
+            for (int k = 0; k < 3; ++k) {
+                CHECK(centre[k] == Approx(a * ka * c[k] + (1 - a) * s.background[k]).margin(1e-6));
+                CHECK(corner[k] == Approx(s.background[k]).margin(1e-6));
+            }
+            CHECK(im.rgba[(std::size_t(s.height / 2) * im.width + s.width / 2) * 4 + 3] == Approx(a).margin(1e-6));
+        }
+    }
+}
+
+TEST_CASE("surfaces: two quads composite front to back, whatever the mesh order", "[surfaces][render]") {
+    Scene s = quad_scene();
+    Vec3 c1{1.f, 0.f, 0.f}, c2{0.f, 1.f, 0.f};
+    s.meshes.push_back(quad(0.5f, 0.f, 0.5f, c2));   // behind
+    s.meshes.push_back(quad(0.3f, 0.5f, 0.4f, c1));  // in front, smaller
+    s.meshes[1].material.phong.ambient = 0.8f;
+    Image im = render(test::context(), s, {}).image;
+    auto centre = pixel(im, s.width / 2, s.height / 2);
+    float k1 = 0.8f, k2 = s.meshes[0].material.phong.ambient;
+    for (int k = 0; k < 3; ++k)
+        CHECK(centre[k] == Approx(0.4f * k1 * c1[k] + 0.6f * (0.5f * k2 * c2[k] + 0.5f * s.background[k])).margin(1e-6));
+}
+
+TEST_CASE("surfaces: a quad in front of a volume attenuates it by its opacity; an opaque one hides it", "[surfaces][render]") {
+    Scene s = test::sphere_scene();
+    s.lights.clear();
+    RenderOptions o;
+    o.termination_transmittance = 0.f;  // exact: no ray stops early
+    Image volume_only = render(test::context(), s, o).image;
+    Vec3 c{0.2f, 0.9f, 0.4f};
+    for (float a : {0.3f, 1.f}) {
+        Scene with = s;
+        with.meshes.push_back(quad(3.f, 1.f, a, c));  // covers the whole image, between camera and sphere
+        float ka = with.meshes[0].material.phong.ambient;
+        Image im = render(test::context(), with, o).image;
+        double max_err = 0;
+        for (std::size_t i = 0; i < im.rgba.size(); i += 4)
+            for (int k = 0; k < 3; ++k)
+                max_err = std::max(max_err, std::abs(double(im.rgba[i + k]) - (a * ka * c[k] + (1 - a) * volume_only.rgba[i + k])));
+        INFO("opacity " << a);
+        CHECK(max_err < 1e-5);
+    }
+}
+
+TEST_CASE("surfaces: an opaque quad through a volume's centre hides what lies behind it", "[surfaces][render]") {
+    Scene s = test::sphere_scene();
+    s.lights.clear();
+    s.camera.position = {0.f, 0.f, 2.2f};
+    Scene front = s, back = s;
+    front.meshes.push_back(quad(3.f, 0.f, 1.f, {0.f, 0.f, 0.f}));  // black: shows only what lies before it
+    back.meshes.push_back(quad(3.f, -0.6f, 1.f, {0.f, 0.f, 0.f}));  // behind the sphere
+    RenderOptions o;
+    o.termination_transmittance = 0.f;  // exact: no ray stops early
+    Image im_front = render(test::context(), front, o).image, im_back = render(test::context(), back, o).image;
+    Image volume_only = render(test::context(), s, o).image;
+    auto mid = [&](const Image& im) { return pixel(im, s.width / 2, s.height / 2); };
+    // behind the sphere: the volume's own colour (background hidden); at its centre: less of it
+    std::size_t centre = (std::size_t(s.height / 2) * s.width + s.width / 2) * 4;
+    float t_volume = 1.f - volume_only.rgba[centre + 3];
+    REQUIRE(t_volume < 0.9f);  // the sphere is visible there
+    for (int k = 0; k < 3; ++k) {
+        CHECK(mid(im_back)[k] == Approx(mid(volume_only)[k] - t_volume * s.background[k]).margin(1e-5));
+        CHECK(mid(im_front)[k] < mid(im_back)[k]);
+        CHECK(mid(im_front)[k] > 0.f);
+    }
+}
+
+TEST_CASE("surfaces in deep shadow maps: a quad of opacity a leaves 1 − a behind it, exactly its projection", "[surfaces][dsm]") {
+    Scene s = quad_scene();
+    Light spot;
+    spot.type = LightType::Spot;
+    spot.position = {0.f, 0.f, 2.f};
+    spot.direction = {0.f, 0.f, -1.f};
+    spot.cone_angle_deg = 40.f;
+    s.lights.push_back(spot);
+    s.meshes.push_back(quad(1.5f, -1.f, 1.f, {0.5f, 0.5f, 0.5f}));  // the opaque floor
+    RenderOptions o;
+    o.shadows = ShadowTechnique::Dsm;
+    o.dsm_resolution = 128;
+    // the quad's edge at x = ±0.3 projects to ±0.375 on the plane z = −0.5 (light at z = 2)
+    std::vector<Vec3> points{{0.f, 0.f, -0.5f}, {0.2f, -0.25f, -0.5f}, {0.6f, 0.f, -0.5f}, {0.f, -0.55f, -0.5f},
+                             {0.f, 0.f, 0.5f}, {0.f, 0.f, -0.9f}};
+    for (float a : {1.f, 0.35f}) {
+        Scene with = s;
+        with.meshes.push_back(quad(0.3f, 0.f, a, {1.f, 1.f, 1.f}));
+        auto t = shadow_transmittance(test::context(), with, 0, points, o).transmittance;
+        INFO("opacity " << a);
+        CHECK(t[0] == Approx(1 - a).margin(1e-5));
+        CHECK(t[1] == Approx(1 - a).margin(1e-5));
+        CHECK(t[2] == Approx(1.0).margin(1e-5));
+        CHECK(t[3] == Approx(1.0).margin(1e-5));
+        CHECK(t[4] == Approx(1.0).margin(1e-5));  // above the quad
+        CHECK(t[5] == Approx(1 - a).margin(1e-5));
+        // lanes do not change the maps
+        RenderOptions one = o;
+        one.lanes = 1;
+        auto t1 = shadow_transmittance(test::context(), with, 0, points, one).transmittance;
+        for (std::size_t i = 0; i < t.size(); ++i) CHECK(t1[i] == t[i]);
+    }
+}
