@@ -9,6 +9,7 @@
  * SOMBRA_SHADOW_LOWPASS (low-pass filtered shadows from light-aligned summed-area tables; with
  * SOMBRA_LOWPASS_GAUSS Gaussian filtered; with SOMBRA_LOWPASS_AO or SOMBRA_LOWPASS_CONE the SAT
  * ambient-occlusion or cone-shadow baselines on one volume-aligned table),
+ * SOMBRA_LOWPASS_CACHED (with SOMBRA_SHADOW_LOWPASS: the shadow term read from the shadow cache),
  * SOMBRA_HAS_MESHES (translucent surface fragments composited in depth order: surfaces.h). */
 #include "shared/types.h"
 #include "shared/hash.h"
@@ -22,7 +23,12 @@
 #endif
 #ifdef SOMBRA_SHADOW_LOWPASS
 #include "lowpass.h"
+#ifdef SOMBRA_LOWPASS_CACHED
+#define LOWPASS_PARAMS , __global const ulong* sat, __global const SatGridGpu* sat_grids, __global const SsatGridGpu* ssat_grids, \
+                         __global const float* shadow_cache, __global const ShadowCacheGpu* shadow_cache_table
+#else
 #define LOWPASS_PARAMS , __global const ulong* sat, __global const SatGridGpu* sat_grids, __global const SsatGridGpu* ssat_grids
+#endif
 #else
 #define LOWPASS_PARAMS
 #endif
@@ -50,6 +56,10 @@ typedef struct {
     __global const ulong* sat;
     __global const SatGridGpu* sat_grids;
     __global const SsatGridGpu* ssat_grids;
+#ifdef SOMBRA_LOWPASS_CACHED
+    __global const float* shadow_cache;
+    __global const ShadowCacheGpu* shadow_cache_table;
+#endif
 #endif
 } CameraState;
 
@@ -201,6 +211,27 @@ inline lfloat light_transmittance(VOLUME_DATA_PARAM, CameraState* state, uint m,
 }
 #endif
 
+#ifdef SOMBRA_LOWPASS_CACHED
+/* The shadow term of light m at voxel point pv of volume i, read trilinearly from the shadow
+ * cache (Ament Alg. 1, second pass) instead of evaluating the SATs per sample. */
+inline lfloat cached_shadow(const CameraState* state, uint i, uint m, lfloat3 pv) {
+    __global const ShadowCacheGpu* c = &state->shadow_cache_table[i * state->camera->light_count + m];
+    lfloat qx = clamp(pv.x / c->spacing.x, 0.0f, (float)(c->dims.x - 1));
+    lfloat qy = clamp(pv.y / c->spacing.y, 0.0f, (float)(c->dims.y - 1));
+    lfloat qz = clamp(pv.z / c->spacing.z, 0.0f, (float)(c->dims.z - 1));
+    lfloat bx = floor(qx), by = floor(qy), bz = floor(qz);
+    lfloat fx = qx - bx, fy = qy - by, fz = qz - bz;
+    lint x0 = LCONVERT_INT(bx), y0 = LCONVERT_INT(by), z0 = LCONVERT_INT(bz);
+    lint x1 = min(x0 + 1, c->dims.x - 1), y1 = min(y0 + 1, c->dims.y - 1), z1 = min(z0 + 1, c->dims.z - 1);
+    int sy = c->dims.x, sz = c->dims.x * c->dims.y, base = (int)c->offset;
+#define CACHE_AT(x, y, z) gather(state->shadow_cache, base + (x) + (y) * sy + (z) * sz)
+    lfloat c00 = mix(CACHE_AT(x0, y0, z0), CACHE_AT(x1, y0, z0), fx), c10 = mix(CACHE_AT(x0, y1, z0), CACHE_AT(x1, y1, z0), fx);
+    lfloat c01 = mix(CACHE_AT(x0, y0, z1), CACHE_AT(x1, y0, z1), fx), c11 = mix(CACHE_AT(x0, y1, z1), CACHE_AT(x1, y1, z1), fx);
+#undef CACHE_AT
+    return mix(mix(c00, c10, fy), mix(c01, c11, fy), fz);
+}
+#endif
+
 /* One sample of all active volumes: extinction-weighted blend of their shaded colours,
  * α = 1 − exp(−Σσ·Δ), then I_acc += I_p α t_acc; t_acc *= 1 − α (Knecht Eq. 3.10–3.11).
  * Returns the lanes whose ray goes on (early ray termination). */
@@ -231,8 +262,14 @@ inline lmask shade_sample(VOLUME_DATA_PARAM, CameraState* state, const VolumeRay
 #if defined(SOMBRA_SHADOW_RAYS) || defined(SOMBRA_SHADOW_DSM) || defined(SOMBRA_SHADOW_LOWPASS)
         lmask needed = visible & !shadows_known;
         if (lany(needed)) {
-            for (uint m = 0; m < light_count; ++m)
-                shadow[m] = select(shadow[m], light_transmittance(volume_data, state, m, p, needed), needed);
+            for (uint m = 0; m < light_count; ++m) {
+#ifdef SOMBRA_LOWPASS_CACHED
+                lfloat transmittance_to_light = cached_shadow(state, i, m, pv);
+#else
+                lfloat transmittance_to_light = light_transmittance(volume_data, state, m, p, needed);
+#endif
+                shadow[m] = select(shadow[m], transmittance_to_light, needed);
+            }
             shadows_known |= needed;
         }
 #endif
@@ -303,6 +340,10 @@ __kernel void render_camera(VOLUME_DATA_PARAM, __global const uchar* occupancy, 
     state.sat = sat;
     state.sat_grids = sat_grids;
     state.ssat_grids = ssat_grids;
+#ifdef SOMBRA_LOWPASS_CACHED
+    state.shadow_cache = shadow_cache;
+    state.shadow_cache_table = shadow_cache_table;
+#endif
 #endif
 #define SOMBRA_JITTER_LANE(c) sombra_pixel_jitter((uint)LC(xs, c), y, camera->jitter_seed)
     state.jitter = LFROM_LANES(SOMBRA_JITTER_LANE);

@@ -11,7 +11,7 @@
 TEST_CASE("shared structs have the same layout on the host and in kernels", "[layout]") {
     auto& rt = sombra::test::context().runtime();
     cl::Kernel kernel(rt.program("tests/layout_probe.cl", {}), "layout_probe");
-    std::vector<cl_uint> device(64, 0);
+    std::vector<cl_uint> device(256, 0);
     cl::Buffer out(rt.context(), CL_MEM_WRITE_ONLY, device.size() * sizeof(cl_uint));
     kernel.setArg(0, out);
     rt.queue().enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(1));

@@ -477,3 +477,31 @@ TEST_CASE("low-pass tables follow a moved light on a kept Context", "[lowpass]")
     }
     CHECK(changed > 0.05);
 }
+
+TEST_CASE("shadow cache (Ament Alg. 1): close to per-sample evaluation, kept while tables, filter and lights stay", "[lowpass]") {
+    Context context("cpu");  // its own kept state
+    Scene scene = cloud_scene();
+    RenderOptions o;
+    o.shadows = ShadowTechnique::Lowpass;
+    o.width = o.height = 40;
+    o.lowpass_filter_width = 5.f;
+    for (ShadowTechnique technique : {ShadowTechnique::Lowpass, ShadowTechnique::Ao}) {
+        o.shadows = technique;
+        o.lowpass_cache = false;
+        Image direct = render(context, scene, o).image;
+        o.lowpass_cache = true;
+        RenderResult cached = render(context, scene, o);
+        CHECK(cached.stats.stage_ms.count("shadow_cache") == 1);
+        CHECK(cached.stats.shadow_cache_bytes > 0);
+        test::ImageDifference d = test::compare(direct, cached.image);
+        INFO("technique " << int(technique) << ": cached vs per-sample mean " << d.mean_abs << " max " << d.max_abs);
+        CHECK(d.mean_abs < 2e-3);
+        CHECK(d.max_abs < 0.05);
+    }
+    scene.camera.position = {0.4f, 0.3f, 2.6f};  // the camera moves: the cache stays
+    CHECK(render(context, scene, o).stats.stage_ms.count("shadow_cache") == 0);
+    o.lowpass_filter_width = 9.f;  // the filter changes: the cache is rebuilt, the tables are not
+    RenderResult wider = render(context, scene, o);
+    CHECK(wider.stats.stage_ms.count("shadow_cache") == 1);
+    CHECK(wider.stats.reused_preparation);
+}

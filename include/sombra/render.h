@@ -69,6 +69,11 @@ struct RenderOptions {
     std::string lowpass_filter_kernel = "box";
     float cone_angle_deg = 10.f;  // ShadowTechnique::Cone: half angle of the cones
     std::size_t lowpass_max_entries = std::size_t(1) << 24;
+    // Lowpass, Ao, Cone: Ament Alg. 1 — a first pass evaluates the shadow term of every light on a
+    // lattice over each volume's voxels (at most 2^21 points per volume and light, coarser for
+    // larger volumes), kept until the tables, the filter or the lights change; camera samples read
+    // it trilinearly. false: every sample evaluates the tables (the uncached mode).
+    bool lowpass_cache = true;
     VolumeStorage storage = VolumeStorage::Auto;
     bool empty_space_skipping = true;
     float termination_transmittance = 1e-3f;  // early ray termination threshold on t_acc
@@ -102,6 +107,7 @@ struct RenderStats {
     // low-pass shadows (ShadowTechnique::Lowpass): summed-area tables and their memory
     int sat_tables = 0;
     unsigned long long sat_bytes = 0;
+    unsigned long long shadow_cache_bytes = 0;  // Ament Alg. 1 shadow cache, when used
     // true when the scene's device data of the previous call on this Context were reused (only
     // the camera, image size, shading options or lights changed); the deep shadow maps of lights
     // that did not move are reused too (dsm_views_generated counts those regenerated)

@@ -142,6 +142,9 @@ int run(int argc, char** argv) {
     render->add_option("--filter", filter_width, "lowpass: filter width in voxels (softness of the shadows); ao: cube side")
         ->check(CLI::Range(0.0f, 4096.0f));
     float cone_angle = 10.f;
+    bool no_shadow_cache = false;
+    render->add_flag("--no-shadow-cache", no_shadow_cache,
+                     "lowpass/ao/cone: evaluate the tables per sample instead of reading the shadow cache (Ament Alg. 1)");
     render->add_option("--cone-angle", cone_angle, "cone: half angle of the shadow cones in degrees")->check(CLI::Range(0.01f, 60.0f));
     std::string filter_kernel = "box";
     render->add_option("--filter-kernel", filter_kernel, "lowpass: box (one SAT box) or gauss (5×5 sub-boxes, Ament Eq. 25)")
@@ -243,6 +246,7 @@ int run(int argc, char** argv) {
     options.lowpass_filter_width = filter_width;
     options.lowpass_filter_kernel = filter_kernel;
     options.cone_angle_deg = cone_angle;
+    options.lowpass_cache = !no_shadow_cache;
     options.dsm_resolution = dsm_resolution;
     options.dsm_epsilon = dsm_epsilon;
     options.dsm_storage = dsm_storage;

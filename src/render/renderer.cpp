@@ -1,4 +1,5 @@
 // sombra — the camera pass on the host, and the shadow queries that share its preparation.
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <sstream>
@@ -34,6 +35,7 @@ std::vector<std::string> camera_pass_defines(const Scene& scene, const RenderOpt
     if (options.gradient == GradientMethod::Sobel) defines.push_back("SOMBRA_SOBEL");
     if (!scene.lights.empty()) defines.push_back("SOMBRA_HAS_LIGHTS");
     if (options.shading == ShadingModel::Scattering) defines.push_back("SOMBRA_SCATTERING");
+    if (!scene.lights.empty() && uses_sat(options) && options.lowpass_cache) defines.push_back("SOMBRA_LOWPASS_CACHED");
     if (!scene.meshes.empty()) defines.push_back("SOMBRA_HAS_MESHES");
     if (!scene.lights.empty() && options.shadows == ShadowTechnique::Rays) defines.push_back("SOMBRA_SHADOW_RAYS");
     if (!scene.lights.empty() && options.shadows == ShadowTechnique::Ao) defines.push_back("SOMBRA_LOWPASS_AO");
@@ -62,6 +64,7 @@ struct PreparedScene {
     shadows::DeviceSat sat;  // low-pass shadows: light-aligned summed-area tables
     surfaces::DeviceSurfaces surfaces;  // scenes with meshes
     bool use_images = false, use_dsm = false, use_sat = false;
+    std::uint64_t serial = 0;  // tells preparations apart (what is derived from one is kept with its serial)
 };
 
 // What a light's deep shadow maps depend on besides the volumes: where it is and how it shines
@@ -216,7 +219,9 @@ std::shared_ptr<PreparedScene> prepare(host::Runtime& runtime, const Scene& scen
 }
 
 PreparedScene prepare_anew(host::Runtime& runtime, const Scene& scene, const RenderOptions& options, RenderStats& stats) {
+    static std::atomic<std::uint64_t> next_serial{1};
     PreparedScene prepared;
+    prepared.serial = next_serial++;
     auto start = clock_type::now();
     prepared.packed = packing::pack_scene(scene);
     prepared.use_dsm = (options.shadows == ShadowTechnique::Dsm || options.shadows == ShadowTechnique::ShadowMap) &&
@@ -312,9 +317,112 @@ std::string RenderStats::to_json() const {
                     {"views_generated", dsm_views_generated},
                     {"storage", dsm_storage}};
     }
-    if (sat_tables > 0) j["sat"] = {{"tables", sat_tables}, {"bytes", sat_bytes}};
+    if (sat_tables > 0) j["sat"] = {{"tables", sat_tables}, {"bytes", sat_bytes}, {"shadow_cache_bytes", shadow_cache_bytes}};
     return j.dump(2);
 }
+
+namespace {
+
+// shadow_probe (render.cl, one lane): the shadow term towards `light` at `count` world points;
+// returns the kernel's time in ms. Always the uncached evaluation.
+double run_shadow_probe(host::Runtime& runtime, const Scene& scene, const PreparedScene& prepared, const RenderOptions& options,
+                        int light, const cl::Buffer& points, std::size_t count, const cl::Buffer& out) {
+    CameraGpu camera = packing::pack_camera(scene, scene.width, scene.height);
+    camera.jitter_seed = options.jitter_seed;
+    cl::Buffer camera_buffer = host::make_buffer(runtime, CL_MEM_READ_ONLY, sizeof(CameraGpu), &camera, "camera");
+    RenderOptions probe_options = options;
+    probe_options.lowpass_cache = false;
+    cl::Kernel kernel(runtime.program("render.cl", camera_pass_defines(scene, probe_options, prepared.use_images, 1)),
+                      "shadow_probe");
+    int arg = set_scene_args(kernel, prepared, camera_buffer);
+    kernel.setArg(arg++, cl_uint(light));
+    kernel.setArg(arg++, points);
+    kernel.setArg(arg++, out);
+    shadows::SatGridBuffers sat_grids;
+    set_sat_args(runtime, kernel, set_dsm_args(kernel, arg, prepared), prepared, probe_options, sat_grids);
+    cl::Event event;
+    runtime.queue().enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(count), cl::NullRange, nullptr, &event);
+    event.wait();
+    return host::Runtime::event_ms(event);
+}
+
+// Ament Alg. 1, first pass: the shadow cache of the SAT techniques (ShadowCacheGpu), built by
+// shadow_probe at each volume's lattice points for every light.
+struct ShadowCache {
+    std::uint64_t prepared_serial = 0;
+    std::string options_key;
+    cl::Buffer values, table;
+    std::size_t bytes = 0;
+};
+
+constexpr std::size_t kShadowCachePoints = std::size_t(1) << 21;  // per volume and light
+
+std::array<int, 3> cache_lattice(const std::array<int, 3>& dims) {
+    std::array<int, 3> n = dims;
+    while (std::size_t(n[0]) * std::size_t(n[1]) * std::size_t(n[2]) > kShadowCachePoints)
+        for (int& a : n) a = std::max(1, (a + 1) / 2);
+    return n;
+}
+
+std::shared_ptr<ShadowCache> shadow_cache(host::Runtime& runtime, const Scene& scene, const PreparedScene& prepared,
+                                          const RenderOptions& options, RenderStats& stats) {
+    std::ostringstream key;
+    key << options.lowpass_filter_width << ' ' << options.lowpass_filter_kernel << ' ' << options.cone_angle_deg << ' '
+        << options.jitter_seed;
+    auto& slot = runtime.kept_state("renderer.shadow_cache");
+    auto kept = std::static_pointer_cast<ShadowCache>(slot);
+    if (kept && kept->prepared_serial == prepared.serial && kept->options_key == key.str()) return kept;
+    slot.reset();
+    auto cache = std::make_shared<ShadowCache>();
+    cache->prepared_serial = prepared.serial, cache->options_key = key.str();
+    std::vector<ShadowCacheGpu> table;
+    std::size_t total = 0;
+    for (const VolumeInstance& vi : scene.volumes) {
+        std::array<int, 3> n = cache_lattice(vi.volume->dims);
+        for (std::size_t m = 0; m < scene.lights.size(); ++m) {
+            ShadowCacheGpu c{};
+            for (int a = 0; a < 3; ++a) {
+                c.dims.s[a] = n[std::size_t(a)];
+                c.spacing.s[a] = n[std::size_t(a)] > 1 ? float(vi.volume->dims[std::size_t(a)] - 1) / float(n[std::size_t(a)] - 1) : 1.f;
+            }
+            c.offset = cl_uint(total);
+            total += std::size_t(n[0]) * std::size_t(n[1]) * std::size_t(n[2]);
+            table.push_back(c);
+        }
+    }
+    if (total > 0xffffffffull) throw Error("shadow cache: more than 2^32 entries");
+    cache->values = host::make_buffer(runtime, CL_MEM_READ_WRITE, total * sizeof(float), nullptr, "shadow cache");
+    cache->table = host::make_buffer(runtime, CL_MEM_READ_ONLY, table.size() * sizeof(ShadowCacheGpu), table.data(), "shadow cache table");
+    cache->bytes = total * sizeof(float);
+    double ms = 0;
+    for (std::size_t i = 0; i < scene.volumes.size(); ++i) {
+        const ShadowCacheGpu& c = table[i * scene.lights.size()];
+        const std::array<float, 16>& m = prepared.packed.voxel_to_world[i];  // row-major
+        std::vector<cl_float4> points;
+        for (int z = 0; z < c.dims.s[2]; ++z)
+            for (int y = 0; y < c.dims.s[1]; ++y)
+                for (int x = 0; x < c.dims.s[0]; ++x) {
+                    float v[3] = {x * c.spacing.s[0], y * c.spacing.s[1], z * c.spacing.s[2]};
+                    cl_float4 p{};
+                    for (int r = 0; r < 3; ++r) p.s[r] = m[std::size_t(4 * r)] * v[0] + m[std::size_t(4 * r + 1)] * v[1] + m[std::size_t(4 * r + 2)] * v[2] + m[std::size_t(4 * r + 3)];
+                    p.s[3] = 1.f;
+                    points.push_back(p);
+                }
+        cl::Buffer point_buffer = host::make_buffer(runtime, CL_MEM_READ_ONLY, points.size() * sizeof(cl_float4), points.data(), "shadow cache points");
+        cl::Buffer out = host::make_buffer(runtime, CL_MEM_READ_WRITE, points.size() * sizeof(float), nullptr, "shadow cache entries");
+        for (std::size_t light = 0; light < scene.lights.size(); ++light) {
+            ms += run_shadow_probe(runtime, scene, prepared, options, int(light), point_buffer, points.size(), out);
+            runtime.queue().enqueueCopyBuffer(out, cache->values, 0, table[i * scene.lights.size() + light].offset * sizeof(float),
+                                              points.size() * sizeof(float));
+        }
+    }
+    runtime.queue().finish();
+    stats.stage_ms["shadow_cache"] = ms;
+    slot = cache;
+    return cache;
+}
+
+}  // namespace
 
 RenderResult render(Context& context, const Scene& scene, const RenderOptions& options) {
     host::Runtime& runtime = context.runtime();
@@ -350,6 +458,13 @@ RenderResult render(Context& context, const Scene& scene, const RenderOptions& o
     kernel.setArg(arg++, count_buffer);
     shadows::SatGridBuffers sat_grids;
     arg = set_sat_args(runtime, kernel, set_dsm_args(kernel, arg, prepared), prepared, options, sat_grids);
+    std::shared_ptr<ShadowCache> cache;
+    if (prepared.use_sat && options.lowpass_cache) {
+        cache = shadow_cache(runtime, scene, prepared, options, stats);
+        kernel.setArg(arg++, cache->values);
+        kernel.setArg(arg++, cache->table);
+        stats.shadow_cache_bytes = cache->bytes;
+    }
     surfaces::ViewFragments fragments;
     if (!scene.meshes.empty()) {  // the camera view's fragments (Knecht §3.1: raster → segments)
         fragments = surfaces::view_fragments(runtime, scene.meshes, raster::camera_view(scene.camera, width, height));
@@ -386,27 +501,12 @@ ShadowQuery shadow_transmittance(Context& context, const Scene& scene, int light
     std::shared_ptr<PreparedScene> kept = prepare(runtime, scene, options, query.stats);
     const PreparedScene& prepared = *kept;
     if (points.empty()) return query;
-    CameraGpu camera = packing::pack_camera(scene, scene.width, scene.height);
-    camera.jitter_seed = options.jitter_seed;
     std::vector<cl_float4> host_points;
     for (const Vec3& p : points) host_points.push_back({{p[0], p[1], p[2], 1.f}});
-    cl::Buffer camera_buffer = host::make_buffer(runtime, CL_MEM_READ_ONLY, sizeof(CameraGpu), &camera, "camera");
     cl::Buffer point_buffer = host::make_buffer(runtime, CL_MEM_READ_ONLY, host_points.size() * sizeof(cl_float4),
                                                 host_points.data(), "points");
     cl::Buffer out = host::make_buffer(runtime, CL_MEM_WRITE_ONLY, points.size() * sizeof(float), nullptr, "transmittance");
-    RenderOptions probe_options = options;
-    cl::Kernel kernel(runtime.program("render.cl", camera_pass_defines(scene, probe_options, prepared.use_images, 1)),
-                      "shadow_probe");
-    int arg = set_scene_args(kernel, prepared, camera_buffer);
-    kernel.setArg(arg++, cl_uint(light_index));
-    kernel.setArg(arg++, point_buffer);
-    kernel.setArg(arg++, out);
-    shadows::SatGridBuffers sat_grids;
-    set_sat_args(runtime, kernel, set_dsm_args(kernel, arg, prepared), prepared, options, sat_grids);
-    cl::Event event;
-    runtime.queue().enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(points.size()), cl::NullRange, nullptr, &event);
-    event.wait();
-    query.stats.stage_ms["shadow_probe"] = host::Runtime::event_ms(event);
+    query.stats.stage_ms["shadow_probe"] = run_shadow_probe(runtime, scene, prepared, options, light_index, point_buffer, points.size(), out);
     std::vector<float> values(points.size());
     runtime.queue().enqueueReadBuffer(out, CL_TRUE, 0, values.size() * sizeof(float), values.data());
     query.transmittance.assign(values.begin(), values.end());
