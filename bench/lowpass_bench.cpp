@@ -26,7 +26,38 @@ struct BenchOptions {
     float filter = 7.f, cone_deg = 10.f;
     std::vector<float> widths{1, 3, 5, 7, 9, 11, 15};
     std::string device = "auto", out_dir;
+    std::string lights = "scene";  // scene, ortho3 (3 orthodirectional lights), point2 (2 point lights)
+    std::string tag;               // suffix of the output files
 };
+
+// Ament Table 1's light set-ups in place of the scene's lights: three orthodirectional lights
+// (one CSAT), or two point lights outside the data (two SSATs), placed around the camera's target.
+void set_lights(sombra::Scene& scene, const std::string& setup) {
+    if (setup == "scene") return;
+    const sombra::Camera& c = scene.camera;
+    sombra::Vec3 target = c.look_at;
+    float distance = std::sqrt((c.position[0] - target[0]) * (c.position[0] - target[0]) +
+                               (c.position[1] - target[1]) * (c.position[1] - target[1]) +
+                               (c.position[2] - target[2]) * (c.position[2] - target[2]));
+    scene.lights.clear();
+    sombra::Light l;
+    l.intensity = 0.6f;
+    if (setup == "ortho3") {
+        l.type = sombra::LightType::Directional;
+        for (sombra::Vec3 d : {sombra::Vec3{1, 0, 0}, sombra::Vec3{0, 1, 0}, sombra::Vec3{0, 0, -1}}) {
+            l.direction = d;
+            scene.lights.push_back(l);
+        }
+    } else if (setup == "point2") {
+        l.type = sombra::LightType::Point;
+        for (float side : {-1.f, 1.f}) {
+            l.position = {target[0] + side * 0.5f * distance, target[1] - 0.5f * distance, target[2] + 0.4f * distance};
+            scene.lights.push_back(l);
+        }
+    } else {
+        throw sombra::Error("--lights: expected scene, ortho3 or point2, got '" + setup + "'");
+    }
+}
 
 struct Method {
     std::string name;
@@ -143,10 +174,13 @@ int run(int argc, char** argv) {
     app.add_option("--cone-angle", o.cone_deg, "cone shadows: half angle in degrees")->check(CLI::Range(0.01f, 60.f));
     app.add_option("--widths", o.widths, "filter widths of the time-vs-width rows, comma-separated")->delimiter(',');
     app.add_option("--device", o.device, "OpenCL device: auto, cpu, gpu, or an index from `sombra devices`");
-    app.add_option("--out", o.out_dir, "write lowpass_table.md and lowpass_table.csv into this folder");
+    app.add_option("--out", o.out_dir, "write lowpass_table[_TAG].md and .csv into this folder");
+    app.add_option("--lights", o.lights, "scene (the scene's lights), ortho3 (3 orthodirectional) or point2 (2 point lights)");
+    app.add_option("--tag", o.tag, "suffix of the output files (lowpass_table_TAG.md)");
     CLI11_PARSE(app, argc, argv);
 
     sombra::Scene scene = sombra::load_scene(o.scene);
+    set_lights(scene, o.lights);
     sombra::Context context(o.device);
     auto points = sombra::bench::random_points(scene, o.points, 7);
     std::vector<std::vector<double>> rays;
@@ -163,16 +197,22 @@ int run(int argc, char** argv) {
         std::cout << markdown({rows.back()}) << std::flush;
     }
     for (float w : o.widths) widths.push_back(measure(context, scene, o, methods[3], w, points, rays));
-    std::string text = "## Methods (" + std::to_string(o.width) + "×" + std::to_string(o.height) + ", " + context.device().name +
-                       ")\n\n" + markdown(rows) + "\n## Low-pass box filter: time and error against the filter width\n\n" +
+    std::string dims;
+    for (const auto& vi : scene.volumes)
+        dims += (dims.empty() ? "" : " + ") + std::to_string(vi.volume->dims[0]) + "×" + std::to_string(vi.volume->dims[1]) + "×" +
+                std::to_string(vi.volume->dims[2]);
+    std::string text = "## Methods (" + o.scene + ", " + dims + " voxels, lights: " + o.lights + " (" +
+                       std::to_string(scene.lights.size()) + "), " + std::to_string(o.width) + "×" + std::to_string(o.height) +
+                       ", " + context.device().name + ")\n\n" + markdown(rows) + "\n## Low-pass box filter: time and error against the filter width\n\n" +
                        markdown(widths);
     std::cout << "\n" << text;
     if (!o.out_dir.empty()) {
         std::filesystem::create_directories(o.out_dir);
-        sombra::bench::write_file(std::filesystem::path(o.out_dir) / "lowpass_table.md", text);
+        std::string name = "lowpass_table" + (o.tag.empty() ? std::string() : "_" + o.tag);
+        sombra::bench::write_file(std::filesystem::path(o.out_dir) / (name + ".md"), text);
         std::vector<Row> all = rows;
         all.insert(all.end(), widths.begin(), widths.end());
-        sombra::bench::write_file(std::filesystem::path(o.out_dir) / "lowpass_table.csv", csv(all));
+        sombra::bench::write_file(std::filesystem::path(o.out_dir) / (name + ".csv"), csv(all));
     }
     return 0;
 }
