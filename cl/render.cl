@@ -10,7 +10,8 @@
  * SOMBRA_LOWPASS_GAUSS Gaussian filtered; with SOMBRA_LOWPASS_AO or SOMBRA_LOWPASS_CONE the SAT
  * ambient-occlusion or cone-shadow baselines on one volume-aligned table),
  * SOMBRA_LOWPASS_CACHED (with SOMBRA_SHADOW_LOWPASS: the shadow term read from the shadow cache),
- * SOMBRA_HAS_MESHES (translucent surface fragments composited in depth order: surfaces.h). */
+ * SOMBRA_HAS_MESHES (translucent surface fragments composited in depth order: surfaces.h; with
+ * SOMBRA_SHADOW_RAYS shadow rays also cross the mesh triangles). */
 #include "shared/types.h"
 #include "shared/hash.h"
 #include "lanes.h"
@@ -31,6 +32,12 @@
 #endif
 #else
 #define LOWPASS_PARAMS
+#endif
+#if defined(SOMBRA_SHADOW_RAYS) && defined(SOMBRA_HAS_MESHES)
+#define SOMBRA_SHADOW_RAY_MESHES /* shadow rays are attenuated by the world-space triangles */
+#define SHADOW_MESH_PARAMS , __global const SurfaceTriangleGpu *shadow_triangles, uint shadow_triangle_count
+#else
+#define SHADOW_MESH_PARAMS
 #endif
 
 /* What every sample of the camera pass reads and accumulates. */
@@ -61,11 +68,45 @@ typedef struct {
     __global const ShadowCacheGpu* shadow_cache_table;
 #endif
 #endif
+#ifdef SOMBRA_SHADOW_RAY_MESHES
+    __global const SurfaceTriangleGpu* shadow_triangles; /* every mesh triangle, corner.w = opacity */
+    uint shadow_triangle_count;
+#endif
 } CameraState;
+
+#ifdef SOMBRA_SHADOW_RAY_MESHES
+/* Transmittance of the surfaces on the segment p + t·dir, 0 < t < t_max (|dir| = 1): Π(1 − a) over
+ * every triangle it crosses (a: the mesh's opacity, corner.w), Möller–Trumbore. Brute force — every
+ * triangle for every shadow ray, O(triangles) per ray — fine for the test scenes (≈ 10³ triangles);
+ * a bounding-volume hierarchy would be the next step. A ray in a triangle's plane (|det| ≤ 10⁻⁷ of
+ * |e1 × e2|) and a degenerate triangle (e1 × e2 = 0) cross nothing: no division by zero, no NaN. */
+inline lfloat surfaces_transmittance(const CameraState* state, lfloat3 p, lfloat3 dir, lfloat t_max, lmask lanes) {
+    lfloat result = (lfloat)(1.0f);
+    for (uint i = 0; i < state->shadow_triangle_count; ++i) {
+        __global const SurfaceTriangleGpu* tri = &state->shadow_triangles[i];
+        float3 e1 = tri->edge1.xyz, e2 = tri->edge2.xyz;
+        float area2 = dot(cross(e1, e2), cross(e1, e2)); /* |e1 × e2|² */
+        lfloat3 pvec = l3(dir.y * e2.z - dir.z * e2.y, dir.z * e2.x - dir.x * e2.z, dir.x * e2.y - dir.y * e2.x);
+        lfloat det = l3_dot_uniform(pvec, e1);
+        lmask crossing = lanes & (det * det > 1e-14f * area2);
+        if (!lany(crossing)) continue;
+        lfloat inv = 1.0f / select((lfloat)(1.0f), det, crossing);
+        lfloat3 tvec = l3_sub(p, l3_splat(tri->corner.xyz));
+        lfloat u = l3_dot(tvec, pvec) * inv;
+        lfloat3 qvec = l3(tvec.y * e1.z - tvec.z * e1.y, tvec.z * e1.x - tvec.x * e1.z, tvec.x * e1.y - tvec.y * e1.x);
+        lfloat v = l3_dot(dir, qvec) * inv;
+        lfloat t = l3_dot_uniform(qvec, e2) * inv;
+        crossing &= (u >= 0.0f) & (v >= 0.0f) & (u + v <= 1.0f) & (t > 0.0f) & (t < t_max);
+        result = select(result, result * (1.0f - tri->corner.w), crossing);
+    }
+    return result;
+}
+#endif
 
 #if defined(SOMBRA_SHADOW_RAYS) || defined(SOMBRA_SHADOW_LOWPASS)
 /* Shadow-ray baseline: transmittance exp(−Σσ·Δ) from p to the light, marched over the same
- * segments as the camera rays, stopping once it falls below 10⁻⁶ (course slides: shadow rays). */
+ * segments as the camera rays, stopping once it falls below 10⁻⁶ (course slides: shadow rays);
+ * with meshes, times Π(1 − a) of the triangles crossed (surfaces_transmittance). */
 inline lfloat shadow_ray(VOLUME_DATA_PARAM, const CameraState* state, __global const LightGpu* light, lfloat3 p,
                          lmask lanes) {
     lfloat3 dir;
@@ -89,7 +130,11 @@ inline lfloat shadow_ray(VOLUME_DATA_PARAM, const CameraState* state, __global c
         optical_depth += extinction_at(volume_data, state->volumes, state->tf_tables, &ray, t, cursor.active, sampling) * cursor.step;
         cursor.alive &= !(optical_depth > 13.8155f); /* exp(−13.8) = 10⁻⁶ */
     }
+#ifdef SOMBRA_SHADOW_RAY_MESHES
+    return exp(-optical_depth) * surfaces_transmittance(state, p, dir, t_max, lanes);
+#else
     return exp(-optical_depth);
+#endif
 }
 #endif
 
@@ -301,7 +346,7 @@ __kernel void render_camera(VOLUME_DATA_PARAM, __global const uchar* occupancy, 
 #ifdef SOMBRA_SHADOW_DSM
                             , __global const DsmViewGpu* views, DSM_READ_PARAMS
 #endif
-                            LOWPASS_PARAMS
+                            LOWPASS_PARAMS SHADOW_MESH_PARAMS
 #ifdef SOMBRA_HAS_MESHES
                             , SURFACE_PARAMS
 #endif
@@ -344,6 +389,10 @@ __kernel void render_camera(VOLUME_DATA_PARAM, __global const uchar* occupancy, 
     state.shadow_cache = shadow_cache;
     state.shadow_cache_table = shadow_cache_table;
 #endif
+#endif
+#ifdef SOMBRA_SHADOW_RAY_MESHES
+    state.shadow_triangles = shadow_triangles;
+    state.shadow_triangle_count = shadow_triangle_count;
 #endif
 #define SOMBRA_JITTER_LANE(c) sombra_pixel_jitter((uint)LC(xs, c), y, camera->jitter_seed)
     state.jitter = LFROM_LANES(SOMBRA_JITTER_LANE);
@@ -391,7 +440,7 @@ __kernel void shadow_probe(VOLUME_DATA_PARAM, __global const uchar* occupancy, _
 #ifdef SOMBRA_SHADOW_DSM
                            , __global const DsmViewGpu* views, DSM_READ_PARAMS
 #endif
-                           LOWPASS_PARAMS
+                           LOWPASS_PARAMS SHADOW_MESH_PARAMS
 ) {
     size_t i = get_global_id(0);
     CameraState state;
@@ -401,6 +450,10 @@ __kernel void shadow_probe(VOLUME_DATA_PARAM, __global const uchar* occupancy, _
     state.tf_tables = tf_tables;
     state.occupancy = occupancy;
     state.jitter = sombra_pixel_jitter((uint)i, 0u, camera->jitter_seed);
+#ifdef SOMBRA_SHADOW_RAY_MESHES
+    state.shadow_triangles = shadow_triangles;
+    state.shadow_triangle_count = shadow_triangle_count;
+#endif
 #ifdef SOMBRA_SHADOW_DSM
     state.views = views;
     DSM_READ_STATE_INIT(state);

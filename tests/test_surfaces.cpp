@@ -151,3 +151,115 @@ TEST_CASE("surfaces in deep shadow maps: a quad of opacity a leaves 1 − a behi
         for (std::size_t i = 0; i < t.size(); ++i) CHECK(t1[i] == t[i]);
     }
 }
+
+namespace {
+
+// The sphere scene with the volume only, and points below it on the directional light's ray.
+std::vector<Vec3> points_under_sphere() {
+    const double lx = 0.3, ly = 0.5, lz = 0.8, n = std::sqrt(lx * lx + ly * ly + lz * lz);  // towards the light
+    std::vector<Vec3> points;
+    for (float d : {0.f, 0.2f, 0.45f, 0.7f})
+        for (float off : {-0.1f, 0.f, 0.15f})
+            points.push_back({float(-d * lx / n) + off, float(-d * ly / n), float(-d * lz / n) - off});
+    return points;
+}
+
+double mean_abs_difference(const std::vector<double>& a, const std::vector<double>& b) {
+    double sum = 0;
+    for (std::size_t i = 0; i < a.size(); ++i) sum += std::fabs(a[i] - b[i]);
+    return sum / double(a.size());
+}
+
+}  // namespace
+
+TEST_CASE("shadow rays and the reference cross meshes: a quad of opacity a leaves (1 − a) × the volume's transmittance",
+          "[surfaces][shadows]") {
+    Scene s = test::sphere_scene();
+    std::vector<Vec3> points = points_under_sphere();
+    points.push_back({0.f, 0.f, 1.f});  // above the quad: not shadowed by it
+    RenderOptions o;
+    o.shadows = ShadowTechnique::Rays;
+    auto volume_only = shadow_transmittance(test::context(), s, 0, points, o).transmittance;
+    for (float a : {0.f, 0.3f, 0.75f, 1.f}) {
+        Scene with = s;
+        with.meshes.push_back(quad(1.5f, 0.8f, a, {1.f, 1.f, 1.f}));  // above the sphere, across every ray
+        // edge-on (in a plane containing the light's direction) and degenerate triangles cross nothing
+        auto extra = std::make_shared<Mesh>();
+        extra->positions = {{0.f, 0.f, 0.6f}, {0.3f, 0.5f, 1.4f}, {0.f, 0.f, 1.4f}, {0.1f, 0.1f, 0.7f}, {0.2f, 0.2f, 0.7f}};
+        extra->triangles = {{0, 1, 2}, {3, 4, 3}, {0, 0, 0}};
+        extra->source = "edge-on";
+        MeshInstance edge = with.meshes[0];
+        edge.mesh = extra;
+        with.meshes.push_back(edge);
+        auto rays = shadow_transmittance(test::context(), with, 0, points, o).transmittance;
+        INFO("opacity " << a);
+        for (std::size_t i = 0; i + 1 < points.size(); ++i) {
+            INFO("point " << i);
+            REQUIRE(std::isfinite(rays[i]));
+            CHECK(rays[i] == Approx((1 - a) * volume_only[i]).margin(1e-6));
+            double ref = reference_transmittance(with, 0, points[i]), ref_volume = reference_transmittance(s, 0, points[i]);
+            CHECK(ref == Approx((1 - a) * ref_volume).margin(1e-12));
+            if (a == 1.f) CHECK(rays[i] == 0.f);
+            if (a == 1.f) CHECK(ref == 0.0);
+        }
+        CHECK(rays.back() == Approx(1.0).margin(1e-6));
+        CHECK(reference_transmittance(with, 0, points.back()) == Approx(1.0).margin(1e-12));
+    }
+}
+
+TEST_CASE("deep shadow maps and shadow rays agree with the reference on a volume shadowing a mesh and a mesh shadowing "
+          "a volume",
+          "[surfaces][dsm][shadows]") {
+    Scene s = test::sphere_scene(32);
+    s.lights.clear();
+    Light spot;
+    spot.type = LightType::Spot;
+    spot.position = {0.2f, 0.f, 2.5f};
+    spot.direction = {-0.2f, 0.f, -2.5f};
+    spot.cone_angle_deg = 35.f;
+    s.lights.push_back(spot);
+    s.meshes.push_back(quad(1.5f, -0.9f, 0.6f, {0.8f, 0.8f, 0.8f}));  // floor: the volume shadows it
+    s.meshes.push_back(quad(0.25f, 0.75f, 0.5f, {1.f, 1.f, 1.f}));    // small sheet above: shadows the volume
+    std::vector<Vec3> on_floor, in_volume;
+    for (int j = 0; j < 9; ++j)
+        for (int i = 0; i < 9; ++i) {
+            float x = -0.8f + 0.2f * float(i), y = -0.8f + 0.2f * float(j);
+            on_floor.push_back({x, y, -0.88f});
+            in_volume.push_back({0.5f * x, 0.5f * y, 0.05f * float((i + j) % 5) - 0.1f});
+        }
+    for (const auto& [name, points] : {std::pair{"volume shadowing the floor", on_floor}, {"sheet shadowing the volume", in_volume}}) {
+        std::vector<double> reference;
+        for (const Vec3& p : points) reference.push_back(reference_transmittance(s, 0, p));
+        double lo = 1, hi = 0;
+        for (double r : reference) lo = std::min(lo, r), hi = std::max(hi, r);
+        INFO(name << ": reference T in [" << lo << ", " << hi << "]");
+        CHECK(hi - lo > 0.3);  // there is a shadow to get right
+        RenderOptions o;
+        o.dsm_resolution = 256;
+        o.shadows = ShadowTechnique::Dsm;
+        auto dsm = shadow_transmittance(test::context(), s, 0, points, o).transmittance;
+        o.shadows = ShadowTechnique::Rays;
+        auto rays = shadow_transmittance(test::context(), s, 0, points, o).transmittance;
+        double dsm_error = mean_abs_difference(dsm, reference), ray_error = mean_abs_difference(rays, reference);
+        INFO("mean |T_dsm − T_ref| = " << dsm_error << ", mean |T_rays − T_ref| = " << ray_error);
+        CHECK(dsm_error < 0.02);
+        CHECK(ray_error < 0.01);
+        WARN(name << ": mean |ΔT| DSM " << dsm_error << ", rays " << ray_error);
+    }
+}
+
+TEST_CASE("shipped mesh scenes (Knecht Fig. 5.2–5.4) load and render with deep shadow maps, no NaN", "[surfaces][scenes]") {
+    for (const char* name : {"teapot_fog", "two_smokes_wall", "steaming_cups"}) {
+        INFO(name);
+        Scene s = load_scene(test::data_path(std::string("scenes/") + name + ".json"));
+        REQUIRE(!s.meshes.empty());
+        RenderOptions o;
+        o.width = o.height = 24;
+        o.shadows = ShadowTechnique::Dsm;
+        o.dsm_resolution = 64;
+        Image im = render(test::context(), s, o).image;
+        std::size_t bad = 0;
+        for (float v : im.rgba) bad += !std::isfinite(v);
+        CHECK(bad == 0);
+    }
+}

@@ -147,7 +147,7 @@ typedef struct {
 /* A mesh triangle in the world, for shading surface fragments (cl/surfaces.h): indexed by
  * ScreenTriangleGpu.source. Normals are interpolated barycentrically at the fragment's point. */
 typedef struct {
-    sb_float4 corner;    /* corner 0 */
+    sb_float4 corner;    /* corner 0; w: the mesh's opacity (shadow rays) */
     sb_float4 edge1;     /* corner 1 − corner 0 */
     sb_float4 edge2;     /* corner 2 − corner 0 */
     sb_float4 normal[3]; /* unit normal at each corner (the face normal if the mesh has none) */

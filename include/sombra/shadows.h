@@ -36,8 +36,9 @@ DeepShadowMap read_deep_exr(const std::string& path);
 // Ground truth: transmittance from world point p to light `light_index` of the scene, integrated
 // in double precision with steps of `step_voxels` of each volume's smallest voxel (midpoint rule,
 // trilinear interpolation, the transfer function evaluated directly, no table, no compression).
-// Overlapping volumes add their optical depths. Lights at infinity (directional) integrate to the
-// far side of every volume.
+// Overlapping volumes add their optical depths; every mesh triangle crossed on the way multiplies
+// the result by 1 − its mesh's opacity (brute force over all triangles). Lights at infinity
+// (directional) integrate to the far side of every volume.
 double reference_transmittance(const Scene& scene, int light_index, const Vec3& p, double step_voxels = 0.05);
 
 }  // namespace sombra

@@ -65,6 +65,7 @@ struct PreparedScene {
     surfaces::DeviceSurfaces surfaces;  // scenes with meshes
     bool use_images = false, use_dsm = false, use_sat = false;
     std::uint64_t serial = 0;  // tells preparations apart (what is derived from one is kept with its serial)
+    bool ray_meshes = false;  // shadow rays cross the mesh triangles (render.cl SOMBRA_SHADOW_RAY_MESHES)
 };
 
 // What a light's deep shadow maps depend on besides the volumes: where it is and how it shines
@@ -235,6 +236,7 @@ PreparedScene prepare_anew(host::Runtime& runtime, const Scene& scene, const Ren
     prepared.device = packing::upload_scene(runtime, scene, prepared.packed, prepared.use_images);
     stats.stage_ms["upload"] = prepared.device.upload_ms;
     if (!scene.meshes.empty()) prepared.surfaces = surfaces::upload_surfaces(runtime, surfaces::pack_surfaces(scene));
+    prepared.ray_meshes = options.shadows == ShadowTechnique::Rays && !scene.lights.empty() && !scene.meshes.empty();
     if (prepared.use_dsm) {
         prepared.dsm = shadows::build_deep_shadow_maps(runtime, scene, prepared.packed, prepared.device, views,
                                                        dsm_build_options(options));
@@ -285,6 +287,14 @@ int set_sat_args(host::Runtime& runtime, cl::Kernel& kernel, int arg, const Prep
     kernel.setArg(arg++, p.sat.data);
     kernel.setArg(arg++, grids.cartesian);
     kernel.setArg(arg++, grids.spherical);
+    return arg;
+}
+
+// Shadow rays in a scene with meshes: every world-space triangle (opacity in corner.w) and their count.
+int set_shadow_mesh_args(cl::Kernel& kernel, int arg, const PreparedScene& p) {
+    if (!p.ray_meshes) return arg;
+    kernel.setArg(arg++, p.surfaces.triangles);
+    kernel.setArg(arg++, p.surfaces.triangle_count);
     return arg;
 }
 
@@ -339,7 +349,8 @@ double run_shadow_probe(host::Runtime& runtime, const Scene& scene, const Prepar
     kernel.setArg(arg++, points);
     kernel.setArg(arg++, out);
     shadows::SatGridBuffers sat_grids;
-    set_sat_args(runtime, kernel, set_dsm_args(kernel, arg, prepared), prepared, probe_options, sat_grids);
+    set_shadow_mesh_args(kernel, set_sat_args(runtime, kernel, set_dsm_args(kernel, arg, prepared), prepared, probe_options, sat_grids),
+                         prepared);
     cl::Event event;
     runtime.queue().enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(count), cl::NullRange, nullptr, &event);
     event.wait();
@@ -465,6 +476,7 @@ RenderResult render(Context& context, const Scene& scene, const RenderOptions& o
         kernel.setArg(arg++, cache->table);
         stats.shadow_cache_bytes = cache->bytes;
     }
+    arg = set_shadow_mesh_args(kernel, arg, prepared);
     surfaces::ViewFragments fragments;
     if (!scene.meshes.empty()) {  // the camera view's fragments (Knecht §3.1: raster → segments)
         fragments = surfaces::view_fragments(runtime, scene.meshes, raster::camera_view(scene.camera, width, height));

@@ -54,7 +54,7 @@ PackedSurfaces pack_surfaces(const Scene& scene) {
             V3 e2{p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]};
             V3 face = unit({e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]});
             SurfaceTriangleGpu t{};
-            t.corner = f4(p[0]), t.edge1 = f4(e1), t.edge2 = f4(e2);
+            t.corner = f4(p[0], mat.opacity), t.edge1 = f4(e1), t.edge2 = f4(e2);
             for (int k = 0; k < 3; ++k) {
                 V3 n = mesh.normals.empty() ? face : unit(transform_normal(mi.transform, mesh.normals[tri[std::size_t(k)]]));
                 t.normal[k] = f4(n);
@@ -67,6 +67,7 @@ PackedSurfaces pack_surfaces(const Scene& scene) {
 
 DeviceSurfaces upload_surfaces(host::Runtime& rt, const PackedSurfaces& p) {
     DeviceSurfaces d;
+    d.triangle_count = cl_uint(p.triangles.size());
     d.triangles = host::make_buffer(rt, CL_MEM_READ_ONLY, p.triangles.size() * sizeof(SurfaceTriangleGpu), p.triangles.data(),
                                     "surface triangles");
     d.materials = host::make_buffer(rt, CL_MEM_READ_ONLY, p.materials.size() * sizeof(SurfaceMaterialGpu), p.materials.data(),

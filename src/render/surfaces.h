@@ -8,7 +8,8 @@
 
 namespace sombra::surfaces {
 
-// Triangles in the order of ScreenTriangleGpu::source (mesh after mesh), one material per instance.
+// Triangles in the order of ScreenTriangleGpu::source (mesh after mesh), one material per instance;
+// each triangle's corner.w is its mesh's opacity (shadow rays read it without the materials).
 struct PackedSurfaces {
     std::vector<SurfaceTriangleGpu> triangles;
     std::vector<SurfaceMaterialGpu> materials;
@@ -17,6 +18,7 @@ PackedSurfaces pack_surfaces(const Scene& scene);
 
 struct DeviceSurfaces {
     cl::Buffer triangles, materials;
+    cl_uint triangle_count = 0;
 };
 DeviceSurfaces upload_surfaces(host::Runtime& runtime, const PackedSurfaces& packed);
 

@@ -12,7 +12,12 @@
 //
 // with h₀ = step_voxels × the volume's smallest world voxel size, and f_v the trilinear
 // interpolation of the voxels (positions clamped to [0, dims − 1]). Overlapping volumes add their
-// optical depths. No spot cone, no distance attenuation: transmittance only.
+// optical depths. Meshes: every triangle the segment crosses (Möller–Trumbore in double against
+// every triangle of every mesh, brute force) multiplies T by 1 − its mesh's opacity:
+//
+//   T = exp(−τ) · Π_{triangles crossed} (1 − a_mesh)
+//
+// No spot cone, no distance attenuation: transmittance only.
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -33,6 +38,7 @@ D3 to_d3(const Vec3& v) { return {double(v[0]), double(v[1]), double(v[2])}; }
 D3 add(const D3& a, const D3& b) { return {a[0] + b[0], a[1] + b[1], a[2] + b[2]}; }
 D3 sub(const D3& a, const D3& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
 D3 scale(double s, const D3& a) { return {s * a[0], s * a[1], s * a[2]}; }
+D3 cross(const D3& a, const D3& b) { return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]}; }
 double dot(const D3& a, const D3& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
 double length(const D3& a) { return std::sqrt(dot(a, a)); }
 bool finite(const D3& a) { return std::isfinite(a[0]) && std::isfinite(a[1]) && std::isfinite(a[2]); }
@@ -243,6 +249,48 @@ Segment shadow_segment(const Light& light, const D3& p, const std::string& where
     return {p, scale(1.0 / dist, to_light), dist};
 }
 
+// ---- meshes ----
+
+// Object → world of a mesh instance: its row-major 4×4 transform (last row 0 0 0 1).
+D3 mesh_point(const MeshInstance& mi, const std::array<float, 3>& p) {
+    D3 r{};
+    for (std::size_t i = 0; i < 3; ++i)
+        r[i] = double(mi.transform[i * 4]) * p[0] + double(mi.transform[i * 4 + 1]) * p[1] +
+               double(mi.transform[i * 4 + 2]) * p[2] + double(mi.transform[i * 4 + 3]);
+    return r;
+}
+
+// Whether the segment crosses triangle (a, b, c) at some 0 < t < t_end (Möller–Trumbore). A segment
+// in the triangle's plane and a degenerate triangle cross nothing (det = 0 is never divided by).
+bool crosses(const Segment& s, const D3& a, const D3& b, const D3& c) {
+    const D3 e1 = sub(b, a), e2 = sub(c, a);
+    const D3 pvec = cross(s.dir, e2);
+    const double det = dot(pvec, e1);
+    const double area = length(cross(e1, e2));
+    if (!(std::fabs(det) > 1e-12 * area)) return false;
+    const D3 tvec = sub(s.origin, a);
+    const double u = dot(tvec, pvec) / det;
+    const D3 qvec = cross(tvec, e1);
+    const double v = dot(s.dir, qvec) / det;
+    const double t = dot(e2, qvec) / det;
+    return u >= 0 && v >= 0 && u + v <= 1 && t > 0 && t < s.t_end;
+}
+
+// Π (1 − a) over the triangles of every mesh the segment crosses.
+double surfaces_transmittance(const Scene& scene, const Segment& s) {
+    double result = 1;
+    for (std::size_t i = 0; i < scene.meshes.size(); ++i) {
+        const MeshInstance& mi = scene.meshes[i];
+        if (!mi.mesh) throw Error("meshes[" + std::to_string(i) + "]: no mesh data");
+        const double keep = 1.0 - std::clamp(double(mi.material.opacity), 0.0, 1.0);
+        for (const auto& tri : mi.mesh->triangles)
+            if (crosses(s, mesh_point(mi, mi.mesh->positions[tri[0]]), mesh_point(mi, mi.mesh->positions[tri[1]]),
+                        mesh_point(mi, mi.mesh->positions[tri[2]])))
+                result *= keep;
+    }
+    return result;
+}
+
 }  // namespace
 
 double reference_transmittance(const Scene& scene, int light_index, const Vec3& p, double step_voxels) {
@@ -262,7 +310,7 @@ double reference_transmittance(const Scene& scene, int light_index, const Vec3& 
         const PreparedVolume pv = prepare(scene.volumes[i], "volumes[" + std::to_string(i) + "]");
         tau += optical_depth(pv, segment, step_voxels);
     }
-    return std::exp(-tau);
+    return std::exp(-tau) * surfaces_transmittance(scene, segment);
 }
 
 }  // namespace sombra
