@@ -9,6 +9,7 @@
 #include <CLI/CLI.hpp>
 #include "host/guarded_main.h"
 #include "bench_util.h"
+#include "shared/types.h"
 
 #include <algorithm>
 #include <chrono>
@@ -28,9 +29,8 @@ using sombra::bench::forget_preparation;
 using sombra::bench::median;
 using sombra::bench::write_file;
 
-// validate_scene (src/scene/scene.cpp) and the kernels' segment arrays (SOMBRA_MAX_VOLUMES,
-// cl/shared/types.h) allow at most 8 volumes per scene: cups beyond the 8th get no steam.
-constexpr int kMaxVolumes = 8;
+// validate_scene (src/scene/scene.cpp) allows at most SOMBRA_MAX_VOLUMES (32) volumes per scene.
+constexpr int kMaxVolumes = SOMBRA_MAX_VOLUMES;
 
 struct BenchOptions {
     std::vector<int> counts{1, 2, 4, 8, 16, 24};
@@ -124,7 +124,7 @@ void frame(sombra::Scene& scene, float half) {
 }
 
 // N cups with steam on a ⌈√N⌉-wide grid, 80 units apart (steaming_cups.json); steam above the
-// first min(N, 8) cups.
+// first min(N, SOMBRA_MAX_VOLUMES) cups.
 sombra::Scene cups_scene(int n, const std::shared_ptr<const sombra::Mesh>& teapot) {
     sombra::Scene scene;
     scene.source = "objects_bench: " + std::to_string(n) + " cups";

@@ -6,6 +6,7 @@
 #include "reference/raycaster_ref.h"
 #include "test_support.h"
 #include "shared/phase.h"
+#include "shared/types.h"
 
 using namespace sombra;
 
@@ -211,4 +212,35 @@ TEST_CASE("single scattering: isotropic equals head-on Phong in a homogeneous me
     CHECK(centre(isotropic) > 1.5f * backward);
     o.phase_g = 1.f;
     CHECK_THROWS_WITH(render(test::context(), s, o), Catch::Contains("--phase-g"));
+}
+
+TEST_CASE("scenes of up to 32 volumes render in packets (24 here) and a 33rd is refused", "[render]") {
+    Scene s;
+    for (int i = 0; i < 24; ++i) {
+        VolumeInstance vi;
+        vi.volume = test::constant_volume({4, 4, 4}, 0.5f);
+        vi.transfer_function = test::constant_tf(0.3f);
+        float x = float(i % 6) * 0.25f - 0.6f, y = float(i / 6) * 0.25f - 0.4f;
+        vi.transform = make_transform({x, y, 0}, {0, 0, 0}, {0.04f, 0.04f, 0.04f});
+        s.volumes.push_back(vi);
+    }
+    Light l;
+    l.type = LightType::Point;
+    l.position = {0.2f, 0.3f, 1.5f};
+    s.lights.push_back(l);
+    s.camera.position = {0, 0, 2.5f};
+    RenderOptions o;
+    o.width = o.height = 32;
+    o.shadows = ShadowTechnique::Dsm;
+    o.dsm_resolution = 32;
+    o.lanes = 8;
+    Image packets = render(test::context(), s, o).image;
+    for (float v : packets.rgba) REQUIRE(std::isfinite(v));
+    o.lanes = 1;
+    CHECK(test::compare(packets, render(test::context(), s, o).image).max_abs < 1e-5);
+    double lit = 0;
+    for (float v : packets.rgba) lit += v;
+    CHECK(lit > 1.0);  // the volumes show
+    while (s.volumes.size() <= SOMBRA_MAX_VOLUMES) s.volumes.push_back(s.volumes.front());
+    CHECK_THROWS_WITH(render(test::context(), s, o), Catch::Contains("volumes"));
 }

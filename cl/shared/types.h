@@ -18,8 +18,9 @@ typedef cl_uint sb_uint;
 
 /* Edge length of the bricks used for empty-space skipping (Hadwiger §3: brick min/max). */
 #define SOMBRA_BRICK_SIZE 8
-/* Upper bound on volumes per scene (segment arrays are sized by it). */
-#define SOMBRA_MAX_VOLUMES 8
+/* Upper bound on volumes per scene (the segment cursor's active set is a 32-bit mask; kernels size
+ * their per-ray arrays by the scene's own count, SOMBRA_VOLUME_SLOTS). */
+#define SOMBRA_MAX_VOLUMES 32
 #define SOMBRA_MAX_LIGHTS 8
 /* Kernels size their per-ray arrays by the scene's volume count (a -D define) when it is given. */
 #ifndef SOMBRA_VOLUME_SLOTS

@@ -4,6 +4,7 @@
 #include <filesystem>
 
 #include "scene/json_fields.h"
+#include "shared/types.h"
 
 namespace sombra {
 namespace {
@@ -229,7 +230,8 @@ void validate_scene(const Scene& scene, const std::string& where) {
     if (!(c.fov_y_deg > 0.f && c.fov_y_deg < 180.f)) throw file_error(where, "camera.fov_y_deg", "must lie in (0, 180)");
     if (scene.width < 1 || scene.height < 1 || scene.width > 16384 || scene.height > 16384)
         throw file_error(where, "image", "width and height must lie in [1, 16384]");
-    if (scene.volumes.size() > 8) throw file_error(where, "volumes", "at most 8 volumes per scene");
+    if (scene.volumes.size() > SOMBRA_MAX_VOLUMES)
+        throw file_error(where, "volumes", "at most " + std::to_string(SOMBRA_MAX_VOLUMES) + " volumes per scene");
     if (scene.lights.size() > 8) throw file_error(where, "lights", "at most 8 lights per scene");
     for (std::size_t i = 0; i < scene.volumes.size(); ++i)
         if (!scene.volumes[i].volume || scene.volumes[i].volume->voxel_count() == 0)
