@@ -76,6 +76,11 @@ std::vector<cl_uint> count_nodes(BuildContext& context, DsmStats& stats, const s
 // keeping the nodes of views not regenerated).
 cl::Buffer grow_buffer(host::Runtime& runtime, const cl::Buffer& old, std::size_t kept_bytes, std::size_t new_bytes,
                        const char* what);
+// Sets `buffers` as consecutive kernel arguments from `arg`; returns the next argument index.
+inline int set_buffer_args(cl::Kernel& kernel, int arg, std::initializer_list<const cl::Buffer*> buffers) {
+    for (const cl::Buffer* b : buffers) kernel.setArg(arg++, *b);
+    return arg;
+}
 void summarize_counts(const std::vector<cl_uint>& counts, std::vector<DsmViewGpu>& views, std::size_t texels_per_view,
                       DsmStats& stats);
 

@@ -67,11 +67,7 @@ public:
                 if (!context.generates(v)) continue;
                 cl_uint capped_before = counters[2];
                 stats.stage_ms["dsm_build"] += context.run_view(context.defines, "dsm_build", v, [&](cl::Kernel& k, int arg) {
-                    k.setArg(arg++, layout_);
-                    k.setArg(arg++, counts_);
-                    k.setArg(arg++, blocks_);
-                    k.setArg(arg++, allocator_);
-                    k.setArg(arg, pool);
+                    k.setArg(set_buffer_args(k, arg, {&layout_, &counts_, &blocks_, &allocator_}), pool);
                 });
                 rt.queue().enqueueReadBuffer(allocator_, CL_TRUE, 0, sizeof(counters), counters.data());
                 capped_per_view_[v] = counters[2] - capped_before;

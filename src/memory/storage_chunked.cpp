@@ -103,14 +103,7 @@ public:
             for (cl_uint v = 0; v < context.views.size(); ++v) {
                 if (!context.generates(v)) continue;
                 stats.stage_ms["dsm_build"] += context.run_view(context.defines, "dsm_build", v, [&](cl::Kernel& k, int arg) {
-                    k.setArg(arg++, fill_);
-                    k.setArg(arg++, tile_chunks_);
-                    k.setArg(arg++, nodes_);
-                    k.setArg(arg++, next_);
-                    k.setArg(arg++, head_);
-                    k.setArg(arg++, counts_);
-                    k.setArg(arg++, allocator_);
-                    k.setArg(arg, pool);
+                    k.setArg(set_buffer_args(k, arg, {&fill_, &tile_chunks_, &nodes_, &next_, &head_, &counts_, &allocator_}), pool);
                 });
             }
             rt.queue().enqueueReadBuffer(allocator_, CL_TRUE, 0, sizeof(counters), counters.data());
