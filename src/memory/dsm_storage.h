@@ -76,6 +76,14 @@ std::vector<cl_uint> count_nodes(BuildContext& context, DsmStats& stats, const s
 // keeping the nodes of views not regenerated).
 cl::Buffer grow_buffer(host::Runtime& runtime, const cl::Buffer& old, std::size_t kept_bytes, std::size_t new_bytes,
                        const char* what);
+// The 8×8 tiles of a DSM set (every view has the same resolution), as the tiled backends lay them out.
+struct TileGrid {
+    std::size_t per_row, view_tiles, tiles, texels;
+    explicit TileGrid(const BuildContext& context)
+        : per_row((context.views.front().resolution + 7) / 8), view_tiles(per_row * per_row),
+          tiles(context.views.size() * view_tiles), texels(context.views.size() * context.texels_per_view) {}
+};
+
 // Sets `buffers` as consecutive kernel arguments from `arg`; returns the next argument index.
 inline int set_buffer_args(cl::Kernel& kernel, int arg, std::initializer_list<const cl::Buffer*> buffers) {
     for (const cl::Buffer* b : buffers) kernel.setArg(arg++, *b);

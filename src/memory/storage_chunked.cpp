@@ -51,10 +51,8 @@ public:
 
     void build(BuildContext& context, DsmStats& stats) override {
         host::Runtime& rt = context.runtime;
-        const DsmViewGpu& first = context.views.front();
-        std::size_t per_row = (first.resolution + 7) / 8, view_tiles = per_row * per_row;
-        std::size_t tiles = context.views.size() * view_tiles;
-        std::size_t texels = context.views.size() * context.texels_per_view;
+        const TileGrid grid(context);
+        const std::size_t view_tiles = grid.view_tiles, tiles = grid.tiles, texels = grid.texels;
         std::size_t table_entries = tiles * (counted_ ? 1 : kChunksPerTile);
         bool update = tiles_ == tiles && !context.regenerate.empty();
         if (!update) {
