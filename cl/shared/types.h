@@ -154,6 +154,21 @@ typedef struct {
     sb_float4 normal[3]; /* unit normal at each corner (the face normal if the mesh has none) */
 } SurfaceTriangleGpu;
 
+/* A node of the bounding-volume hierarchy over the world-space mesh triangles that shadow rays
+ * cross (src/render/bvh.h, cl/bvh.h). Nodes are stored depth first: an inner node's first child
+ * follows it, `first` indexes its second child; a leaf holds triangles [first, first + count) of
+ * the triangle array in BVH order. */
+typedef struct {
+    sb_float4 box_min;  /* xyz: the node's bounding box (w unused) */
+    sb_float4 box_max;
+    sb_uint first;      /* leaf: first triangle; inner node: index of the second child */
+    sb_uint count;      /* leaf: triangles (≥ 1); inner node: 0 */
+    sb_uint pad0, pad1;
+} BvhNodeGpu;
+/* The deepest a hierarchy gets (src/render/bvh.cpp: 32 SAH levels, then median splits of at most
+ * 2^32 triangles); the kernels' traversal stack holds this many nodes. */
+#define SOMBRA_BVH_MAX_DEPTH 64
+
 /* A mesh instance's material: Phong (Knecht Eq. 3.8) and the opacity of one surface crossing. */
 typedef struct {
     sb_float4 color;     /* rgb, a: opacity of one crossing */
