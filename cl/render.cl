@@ -35,7 +35,9 @@
 #endif
 #if defined(SOMBRA_SHADOW_RAYS) && defined(SOMBRA_HAS_MESHES)
 #define SOMBRA_SHADOW_RAY_MESHES /* shadow rays are attenuated by the world-space triangles */
-#define SHADOW_MESH_PARAMS , __global const SurfaceTriangleGpu *shadow_triangles, uint shadow_triangle_count
+#define SHADOW_MESH_PARAMS , __global const SurfaceTriangleGpu *shadow_triangles, __global const BvhNodeGpu *shadow_bvh, \
+                           uint shadow_bvh_nodes
+#include "bvh.h"
 #else
 #define SHADOW_MESH_PARAMS
 #endif
@@ -69,35 +71,41 @@ typedef struct {
 #endif
 #endif
 #ifdef SOMBRA_SHADOW_RAY_MESHES
-    __global const SurfaceTriangleGpu* shadow_triangles; /* every mesh triangle, corner.w = opacity */
-    uint shadow_triangle_count;
+    __global const SurfaceTriangleGpu* shadow_triangles; /* every mesh triangle in BVH order, corner.w = opacity */
+    __global const BvhNodeGpu* shadow_bvh;               /* the hierarchy over them (src/render/bvh.h) */
+    uint shadow_bvh_nodes;
 #endif
 } CameraState;
 
 #ifdef SOMBRA_SHADOW_RAY_MESHES
 /* Transmittance of the surfaces on the segment p + t·dir, 0 < t < t_max (|dir| = 1): Π(1 − a) over
- * every triangle it crosses (a: the mesh's opacity, corner.w), Möller–Trumbore. Brute force — every
- * triangle for every shadow ray, O(triangles) per ray — fine for the test scenes (≈ 10³ triangles);
- * a bounding-volume hierarchy would be the next step. A ray in a triangle's plane (|det| ≤ 10⁻⁷ of
- * |e1 × e2|) and a degenerate triangle (e1 × e2 = 0) cross nothing: no division by zero, no NaN. */
+ * every triangle it crosses (a: the mesh's opacity, corner.w), Möller–Trumbore on the triangles of
+ * the BVH leaves the packet's rays cross (cl/bvh.h); lanes whose transmittance reached 0 drop out.
+ * A ray in a triangle's plane (|det| ≤ 10⁻⁷ of |e1 × e2|) and a degenerate triangle (e1 × e2 = 0)
+ * cross nothing: no division by zero, no NaN. */
 inline lfloat surfaces_transmittance(const CameraState* state, lfloat3 p, lfloat3 dir, lfloat t_max, lmask lanes) {
     lfloat result = (lfloat)(1.0f);
-    for (uint i = 0; i < state->shadow_triangle_count; ++i) {
-        __global const SurfaceTriangleGpu* tri = &state->shadow_triangles[i];
-        float3 e1 = tri->edge1.xyz, e2 = tri->edge2.xyz;
-        float area2 = dot(cross(e1, e2), cross(e1, e2)); /* |e1 × e2|² */
-        lfloat3 pvec = l3(dir.y * e2.z - dir.z * e2.y, dir.z * e2.x - dir.x * e2.z, dir.x * e2.y - dir.y * e2.x);
-        lfloat det = l3_dot_uniform(pvec, e1);
-        lmask crossing = lanes & (det * det > 1e-14f * area2);
-        if (!lany(crossing)) continue;
-        lfloat inv = 1.0f / select((lfloat)(1.0f), det, crossing);
-        lfloat3 tvec = l3_sub(p, l3_splat(tri->corner.xyz));
-        lfloat u = l3_dot(tvec, pvec) * inv;
-        lfloat3 qvec = l3(tvec.y * e1.z - tvec.z * e1.y, tvec.z * e1.x - tvec.x * e1.z, tvec.x * e1.y - tvec.y * e1.x);
-        lfloat v = l3_dot(dir, qvec) * inv;
-        lfloat t = l3_dot_uniform(qvec, e2) * inv;
-        crossing &= (u >= 0.0f) & (v >= 0.0f) & (u + v <= 1.0f) & (t > 0.0f) & (t < t_max);
-        result = select(result, result * (1.0f - tri->corner.w), crossing);
+    BvhWalk walk;
+    bvh_walk_init(&walk, state->shadow_bvh_nodes);
+    uint first, count;
+    while (bvh_walk_next(&walk, state->shadow_bvh, p, dir, t_max, lanes & (result > 0.0f), &first, &count)) {
+        for (uint i = first; i < first + count; ++i) {
+            __global const SurfaceTriangleGpu* tri = &state->shadow_triangles[i];
+            float3 e1 = tri->edge1.xyz, e2 = tri->edge2.xyz;
+            float area2 = dot(cross(e1, e2), cross(e1, e2)); /* |e1 × e2|² */
+            lfloat3 pvec = l3(dir.y * e2.z - dir.z * e2.y, dir.z * e2.x - dir.x * e2.z, dir.x * e2.y - dir.y * e2.x);
+            lfloat det = l3_dot_uniform(pvec, e1);
+            lmask crossing = lanes & (det * det > 1e-14f * area2);
+            if (!lany(crossing)) continue;
+            lfloat inv = 1.0f / select((lfloat)(1.0f), det, crossing);
+            lfloat3 tvec = l3_sub(p, l3_splat(tri->corner.xyz));
+            lfloat u = l3_dot(tvec, pvec) * inv;
+            lfloat3 qvec = l3(tvec.y * e1.z - tvec.z * e1.y, tvec.z * e1.x - tvec.x * e1.z, tvec.x * e1.y - tvec.y * e1.x);
+            lfloat v = l3_dot(dir, qvec) * inv;
+            lfloat t = l3_dot_uniform(qvec, e2) * inv;
+            crossing &= (u >= 0.0f) & (v >= 0.0f) & (u + v <= 1.0f) & (t > 0.0f) & (t < t_max);
+            result = select(result, result * (1.0f - tri->corner.w), crossing);
+        }
     }
     return result;
 }
@@ -392,7 +400,8 @@ __kernel void render_camera(VOLUME_DATA_PARAM, __global const uchar* occupancy, 
 #endif
 #ifdef SOMBRA_SHADOW_RAY_MESHES
     state.shadow_triangles = shadow_triangles;
-    state.shadow_triangle_count = shadow_triangle_count;
+    state.shadow_bvh = shadow_bvh;
+    state.shadow_bvh_nodes = shadow_bvh_nodes;
 #endif
 #define SOMBRA_JITTER_LANE(c) sombra_pixel_jitter((uint)LC(xs, c), y, camera->jitter_seed)
     state.jitter = LFROM_LANES(SOMBRA_JITTER_LANE);
@@ -452,7 +461,8 @@ __kernel void shadow_probe(VOLUME_DATA_PARAM, __global const uchar* occupancy, _
     state.jitter = sombra_pixel_jitter((uint)i, 0u, camera->jitter_seed);
 #ifdef SOMBRA_SHADOW_RAY_MESHES
     state.shadow_triangles = shadow_triangles;
-    state.shadow_triangle_count = shadow_triangle_count;
+    state.shadow_bvh = shadow_bvh;
+    state.shadow_bvh_nodes = shadow_bvh_nodes;
 #endif
 #ifdef SOMBRA_SHADOW_DSM
     state.views = views;

@@ -63,6 +63,7 @@ struct PreparedScene {
     shadows::DeviceDsm dsm;
     shadows::DeviceSat sat;  // low-pass shadows: light-aligned summed-area tables
     surfaces::DeviceSurfaces surfaces;  // scenes with meshes
+    surfaces::ShadowBvh shadow_bvh;     // shadow rays through meshes: the triangles' hierarchy
     bool use_images = false, use_dsm = false, use_sat = false;
     std::uint64_t serial = 0;  // tells preparations apart (what is derived from one is kept with its serial)
     bool ray_meshes = false;  // shadow rays cross the mesh triangles (render.cl SOMBRA_SHADOW_RAY_MESHES)
@@ -235,8 +236,16 @@ PreparedScene prepare_anew(host::Runtime& runtime, const Scene& scene, const Ren
                           (options.storage == VolumeStorage::Auto && runtime.info().is_gpu);
     prepared.device = packing::upload_scene(runtime, scene, prepared.packed, prepared.use_images);
     stats.stage_ms["upload"] = prepared.device.upload_ms;
-    if (!scene.meshes.empty()) prepared.surfaces = surfaces::upload_surfaces(runtime, surfaces::pack_surfaces(scene));
     prepared.ray_meshes = options.shadows == ShadowTechnique::Rays && !scene.lights.empty() && !scene.meshes.empty();
+    if (!scene.meshes.empty()) {
+        surfaces::PackedSurfaces packed_surfaces = surfaces::pack_surfaces(scene);
+        prepared.surfaces = surfaces::upload_surfaces(runtime, packed_surfaces);
+        if (prepared.ray_meshes) {
+            auto bvh_start = clock_type::now();
+            prepared.shadow_bvh = surfaces::upload_shadow_bvh(runtime, packed_surfaces);
+            stats.stage_ms["bvh_build"] = ms_since(bvh_start);
+        }
+    }
     if (prepared.use_dsm) {
         prepared.dsm = shadows::build_deep_shadow_maps(runtime, scene, prepared.packed, prepared.device, views,
                                                        dsm_build_options(options));
@@ -290,11 +299,13 @@ int set_sat_args(host::Runtime& runtime, cl::Kernel& kernel, int arg, const Prep
     return arg;
 }
 
-// Shadow rays in a scene with meshes: every world-space triangle (opacity in corner.w) and their count.
+// Shadow rays in a scene with meshes: the world-space triangles (opacity in corner.w) in BVH order,
+// the hierarchy's nodes and their count.
 int set_shadow_mesh_args(cl::Kernel& kernel, int arg, const PreparedScene& p) {
     if (!p.ray_meshes) return arg;
-    kernel.setArg(arg++, p.surfaces.triangles);
-    kernel.setArg(arg++, p.surfaces.triangle_count);
+    kernel.setArg(arg++, p.shadow_bvh.triangles);
+    kernel.setArg(arg++, p.shadow_bvh.nodes);
+    kernel.setArg(arg++, p.shadow_bvh.node_count);
     return arg;
 }
 

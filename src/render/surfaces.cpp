@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "render/bvh.h"
+
 namespace sombra::surfaces {
 namespace {
 
@@ -72,6 +74,17 @@ DeviceSurfaces upload_surfaces(host::Runtime& rt, const PackedSurfaces& p) {
                                     "surface triangles");
     d.materials = host::make_buffer(rt, CL_MEM_READ_ONLY, p.materials.size() * sizeof(SurfaceMaterialGpu), p.materials.data(),
                                     "surface materials");
+    return d;
+}
+
+ShadowBvh upload_shadow_bvh(host::Runtime& rt, const PackedSurfaces& p) {
+    bvh::Hierarchy h = bvh::build(p.triangles);
+    std::vector<SurfaceTriangleGpu> ordered = bvh::reorder(p.triangles, h);
+    ShadowBvh d;
+    d.node_count = cl_uint(h.nodes.size());
+    d.triangles = host::make_buffer(rt, CL_MEM_READ_ONLY, ordered.size() * sizeof(SurfaceTriangleGpu), ordered.data(),
+                                    "shadow-ray triangles");
+    d.nodes = host::make_buffer(rt, CL_MEM_READ_ONLY, h.nodes.size() * sizeof(BvhNodeGpu), h.nodes.data(), "shadow-ray BVH");
     return d;
 }
 

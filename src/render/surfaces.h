@@ -22,6 +22,14 @@ struct DeviceSurfaces {
 };
 DeviceSurfaces upload_surfaces(host::Runtime& runtime, const PackedSurfaces& packed);
 
+// What shadow rays cross (render.cl surfaces_transmittance): the triangles in the order of a
+// bounding-volume hierarchy over them (render/bvh.h) and its nodes.
+struct ShadowBvh {
+    cl::Buffer triangles, nodes;
+    cl_uint node_count = 0;
+};
+ShadowBvh upload_shadow_bvh(host::Runtime& runtime, const PackedSurfaces& packed);
+
 // A view's fragments: each pixel's covering triangles sorted near to far, with the screen
 // triangles their ids index. Times go to stage_ms[prefix + "_raster"] and [prefix + "_fragments"].
 struct ViewFragments {
