@@ -316,7 +316,7 @@ inline lmask segment_cursor_next(SegmentCursor* c, const VolumeRay* ray, __globa
         /* lanes past their segment's end move on to their next non-empty segment */
         lmask exhausted = c->alive & (t >= c->t_end);
 #ifdef SOMBRA_HAS_MESHES
-        exhausted |= c->surface; /* a surface handed over last time: its segment is done */
+        exhausted |= c->surface & c->alive; /* a surface handed over last time: its segment is done */
         c->surface = (lmask)(0);
 #endif
         while (lany(exhausted)) {
