@@ -8,7 +8,8 @@
  *   dsm_count  nodes per texel only (SOMBRA_DSM_COUNT_ONLY; the compact backend's first pass)
  * Defines as render.cl: SOMBRA_LANES, SOMBRA_VOLUME_SLOTS, SOMBRA_USE_IMAGES, SOMBRA_SKIP_EMPTY;
  * the backend's (SOMBRA_DSM_ATLAS, SOMBRA_DSM_CHUNKED); SOMBRA_DSM_PRECOMPRESSED (pre-compressed
- * visibility tables, Hadwiger §3.2); SOMBRA_HAS_MESHES (surfaces as vertical steps, Knecht §3.2). */
+ * visibility tables, Hadwiger §3.2); SOMBRA_HAS_MESHES (the texel's fragment list merged into the
+ * segment boundaries: surfaces as vertical steps, Knecht §3.2; polyhedral volume bounds). */
 #include "shared/types.h"
 #include "shared/hash.h"
 #include "shared/compress.h"
@@ -22,24 +23,20 @@
 #define DSM_TERMINATION_TRANSMITTANCE 1e-4f
 
 #ifdef SOMBRA_HAS_MESHES
-/* The texel's surface fragments (render/fragments.h, sorted near to far) nearer than `limit`, in
- * depth order with the volume samples: each one a vertical step of its opacity a,
- * α_acc += a (1 − α_acc), two nodes at its depth that the compressor never smooths away. */
-#define DSM_INSERT_SURFACES(lane, limit)                                                                     \
-    while (surface_next[lane] < surface_end[lane] && fragments[surface_next[lane]].depth < (limit)) {        \
-        FragmentGpu f = fragments[surface_next[lane]++];                                                     \
-        float a = surface_materials[screen_triangles[f.triangle].mesh].color.w;                              \
-        if (!(a > 0.0f)) continue;                                                                           \
-        float before = 1.0f - transmittance[lane];                                                           \
-        transmittance[lane] *= 1.0f - a;                                                                     \
-        STORE_NODES(lane, compressor_flush(&compressor[lane]));                                              \
-        STORE_NODES(lane, compressor_step(&compressor[lane], f.depth, before, 1.0f - transmittance[lane])); \
-        previous_t[lane] = f.depth;                                                                          \
-    }
-#else
-#define DSM_INSERT_SURFACES(lane, limit)
+/* A surface fragment the cursor handed over at its depth (traversal.h), in depth order with the
+ * volume samples: a vertical step of its opacity a, α_acc += a (1 − α_acc), two nodes at its depth
+ * that the compressor never smooths away (Knecht §3.2). */
+#define DSM_SURFACE_STEP(lane, f)                                                                          \
+    do {                                                                                                   \
+        float a = surface_materials[screen_triangles[(f).triangle].mesh].color.w;                          \
+        if (!(a > 0.0f)) break;                                                                            \
+        float before = 1.0f - transmittance[lane];                                                         \
+        transmittance[lane] *= 1.0f - a;                                                                   \
+        STORE_NODES(lane, compressor_flush(&compressor[lane]));                                            \
+        STORE_NODES(lane, compressor_step(&compressor[lane], (f).depth, before, 1.0f - transmittance[lane])); \
+        previous_t[lane] = (f).depth;                                                                      \
+    } while (0)
 #endif
-
 
 DSM_GENERATION_KERNEL(VOLUME_DATA_PARAM, __global const uchar* occupancy, __global const float* tf_tables,
      __global const VolumeGpu* volumes, uint volume_count, __global const DsmViewGpu* views, uint view_index,
@@ -77,6 +74,11 @@ DSM_GENERATION_KERNEL(VOLUME_DATA_PARAM, __global const uchar* occupancy, __glob
                     (lfloat)(0.0f), (lfloat)(INFINITY));
     SegmentCursor cursor;
     segment_cursor_init(&cursor, &ray, volume_count, LLOAD(jitter), texels);
+#ifdef SOMBRA_HAS_MESHES /* the texel's fragments: surfaces and volume bounds are segment boundaries */
+    uint texel[SOMBRA_LANES];
+    for (uint lane = 0; lane < SOMBRA_LANES; ++lane) texel[lane] = y * v->resolution + min(x0 + lane, v->resolution - 1);
+    segment_cursor_use_fragments(&cursor, volumes, volume_count, fragment_first, fragments, screen_triangles, texel, texels);
+#endif
 
     /* per lane: the compressor, the transmittance and the previous sample's depth */
     VisibilityCompressor compressor[SOMBRA_LANES];
@@ -86,20 +88,21 @@ DSM_GENERATION_KERNEL(VOLUME_DATA_PARAM, __global const uchar* occupancy, __glob
         transmittance[lane] = 1.0f;
         previous_t[lane] = -INFINITY;
     }
-#ifdef SOMBRA_HAS_MESHES
-    uint surface_next[SOMBRA_LANES], surface_end[SOMBRA_LANES];
-    for (uint lane = 0; lane < SOMBRA_LANES; ++lane) {
-        uint texel = y * v->resolution + min(x0 + lane, v->resolution - 1);
-        surface_next[lane] = fragment_first[texel];
-        surface_end[lane] = lane < n ? fragment_first[texel + 1] : surface_next[lane];
-    }
-#endif
 #ifdef SOMBRA_DSM_PRECOMPRESSED
     lfloat previous_density = (lfloat)(0.0f);
     lint previous_segment = (lint)(-1), previous_k = (lint)(-1);
 #endif
     lmask sampling;
     while (lany(sampling = segment_cursor_next(&cursor, &ray, volumes, volume_count, occupancy))) {
+#ifdef SOMBRA_HAS_MESHES
+        if (lany(cursor.surface)) {
+            int surface_lane[SOMBRA_LANES];
+            LSTORE(cursor.surface, surface_lane);
+            for (uint lane = 0; lane < SOMBRA_LANES; ++lane)
+                if (surface_lane[lane]) DSM_SURFACE_STEP(lane, fragments[cursor.surface_fragment[lane]]);
+            sampling &= !cursor.surface;
+        }
+#endif
         lfloat t = select((lfloat)(0.0f), cursor.t, sampling); /* finite positions in idle lanes */
         lmask stepwise = sampling; /* lanes whose sample is an extinction sample */
 #ifdef SOMBRA_DSM_PRECOMPRESSED
@@ -144,7 +147,6 @@ DSM_GENERATION_KERNEL(VOLUME_DATA_PARAM, __global const uchar* occupancy, __glob
         for (uint lane = 0; lane < SOMBRA_LANES; ++lane) {
             if (!sampling_lane[lane]) continue;
             float t = t_lane[lane];
-            DSM_INSERT_SURFACES(lane, t);
 #ifdef SOMBRA_DSM_PRECOMPRESSED
             if (tabled_lane[lane]) {
                 __global const PrecompressionGpu* table = &precompression[31 - clz(active_lane[lane])];
@@ -175,9 +177,6 @@ DSM_GENERATION_KERNEL(VOLUME_DATA_PARAM, __global const uchar* occupancy, __glob
         }
         cursor.alive &= !(LLOAD(transmittance) < DSM_TERMINATION_TRANSMITTANCE);
     }
-    for (uint lane = 0; lane < n; ++lane) {
-        DSM_INSERT_SURFACES(lane, INFINITY);
-        STORE_NODES(lane, compressor_finish(&compressor[lane]));
-    }
+    for (uint lane = 0; lane < n; ++lane) STORE_NODES(lane, compressor_finish(&compressor[lane]));
     DSM_TEXELS_END(v, x0, y, n);
 }

@@ -10,8 +10,10 @@
  * SOMBRA_LOWPASS_GAUSS Gaussian filtered; with SOMBRA_LOWPASS_AO or SOMBRA_LOWPASS_CONE the SAT
  * ambient-occlusion or cone-shadow baselines on one volume-aligned table),
  * SOMBRA_LOWPASS_CACHED (with SOMBRA_SHADOW_LOWPASS: the shadow term read from the shadow cache),
- * SOMBRA_HAS_MESHES (translucent surface fragments composited in depth order: surfaces.h; with
- * SOMBRA_SHADOW_RAYS shadow rays also cross the mesh triangles). */
+ * SOMBRA_HAS_MESHES (per-pixel fragment lists of surfaces and polyhedral volume bounds merged
+ * into the segment cursor's boundaries, traversal.h; surfaces composited at their depth:
+ * surfaces.h; with SOMBRA_SHADOW_RAYS shadow rays also cross the mesh triangles),
+ * SOMBRA_HAS_BOUNDS (some volume has a polyhedral bound: shadow rays cross its triangles). */
 #include "shared/types.h"
 #include "shared/hash.h"
 #include "lanes.h"
@@ -40,6 +42,11 @@
 #include "bvh.h"
 #else
 #define SHADOW_MESH_PARAMS
+#endif
+#ifdef SOMBRA_HAS_BOUNDS
+#define BOUND_PARAMS , __global const SurfaceTriangleGpu *bound_triangles /* VolumeGpu.bound_first */
+#else
+#define BOUND_PARAMS
 #endif
 
 /* What every sample of the camera pass reads and accumulates. */
@@ -75,6 +82,9 @@ typedef struct {
     __global const BvhNodeGpu* shadow_bvh;               /* the hierarchy over them (src/render/bvh.h) */
     uint shadow_bvh_nodes;
 #endif
+#ifdef SOMBRA_HAS_BOUNDS
+    __global const SurfaceTriangleGpu* bound_triangles; /* every volume's bound, corner.w = the volume */
+#endif
 } CameraState;
 
 #ifdef SOMBRA_SHADOW_RAY_MESHES
@@ -91,20 +101,8 @@ inline lfloat surfaces_transmittance(const CameraState* state, lfloat3 p, lfloat
     while (bvh_walk_next(&walk, state->shadow_bvh, p, dir, t_max, lanes & (result > 0.0f), &first, &count)) {
         for (uint i = first; i < first + count; ++i) {
             __global const SurfaceTriangleGpu* tri = &state->shadow_triangles[i];
-            float3 e1 = tri->edge1.xyz, e2 = tri->edge2.xyz;
-            float area2 = dot(cross(e1, e2), cross(e1, e2)); /* |e1 × e2|² */
-            lfloat3 pvec = l3(dir.y * e2.z - dir.z * e2.y, dir.z * e2.x - dir.x * e2.z, dir.x * e2.y - dir.y * e2.x);
-            lfloat det = l3_dot_uniform(pvec, e1);
-            lmask crossing = lanes & (det * det > 1e-14f * area2);
-            if (!lany(crossing)) continue;
-            lfloat inv = 1.0f / select((lfloat)(1.0f), det, crossing);
-            lfloat3 tvec = l3_sub(p, l3_splat(tri->corner.xyz));
-            lfloat u = l3_dot(tvec, pvec) * inv;
-            lfloat3 qvec = l3(tvec.y * e1.z - tvec.z * e1.y, tvec.z * e1.x - tvec.x * e1.z, tvec.x * e1.y - tvec.y * e1.x);
-            lfloat v = l3_dot(dir, qvec) * inv;
-            lfloat t = l3_dot_uniform(qvec, e2) * inv;
-            crossing &= (u >= 0.0f) & (v >= 0.0f) & (u + v <= 1.0f) & (t > 0.0f) & (t < t_max);
-            result = select(result, result * (1.0f - tri->corner.w), crossing);
+            lfloat t = ray_triangle_t(p, dir, tri->corner.xyz, tri->edge1.xyz, tri->edge2.xyz, lanes);
+            result = select(result, result * (1.0f - tri->corner.w), (t > 0.0f) & (t < t_max));
         }
     }
     return result;
@@ -131,6 +129,10 @@ inline lfloat shadow_ray(VOLUME_DATA_PARAM, const CameraState* state, __global c
     make_volume_ray(&ray, state->volumes, state->camera->volume_count, p, dir, (lfloat)(0.0f), t_max);
     SegmentCursor cursor;
     segment_cursor_init(&cursor, &ray, state->camera->volume_count, state->jitter, lanes);
+#ifdef SOMBRA_HAS_BOUNDS /* polyhedral bounds: their crossings along the ray are segment boundaries */
+    segment_cursor_use_bound_triangles(&cursor, &ray, state->volumes, state->camera->volume_count, state->bound_triangles,
+                                       t_max, lanes);
+#endif
     lfloat optical_depth = (lfloat)(0.0f);
     lmask sampling;
     while (lany(sampling = segment_cursor_next(&cursor, &ray, state->volumes, state->camera->volume_count, state->occupancy))) {
@@ -354,7 +356,7 @@ __kernel void render_camera(VOLUME_DATA_PARAM, __global const uchar* occupancy, 
 #ifdef SOMBRA_SHADOW_DSM
                             , __global const DsmViewGpu* views, DSM_READ_PARAMS
 #endif
-                            LOWPASS_PARAMS SHADOW_MESH_PARAMS
+                            LOWPASS_PARAMS SHADOW_MESH_PARAMS BOUND_PARAMS
 #ifdef SOMBRA_HAS_MESHES
                             , SURFACE_PARAMS
 #endif
@@ -403,26 +405,35 @@ __kernel void render_camera(VOLUME_DATA_PARAM, __global const uchar* occupancy, 
     state.shadow_bvh = shadow_bvh;
     state.shadow_bvh_nodes = shadow_bvh_nodes;
 #endif
+#ifdef SOMBRA_HAS_BOUNDS
+    state.bound_triangles = bound_triangles;
+#endif
 #define SOMBRA_JITTER_LANE(c) sombra_pixel_jitter((uint)LC(xs, c), y, camera->jitter_seed)
     state.jitter = LFROM_LANES(SOMBRA_JITTER_LANE);
 #undef SOMBRA_JITTER_LANE
 
     SegmentCursor cursor;
     segment_cursor_init(&cursor, &ray, camera->volume_count, state.jitter, lanes);
-#ifdef SOMBRA_HAS_MESHES
-    SurfaceCursor surfaces;
-    surface_cursor_init(&surfaces, SURFACE_ARGS, xs, y, camera->width, lanes);
+#ifdef SOMBRA_HAS_MESHES /* the pixel's fragments: surfaces and volume bounds are segment boundaries */
+    uint pixel[SOMBRA_LANES];
+    int x_lane[SOMBRA_LANES], in_lane[SOMBRA_LANES];
+    LSTORE(xs, x_lane);
+    LSTORE(lanes, in_lane);
+    for (int c = 0; c < SOMBRA_LANES; ++c) pixel[c] = y * camera->width + (in_lane[c] ? (uint)x_lane[c] : 0u);
+    segment_cursor_use_fragments(&cursor, volumes, camera->volume_count, fragment_first, fragments, screen_triangles, pixel, lanes);
 #endif
     lmask sampling;
     while (lany(sampling = segment_cursor_next(&cursor, &ray, volumes, camera->volume_count, occupancy))) {
-#ifdef SOMBRA_HAS_MESHES /* surfaces in front of the sample first (front to back) */
-        composite_surfaces(volume_data, &state, &surfaces, &ray, cursor.t, sampling);
+#ifdef SOMBRA_HAS_MESHES /* a surface at a segment boundary, in depth order with the samples */
+        if (lany(cursor.surface)) {
+            composite_surface(volume_data, &state, &cursor, &ray, surface_triangles, surface_materials, cursor.surface);
+            cursor.alive &= (state.transmittance > camera->termination_transmittance) | !cursor.surface;
+            sampling &= !cursor.surface;
+            if (!lany(sampling)) continue;
+        }
 #endif
         cursor.alive &= shade_sample(volume_data, &state, &ray, &cursor, sampling) | !sampling;
     }
-#ifdef SOMBRA_HAS_MESHES
-    composite_surfaces(volume_data, &state, &surfaces, &ray, (lfloat)(INFINITY), lanes);
-#endif
 
     float red[SOMBRA_LANES], green[SOMBRA_LANES], blue[SOMBRA_LANES], transmittance[SOMBRA_LANES];
     uint samples[SOMBRA_LANES];
@@ -449,7 +460,7 @@ __kernel void shadow_probe(VOLUME_DATA_PARAM, __global const uchar* occupancy, _
 #ifdef SOMBRA_SHADOW_DSM
                            , __global const DsmViewGpu* views, DSM_READ_PARAMS
 #endif
-                           LOWPASS_PARAMS SHADOW_MESH_PARAMS
+                           LOWPASS_PARAMS SHADOW_MESH_PARAMS BOUND_PARAMS
 ) {
     size_t i = get_global_id(0);
     CameraState state;
@@ -463,6 +474,9 @@ __kernel void shadow_probe(VOLUME_DATA_PARAM, __global const uchar* occupancy, _
     state.shadow_triangles = shadow_triangles;
     state.shadow_bvh = shadow_bvh;
     state.shadow_bvh_nodes = shadow_bvh_nodes;
+#endif
+#ifdef SOMBRA_HAS_BOUNDS
+    state.bound_triangles = bound_triangles;
 #endif
 #ifdef SOMBRA_SHADOW_DSM
     state.views = views;

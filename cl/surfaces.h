@@ -1,9 +1,10 @@
 /* sombra — translucent surfaces in the camera pass (issue 4; Knecht §3.1, DESIGN.md "Data flow"):
  * each pixel's surface fragments (render/fragments.h: depth along the camera ray, sorted near to
- * far) are composited front to back between the volume samples — a fragment before the first
- * sample deeper than it. Colour: Phong with the normal interpolated over the triangle (turned to
- * the viewer) and the mesh's material, times each light's shadow term at the surface point (the
- * same function volume samples use); α: the material's opacity.
+ * far) bound its segments; the segment cursor (traversal.h) hands each one over at its depth, in
+ * order with the volume samples, and it is composited front to back. Colour: Phong with the
+ * normal interpolated over the triangle (turned to the viewer) and the mesh's material, times each
+ * light's shadow term at the surface point (the same function volume samples use); α: the
+ * material's opacity. Bound fragments (SOMBRA_TRI_BOUND) never reach it: the cursor keeps them.
  * Included by render.cl after CameraState and light_transmittance() with SOMBRA_HAS_MESHES. */
 #ifndef SOMBRA_SURFACES_H
 #define SOMBRA_SURFACES_H
@@ -14,61 +15,30 @@
         __global const SurfaceMaterialGpu *surface_materials
 #define SURFACE_ARGS fragment_first, fragments, screen_triangles, surface_triangles, surface_materials
 
-/* Per lane: the next fragment of its pixel and the end of its list. */
-typedef struct {
-    __global const FragmentGpu* fragments;
-    __global const ScreenTriangleGpu* screen;
-    __global const SurfaceTriangleGpu* triangles;
-    __global const SurfaceMaterialGpu* materials;
-    uint next[SOMBRA_LANES], end[SOMBRA_LANES];
-} SurfaceCursor;
-
-inline void surface_cursor_init(SurfaceCursor* s, SURFACE_PARAMS, lint xs, uint y, uint width, lmask lanes) {
-    s->fragments = fragments;
-    s->screen = screen_triangles;
-    s->triangles = surface_triangles;
-    s->materials = surface_materials;
-    int x[SOMBRA_LANES], in[SOMBRA_LANES];
-    LSTORE(xs, x);
-    LSTORE(lanes, in);
-    for (int c = 0; c < SOMBRA_LANES; ++c) {
-        size_t pixel = (size_t)y * width + (size_t)(in[c] ? x[c] : 0);
-        s->next[c] = fragment_first[pixel];
-        s->end[c] = in[c] ? fragment_first[pixel + 1] : s->next[c];
-    }
-}
-
-/* Composites, in lanes `lanes`, every fragment nearer than t_limit (and stops where the ray's
- * transmittance fell below the termination threshold). */
-inline void composite_surfaces(VOLUME_DATA_PARAM, CameraState* state, SurfaceCursor* s, const VolumeRay* ray,
-                               lfloat t_limit, lmask lanes) {
-    float limit[SOMBRA_LANES], ox[SOMBRA_LANES], oy[SOMBRA_LANES], oz[SOMBRA_LANES];
+/* Composites, in lanes `lanes`, the surface fragment the segment cursor handed over
+ * (cursor->surface_fragment: Knecht §3.1.2, a surface lies on a segment boundary). */
+inline void composite_surface(VOLUME_DATA_PARAM, CameraState* state, const SegmentCursor* cursor, const VolumeRay* ray,
+                              __global const SurfaceTriangleGpu* surface_triangles,
+                              __global const SurfaceMaterialGpu* surface_materials, lmask lanes) {
+    float ox[SOMBRA_LANES], oy[SOMBRA_LANES], oz[SOMBRA_LANES];
     float dx[SOMBRA_LANES], dy[SOMBRA_LANES], dz[SOMBRA_LANES];
-    int want[SOMBRA_LANES];
-    LSTORE(t_limit, limit);
     LSTORE(ray->origin.x, ox), LSTORE(ray->origin.y, oy), LSTORE(ray->origin.z, oz);
     LSTORE(ray->dir.x, dx), LSTORE(ray->dir.y, dy), LSTORE(ray->dir.z, dz);
-    LSTORE(lanes & (state->transmittance > state->camera->termination_transmittance), want);
-    for (;;) {
-        /* per lane: the fragment to composite now, gathered into lane vectors */
+    int take[SOMBRA_LANES];
+    LSTORE(lanes, take);
+    {
+        /* per lane: its fragment's material and normal, gathered into lane vectors */
         float depth[SOMBRA_LANES], opacity[SOMBRA_LANES], ka[SOMBRA_LANES], kd[SOMBRA_LANES], ks[SOMBRA_LANES];
         float shininess[SOMBRA_LANES], cr[SOMBRA_LANES], cg[SOMBRA_LANES], cb[SOMBRA_LANES];
         float nx[SOMBRA_LANES], ny[SOMBRA_LANES], nz[SOMBRA_LANES];
-        int take[SOMBRA_LANES];
-        int any_taken = 0;
         for (int c = 0; c < SOMBRA_LANES; ++c) {
-            take[c] = 0;
             depth[c] = 0.0f, opacity[c] = 0.0f, ka[c] = kd[c] = ks[c] = 0.0f, shininess[c] = 1.0f;
             cr[c] = cg[c] = cb[c] = 0.0f, nx[c] = ny[c] = nz[c] = 0.0f;
-            if (!want[c] || s->next[c] >= s->end[c]) continue;
-            FragmentGpu f = s->fragments[s->next[c]];
-            if (!(f.depth < limit[c])) continue;
-            take[c] = -1; /* vector-mask convention; LLOAD makes it a lane mask */
-            any_taken = 1;
-            s->next[c] += 1;
-            __global const ScreenTriangleGpu* st = &s->screen[f.triangle];
-            __global const SurfaceTriangleGpu* tri = &s->triangles[st->source];
-            __global const SurfaceMaterialGpu* m = &s->materials[st->mesh];
+            if (!take[c]) continue;
+            FragmentGpu f = cursor->fragments[cursor->surface_fragment[c]];
+            __global const ScreenTriangleGpu* st = &cursor->screen[f.triangle];
+            __global const SurfaceTriangleGpu* tri = &surface_triangles[st->source];
+            __global const SurfaceMaterialGpu* m = &surface_materials[st->mesh];
             depth[c] = f.depth;
             opacity[c] = m->color.w;
             cr[c] = m->color.x, cg[c] = m->color.y, cb[c] = m->color.z;
@@ -84,7 +54,6 @@ inline void composite_surfaces(VOLUME_DATA_PARAM, CameraState* state, SurfaceCur
             n = len > 1e-12f ? n / len : normalize(cross(e1, e2));
             nx[c] = n.x, ny[c] = n.y, nz[c] = n.z;
         }
-        if (!any_taken) return;
         lmask here = LLOAD(take);
         lfloat t = LLOAD(depth);
         lfloat3 p = l3_mad(ray->dir, t, ray->origin);
@@ -110,7 +79,6 @@ inline void composite_surfaces(VOLUME_DATA_PARAM, CameraState* state, SurfaceCur
         lfloat alpha = select((lfloat)(0.0f), LLOAD(opacity), here);
         state->radiance = l3_mad(shaded, alpha * state->transmittance, state->radiance);
         state->transmittance *= 1.0f - alpha;
-        LSTORE(lanes & (state->transmittance > state->camera->termination_transmittance), want);
     }
 }
 

@@ -18,6 +18,7 @@
 #ifndef SOMBRA_TRAVERSAL_H
 #define SOMBRA_TRAVERSAL_H
 #include "volume_sample.h"
+#include "ray_triangle.h"
 
 /* Rays expressed in the world and in each volume's voxel space (affine maps keep t). */
 typedef struct {
@@ -102,19 +103,46 @@ inline lmask in_empty_bricks(__global const uchar* occupancy, __global const Vol
 }
 #endif
 
-/* Where each lane is on its ray: the sorted segment boundaries, the current segment (its span,
- * step and active volumes) and the sample index k in it. */
+/* Where each lane is on its ray: the box bounds sorted, the current segment (its span, step and
+ * active volumes) and the sample index k in it. With SOMBRA_HAS_MESHES the segment boundaries are
+ * the box bounds merged in depth order with the ray's events (Knecht §3.1.2, §4.1.2): surface
+ * fragments, handed to the pass at their depth (c->surface), and polyhedral-bound crossings, which
+ * toggle their volume's inside bit. Events come from a pixel's sorted fragment list (camera pass,
+ * DSM generation: segment_cursor_use_fragments) or, for shadow rays, from crossing the bound
+ * triangles brute force (segment_cursor_use_bound_triangles). Without events (volume-only scenes)
+ * the same code walks the box bounds alone. */
+#define SOMBRA_NO_EVENT 0xffffffffu
+enum { SOMBRA_EVENTS_NONE = 0, SOMBRA_EVENTS_FRAGMENTS = 1, SOMBRA_EVENTS_TRIANGLES = 2 };
+
 typedef struct {
     lfloat bounds[2 * SOMBRA_VOLUME_SLOTS];
     uint bound_count;
     lmask alive;     /* lanes whose ray goes on; a pass clears lanes to stop them */
-    lint segment;
+    lint segment;    /* segments begun − 1: tells consecutive samples apart (pre-compression) */
+    lint next_bound; /* the first box bound not passed yet */
     lfloat t_start, t_end;
     lfloat step;     /* of the current segment: the smallest step of its active volumes */
     luint active;    /* bit i: volume i is active in the current segment */
     lint k;          /* sample index in the segment: an integer, so that it never stalls */
     lfloat jitter;
-    lfloat t;        /* parameter of the current sample: t_start + (k + jitter) · step */
+    lfloat t;        /* parameter of the current sample (t_start + (k + jitter) · step) or surface */
+#ifdef SOMBRA_HAS_MESHES
+    lmask surface;   /* lanes whose event at t is the surface fragment surface_fragment[lane] */
+    uint surface_fragment[SOMBRA_LANES];
+    int source;      /* SOMBRA_EVENTS_* */
+    uint pending[SOMBRA_LANES]; /* the event that ends the current segment, or SOMBRA_NO_EVENT */
+    uint next[SOMBRA_LANES], end[SOMBRA_LANES]; /* fragments: the next one and the list's end */
+    __global const FragmentGpu* fragments;
+    __global const ScreenTriangleGpu* screen;
+    /* triangles: every bound triangle (corner.w: its volume), the last crossing passed (t, index)
+     * and the ray's end */
+    __global const SurfaceTriangleGpu* triangles;
+    uint triangle_count;
+    float last_t[SOMBRA_LANES];
+    uint last_triangle[SOMBRA_LANES];
+    lfloat t_max;
+    luint inside;    /* bit i: inside volume i's polyhedral bound (always set for box-bounded ones) */
+#endif
 } SegmentCursor;
 
 inline void segment_cursor_init(SegmentCursor* c, const VolumeRay* ray, uint volume_count, lfloat jitter, lmask lanes) {
@@ -134,16 +162,152 @@ inline void segment_cursor_init(SegmentCursor* c, const VolumeRay* ray, uint vol
     c->bound_count = n;
     c->alive = lanes;
     c->segment = (lint)(-1);
-    c->t_start = c->t_end = (lfloat)(0.0f);
+    c->next_bound = (lint)(0);
+    c->t_start = c->t_end = (lfloat)(0.0f); /* rays start at t = 0: the first segment ends at the first bound */
     c->step = (lfloat)(1.0f);
     c->active = (luint)(0u);
     c->k = (lint)(-1);
     c->jitter = jitter;
+#ifdef SOMBRA_HAS_MESHES
+    c->surface = (lmask)(0);
+    c->source = SOMBRA_EVENTS_NONE;
+    for (int lane = 0; lane < SOMBRA_LANES; ++lane) c->pending[lane] = SOMBRA_NO_EVENT;
+    c->inside = (luint)(0xffffffffu);
+#endif
 }
 
-/* Moves every live lane to its next sample, front to back: next k, else the next non-empty
- * segment; skips samples in empty bricks. Returns the lanes that sample at c->t (possibly after
- * several steps of skipping), or no lane once every ray is done. */
+#ifdef SOMBRA_HAS_MESHES
+/* Volumes with a polyhedral bound: their inside bit starts cleared, and each bound crossing in
+ * front of the ray's start toggles it (parity: odd ⇒ the start lies inside the closed mesh). */
+inline luint box_bounded_volumes(__global const VolumeGpu* volumes, uint volume_count) {
+    uint bounded = 0u;
+    for (uint i = 0; i < volume_count; ++i)
+        if (volumes[i].bound_count > 0u) bounded |= 1u << i;
+    return (luint)(~bounded);
+}
+
+/* Events from each lane's sorted fragment list: fragments [first[pixel], first[pixel + 1]) of
+ * its pixel (lanes outside `lanes` get none). */
+inline void segment_cursor_use_fragments(SegmentCursor* c, __global const VolumeGpu* volumes, uint volume_count,
+                                         __global const uint* fragment_first, __global const FragmentGpu* fragments,
+                                         __global const ScreenTriangleGpu* screen, const uint* pixel, lmask lanes) {
+    c->source = SOMBRA_EVENTS_FRAGMENTS;
+    c->fragments = fragments;
+    c->screen = screen;
+    int in[SOMBRA_LANES];
+    uint parity[SOMBRA_LANES];
+    LSTORE(lanes, in);
+    for (int lane = 0; lane < SOMBRA_LANES; ++lane) {
+        c->next[lane] = fragment_first[pixel[lane]];
+        c->end[lane] = in[lane] ? fragment_first[pixel[lane] + 1] : c->next[lane];
+        parity[lane] = 0u;
+        for (uint f = c->next[lane]; f < c->end[lane]; ++f) {
+            __global const ScreenTriangleGpu* tri = &screen[fragments[f].triangle];
+            if (tri->flags & SOMBRA_TRI_BOUND) parity[lane] ^= 1u << tri->mesh;
+        }
+    }
+    c->inside = box_bounded_volumes(volumes, volume_count) | LLOAD(parity);
+}
+
+/* Events from crossing the bound triangles along the ray, 0 < t < t_max, found brute force in
+ * (t, triangle) order; the inside bits from the parity of all crossings at t > 0 (to infinity). */
+inline void segment_cursor_use_bound_triangles(SegmentCursor* c, const VolumeRay* ray, __global const VolumeGpu* volumes,
+                                               uint volume_count, __global const SurfaceTriangleGpu* triangles, lfloat t_max,
+                                               lmask lanes) {
+    c->source = SOMBRA_EVENTS_TRIANGLES;
+    c->triangles = triangles;
+    c->triangle_count = 0u;
+    for (uint i = 0; i < volume_count; ++i) c->triangle_count = max(c->triangle_count, volumes[i].bound_first + volumes[i].bound_count);
+    c->t_max = t_max;
+    luint parity = (luint)(0u);
+    for (uint i = 0; i < c->triangle_count; ++i) {
+        __global const SurfaceTriangleGpu* tri = &triangles[i];
+        lfloat t = ray_triangle_t(ray->origin, ray->dir, tri->corner.xyz, tri->edge1.xyz, tri->edge2.xyz, lanes);
+        parity ^= select((luint)(0u), (luint)(1u << (uint)tri->corner.w), t > 0.0f & t < INFINITY);
+    }
+    c->inside = box_bounded_volumes(volumes, volume_count) | parity;
+    for (int lane = 0; lane < SOMBRA_LANES; ++lane) c->last_t[lane] = 0.0f, c->last_triangle[lane] = SOMBRA_NO_EVENT;
+}
+
+/* Depth of each lane's next event (+∞: none) in `lanes`; *which gets its fragment or triangle. */
+inline lfloat cursor_peek_event(const SegmentCursor* c, const VolumeRay* ray, lmask lanes, uint* which) {
+    float depth[SOMBRA_LANES];
+    if (c->source == SOMBRA_EVENTS_TRIANGLES) {
+        /* the first crossing after the last one passed, in (t, index) order (ties at one t, e.g.
+         * an edge shared by two triangles, are each passed once, as the parity counted them) */
+        lfloat last_t = LLOAD(c->last_t), best = (lfloat)(INFINITY);
+        luint last_i = LLOAD(c->last_triangle), best_i = (luint)(SOMBRA_NO_EVENT);
+        for (uint i = 0; i < c->triangle_count; ++i) {
+            __global const SurfaceTriangleGpu* tri = &c->triangles[i];
+            lfloat t = ray_triangle_t(ray->origin, ray->dir, tri->corner.xyz, tri->edge1.xyz, tri->edge2.xyz, lanes);
+            lmask after = (t > last_t) | ((t == last_t) & ((luint)(i) > last_i));
+            lmask better = after & (t < best) & (t < c->t_max);
+            best = select(best, t, better);
+            best_i = select(best_i, (luint)(i), better);
+        }
+        LSTORE(best, depth);
+        LSTORE(best_i, which);
+        return best;
+    }
+    int in[SOMBRA_LANES];
+    LSTORE(lanes, in);
+    for (int lane = 0; lane < SOMBRA_LANES; ++lane) {
+        int any = c->source == SOMBRA_EVENTS_FRAGMENTS && in[lane] && c->next[lane] < c->end[lane];
+        which[lane] = any ? c->next[lane] : SOMBRA_NO_EVENT;
+        depth[lane] = any ? c->fragments[c->next[lane]].depth : INFINITY;
+    }
+    return LLOAD(depth);
+}
+
+/* Lanes `moving` begin a new segment: in lanes `take` it ends at their next event (taken from the
+ * source), in the others at a box bound. */
+inline void cursor_take_event(SegmentCursor* c, lmask moving, lmask take, const uint* which, lfloat depth) {
+    int move[SOMBRA_LANES], taken[SOMBRA_LANES];
+    float t[SOMBRA_LANES];
+    LSTORE(moving, move);
+    LSTORE(take, taken);
+    LSTORE(depth, t);
+    for (int lane = 0; lane < SOMBRA_LANES; ++lane) {
+        if (!move[lane]) continue;
+        c->pending[lane] = taken[lane] ? which[lane] : SOMBRA_NO_EVENT;
+        if (!taken[lane]) continue;
+        if (c->source == SOMBRA_EVENTS_TRIANGLES) c->last_t[lane] = t[lane], c->last_triangle[lane] = which[lane];
+        else c->next[lane] += 1u;
+    }
+}
+
+/* Passes the events that end the segments of `lanes`: a bound toggles its volume's inside bit;
+ * returns the lanes whose event is a surface fragment (kept in surface_fragment). */
+inline lmask cursor_pass_events(SegmentCursor* c, lmask lanes) {
+    int pass[SOMBRA_LANES], surface[SOMBRA_LANES];
+    uint toggle[SOMBRA_LANES];
+    LSTORE(lanes, pass);
+    for (int lane = 0; lane < SOMBRA_LANES; ++lane) {
+        uint e = c->pending[lane];
+        surface[lane] = 0, toggle[lane] = 0u;
+        if (!pass[lane] || e == SOMBRA_NO_EVENT) continue;
+        c->pending[lane] = SOMBRA_NO_EVENT;
+        if (c->source == SOMBRA_EVENTS_TRIANGLES) {
+            toggle[lane] = 1u << (uint)c->triangles[e].corner.w;
+            continue;
+        }
+        __global const ScreenTriangleGpu* tri = &c->screen[c->fragments[e].triangle];
+        if (tri->flags & SOMBRA_TRI_BOUND) {
+            toggle[lane] = 1u << tri->mesh;
+        } else {
+            surface[lane] = -1; /* vector-mask convention; LLOAD makes it a lane mask */
+            c->surface_fragment[lane] = e;
+        }
+    }
+    c->inside ^= LLOAD(toggle);
+    return LLOAD(surface);
+}
+#endif
+
+/* Moves every live lane to its next sample or event, front to back: next k, else the next
+ * non-empty segment; skips samples in empty bricks. Returns the lanes that sample at c->t
+ * (possibly after several steps of skipping) and, with meshes, the lanes c->surface whose surface
+ * fragment lies at c->t; no lane once every ray is done. */
 inline lmask segment_cursor_next(SegmentCursor* c, const VolumeRay* ray, __global const VolumeGpu* volumes,
                                  uint volume_count, __global const uchar* occupancy) {
     for (;;) {
@@ -151,44 +315,76 @@ inline lmask segment_cursor_next(SegmentCursor* c, const VolumeRay* ray, __globa
         lfloat t = c->t_start + (LCONVERT_FLOAT(c->k) + c->jitter) * c->step;
         /* lanes past their segment's end move on to their next non-empty segment */
         lmask exhausted = c->alive & (t >= c->t_end);
+#ifdef SOMBRA_HAS_MESHES
+        exhausted |= c->surface & c->alive; /* a surface handed over last time: its segment is done */
+        c->surface = (lmask)(0);
+#endif
         while (lany(exhausted)) {
+#ifdef SOMBRA_HAS_MESHES
+            /* the event at the end of the segment: bounds toggle, surfaces go to the pass */
+            lmask surface = cursor_pass_events(c, exhausted);
+            c->surface |= surface;
+            exhausted &= !surface;
+            if (!lany(exhausted)) break;
+#endif
             c->segment = select(c->segment, c->segment + 1, exhausted);
-            lmask finished = exhausted & (c->segment >= (int)c->bound_count - 1);
+            lfloat next_box = (lfloat)(INFINITY);
+            for (uint s = 0; s < c->bound_count; ++s) next_box = select(next_box, c->bounds[s], exhausted & (c->next_bound == (int)s));
+            lfloat next_end = next_box;
+#ifdef SOMBRA_HAS_MESHES
+            uint which[SOMBRA_LANES];
+            lfloat next_event = cursor_peek_event(c, ray, exhausted, which);
+            lmask take = exhausted & (next_event < next_box); /* a tie: the box bound first */
+            cursor_take_event(c, exhausted, take, which, next_event);
+            next_end = fmin(next_box, next_event);
+#else
+            lmask take = (lmask)(0);
+#endif
+            /* nothing finite ahead: every later segment is empty */
+            lmask finished = exhausted & !(next_end < INFINITY);
             c->alive &= !finished;
             exhausted &= !finished;
             if (!lany(exhausted)) break;
-            for (uint s = 0; s + 1 < c->bound_count; ++s) {
-                lmask pick = exhausted & (c->segment == (int)s);
-                c->t_start = select(c->t_start, c->bounds[s], pick);
-                c->t_end = select(c->t_end, c->bounds[s + 1], pick);
-            }
+            c->next_bound = select(c->next_bound, c->next_bound + 1, exhausted & !take);
+            c->t_start = select(c->t_start, c->t_end, exhausted);
+            c->t_end = select(c->t_end, next_end, exhausted);
             lfloat mid = 0.5f * (c->t_start + c->t_end);
             lfloat new_step = (lfloat)(INFINITY);
             luint new_active = (luint)(0u);
             for (uint i = 0; i < volume_count; ++i) {
                 lmask inside = (ray->t_enter[i] <= mid) & (mid < ray->t_exit[i]);
+#ifdef SOMBRA_HAS_MESHES
+                inside &= (c->inside & (1u << i)) != 0u; /* box AND polyhedral bound */
+#endif
                 new_active |= select((luint)(0u), (luint)(1u << i), inside);
                 new_step = select(new_step, fmin(new_step, volumes[i].step), inside);
             }
             c->active = select(c->active, new_active, exhausted);
             c->step = select(c->step, select(new_step, (lfloat)(1.0f), new_active == 0u), exhausted);
             c->k = select(c->k, (lint)(0), exhausted);
-            t = c->t_start + (LCONVERT_FLOAT(c->k) + c->jitter) * c->step;
+            t = select(t, c->t_start + (LCONVERT_FLOAT(c->k) + c->jitter) * c->step, exhausted);
             /* empty segments (no active volume, zero length, or +∞ bounds) are exhausted at once */
             exhausted &= (t >= c->t_end) | (new_active == 0u) | !(c->t_end > c->t_start);
         }
         if (!lany(c->alive)) return c->alive;
-        c->t = t;
         lmask sampling = c->alive;
+#ifdef SOMBRA_HAS_MESHES
+        sampling &= !c->surface;
+        t = select(t, c->t_end, c->surface); /* a surface lies where its segment ends */
+#endif
+        c->t = t;
 #ifdef SOMBRA_SKIP_EMPTY
         lfloat t_resume;
-        lmask skip = in_empty_bricks(occupancy, volumes, volume_count, ray, c->active, t, c->alive, &t_resume);
+        lmask skip = in_empty_bricks(occupancy, volumes, volume_count, ray, c->active, t, sampling, &t_resume);
         /* the next call samples at the first k at or beyond the brick exit */
         /* fmax/fmin also map NaN and ±∞ (a ray parallel to a brick face, outside it) into range:
          * converting them to int is undefined */
         lfloat resume_index = fmin(fmax(ceil((t_resume - c->t_start) / c->step - c->jitter), -1.0f), 1.0e9f);
         c->k = select(c->k, max(c->k, LCONVERT_INT(resume_index) - 1), skip);
         sampling &= !skip;
+#endif
+#ifdef SOMBRA_HAS_MESHES
+        sampling |= c->surface;
 #endif
         if (lany(sampling)) return sampling;
     }

@@ -49,6 +49,19 @@ MeshInstance centred_mesh(const std::string& data_file, const Vec3& rotate_deg) 
     return mi;
 }
 
+MeshInstance quad(float half, float z0, float opacity, Vec3 color) {
+    auto mesh = std::make_shared<Mesh>();
+    mesh->positions = {{-half, -half, z0}, {half, -half, z0}, {half, half, z0}, {-half, half, z0}};
+    mesh->triangles = {{0, 1, 2}, {0, 2, 3}};
+    mesh->source = "quad";
+    MeshInstance mi;
+    mi.mesh = mesh;
+    mi.material.color = color;
+    mi.material.opacity = opacity;
+    mi.name = "quad";
+    return mi;
+}
+
 Camera mesh_camera() {
     Camera cam;
     cam.position = {0.3f, 0.4f, 1.8f};

@@ -22,6 +22,8 @@ Scene overlapping_scene();                          // two rotated/scaled overla
 TransferFunction ramp_tf(float lo, float hi, float max_alpha);
 // A mesh of data/ scaled to unit size, centred at the origin, then rotated (degrees about x, y, z).
 MeshInstance centred_mesh(const std::string& data_file, const Vec3& rotate_deg);
+// A square of side 2·half in the plane z = z0, facing +z, of the given opacity and colour.
+MeshInstance quad(float half, float z0, float opacity, Vec3 color = {0.8f, 0.8f, 0.8f});
 Camera mesh_camera();  // looks at the origin from about 1.9 away; a unit-size mesh fills much of it
 std::shared_ptr<const Volume> constant_volume(std::array<int, 3> dims, float value);  // every voxel `value`
 TransferFunction constant_tf(float alpha);  // the same opacity α for every value

@@ -10,19 +10,7 @@ using namespace sombra;
 
 namespace {
 
-// A square of side 2·half in the plane z = z0, facing +z.
-MeshInstance quad(float half, float z0, float opacity, Vec3 color) {
-    auto mesh = std::make_shared<Mesh>();
-    mesh->positions = {{-half, -half, z0}, {half, -half, z0}, {half, half, z0}, {-half, half, z0}};
-    mesh->triangles = {{0, 1, 2}, {0, 2, 3}};
-    mesh->source = "quad";
-    MeshInstance mi;
-    mi.mesh = mesh;
-    mi.material.color = color;
-    mi.material.opacity = opacity;
-    mi.name = "quad";
-    return mi;
-}
+MeshInstance quad(float half, float z0, float opacity, Vec3 color) { return test::quad(half, z0, opacity, color); }
 
 // Meshes alone before a uniform background, no lights: ambient k_a i_a c only.
 Scene quad_scene() {

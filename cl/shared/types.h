@@ -53,6 +53,12 @@ typedef struct {
     float step;            /* ray-marching step in world units */
     float image_z_offset;  /* first z slice of this volume in the 3D image atlas (image path) */
     float ambient, diffuse, specular, shininess; /* Phong material (Knecht Eq. 3.8) */
+    /* Polyhedral bound (issue 4; Knecht §3.1.2): the volume is active only inside its box AND
+     * inside this closed mesh. Its world triangles are [bound_first, bound_first + bound_count) of
+     * the bound-triangle buffer (shadow rays cross them); bound_count 0: bounded by the box only. */
+    sb_uint bound_first;
+    sb_uint bound_count;
+    sb_uint pad0, pad1;
 } VolumeGpu;
 
 typedef struct {
@@ -123,6 +129,9 @@ typedef struct {
 #define SOMBRA_TILE_CHUNK 64
 #define SOMBRA_SUBPIXEL_BITS 8
 #define SOMBRA_TRI_BACK_FACING 1u
+/* The triangle bounds a volume (ScreenTriangleGpu.mesh is then the volume's index): its fragments
+ * toggle that volume's inside bit in the segment cursor (cl/traversal.h); never shaded. */
+#define SOMBRA_TRI_BOUND 2u
 
 /* A triangle projected to the screen. Pixel (i, j) has its centre at (i + ½, j + ½); screen x runs
  * along the view's axis_x, y along axis_y (for a camera: right and down). */
@@ -133,8 +142,9 @@ typedef struct {
      * (perspective) or view z (orthographic), affine over the screen. (q0, dq/dx, dq/dy, unused) */
     sb_float4 depth_plane;
     sb_uint source;  /* source triangle: index over all meshes' triangles, mesh after mesh */
-    sb_uint mesh;    /* mesh instance */
-    sb_uint flags;   /* SOMBRA_TRI_BACK_FACING: its world normal (right-hand rule) faces away */
+    sb_uint mesh;    /* mesh instance; with SOMBRA_TRI_BOUND: the volume it bounds */
+    sb_uint flags;   /* SOMBRA_TRI_BACK_FACING: its world normal (right-hand rule) faces away;
+                      * SOMBRA_TRI_BOUND: a polyhedral volume bound, not a surface */
     sb_uint pad0;
 } ScreenTriangleGpu;
 
@@ -146,7 +156,9 @@ typedef struct {
 } FragmentGpu;
 
 /* A mesh triangle in the world, for shading surface fragments (cl/surfaces.h): indexed by
- * ScreenTriangleGpu.source. Normals are interpolated barycentrically at the fragment's point. */
+ * ScreenTriangleGpu.source. Normals are interpolated barycentrically at the fragment's point.
+ * Bound triangles (VolumeGpu.bound_first) use the same layout, corner.w = the volume's index and
+ * no normals. */
 typedef struct {
     sb_float4 corner;    /* corner 0; w: the mesh's opacity (shadow rays) */
     sb_float4 edge1;     /* corner 1 − corner 0 */

@@ -26,6 +26,11 @@ Mesh load_mesh(const std::string& path);
 // sombra::Error "WHERE: what".
 void validate_mesh(const Mesh& mesh, const std::string& where);
 
+// Checks that a mesh is closed: after welding corners at identical positions, every edge of a
+// non-degenerate triangle belongs to exactly two triangles (edge-manifold, no boundary). Throws
+// sombra::Error "WHERE: mesh is not closed (…)". Orientation is not checked (parity needs none).
+void check_closed(const Mesh& mesh, const std::string& where);
+
 // A closed, consistently wound UV sphere (tests, small scenes): `stacks` ≥ 2, `slices` ≥ 3.
 Mesh make_uv_sphere(int stacks, int slices, float radius = 1.f);
 

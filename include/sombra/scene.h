@@ -17,6 +17,15 @@ struct Material {
     float ambient = 0.3f, diffuse = 0.7f, specular = 0.2f, shininess = 20.f;  // Knecht Eq. 3.8
 };
 
+// A polyhedral bound (issue 4; Knecht §3.1.2): a closed mesh; the volume is active only where a
+// point lies inside its box AND inside this mesh (parity of crossings along a ray). `transform`
+// maps the mesh into the volume's object frame (where the volume is centred at the origin, before
+// VolumeInstance::transform), so the bound moves with the volume.
+struct VolumeBound {
+    std::shared_ptr<const Mesh> mesh;  // null: the volume is bounded by its box alone
+    std::array<float, 16> transform{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};  // row-major
+};
+
 struct VolumeInstance {
     std::shared_ptr<const Volume> volume;
     // Object → world: the volume is centred at the origin of its object frame, voxel (i, j, k) at
@@ -27,6 +36,7 @@ struct VolumeInstance {
     float step_voxels = 0.5f;    // ray step as a fraction of the smallest world voxel size
     float opacity_unit = 0.f;    // world length the TF opacities refer to; 0 = one (smallest) voxel
     Material material;
+    VolumeBound bound;           // JSON "bounds": {"mesh": FILE, "transform": …}
     std::string name;
 };
 
@@ -83,6 +93,9 @@ Scene load_scene(const std::string& path, const VolumeLoadOptions& options = {})
 
 // Checks values that make no sense (camera at its look-at point, zero-size volumes, …).
 void validate_scene(const Scene& scene, const std::string& where);
+
+// World transform (row-major) of a volume's bound mesh: VolumeInstance::transform · bound.transform.
+std::array<float, 16> bound_to_world(const VolumeInstance& volume);
 
 // 4×4 row-major helpers for VolumeInstance::transform and MeshInstance::transform.
 std::array<float, 16> make_transform(const Vec3& translate, const Vec3& rotate_deg_xyz, const Vec3& scale);

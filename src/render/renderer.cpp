@@ -22,6 +22,15 @@ double ms_since(clock_type::time_point start) {
     return std::chrono::duration<double, std::milli>(clock_type::now() - start).count();
 }
 
+const char* shadow_technique_name(ShadowTechnique t) {
+    switch (t) {
+        case ShadowTechnique::Lowpass: return "lowpass";
+        case ShadowTechnique::Ao: return "ao";
+        case ShadowTechnique::Cone: return "cone";
+        default: return "this technique";
+    }
+}
+
 bool uses_sat(const RenderOptions& o) {
     return o.shadows == ShadowTechnique::Lowpass || o.shadows == ShadowTechnique::Ao || o.shadows == ShadowTechnique::Cone;
 }
@@ -36,7 +45,8 @@ std::vector<std::string> camera_pass_defines(const Scene& scene, const RenderOpt
     if (!scene.lights.empty()) defines.push_back("SOMBRA_HAS_LIGHTS");
     if (options.shading == ShadingModel::Scattering) defines.push_back("SOMBRA_SCATTERING");
     if (!scene.lights.empty() && uses_sat(options) && options.lowpass_cache) defines.push_back("SOMBRA_LOWPASS_CACHED");
-    if (!scene.meshes.empty()) defines.push_back("SOMBRA_HAS_MESHES");
+    if (surfaces::has_fragments(scene)) defines.push_back("SOMBRA_HAS_MESHES");
+    if (surfaces::has_bounds(scene)) defines.push_back("SOMBRA_HAS_BOUNDS");
     if (!scene.lights.empty() && options.shadows == ShadowTechnique::Rays) defines.push_back("SOMBRA_SHADOW_RAYS");
     if (!scene.lights.empty() && options.shadows == ShadowTechnique::Ao) defines.push_back("SOMBRA_LOWPASS_AO");
     if (!scene.lights.empty() && options.shadows == ShadowTechnique::Cone) defines.push_back("SOMBRA_LOWPASS_CONE");
@@ -236,8 +246,8 @@ PreparedScene prepare_anew(host::Runtime& runtime, const Scene& scene, const Ren
                           (options.storage == VolumeStorage::Auto && runtime.info().is_gpu);
     prepared.device = packing::upload_scene(runtime, scene, prepared.packed, prepared.use_images);
     stats.stage_ms["upload"] = prepared.device.upload_ms;
-    prepared.ray_meshes = options.shadows == ShadowTechnique::Rays && !scene.lights.empty() && !scene.meshes.empty();
-    if (!scene.meshes.empty()) {
+    prepared.ray_meshes = options.shadows == ShadowTechnique::Rays && !scene.lights.empty() && surfaces::has_fragments(scene);
+    if (surfaces::has_fragments(scene)) {
         surfaces::PackedSurfaces packed_surfaces = surfaces::pack_surfaces(scene);
         prepared.surfaces = surfaces::upload_surfaces(runtime, packed_surfaces);
         if (prepared.ray_meshes) {
@@ -253,6 +263,11 @@ PreparedScene prepare_anew(host::Runtime& runtime, const Scene& scene, const Ren
         copy_dsm_stats(prepared.dsm.stats, options.dsm_storage, stats);
     }
     prepared.use_sat = uses_sat(options) && !scene.lights.empty();
+    if (prepared.use_sat)  // the light-aligned tables are built over boxes: polyhedral bounds are not in them
+        for (std::size_t i = 0; i < scene.volumes.size(); ++i)
+            if (scene.volumes[i].bound.mesh)
+                throw file_error(scene.source, "volumes[" + std::to_string(i) + "].bounds",
+                                 std::string("polyhedral bounds are not supported by --shadows ") + shadow_technique_name(options.shadows));
     if (prepared.use_sat && runtime.device().getInfo<CL_DEVICE_DOUBLE_FP_CONFIG>() == 0)  // cl/lowpass.h reads corners in double
         throw Error("--shadows: the summed-area-table techniques need double precision, which " + runtime.info().name + " lacks");
     if (prepared.use_sat) {
@@ -300,12 +315,15 @@ int set_sat_args(host::Runtime& runtime, cl::Kernel& kernel, int arg, const Prep
 }
 
 // Shadow rays in a scene with meshes: the world-space triangles (opacity in corner.w) in BVH order,
-// the hierarchy's nodes and their count.
+// the hierarchy's nodes and their count; with polyhedral volume bounds, the bound triangles
+// (render.cl BOUND_PARAMS).
 int set_shadow_mesh_args(cl::Kernel& kernel, int arg, const PreparedScene& p) {
-    if (!p.ray_meshes) return arg;
-    kernel.setArg(arg++, p.shadow_bvh.triangles);
-    kernel.setArg(arg++, p.shadow_bvh.nodes);
-    kernel.setArg(arg++, p.shadow_bvh.node_count);
+    if (p.ray_meshes) {
+        kernel.setArg(arg++, p.shadow_bvh.triangles);
+        kernel.setArg(arg++, p.shadow_bvh.nodes);
+        kernel.setArg(arg++, p.shadow_bvh.node_count);
+    }
+    if (!p.packed.bound_triangles.empty()) kernel.setArg(arg++, p.device.bound_triangles);
     return arg;
 }
 
@@ -489,8 +507,8 @@ RenderResult render(Context& context, const Scene& scene, const RenderOptions& o
     }
     arg = set_shadow_mesh_args(kernel, arg, prepared);
     surfaces::ViewFragments fragments;
-    if (!scene.meshes.empty()) {  // the camera view's fragments (Knecht §3.1: raster → segments)
-        fragments = surfaces::view_fragments(runtime, scene.meshes, raster::camera_view(scene.camera, width, height));
+    if (surfaces::has_fragments(scene)) {  // the camera view's fragments (Knecht §3.1: raster → segments)
+        fragments = surfaces::view_fragments(runtime, scene, raster::camera_view(scene.camera, width, height));
         stats.stage_ms["camera_raster"] = fragments.tiles.stats.count_ms + fragments.tiles.stats.write_ms;
         stats.stage_ms["camera_fragments"] = fragments.fragments.stats.count_ms + fragments.fragments.stats.write_ms;
         for (const cl::Buffer* b : std::initializer_list<const cl::Buffer*>{&fragments.fragments.first, &fragments.fragments.fragments, &fragments.tiles.triangles,

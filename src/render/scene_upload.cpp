@@ -4,6 +4,7 @@
 #include <cmath>
 #include <glm/glm.hpp>
 
+#include "render/surfaces.h"
 #include "sombra/error.h"
 
 namespace sombra::packing {
@@ -148,6 +149,7 @@ PackedScene pack_scene(const Scene& scene) {
         packed.volumes.push_back(g);
     }
     packed.lights = pack_lights(scene);
+    packed.bound_triangles = surfaces::pack_bounds(scene, packed.volumes);
     return packed;
 }
 
@@ -179,6 +181,8 @@ DeviceScene upload_scene(host::Runtime& runtime, const Scene& scene, const Packe
     d.tf_tables = host::make_buffer(runtime, ro, packed.tf_tables.size() * sizeof(cl_float4), packed.tf_tables.data(), "transfer-function tables");
     d.volumes = host::make_buffer(runtime, ro, packed.volumes.size() * sizeof(VolumeGpu), packed.volumes.data(), "volume descriptors");
     d.lights = host::make_buffer(runtime, ro, packed.lights.size() * sizeof(LightGpu), packed.lights.data(), "lights");
+    d.bound_triangles = host::make_buffer(runtime, ro, packed.bound_triangles.size() * sizeof(SurfaceTriangleGpu),
+                                          packed.bound_triangles.data(), "volume bound triangles");
 
     std::size_t total = 0, max_x = 1, max_y = 1, sum_z = 0;
     for (auto& vi : scene.volumes) {

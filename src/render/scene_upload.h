@@ -29,6 +29,7 @@ struct PackedScene {
     std::vector<cl_float4> tf_tables;
     std::vector<cl_uchar> occupancy;  // 1: the brick may be visible under the transfer function
     std::vector<std::array<float, 16>> voxel_to_world;  // row-major, per volume
+    std::vector<SurfaceTriangleGpu> bound_triangles;    // polyhedral bounds in the world (VolumeGpu.bound_first)
 };
 PackedScene pack_scene(const Scene& scene);
 std::vector<LightGpu> pack_lights(const Scene& scene);  // the lights part of pack_scene
@@ -42,6 +43,7 @@ struct DeviceScene {
     cl::Buffer voxel_buffer;
     cl::Image3D voxel_image;
     cl::Buffer occupancy, tf_tables, volumes, lights;
+    cl::Buffer bound_triangles;  // PackedScene::bound_triangles (16 bytes when there are none)
     double upload_ms = 0;  // sum of the upload commands' profiling times
 };
 DeviceScene upload_scene(host::Runtime& runtime, const Scene& scene, const PackedScene& packed, bool use_images);

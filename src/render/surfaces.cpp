@@ -37,6 +37,23 @@ V3 unit(const V3& v) {
     return l > 0 ? V3{v[0] / l, v[1] / l, v[2] / l} : V3{0, 0, 0};
 }
 
+// Triangle `tri` of `mesh` moved to the world by `transform`; corner.w = w.
+SurfaceTriangleGpu world_triangle(const Mesh& mesh, const std::array<std::uint32_t, 3>& tri, const std::array<float, 16>& transform,
+                                  float w) {
+    V3 p[3];
+    for (int k = 0; k < 3; ++k) p[k] = transform_point(transform, mesh.positions[tri[std::size_t(k)]]);
+    V3 e1{p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]};
+    V3 e2{p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]};
+    V3 face = unit({e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]});
+    SurfaceTriangleGpu t{};
+    t.corner = f4(p[0], w), t.edge1 = f4(e1), t.edge2 = f4(e2);
+    for (int k = 0; k < 3; ++k) {
+        V3 n = mesh.normals.empty() ? face : unit(transform_normal(transform, mesh.normals[tri[std::size_t(k)]]));
+        t.normal[k] = f4(n);
+    }
+    return t;
+}
+
 }  // namespace
 
 PackedSurfaces pack_surfaces(const Scene& scene) {
@@ -48,21 +65,28 @@ PackedSurfaces pack_surfaces(const Scene& scene) {
         g.ambient = mat.phong.ambient, g.diffuse = mat.phong.diffuse, g.specular = mat.phong.specular;
         g.shininess = mat.phong.shininess;
         out.materials.push_back(g);
-        const Mesh& mesh = *mi.mesh;
-        for (const auto& tri : mesh.triangles) {
-            V3 p[3];
-            for (int k = 0; k < 3; ++k) p[k] = transform_point(mi.transform, mesh.positions[tri[std::size_t(k)]]);
-            V3 e1{p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]};
-            V3 e2{p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]};
-            V3 face = unit({e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]});
-            SurfaceTriangleGpu t{};
-            t.corner = f4(p[0], mat.opacity), t.edge1 = f4(e1), t.edge2 = f4(e2);
-            for (int k = 0; k < 3; ++k) {
-                V3 n = mesh.normals.empty() ? face : unit(transform_normal(mi.transform, mesh.normals[tri[std::size_t(k)]]));
-                t.normal[k] = f4(n);
-            }
-            out.triangles.push_back(t);
-        }
+        for (const auto& tri : mi.mesh->triangles) out.triangles.push_back(world_triangle(*mi.mesh, tri, mi.transform, mat.opacity));
+    }
+    return out;
+}
+
+bool has_bounds(const Scene& scene) {
+    for (const VolumeInstance& vi : scene.volumes)
+        if (vi.bound.mesh) return true;
+    return false;
+}
+
+bool has_fragments(const Scene& scene) { return !scene.meshes.empty() || has_bounds(scene); }
+
+std::vector<SurfaceTriangleGpu> pack_bounds(const Scene& scene, std::vector<VolumeGpu>& volumes) {
+    std::vector<SurfaceTriangleGpu> out;
+    for (std::size_t i = 0; i < scene.volumes.size(); ++i) {
+        const VolumeInstance& vi = scene.volumes[i];
+        volumes[i].bound_first = cl_uint(out.size());
+        if (vi.bound.mesh)
+            for (const auto& tri : vi.bound.mesh->triangles)
+                out.push_back(world_triangle(*vi.bound.mesh, tri, bound_to_world(vi), float(i)));
+        volumes[i].bound_count = cl_uint(out.size()) - volumes[i].bound_first;
     }
     return out;
 }
@@ -88,9 +112,23 @@ ShadowBvh upload_shadow_bvh(host::Runtime& rt, const PackedSurfaces& p) {
     return d;
 }
 
-ViewFragments view_fragments(host::Runtime& rt, const std::vector<MeshInstance>& meshes, const raster::View& view) {
+ViewFragments view_fragments(host::Runtime& rt, const Scene& scene, const raster::View& view) {
+    // surfaces first, then every volume's bound mesh: one fragment list (Knecht §3.1.2)
+    std::vector<MeshInstance> meshes = scene.meshes;
+    std::vector<cl_uint> bound_volume;
+    for (std::size_t i = 0; i < scene.volumes.size(); ++i) {
+        const VolumeInstance& vi = scene.volumes[i];
+        if (!vi.bound.mesh) continue;
+        MeshInstance bound;
+        bound.mesh = vi.bound.mesh;
+        bound.transform = bound_to_world(vi);
+        meshes.push_back(bound);
+        bound_volume.push_back(cl_uint(i));
+    }
     ViewFragments v;
     raster::Projection projection = raster::project_meshes(meshes, view);
+    for (ScreenTriangleGpu& t : projection.triangles)
+        if (t.mesh >= scene.meshes.size()) t.flags |= SOMBRA_TRI_BOUND, t.mesh = bound_volume[t.mesh - scene.meshes.size()];
     v.tiles = raster::rasterize(rt, projection.triangles, raster::make_screen(view));
     v.fragments = raster::sort_fragments(rt, v.tiles);
     return v;

@@ -16,6 +16,13 @@ struct PackedSurfaces {
 };
 PackedSurfaces pack_surfaces(const Scene& scene);
 
+// Polyhedral volume bounds (issue 4): whether any volume has one; whether a view needs fragment
+// lists (surfaces or bounds). pack_bounds sets every volume's bound_first/bound_count and returns
+// the bound triangles in the world, corner.w = the volume's index (shadow rays cross them).
+bool has_bounds(const Scene& scene);
+bool has_fragments(const Scene& scene);
+std::vector<SurfaceTriangleGpu> pack_bounds(const Scene& scene, std::vector<VolumeGpu>& volumes);
+
 struct DeviceSurfaces {
     cl::Buffer triangles, materials;
     cl_uint triangle_count = 0;
@@ -30,12 +37,13 @@ struct ShadowBvh {
 };
 ShadowBvh upload_shadow_bvh(host::Runtime& runtime, const PackedSurfaces& packed);
 
-// A view's fragments: each pixel's covering triangles sorted near to far, with the screen
-// triangles their ids index. Times go to stage_ms[prefix + "_raster"] and [prefix + "_fragments"].
+// A view's fragments: each pixel's covering triangles — the meshes' surfaces and the volumes'
+// bound meshes (flagged SOMBRA_TRI_BOUND, mesh = the volume's index) — sorted near to far, with
+// the screen triangles their ids index.
 struct ViewFragments {
     raster::DeviceTiles tiles;
     raster::DeviceFragments fragments;
 };
-ViewFragments view_fragments(host::Runtime& runtime, const std::vector<MeshInstance>& meshes, const raster::View& view);
+ViewFragments view_fragments(host::Runtime& runtime, const Scene& scene, const raster::View& view);
 
 }  // namespace sombra::surfaces

@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <map>
 
 #include "sombra/error.h"
 
@@ -59,6 +60,24 @@ void validate_mesh(const Mesh& mesh, const std::string& where) {
                                      std::to_string(mesh.positions.size()) + " vertices)");
     if (!mesh.normals.empty() && mesh.normals.size() != mesh.positions.size())
         throw file_error(where, "normals", "must be one per vertex");
+}
+
+void check_closed(const Mesh& mesh, const std::string& where) {
+    std::map<std::array<float, 3>, std::uint32_t> weld;  // identical positions → one corner
+    std::vector<std::uint32_t> id(mesh.positions.size());
+    for (std::size_t i = 0; i < mesh.positions.size(); ++i)
+        id[i] = weld.emplace(mesh.positions[i], std::uint32_t(weld.size())).first->second;
+    std::map<std::pair<std::uint32_t, std::uint32_t>, int> edges;
+    for (const auto& tri : mesh.triangles) {
+        std::uint32_t c[3] = {id[tri[0]], id[tri[1]], id[tri[2]]};
+        if (c[0] == c[1] || c[1] == c[2] || c[2] == c[0]) continue;  // degenerate: no area, no edge
+        for (int k = 0; k < 3; ++k) ++edges[std::minmax(c[k], c[(k + 1) % 3])];
+    }
+    for (const auto& [edge, count] : edges)
+        if (count != 2)
+            throw file_error(where, "", "mesh is not closed (an edge belongs to " + std::to_string(count) +
+                                            (count == 1 ? " triangle" : " triangles") + ", not 2)");
+    if (edges.empty()) throw file_error(where, "", "mesh is not closed (no triangle with area)");
 }
 
 Mesh load_mesh(const std::string& path) {

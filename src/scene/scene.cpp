@@ -115,6 +115,24 @@ Material read_phong(JsonFields& m, Material fallback) {
     return out;
 }
 
+// "bounds": {"mesh": FILE, "transform": …}: a closed mesh in the volume's object frame. A missing,
+// malformed or open mesh fails naming the scene, the field and the mesh file.
+VolumeBound read_bound(const json& j, const std::string& file, const std::string& path) {
+    JsonFields f(j, file, path);
+    VolumeBound b;
+    std::string mesh_path = relative_to(file, f.string("mesh")).string();
+    try {
+        Mesh mesh = load_mesh(mesh_path);
+        check_closed(mesh, mesh_path);
+        b.mesh = std::make_shared<const Mesh>(std::move(mesh));
+    } catch (const Error& e) {
+        f.fail("mesh", e.what());
+    }
+    if (f.has("transform")) b.transform = read_transform(f.at("transform"), file, f.field("transform"));
+    f.finish();
+    return b;
+}
+
 VolumeInstance read_volume(const json& j, const std::string& file, const std::string& path,
                            const VolumeLoadOptions& options) {
     JsonFields f(j, file, path);
@@ -141,6 +159,7 @@ VolumeInstance read_volume(const json& j, const std::string& file, const std::st
         vi.material = read_phong(m, vi.material);
         m.finish();
     }
+    if (f.has("bounds")) vi.bound = read_bound(f.at("bounds"), file, f.field("bounds"));
     f.finish();
     return vi;
 }
@@ -217,6 +236,8 @@ std::array<float, 16> make_transform(const Vec3& t, const Vec3& r, const Vec3& s
     return multiply(translate, multiply(rot(2, r[2]), multiply(rot(1, r[1]), multiply(rot(0, r[0]), scale))));
 }
 
+std::array<float, 16> bound_to_world(const VolumeInstance& volume) { return multiply(volume.transform, volume.bound.transform); }
+
 void validate_scene(const Scene& scene, const std::string& where) {
     const Camera& c = scene.camera;
     Vec3 d{c.look_at[0] - c.position[0], c.look_at[1] - c.position[1], c.look_at[2] - c.position[2]};
@@ -233,9 +254,19 @@ void validate_scene(const Scene& scene, const std::string& where) {
     if (scene.volumes.size() > SOMBRA_MAX_VOLUMES)
         throw file_error(where, "volumes", "at most " + std::to_string(SOMBRA_MAX_VOLUMES) + " volumes per scene");
     if (scene.lights.size() > 8) throw file_error(where, "lights", "at most 8 lights per scene");
-    for (std::size_t i = 0; i < scene.volumes.size(); ++i)
+    for (std::size_t i = 0; i < scene.volumes.size(); ++i) {
         if (!scene.volumes[i].volume || scene.volumes[i].volume->voxel_count() == 0)
             throw file_error(where, "volumes[" + std::to_string(i) + "]", "volume is empty");
+        if (const auto& bound = scene.volumes[i].bound.mesh) {  // API users build bounds in memory
+            std::string field = "volumes[" + std::to_string(i) + "].bounds.mesh";
+            try {
+                validate_mesh(*bound, bound->source);
+                check_closed(*bound, bound->source);
+            } catch (const Error& e) {
+                throw file_error(where, field, e.what());
+            }
+        }
+    }
 }
 
 Scene load_scene(const std::string& path, const VolumeLoadOptions& options) {

@@ -151,7 +151,8 @@ void generate(host::Runtime& runtime, const Scene& scene, const packing::PackedS
         defines.push_back("SOMBRA_DSM_PRECOMPRESSED");
     }
     surfaces::DeviceSurfaces surface_data;  // meshes: their fragments in each view become steps (Knecht §3.2)
-    if (!scene.meshes.empty()) {
+    const bool fragment_lists = surfaces::has_fragments(scene);  // surfaces and polyhedral volume bounds
+    if (fragment_lists) {
         surface_data = surfaces::upload_surfaces(runtime, surfaces::pack_surfaces(scene));
         defines.push_back("SOMBRA_HAS_MESHES");
     }
@@ -177,12 +178,12 @@ void generate(host::Runtime& runtime, const Scene& scene, const packing::PackedS
             kernel.setArg(a++, precompression.opacity);
             kernel.setArg(a++, precompression.count);
         }
-        if (!scene.meshes.empty()) {
+        if (fragment_lists) {
             raster::View raster_view = raster::dsm_view(views[view]);
             // the view's near_depth is a ray distance fitted to the nearest corner, but the raster
             // stage clips at view z (≤ ray distance): clip far closer, so that no fitted geometry is lost
             if (raster_view.perspective) raster_view.near_depth = std::max(1e-6, 1e-4 * double(views[view].far_depth));
-            fragments = surfaces::view_fragments(runtime, scene.meshes, raster_view);
+            fragments = surfaces::view_fragments(runtime, scene, raster_view);
             kernel.setArg(a++, fragments.fragments.first);
             kernel.setArg(a++, fragments.fragments.fragments);
             kernel.setArg(a++, fragments.tiles.triangles);

@@ -12,8 +12,10 @@
 //
 // with h₀ = step_voxels × the volume's smallest world voxel size, and f_v the trilinear
 // interpolation of the voxels (positions clamped to [0, dims − 1]). Overlapping volumes add their
-// optical depths. Meshes: every triangle the segment crosses (Möller–Trumbore in double against
-// every triangle of every mesh, brute force) multiplies T by 1 − its mesh's opacity:
+// optical depths. A volume with a polyhedral bound integrates only where the ray is inside the
+// closed mesh (parity of its crossings, Möller–Trumbore). Meshes: every triangle the segment
+// crosses (Möller–Trumbore in double against every triangle of every mesh, brute force)
+// multiplies T by 1 − its mesh's opacity:
 //
 //   T = exp(−τ) · Π_{triangles crossed} (1 − a_mesh)
 //
@@ -23,6 +25,7 @@
 #include <cmath>
 #include <limits>
 #include <string>
+#include <vector>
 
 #include "sombra/error.h"
 #include "sombra/shadows.h"
@@ -215,20 +218,31 @@ Interval clip_to_box(const PreparedVolume& pv, const Segment& s) {
     return in;
 }
 
-// τ_v = ∫ σ_v ds over the part of the segment inside the volume, midpoint rule:
-// n = ⌈length/h₀⌉ equal steps h = length/n ≤ h₀, samples at the step midpoints.
-double optical_depth(const PreparedVolume& pv, const Segment& s, double step_voxels) {
-    const Interval in = clip_to_box(pv, s);
-    if (in.empty()) return 0.0;
-    const double length = in.t1 - in.t0;
+// ∫ σ_v ds over [t0, t1], midpoint rule: n = ⌈length/h₀⌉ equal steps h = length/n ≤ h₀, samples at
+// the step midpoints.
+double integrate(const PreparedVolume& pv, const Segment& s, double t0, double t1, double step_voxels) {
+    const double length = t1 - t0;
     const double h0 = step_voxels * pv.voxel_size;
     const double n = std::max(1.0, std::ceil(length / h0));
     const double h = length / n;
     double tau = 0;
     for (double k = 0; k < n; k += 1) {
-        const double t = in.t0 + (k + 0.5) * h;
+        const double t = t0 + (k + 0.5) * h;
         const D3 x = pv.world_to_voxel.apply_point(add(s.origin, scale(t, s.dir)));
         tau += extinction(*pv.tf, sample_trilinear(*pv.volume, x), pv.opacity_unit) * h;
+    }
+    return tau;
+}
+
+// τ_v over the part of the segment inside the volume's box and inside `inside` (sorted, disjoint
+// intervals of t where the volume is active: its polyhedral bound, or all of [0, ∞)).
+double optical_depth(const PreparedVolume& pv, const Segment& s, const std::vector<Interval>& inside, double step_voxels) {
+    const Interval box = clip_to_box(pv, s);
+    if (box.empty()) return 0.0;
+    double tau = 0;
+    for (const Interval& in : inside) {
+        const double t0 = std::max(box.t0, in.t0), t1 = std::min(box.t1, in.t1);
+        if (t1 > t0) tau += integrate(pv, s, t0, t1, step_voxels);
     }
     return tau;
 }
@@ -251,29 +265,30 @@ Segment shadow_segment(const Light& light, const D3& p, const std::string& where
 
 // ---- meshes ----
 
-// Object → world of a mesh instance: its row-major 4×4 transform (last row 0 0 0 1).
-D3 mesh_point(const MeshInstance& mi, const std::array<float, 3>& p) {
+// Object → world of a mesh: its row-major 4×4 transform (last row 0 0 0 1).
+D3 mesh_point(const std::array<float, 16>& m, const std::array<float, 3>& p) {
     D3 r{};
     for (std::size_t i = 0; i < 3; ++i)
-        r[i] = double(mi.transform[i * 4]) * p[0] + double(mi.transform[i * 4 + 1]) * p[1] +
-               double(mi.transform[i * 4 + 2]) * p[2] + double(mi.transform[i * 4 + 3]);
+        r[i] = double(m[i * 4]) * p[0] + double(m[i * 4 + 1]) * p[1] + double(m[i * 4 + 2]) * p[2] + double(m[i * 4 + 3]);
     return r;
 }
 
-// Whether the segment crosses triangle (a, b, c) at some 0 < t < t_end (Möller–Trumbore). A segment
-// in the triangle's plane and a degenerate triangle cross nothing (det = 0 is never divided by).
-bool crosses(const Segment& s, const D3& a, const D3& b, const D3& c) {
+// Parameter t of the crossing of the line s.origin + t·s.dir with triangle (a, b, c)
+// (Möller–Trumbore), any sign of t; NaN when there is none. A line in the triangle's plane and a
+// degenerate triangle cross nothing (det = 0 is never divided by).
+double crossing_t(const Segment& s, const D3& a, const D3& b, const D3& c) {
+    const double none = std::numeric_limits<double>::quiet_NaN();
     const D3 e1 = sub(b, a), e2 = sub(c, a);
     const D3 pvec = cross(s.dir, e2);
     const double det = dot(pvec, e1);
     const double area = length(cross(e1, e2));
-    if (!(std::fabs(det) > 1e-12 * area)) return false;
+    if (!(area > 0) || !(std::fabs(det) > 1e-12 * area)) return none;
     const D3 tvec = sub(s.origin, a);
     const double u = dot(tvec, pvec) / det;
     const D3 qvec = cross(tvec, e1);
     const double v = dot(s.dir, qvec) / det;
     const double t = dot(e2, qvec) / det;
-    return u >= 0 && v >= 0 && u + v <= 1 && t > 0 && t < s.t_end;
+    return u >= 0 && v >= 0 && u + v <= 1 ? t : none;
 }
 
 // Π (1 − a) over the triangles of every mesh the segment crosses.
@@ -283,12 +298,41 @@ double surfaces_transmittance(const Scene& scene, const Segment& s) {
         const MeshInstance& mi = scene.meshes[i];
         if (!mi.mesh) throw Error("meshes[" + std::to_string(i) + "]: no mesh data");
         const double keep = 1.0 - std::clamp(double(mi.material.opacity), 0.0, 1.0);
-        for (const auto& tri : mi.mesh->triangles)
-            if (crosses(s, mesh_point(mi, mi.mesh->positions[tri[0]]), mesh_point(mi, mi.mesh->positions[tri[1]]),
-                        mesh_point(mi, mi.mesh->positions[tri[2]])))
-                result *= keep;
+        for (const auto& tri : mi.mesh->triangles) {
+            const double t = crossing_t(s, mesh_point(mi.transform, mi.mesh->positions[tri[0]]),
+                                        mesh_point(mi.transform, mi.mesh->positions[tri[1]]),
+                                        mesh_point(mi.transform, mi.mesh->positions[tri[2]]));
+            if (t > 0 && t < s.t_end) result *= keep;
+        }
     }
     return result;
+}
+
+// Where along the ray (t ≥ 0) a volume is active under its polyhedral bound: every crossing of the
+// bound mesh at t > 0 toggles inside/outside, and the start is inside when their count is odd
+// (parity; the mesh is closed). No bound: all of [0, ∞).
+std::vector<Interval> bound_intervals(const VolumeInstance& vi, const Segment& s) {
+    const double infinity = std::numeric_limits<double>::infinity();
+    if (!vi.bound.mesh) return {{0.0, infinity}};
+    const std::array<float, 16> m = bound_to_world(vi);
+    const Mesh& mesh = *vi.bound.mesh;
+    const Segment line{s.origin, s.dir, infinity};
+    std::vector<double> hits;
+    for (const auto& tri : mesh.triangles) {
+        const double t = crossing_t(line, mesh_point(m, mesh.positions[tri[0]]), mesh_point(m, mesh.positions[tri[1]]),
+                                    mesh_point(m, mesh.positions[tri[2]]));
+        if (t > 0) hits.push_back(t);
+    }
+    std::sort(hits.begin(), hits.end());
+    bool inside = hits.size() % 2 == 1;
+    std::vector<Interval> out;
+    double from = 0;
+    for (double t : hits) {
+        if (inside) out.push_back({from, t});
+        inside = !inside, from = t;
+    }
+    if (inside) out.push_back({from, infinity});
+    return out;
 }
 
 }  // namespace
@@ -308,7 +352,7 @@ double reference_transmittance(const Scene& scene, int light_index, const Vec3& 
     double tau = 0;  // overlapping volumes add their optical depths
     for (std::size_t i = 0; i < scene.volumes.size(); ++i) {
         const PreparedVolume pv = prepare(scene.volumes[i], "volumes[" + std::to_string(i) + "]");
-        tau += optical_depth(pv, segment, step_voxels);
+        tau += optical_depth(pv, segment, bound_intervals(scene.volumes[i], segment), step_voxels);
     }
     return std::exp(-tau) * surfaces_transmittance(scene, segment);
 }
