@@ -116,6 +116,14 @@ DSM_GENERATION_KERNEL(VOLUME_DATA_PARAM, __global const uchar* occupancy, __glob
             if (precompression[i].size > 0) tabled |= here;
         }
         tabled &= (cursor.segment == previous_segment) & (cursor.k == previous_k + 1); /* consecutive samples */
+#ifdef SOMBRA_HAS_MESHES
+        int split[SOMBRA_LANES]; /* a surface inside the step splits it: the step is sampled, not tabled */
+        float t_now[SOMBRA_LANES];
+        LSTORE(t, t_now);
+        for (uint lane = 0; lane < SOMBRA_LANES; ++lane)
+            split[lane] = surface_next[lane] < surface_end[lane] && fragments[surface_next[lane]].depth < t_now[lane];
+        tabled &= LLOAD(split) == 0;
+#endif
         lfloat front_density = previous_density;
         previous_segment = select(previous_segment, cursor.segment, single);
         previous_k = select(previous_k, cursor.k, single);
