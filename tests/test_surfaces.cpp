@@ -361,7 +361,7 @@ TEST_CASE("deep shadow maps and shadow rays agree with the reference on a volume
     }
 }
 
-TEST_CASE("shipped mesh scenes (Knecht Fig. 5.2–5.4) load and render with deep shadow maps, no NaN", "[surfaces][scenes]") {
+TEST_CASE("shipped mesh scenes (Knecht Fig. 5.2–5.4, 5.12) load and render with deep shadow maps, no NaN", "[surfaces][scenes]") {
     for (const char* name : {"teapot_fog", "two_smokes_wall", "steaming_cups", "cup_array"}) {
         INFO(name);
         Scene s = load_scene(test::data_path(std::string("scenes/") + name + ".json"));
