@@ -12,8 +12,8 @@
 //
 // with h₀ = step_voxels × the volume's smallest world voxel size, and f_v the trilinear
 // interpolation of the voxels (positions clamped to [0, dims − 1]). Overlapping volumes add their
-// optical depths. Meshes: every triangle the segment crosses (Möller–Trumbore in double against
-// every triangle of every mesh, brute force) multiplies T by 1 − its mesh's opacity:
+// optical depths. Meshes: every triangle the segment crosses (watertight edge tests in double
+// against every triangle of every mesh, brute force) multiplies T by 1 − its mesh's opacity:
 //
 //   T = exp(−τ) · Π_{triangles crossed} (1 − a_mesh)
 //
@@ -260,20 +260,28 @@ D3 mesh_point(const MeshInstance& mi, const std::array<float, 3>& p) {
     return r;
 }
 
-// Whether the segment crosses triangle (a, b, c) at some 0 < t < t_end (Möller–Trumbore). A segment
-// in the triangle's plane and a degenerate triangle cross nothing (det = 0 is never divided by).
+// Which side of the edge p → q the segment's line passes: the sign of the triple product
+// [dir, p − o, q − o]. A line through the edge (0) takes the side of the edge's direction (+ when p
+// comes before q lexicographically): the two triangles that share an edge run it in opposite
+// directions and get exactly opposite products, so a line through it crosses one of them, never
+// both and never neither (watertight, as the raster's top-left rule).
+int edge_side(const Segment& s, const D3& p, const D3& q) {
+    const double w = dot(s.dir, cross(sub(p, s.origin), sub(q, s.origin)));
+    if (w != 0) return w > 0 ? 1 : -1;
+    return p < q ? 1 : -1;
+}
+
+// Whether the segment crosses triangle (a, b, c) at some 0 < t < t_end: its line passes every edge
+// on the same side (Plücker-style edge tests) and meets the plane within the segment. A segment
+// in the triangle's plane and a degenerate triangle cross nothing (nothing is divided by 0).
 bool crosses(const Segment& s, const D3& a, const D3& b, const D3& c) {
-    const D3 e1 = sub(b, a), e2 = sub(c, a);
-    const D3 pvec = cross(s.dir, e2);
-    const double det = dot(pvec, e1);
-    const double area = length(cross(e1, e2));
-    if (!(std::fabs(det) > 1e-12 * area)) return false;
-    const D3 tvec = sub(s.origin, a);
-    const double u = dot(tvec, pvec) / det;
-    const D3 qvec = cross(tvec, e1);
-    const double v = dot(s.dir, qvec) / det;
-    const double t = dot(e2, qvec) / det;
-    return u >= 0 && v >= 0 && u + v <= 1 && t > 0 && t < s.t_end;
+    const D3 n = cross(sub(b, a), sub(c, a));
+    const double facing = dot(n, s.dir);
+    if (!(std::fabs(facing) > 1e-12 * length(n))) return false;
+    const double t = dot(n, sub(a, s.origin)) / facing;
+    if (!(t > 0 && t < s.t_end)) return false;
+    const int side = edge_side(s, a, b);
+    return edge_side(s, b, c) == side && edge_side(s, c, a) == side;
 }
 
 // Π (1 − a) over the triangles of every mesh the segment crosses.
