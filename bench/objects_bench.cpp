@@ -1,8 +1,8 @@
 // sombra_bench_objects — deep shadow maps against scene size, in one run (Knecht 2011 §5.3–5.4):
-//  1. Fig. 5.13 analogue: N steaming cups (N copies of the teapot, each with a small procedural
-//     smoke volume above it, on a grid), one spot + one point light: DSM generation time, raster
+//  1. Fig. 5.13 analogue: N steaming cups (the cup and steam plume of data/scenes/cup_array.json,
+//     Fig. 5.12, copied onto a grid), one spot + one point light: DSM generation time, raster
 //     time, camera-pass time, nodes per texel and memory against N, per storage backend.
-//  2. Tables 5.5–5.7 analogue: data-set resolution classes, the teapot under one procedural cloud
+//  2. Tables 5.5–5.7 analogue: data-set resolution classes, the cup under one procedural cloud
 //     of 64³, 128³ or 256³ voxels (same world size): the same columns per class and backend.
 // Times are medians of OpenCL profiling events (RenderStats::stage_ms) after one warm-up; the
 // prepared scene is dropped before every render so that each one builds its maps. See bench/README.md.
@@ -12,6 +12,7 @@
 #include "shared/types.h"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -62,35 +63,40 @@ bool is_raster_stage(const std::string& stage) {
     return stage.find("raster") != std::string::npos || stage.find("fragments") != std::string::npos;
 }
 
-sombra::TransferFunction steam_tf() {  // data/scenes/steaming_cups.json
-    sombra::TransferFunction tf;
-    tf.color_points = {{0.f, 0.85f, 0.85f, 0.9f}, {1.f, 1.f, 1.f, 1.f}};
-    tf.opacity_points = {{0.f, 0.f}, {0.1f, 0.f}, {0.4f, 0.3f}, {1.f, 0.8f}};
-    return tf;
+// The cup and its steam: the first cup and the first steam of data/scenes/cup_array.json (mesh,
+// material, transfer function, step, plume size), copied to other places.
+struct CupTemplate {
+    sombra::MeshInstance cup;
+    sombra::VolumeInstance steam;
+};
+
+CupTemplate cup_template(const std::string& data_dir) {
+    sombra::Scene s = sombra::load_scene(data_dir + "/scenes/cup_array.json");
+    if (s.meshes.empty() || s.volumes.empty()) throw sombra::Error(data_dir + "/scenes/cup_array.json: needs a cup and a steam");
+    return {s.meshes[0], s.volumes[0]};
 }
 
-sombra::VolumeInstance steam(std::shared_ptr<const sombra::Volume> volume, float x, float y, float world_size,
+// A transform moved to (x, y) in the ground plane (row-major: the translation is column 3).
+std::array<float, 16> placed(std::array<float, 16> m, float x, float y) {
+    m[3] = x, m[7] = y;
+    return m;
+}
+
+sombra::VolumeInstance steam(const CupTemplate& t, std::shared_ptr<const sombra::Volume> volume, float x, float y,
                              const std::string& name) {
-    sombra::VolumeInstance vi;
+    sombra::VolumeInstance vi = t.steam;
+    // the template's world box, whatever the voxel count
+    float s = t.steam.spacing[0] * float(t.steam.volume->dims[0]) / float(volume->dims[0]);
     vi.volume = std::move(volume);
-    float s = world_size / float(vi.volume->dims[0]);  // 32 voxels × 1.6 in steaming_cups.json
     vi.spacing = {s, s, s};
-    vi.transform = sombra::make_transform({x, y, 48.f}, {0, 0, 0}, {1.f, 1.f, 1.6f});
-    vi.transfer_function = steam_tf();
-    vi.step_voxels = 0.75f, vi.opacity_unit = 4.f;
-    vi.material = {1.f, 1.f, 0.f, 1.f};
+    vi.transform = placed(t.steam.transform, x, y);
     vi.name = name;
     return vi;
 }
 
-sombra::MeshInstance cup(std::shared_ptr<const sombra::Mesh> mesh, float x, float y, int i) {
-    static const sombra::Vec3 colors[] = {{0.9f, 0.35f, 0.2f}, {0.25f, 0.55f, 0.9f}, {0.3f, 0.8f, 0.35f}};
-    sombra::MeshInstance mi;
-    mi.mesh = std::move(mesh);
-    mi.transform = sombra::make_transform({x, y, 8.f}, {90.f, 0, 0}, {1.6f, 1.6f, 1.6f});
-    mi.material.color = colors[i % 3];
-    mi.material.opacity = 0.85f;
-    mi.material.phong = {0.3f, 0.8f, 0.4f, 30.f};
+sombra::MeshInstance cup(const CupTemplate& t, float x, float y, int i) {
+    sombra::MeshInstance mi = t.cup;
+    mi.transform = placed(t.cup.transform, x, y);
     mi.name = "cup_" + std::to_string(i);
     return mi;
 }
@@ -123,21 +129,22 @@ void frame(sombra::Scene& scene, float half) {
     scene.lights = {spot, point};
 }
 
-// N cups with steam on a ⌈√N⌉-wide grid, 80 units apart (steaming_cups.json); steam above the
-// first min(N, SOMBRA_MAX_VOLUMES) cups.
-sombra::Scene cups_scene(int n, const std::shared_ptr<const sombra::Mesh>& teapot) {
+// N cups with steam on a ⌈√N⌉-wide grid, 62 units apart (cup_array.json); steam above the
+// first min(N, SOMBRA_MAX_VOLUMES) cups, seeded as in cup_array.json.
+sombra::Scene cups_scene(int n, const CupTemplate& t) {
     sombra::Scene scene;
     scene.source = "objects_bench: " + std::to_string(n) + " cups";
     int columns = int(std::ceil(std::sqrt(double(n))));
     int rows = (n + columns - 1) / columns;
-    const float pitch = 80.f;
+    const float pitch = 62.f;
     for (int i = 0; i < n; ++i) {
         float x = (float(i % columns) - 0.5f * float(columns - 1)) * pitch;
         float y = (float(i / columns) - 0.5f * float(rows - 1)) * pitch;
-        scene.meshes.push_back(cup(teapot, x, y, i));
+        scene.meshes.push_back(cup(t, x, y, i));
         if (i < kMaxVolumes) {
-            auto cloud = std::make_shared<const sombra::Volume>(sombra::make_cloud_noise(32, 5u + 4u * unsigned(i)));
-            scene.volumes.push_back(steam(cloud, x, y, 51.2f, "steam_" + std::to_string(i)));
+            auto plume = std::make_shared<const sombra::Volume>(
+                sombra::make_steam_plume(t.steam.volume->dims[0], 3u + 4u * unsigned(i)));
+            scene.volumes.push_back(steam(t, plume, x, y, "steam_" + std::to_string(i)));
         }
     }
     frame(scene, 0.5f * pitch * float(std::max(columns, rows) - 1));
@@ -145,12 +152,12 @@ sombra::Scene cups_scene(int n, const std::shared_ptr<const sombra::Mesh>& teapo
 }
 
 // One cup under one cloud of n³ voxels; the cloud covers the same world box at every n.
-sombra::Scene cloud_scene(int n, const std::shared_ptr<const sombra::Mesh>& teapot) {
+sombra::Scene cloud_scene(int n, const CupTemplate& t) {
     sombra::Scene scene;
     scene.source = "objects_bench: cloud " + std::to_string(n);
-    scene.meshes.push_back(cup(teapot, 0, 0, 0));
+    scene.meshes.push_back(cup(t, 0, 0, 0));
     auto cloud = std::make_shared<const sombra::Volume>(sombra::make_cloud_noise(n, 5u));
-    scene.volumes.push_back(steam(cloud, 0, 0, 51.2f, "cloud"));
+    scene.volumes.push_back(steam(t, cloud, 0, 0, "cloud"));
     frame(scene, 0.f);
     return scene;
 }
@@ -226,14 +233,14 @@ int run(int argc, char** argv) {
     app.add_option("--height", o.height, "image height")->check(CLI::Range(1, 16384));
     app.add_option("--runs", o.runs, "timed renders per row, after one warm-up")->check(CLI::PositiveNumber);
     app.add_option("--device", o.device, "OpenCL device: auto, cpu, gpu, or an index from `sombra devices`");
-    app.add_option("--data", o.data_dir, "data folder (meshes/teapot.obj)");
+    app.add_option("--data", o.data_dir, "data folder (scenes/cup_array.json, meshes/cup.obj)");
     app.add_option("--out", o.out_dir, "write objects_table.md and objects_table.csv into this folder");
     CLI11_PARSE(app, argc, argv);
     o.cloud_sizes.erase(std::remove(o.cloud_sizes.begin(), o.cloud_sizes.end(), 0), o.cloud_sizes.end());
 
     std::string command;
     for (int i = 0; i < argc; ++i) command += (i ? " " : "") + std::string(argv[i]);
-    auto teapot = std::make_shared<const sombra::Mesh>(sombra::load_mesh(o.data_dir + "/meshes/teapot.obj"));
+    const CupTemplate cup_and_steam = cup_template(o.data_dir);
     sombra::Context context(o.device);
     sombra::RenderOptions base;
     base.width = o.width, base.height = o.height;
@@ -266,12 +273,12 @@ int run(int argc, char** argv) {
                       << fixed(r.mean_nodes, 3) << " (max " << r.max_nodes << ")" << std::endl;
         }
     };
-    for (int n : o.counts) measure_storages(cups_scene(n, teapot), std::to_string(n), count_rows);
-    for (int size : o.cloud_sizes) measure_storages(cloud_scene(size, teapot), std::to_string(size) + "³", cloud_rows);
+    for (int n : o.counts) measure_storages(cups_scene(n, cup_and_steam), std::to_string(n), count_rows);
+    for (int size : o.cloud_sizes) measure_storages(cloud_scene(size, cup_and_steam), std::to_string(size) + "³", cloud_rows);
 
     std::string table = "DSM generation and render time against the number of steaming cups N (Knecht Fig. 5.13):\n\n" +
                         markdown(count_rows, "N") +
-                        "\nData-set resolution classes: the teapot under one procedural cloud (Knecht Tables 5.5–5.7):\n\n" +
+                        "\nData-set resolution classes: the cup under one procedural cloud (Knecht Tables 5.5–5.7):\n\n" +
                         markdown(cloud_rows, "cloud");
     std::cout << "\n" << table;
     if (!o.out_dir.empty()) {

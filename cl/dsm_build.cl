@@ -118,7 +118,8 @@ DSM_GENERATION_KERNEL(VOLUME_DATA_PARAM, __global const uchar* occupancy, __glob
             density = select(density, sample_density(volume_data, &volumes[i], ray_voxel_point(&ray, i, t)), here);
             if (precompression[i].size > 0) tabled |= here;
         }
-        tabled &= (cursor.segment == previous_segment) & (cursor.k == previous_k + 1); /* consecutive samples */
+        /* consecutive samples of one segment (a surface ends its segment: the step across it is sampled) */
+        tabled &= (cursor.segment == previous_segment) & (cursor.k == previous_k + 1);
         lfloat front_density = previous_density;
         previous_segment = select(previous_segment, cursor.segment, single);
         previous_k = select(previous_k, cursor.k, single);

@@ -23,6 +23,18 @@ __constant int prefilter_taps[][4] = SOMBRA_PREFILTER_BOX_TAPS;
 #endif
 #define PREFILTER_TAPS ((int)(sizeof(prefilter_taps) / sizeof(prefilter_taps[0])))
 
+/* A tap's V at depth z ≥ its last passed node (z0, a0) (z0 = −∞: none passed, V = 0), linear
+ * towards its next node (fine_nodes[next], if next < end), clamped to [0, 1]. */
+inline float prefilter_tap_value(__global const float* fine_nodes, uint next, uint end, float z0, float a0, float z) {
+    float value = a0;
+    if (z0 == -INFINITY) value = 0.0f;
+    else if (next < end) {
+        float z1 = fine_nodes[2 * next], a1 = fine_nodes[2 * next + 1];
+        value = mix(a0, a1, clamp((z - z0) / fmax(z1 - z0, 1e-30f), 0.0f, 1.0f));
+    }
+    return clamp(value, 0.0f, 1.0f);
+}
+
 
 DSM_GENERATION_KERNEL(__global const DsmViewGpu* views, uint view_index, float epsilon, __global const DsmViewGpu* sub_views,
      uint sub_maps, uint sub_scale, __global const uint* fine_first, __global const float* fine_nodes, DSM_BUILD_STORAGE_PARAMS) {
@@ -57,23 +69,28 @@ DSM_GENERATION_KERNEL(__global const DsmViewGpu* views, uint view_index, float e
         for (int t = 0; t < PREFILTER_TAPS; ++t)
             if (next[t] < end[t]) z = fmin(z, fine_nodes[2 * next[t]]);
         if (!(z < INFINITY)) break;
-        /* V(z) = Σ w V_t(z) / Σ w, each V_t by Knecht Eq. 3.7 */
-        float v_sum = 0.0f;
+        /* V just before z and at z, Σ w V_t / Σ w, each V_t by Knecht Eq. 3.7. A tap with two nodes
+         * at z (a surface's vertical step, dsm_build.cl) jumps there: so does the sum. */
+        float before_sum = 0.0f, after_sum = 0.0f;
+        int jump = 0;
         for (int t = 0; t < PREFILTER_TAPS; ++t) {
-            if (next[t] < end[t] && fine_nodes[2 * next[t]] == z) { /* pass the node at z */
+            before_sum += weight[t] * prefilter_tap_value(fine_nodes, next[t], end[t], z0[t], a0[t], z);
+            for (int passed = 0; next[t] < end[t] && fine_nodes[2 * next[t]] == z; ++passed) { /* pass the nodes at z */
+                float a = fine_nodes[2 * next[t] + 1];
+                jump |= passed > 0 && a != a0[t];
                 z0[t] = z;
-                a0[t] = fine_nodes[2 * next[t] + 1];
+                a0[t] = a;
                 next[t] += 1;
             }
-            float value = a0[t];
-            if (z0[t] == -INFINITY) value = 0.0f;
-            else if (next[t] < end[t]) {
-                float z1 = fine_nodes[2 * next[t]], a1 = fine_nodes[2 * next[t] + 1];
-                value = mix(a0[t], a1, clamp((z - z0[t]) / fmax(z1 - z0[t], 1e-30f), 0.0f, 1.0f));
-            }
-            v_sum += weight[t] * clamp(value, 0.0f, 1.0f);
+            after_sum += weight[t] * prefilter_tap_value(fine_nodes, next[t], end[t], z0[t], a0[t], z);
         }
-        STORE_NODES(0, compressor_add(&compressor, z, v_sum / total, previous_z == -INFINITY ? z - fmax(fabs(z) * 1e-6f, 1e-6f) : previous_z));
+        if (jump) { /* a vertical step, never smoothed away (as in generation) */
+            STORE_NODES(0, compressor_flush(&compressor));
+            STORE_NODES(0, compressor_step(&compressor, z, before_sum / total, after_sum / total));
+        } else {
+            STORE_NODES(0, compressor_add(&compressor, z, after_sum / total,
+                                          previous_z == -INFINITY ? z - fmax(fabs(z) * 1e-6f, 1e-6f) : previous_z));
+        }
         previous_z = z;
     }
     STORE_NODES(0, compressor_finish(&compressor));

@@ -17,7 +17,8 @@ inline float fragment_depth(__global const ScreenTriangleGpu* t, uint px, uint p
     /* plane equation over the screen (Knecht §3.1.2); q = 1 / view z or view z */
     float q = t->depth_plane.x + t->depth_plane.y * (cx - (float)t->x.x * unit) + t->depth_plane.z * (cy - (float)t->y.x * unit);
     if (!s->perspective) return q;
-    float nx = (cx / (float)s->width * 2.0f - 1.0f) * s->extent_x, ny = (cy / (float)s->height * 2.0f - 1.0f) * s->extent_y;
+    float nx = ((cx + s->pixel_shift) / (float)s->width * 2.0f - 1.0f) * s->extent_x;
+    float ny = ((cy + s->pixel_shift) / (float)s->height * 2.0f - 1.0f) * s->extent_y;
     return sqrt(1.0f + nx * nx + ny * ny) / fmax(q, FLT_MIN); /* view z → distance along the ray */
 }
 

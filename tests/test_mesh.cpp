@@ -175,9 +175,11 @@ TEST_CASE("scene meshes: file, transform, material; bad fields are named", "[mes
                             "cannot open");
 }
 
-TEST_CASE("the UV sphere is closed and wound outwards", "[mesh]") {
-    Mesh m = make_uv_sphere(6, 9, 2.f);
-    validate_mesh(m, "sphere");
+namespace {
+
+// Every directed edge once and its reverse once (closed, consistently wound); returns the signed
+// volume (> 0: wound outwards).
+double check_closed(const Mesh& m) {
     std::map<std::pair<unsigned, unsigned>, int> directed;
     double volume = 0;
     for (auto& t : m.triangles) {
@@ -185,9 +187,30 @@ TEST_CASE("the UV sphere is closed and wound outwards", "[mesh]") {
         auto &a = m.positions[t[0]], &b = m.positions[t[1]], &c = m.positions[t[2]];
         volume += (a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0]) + a[2] * (b[0] * c[1] - b[1] * c[0])) / 6.0;
     }
-    for (auto& [edge, count] : directed) {  // every directed edge once, its reverse once
-        CHECK(count == 1);
-        CHECK(directed.count({edge.second, edge.first}) == 1);
-    }
-    CHECK(volume > 0.);
+    std::size_t open = 0;
+    for (auto& [edge, count] : directed) open += count != 1 || directed.count({edge.second, edge.first}) != 1;
+    CHECK(open == 0);
+    return volume;
+}
+
+}  // namespace
+
+TEST_CASE("the UV sphere is closed and wound outwards", "[mesh]") {
+    Mesh m = make_uv_sphere(6, 9, 2.f);
+    validate_mesh(m, "sphere");
+    CHECK(check_closed(m) > 0.);
+}
+
+TEST_CASE("the generated cup (scripts/make_cup_mesh.py) is closed and wound outwards, a few thousand triangles",
+          "[mesh]") {
+    Mesh cup = load_mesh(test::data_path("meshes/cup.obj"));
+    CHECK(cup.triangles.size() == 2520);
+    CHECK(cup.positions.size() == 1264);
+    // stands on z = 0, 9 tall (rim 9.175), handle towards +x
+    CHECK(box_min(cup)[2] == Approx(0.f).margin(1e-5));
+    CHECK(box_min(cup)[0] == Approx(-4.f).margin(1e-3));
+    // the volume of the material: wall and bottom (the handle a little more), far below the cup's
+    double volume = check_closed(cup), full = 3.14159265 * 9.0 * (3.1 * 3.1 + 3.1 * 4.0 + 4.0 * 4.0) / 3.0;
+    CHECK(volume > 0.1 * full);
+    CHECK(volume < 0.35 * full);
 }

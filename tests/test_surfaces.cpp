@@ -106,7 +106,11 @@ TEST_CASE("surfaces: an opaque quad through a volume's centre hides what lies be
     }
 }
 
-TEST_CASE("surfaces in deep shadow maps: a quad of opacity a leaves 1 − a behind it, exactly its projection", "[surfaces][dsm]") {
+namespace {
+
+// A spot light at z = 2 straight down over an opaque floor at z = −1: the quad of half side 0.3 at
+// z = 0 projects its edge x = ±0.3 to ±0.375 on the plane z = −0.5.
+Scene spot_over_floor_scene() {
     Scene s = quad_scene();
     Light spot;
     spot.type = LightType::Spot;
@@ -115,29 +119,148 @@ TEST_CASE("surfaces in deep shadow maps: a quad of opacity a leaves 1 − a behi
     spot.cone_angle_deg = 40.f;
     s.lights.push_back(spot);
     s.meshes.push_back(quad(1.5f, -1.f, 1.f, {0.5f, 0.5f, 0.5f}));  // the opaque floor
+    return s;
+}
+constexpr float kProjectedEdge = 0.375f;
+
+// Inside the projection (2 points), outside it (2), above the quad, below it on the floor.
+const std::vector<Vec3> kQuadShadowPoints{{0.f, 0.f, -0.5f},  {0.2f, -0.25f, -0.5f}, {0.6f, 0.f, -0.5f},
+                                          {0.f, -0.55f, -0.5f}, {0.f, 0.f, 0.5f},     {0.f, 0.f, -0.9f}};
+const float kQuadShadowExpected[] = {0, 0, 1, 1, 1, 0};  // 0: 1 − a, 1: lit
+
+RenderOptions dsm_options_128() {
     RenderOptions o;
     o.shadows = ShadowTechnique::Dsm;
     o.dsm_resolution = 128;
-    // the quad's edge at x = ±0.3 projects to ±0.375 on the plane z = −0.5 (light at z = 2)
-    std::vector<Vec3> points{{0.f, 0.f, -0.5f}, {0.2f, -0.25f, -0.5f}, {0.6f, 0.f, -0.5f}, {0.f, -0.55f, -0.5f},
-                             {0.f, 0.f, 0.5f}, {0.f, 0.f, -0.9f}};
+    return o;
+}
+
+}  // namespace
+
+TEST_CASE("surfaces in deep shadow maps: a quad of opacity a leaves 1 − a behind it, exactly its projection", "[surfaces][dsm]") {
+    Scene s = spot_over_floor_scene();
+    RenderOptions o = dsm_options_128();
     for (float a : {1.f, 0.35f}) {
         Scene with = s;
         with.meshes.push_back(quad(0.3f, 0.f, a, {1.f, 1.f, 1.f}));
-        auto t = shadow_transmittance(test::context(), with, 0, points, o).transmittance;
+        auto t = shadow_transmittance(test::context(), with, 0, kQuadShadowPoints, o).transmittance;
         INFO("opacity " << a);
-        CHECK(t[0] == Approx(1 - a).margin(1e-5));
-        CHECK(t[1] == Approx(1 - a).margin(1e-5));
-        CHECK(t[2] == Approx(1.0).margin(1e-5));
-        CHECK(t[3] == Approx(1.0).margin(1e-5));
-        CHECK(t[4] == Approx(1.0).margin(1e-5));  // above the quad
-        CHECK(t[5] == Approx(1 - a).margin(1e-5));
+        for (std::size_t i = 0; i < t.size(); ++i) {
+            double expected = kQuadShadowExpected[i] ? 1.0 : 1 - a;
+            CHECK(t[i] == Approx(expected).margin(1e-5));
+            // the reference too; points 0 and 5 see the light through the quad's diagonal, the edge
+            // its two triangles share: crossed once (watertight), not twice
+            CHECK(reference_transmittance(with, 0, kQuadShadowPoints[i]) == Approx(expected).margin(1e-12));
+        }
         // lanes do not change the maps
         RenderOptions one = o;
         one.lanes = 1;
-        auto t1 = shadow_transmittance(test::context(), with, 0, points, one).transmittance;
+        auto t1 = shadow_transmittance(test::context(), with, 0, kQuadShadowPoints, one).transmittance;
         for (std::size_t i = 0; i < t.size(); ++i) CHECK(t1[i] == t[i]);
     }
+}
+
+namespace {
+
+// Where T first rises through 1 − a/2 along x (linear between the sweep's points), or NaN.
+double crossing(const std::vector<float>& xs, const std::vector<double>& t, double level) {
+    for (std::size_t i = 1; i < xs.size(); ++i)
+        if ((t[i - 1] - level) * (t[i] - level) <= 0 && t[i] != t[i - 1])
+            return xs[i - 1] + (level - t[i - 1]) / (t[i] - t[i - 1]) * (xs[i] - xs[i - 1]);
+    return std::nan("");
+}
+
+double mean_abs_difference(const std::vector<double>& a, const std::vector<double>& b) {
+    double sum = 0;
+    for (std::size_t i = 0; i < a.size(); ++i) sum += std::fabs(a[i] - b[i]);
+    return sum / double(a.size());
+}
+
+}  // namespace
+
+TEST_CASE("surfaces in pre-filtered deep shadow maps, every backend: 1 − a inside the projection, 1 outside, a "
+          "monotone symmetric edge",
+          "[surfaces][dsm][prefilter]") {
+    Scene s = spot_over_floor_scene();
+    const float texel = 2.5f * std::tan(40.f * 3.14159265f / 180.f) * 2.f / 128.f;  // on the plane z = −0.5
+    // a sweep across the right edge, and its mirror image across the left one
+    std::vector<float> xs;
+    std::vector<Vec3> points = kQuadShadowPoints;
+    for (float x = kProjectedEdge - 4 * texel; x <= kProjectedEdge + 4 * texel; x += 0.125f * texel) xs.push_back(x);
+    for (float x : xs) points.push_back({x, 0.f, -0.5f});
+    for (float x : xs) points.push_back({-x, 0.f, -0.5f});
+    const std::size_t sweep = kQuadShadowPoints.size(), n = xs.size();
+    const float a = 0.35f;
+    s.meshes.push_back(quad(0.3f, 0.f, a, {1.f, 1.f, 1.f}));
+    for (const char* storage : {"atlas", "chunked", "chunked-ondemand", "compact"})
+        for (const char* filter : {"none", "box", "tent", "5tap"})
+            for (bool jitter : {false, true}) {
+                if (std::string(filter) == "none" && jitter) continue;
+                RenderOptions o = dsm_options_128();
+                o.dsm_storage = storage;
+                o.dsm_prefilter = filter;
+                o.dsm_prefilter_jitter = jitter;
+                auto t = shadow_transmittance(test::context(), s, 0, points, o).transmittance;
+                INFO("storage " << storage << ", prefilter " << filter << (jitter ? ", jittered" : ""));
+                // away from the edge (≥ 5 texels): the exact step, whatever the filter
+                for (std::size_t i = 0; i < sweep; ++i) CHECK(t[i] == Approx(kQuadShadowExpected[i] ? 1.0 : 1 - a).margin(1e-4));
+                // across the edge: from 1 − a to 1, never outside, never falling back (within ε)
+                std::vector<double> right(t.begin() + sweep, t.begin() + sweep + n), left(t.begin() + sweep + n, t.end());
+                for (const auto* side : {&right, &left}) {
+                    CHECK(side->front() == Approx(1 - a).margin(1e-4));
+                    CHECK(side->back() == Approx(1.0).margin(1e-4));
+                    for (std::size_t i = 0; i < n; ++i) {
+                        INFO("x " << xs[i] << ", T " << (*side)[i]);
+                        CHECK((*side)[i] >= 1 - a - 1e-4);
+                        CHECK((*side)[i] <= 1 + 1e-4);
+                        if (i > 0) CHECK((*side)[i] >= (*side)[i - 1] - o.dsm_epsilon);
+                    }
+                }
+                // the edge where it lies: within a texel, and (without jitter) mirror-symmetric —
+                // the surfaces of a sub-pixel map sit under its own (shifted) rays
+                double x_right = crossing(xs, right, 1 - 0.5 * a), x_left = crossing(xs, left, 1 - 0.5 * a);
+                INFO("edge at " << x_right << " and " << -x_left << " (true " << kProjectedEdge << ", texel " << texel << ")");
+                CHECK(std::fabs(x_right - kProjectedEdge) < texel);
+                CHECK(std::fabs(x_left - kProjectedEdge) < texel);
+                if (!jitter) CHECK(std::fabs(x_right - x_left) < 0.05 * texel);
+            }
+}
+
+TEST_CASE("surfaces inside a volume with pre-compressed tables and pre-filtering: the step multiplies the volume's "
+          "transmittance by 1 − a",
+          "[surfaces][dsm][precompression][prefilter]") {
+    Scene s = spot_over_floor_scene();
+    VolumeInstance slab;  // z in [−0.2, 0.2]: the quad at z = 0 lies inside the volume's steps
+    slab.volume = std::make_shared<const Volume>(make_slab(16, 2, 0.25f, 0.75f));
+    slab.transfer_function = test::ramp_tf(0.3f, 0.7f, 0.12f);
+    slab.transform = make_transform({0, 0, 0}, {0, 0, 0}, {0.15f, 0.15f, 0.05f});
+    slab.step_voxels = 2.f;  // coarse: the tables matter
+    s.volumes.push_back(slab);
+    std::vector<Vec3> points = kQuadShadowPoints;
+    for (float x : {-0.7f, -0.5f, -0.2f, 0.f, 0.2f, 0.5f, 0.7f}) points.push_back({x, 0.1f, -0.3f});  // in and out, off the edge
+    const float a = 0.35f;
+    Scene with = s;
+    with.meshes.push_back(quad(0.3f, 0.f, a, {1.f, 1.f, 1.f}));
+    std::vector<double> reference;
+    for (const Vec3& p : points) reference.push_back(reference_transmittance(with, 0, p));
+    for (bool tables : {false, true})
+        for (const char* filter : {"none", "box", "5tap"}) {
+            RenderOptions o = dsm_options_128();
+            o.dsm_precompression = tables;
+            o.dsm_prefilter = filter;
+            auto t = shadow_transmittance(test::context(), with, 0, points, o).transmittance;
+            auto volume_only = shadow_transmittance(test::context(), s, 0, points, o).transmittance;
+            INFO("prefilter " << filter << (tables ? ", tables" : ""));
+            for (std::size_t i = 0; i < kQuadShadowPoints.size(); ++i) {
+                INFO("point " << i << ": T " << t[i] << ", volume only " << volume_only[i]);
+                if (i == 4) CHECK(t[i] == Approx(1.0).margin(1e-4));  // above both
+                else CHECK(t[i] == Approx((kQuadShadowExpected[i] ? 1 : 1 - a) * volume_only[i]).margin(2 * o.dsm_epsilon));
+            }
+            double error = mean_abs_difference(t, reference);
+            INFO("mean |T_dsm − T_ref| = " << error);
+            CHECK(error < 0.02);
+            WARN("quad inside a slab, prefilter " << filter << (tables ? ", tables" : "") << ": mean |ΔT| " << error);
+        }
 }
 
 namespace {
@@ -150,12 +273,6 @@ std::vector<Vec3> points_under_sphere() {
         for (float off : {-0.1f, 0.f, 0.15f})
             points.push_back({float(-d * lx / n) + off, float(-d * ly / n), float(-d * lz / n) - off});
     return points;
-}
-
-double mean_abs_difference(const std::vector<double>& a, const std::vector<double>& b) {
-    double sum = 0;
-    for (std::size_t i = 0; i < a.size(); ++i) sum += std::fabs(a[i] - b[i]);
-    return sum / double(a.size());
 }
 
 }  // namespace
@@ -236,8 +353,8 @@ TEST_CASE("deep shadow maps and shadow rays agree with the reference on a volume
     }
 }
 
-TEST_CASE("shipped mesh scenes (Knecht Fig. 5.2–5.4) load and render with deep shadow maps, no NaN", "[surfaces][scenes]") {
-    for (const char* name : {"teapot_fog", "two_smokes_wall", "steaming_cups"}) {
+TEST_CASE("shipped mesh scenes (Knecht Fig. 5.2–5.4, 5.12) load and render with deep shadow maps, no NaN", "[surfaces][scenes]") {
+    for (const char* name : {"teapot_fog", "two_smokes_wall", "steaming_cups", "cup_array"}) {
         INFO(name);
         Scene s = load_scene(test::data_path(std::string("scenes/") + name + ".json"));
         REQUIRE(!s.meshes.empty());

@@ -514,4 +514,26 @@ TEST_CASE("procedural generators: dims, ranges, determinism", "[volume_io]") {
     CHECK(cloud.at(0, 0, 0) == 0.f);  // the soft ball leaves the corners empty
     CHECK(sombra::make_cloud_noise(32, 7).voxels == cloud.voxels);
     CHECK(sombra::make_cloud_noise(32, 8).voxels != cloud.voxels);
+
+    const Volume steam = sombra::make_steam_plume(32, 5);
+    CHECK(steam.source == "make_steam_plume");
+    CHECK(in_unit_range(steam));
+    CHECK(steam.value_max > 0.3f);
+    CHECK(sombra::make_steam_plume(32, 5).voxels == steam.voxels);
+    CHECK(sombra::make_steam_plume(32, 6).voxels != steam.voxels);
+    // a plume: narrow at the bottom, wider higher up, faded out at the top, no mass in the corners
+    const auto slice = [&](int z, bool outer) {  // mass of slice z off the axis (r > 0.2) or near it
+        double sum = 0;
+        for (int y = 0; y < 32; ++y)
+            for (int x = 0; x < 32; ++x) {
+                double dx = (x + 0.5) / 32 - 0.5, dy = (y + 0.5) / 32 - 0.5;
+                if ((dx * dx + dy * dy > 0.04) == outer) sum += steam.at(x, y, z);
+            }
+        return sum;
+    };
+    CHECK(slice(4, false) > 0.);
+    CHECK(slice(4, true) < 0.05 * slice(4, false));
+    CHECK(slice(22, true) > 4 * slice(4, true));
+    CHECK(slice(31, false) + slice(31, true) < 0.02 * (slice(16, false) + slice(16, true)));
+    CHECK(steam.at(0, 0, 16) == 0.f);
 }

@@ -193,7 +193,7 @@ typedef struct {
     sb_uint tiles_x, tiles_y;
     sb_uint perspective;    /* 1: q = 1 / view z; 0: q = view z */
     float extent_x, extent_y; /* perspective: tan(half field of view); orthographic: half width, height */
-    sb_uint pad0;
+    float pixel_shift;      /* pixel (i, j) samples the image plane at (i + ½ + shift, j + ½ + shift) (DsmViewGpu.ray_shift) */
 } RasterScreenGpu;
 /* Fixed-point optical depth in the summed-area tables: units per unit of τ, and the most τ one
  * cell holds (stiffer cells are clamped: exp(−4096/W²) is 0 for every W up to 40 cells). With

@@ -60,5 +60,8 @@ Volume make_sphere(int n, float radius_fraction = 0.4f, float density = 1.f);  /
 Volume make_slab(int n, int axis, float lo_fraction, float hi_fraction, float density = 1.f);
 Volume make_gaussian_blobs(int n, int blob_count, std::uint32_t seed);
 Volume make_cloud_noise(int n, std::uint32_t seed);  // fractal value noise in a soft ball
+// Steam or smoke rising along +z from a narrow base at the bottom's centre: fractal noise in a
+// swaying plume that widens with height and fades out towards the top.
+Volume make_steam_plume(int n, std::uint32_t seed);
 
 }  // namespace sombra

@@ -70,7 +70,8 @@ ScreenTriangleGpu screen_triangle(const Clip* c, const View& view) {
     cl_int* xs[3] = {&t.x.s[0], &t.x.s[1], &t.x.s[2]};
     cl_int* ys[3] = {&t.y.s[0], &t.y.s[1], &t.y.s[2]};
     for (int k = 0; k < 3; ++k) {
-        double sx = (c[k].X / c[k].W * 0.5 + 0.5) * view.width, sy = (c[k].Y / c[k].W * 0.5 + 0.5) * view.height;
+        double sx = (c[k].X / c[k].W * 0.5 + 0.5) * view.width - view.pixel_shift;
+        double sy = (c[k].Y / c[k].W * 0.5 + 0.5) * view.height - view.pixel_shift;
         *xs[k] = cl_int(std::llround(sx * kSubpixel));
         *ys[k] = cl_int(std::llround(sy * kSubpixel));
         x[k] = *xs[k] / kSubpixel, y[k] = *ys[k] / kSubpixel;
@@ -118,6 +119,7 @@ View dsm_view(const DsmViewGpu& d) {
     v.extent_x = d.extent_x, v.extent_y = d.extent_y;
     v.near_depth = v.perspective ? std::max(1e-6, double(d.near_depth)) : 0.0;
     v.width = v.height = int(d.resolution);
+    v.pixel_shift = d.ray_shift;
     return v;
 }
 
@@ -181,6 +183,7 @@ RasterScreenGpu make_screen(const View& view) {
     s.tiles_y = (s.height + SOMBRA_TILE_SIZE - 1) / SOMBRA_TILE_SIZE;
     s.perspective = view.perspective ? 1 : 0;
     s.extent_x = float(view.extent_x), s.extent_y = float(view.extent_y);
+    s.pixel_shift = float(view.pixel_shift);
     return s;
 }
 

@@ -23,6 +23,7 @@ struct View {
     double extent_x = 1, extent_y = 1;  // perspective: tan(half field of view); orthographic: half width, height
     double near_depth = 1e-3;           // view z below which geometry is clipped away
     int width = 512, height = 512;
+    double pixel_shift = 0;             // pixels sample at (i + ½ + shift, j + ½ + shift) (DsmViewGpu.ray_shift)
 };
 
 // The scene camera's view at width × height (screen y down, as in the camera pass).

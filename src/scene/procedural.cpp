@@ -52,6 +52,23 @@ float value_noise(float x, float y, float z, std::uint32_t seed) {  // trilinear
     return lerp(lerp(c[0][0], c[0][1], fy), lerp(c[1][0], c[1][1], fy), fz);
 }
 
+// Five octaves of value noise at (x, y, z) ∈ [0, 1]³ (base frequency 4), normalised to [0, 1].
+float fractal_noise(float x, float y, float z, std::uint32_t seed) {
+    constexpr int kOctaves = 5;
+    float sum = 0.f, amplitude = 0.5f, norm = 0.f, frequency = 4.f;
+    for (int o = 0; o < kOctaves; ++o, amplitude *= 0.5f, frequency *= 2.f) {
+        sum += amplitude * value_noise(x * frequency, y * frequency, z * frequency, seed + 7919U * o);
+        norm += amplitude;
+    }
+    return sum / norm;
+}
+
+// 0 at edge0, 1 at edge1, smooth (Hermite) in between; edge0 > edge1 gives a falling edge.
+float smoothstep(float edge0, float edge1, float x) {
+    const float t = std::clamp((x - edge0) / (edge1 - edge0), 0.f, 1.f);
+    return t * t * (3.f - 2.f * t);
+}
+
 }  // namespace
 
 Volume make_sphere(int n, float radius_fraction, float density) {
@@ -105,18 +122,29 @@ Volume make_gaussian_blobs(int n, int blob_count, std::uint32_t seed) {
 
 Volume make_cloud_noise(int n, std::uint32_t seed) {
     Volume v = empty_cube("make_cloud_noise", n);
-    constexpr int kOctaves = 5;
     for_each_voxel(v, [&](float x, float y, float z) {
-        float sum = 0.f, amplitude = 0.5f, norm = 0.f, frequency = 4.f;
-        for (int o = 0; o < kOctaves; ++o, amplitude *= 0.5f, frequency *= 2.f) {
-            sum += amplitude * value_noise(x * frequency, y * frequency, z * frequency, seed + 7919U * o);
-            norm += amplitude;
-        }
-        const float noise = sum / norm;  // [0, 1]
         const float r = 2.f * std::sqrt((x - .5f) * (x - .5f) + (y - .5f) * (y - .5f) + (z - .5f) * (z - .5f));
-        const float t = std::clamp((1.f - r) / 0.5f, 0.f, 1.f);  // 1 inside r < 0.5, 0 at r >= 1
-        const float falloff = t * t * (3.f - 2.f * t);
-        return std::clamp((noise - 0.3f) / 0.7f, 0.f, 1.f) * falloff;
+        const float falloff = smoothstep(1.f, 0.5f, r);  // 1 inside r < 0.5, 0 at r >= 1
+        return std::clamp((fractal_noise(x, y, z, seed) - 0.3f) / 0.7f, 0.f, 1.f) * falloff;
+    });
+    v.update_range();
+    return v;
+}
+
+Volume make_steam_plume(int n, std::uint32_t seed) {
+    Volume v = empty_cube("make_steam_plume", n);
+    // the plume's axis drifts and sways with height h = z; its radius grows from 0.1 to 0.42
+    const float phase = 6.2831853f * unit(hash(seed ^ 0x51ed270bU));
+    for_each_voxel(v, [&](float x, float y, float h) {
+        const float sway = 0.08f * h * h;
+        const float cx = 0.5f + sway * std::sin(7.f * h + phase), cy = 0.5f + sway * std::cos(5.f * h + phase);
+        const float radius = 0.1f + 0.32f * h;
+        // the noise rises with the plume (stretched along z) and is warped sideways with height
+        const float noise = fractal_noise(1.6f * x + 0.3f * h, 1.6f * y, 0.8f * h, seed);
+        const float r = std::sqrt((x - cx) * (x - cx) + (y - cy) * (y - cy)) / radius;
+        const float mask = smoothstep(1.f, 0.3f, r + 1.2f * (noise - 0.5f)) * smoothstep(0.f, 0.08f, h) *
+                           smoothstep(1.f, 0.45f, h);  // wisps at the edge; a soft start, fading out at the top
+        return std::clamp((noise - 0.3f) / 0.45f, 0.f, 1.f) * mask;
     });
     v.update_range();
     return v;

@@ -92,7 +92,8 @@ std::shared_ptr<const Volume> read_generator(const json& j, const std::string& f
         v = make_slab(size, axis, f.number("lo", 0.25f), f.number("hi", 0.75f), density);
     } else if (type == "blobs") v = make_gaussian_blobs(size, f.integer("count", 8), std::uint32_t(f.integer("seed", 1)));
     else if (type == "cloud") v = make_cloud_noise(size, std::uint32_t(f.integer("seed", 1)));
-    else f.fail("type", "unknown generator '" + type + "' (sphere, slab, blobs, cloud)");
+    else if (type == "steam") v = make_steam_plume(size, std::uint32_t(f.integer("seed", 1)));
+    else f.fail("type", "unknown generator '" + type + "' (sphere, slab, blobs, cloud, steam)");
     f.finish();
     return std::make_shared<const Volume>(std::move(v));
 }

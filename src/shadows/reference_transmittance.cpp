@@ -13,9 +13,9 @@
 // with h₀ = step_voxels × the volume's smallest world voxel size, and f_v the trilinear
 // interpolation of the voxels (positions clamped to [0, dims − 1]). Overlapping volumes add their
 // optical depths. A volume with a polyhedral bound integrates only where the ray is inside the
-// closed mesh (parity of its crossings, Möller–Trumbore). Meshes: every triangle the segment
-// crosses (Möller–Trumbore in double against every triangle of every mesh, brute force)
-// multiplies T by 1 − its mesh's opacity:
+// closed mesh (parity of its crossings). Meshes: every triangle the segment crosses (watertight
+// edge tests in double against every triangle of every mesh, brute force) multiplies T by
+// 1 − its mesh's opacity:
 //
 //   T = exp(−τ) · Π_{triangles crossed} (1 − a_mesh)
 //
@@ -273,22 +273,30 @@ D3 mesh_point(const std::array<float, 16>& m, const std::array<float, 3>& p) {
     return r;
 }
 
-// Parameter t of the crossing of the line s.origin + t·s.dir with triangle (a, b, c)
-// (Möller–Trumbore), any sign of t; NaN when there is none. A line in the triangle's plane and a
-// degenerate triangle cross nothing (det = 0 is never divided by).
+// Which side of the edge p → q the line passes: the sign of the triple product
+// [dir, p − o, q − o]. A line through the edge (0) takes the side of the edge's direction (+ when p
+// comes before q lexicographically): the two triangles that share an edge run it in opposite
+// directions and get exactly opposite products, so a line through it crosses one of them, never
+// both and never neither (watertight, as the raster's top-left rule).
+int edge_side(const Segment& s, const D3& p, const D3& q) {
+    const double w = dot(s.dir, cross(sub(p, s.origin), sub(q, s.origin)));
+    if (w != 0) return w > 0 ? 1 : -1;
+    return p < q ? 1 : -1;
+}
+
+// Parameter t of the crossing of the line s.origin + t·s.dir with triangle (a, b, c), any sign of
+// t; NaN when there is none: the line must pass every edge on the same side (Plücker-style edge
+// tests, watertight) and meet the plane. A line in the triangle's plane and a degenerate triangle
+// cross nothing (nothing is divided by 0). Surfaces and polyhedral bounds use the same test, so a
+// line through a shared edge of a closed bound toggles its parity once.
 double crossing_t(const Segment& s, const D3& a, const D3& b, const D3& c) {
     const double none = std::numeric_limits<double>::quiet_NaN();
-    const D3 e1 = sub(b, a), e2 = sub(c, a);
-    const D3 pvec = cross(s.dir, e2);
-    const double det = dot(pvec, e1);
-    const double area = length(cross(e1, e2));
-    if (!(area > 0) || !(std::fabs(det) > 1e-12 * area)) return none;
-    const D3 tvec = sub(s.origin, a);
-    const double u = dot(tvec, pvec) / det;
-    const D3 qvec = cross(tvec, e1);
-    const double v = dot(s.dir, qvec) / det;
-    const double t = dot(e2, qvec) / det;
-    return u >= 0 && v >= 0 && u + v <= 1 ? t : none;
+    const D3 n = cross(sub(b, a), sub(c, a));
+    const double facing = dot(n, s.dir);
+    if (!(std::fabs(facing) > 1e-12 * length(n))) return none;
+    const int side = edge_side(s, a, b);
+    if (edge_side(s, b, c) != side || edge_side(s, c, a) != side) return none;
+    return dot(n, sub(a, s.origin)) / facing;
 }
 
 // Π (1 − a) over the triangles of every mesh the segment crosses.
