@@ -63,10 +63,13 @@ inline void composite_surface(VOLUME_DATA_PARAM, CameraState* state, const Segme
         for (uint m = 0; m < light_count; ++m) {
 #if defined(SOMBRA_SHADOW_RAYS) || defined(SOMBRA_SHADOW_DSM) || defined(SOMBRA_SHADOW_LOWPASS)
             /* looked up a little off the surface on the light's side, so that the surface's own
-             * step in the deep shadow map does not shadow it (bias ∝ camera distance) */
+             * step in the deep shadow map does not shadow it: bias ∝ camera distance, scaled by
+             * 1/|cos θ| (θ: incidence; capped at 5×), since at grazing light the neighbouring texels
+             * that the bilinear lookup reads hold the surface's step at depths further apart */
             lfloat3 to_light;
             light_incidence(&state->lights[m], p, &to_light);
-            lfloat bias = 2e-3f * t * select((lfloat)(1.0f), (lfloat)(-1.0f), l3_dot(normal, to_light) < 0.0f);
+            lfloat cos_incidence = l3_dot(normal, to_light);
+            lfloat bias = 2e-3f * t / fmax(fabs(cos_incidence), 0.2f) * select((lfloat)(1.0f), (lfloat)(-1.0f), cos_incidence < 0.0f);
             lfloat3 lookup = l3_mad(normal, bias, p);
             shadow[m] = select((lfloat)(1.0f), light_transmittance(volume_data, state, m, lookup, here), here);
 #else
