@@ -39,12 +39,12 @@
 #define SOMBRA_SHADOW_RAY_MESHES /* shadow rays are attenuated by the world-space triangles */
 #define SHADOW_MESH_PARAMS , __global const SurfaceTriangleGpu *shadow_triangles, __global const BvhNodeGpu *shadow_bvh, \
                            uint shadow_bvh_nodes
-#include "bvh.h"
 #else
 #define SHADOW_MESH_PARAMS
 #endif
 #ifdef SOMBRA_HAS_BOUNDS
-#define BOUND_PARAMS , __global const SurfaceTriangleGpu *bound_triangles /* VolumeGpu.bound_first */
+/* every volume's bound triangles in BVH order (corner.w: the volume) and the hierarchy's nodes */
+#define BOUND_PARAMS , __global const SurfaceTriangleGpu *bound_triangles, __global const BvhNodeGpu *bound_bvh, uint bound_bvh_nodes
 #else
 #define BOUND_PARAMS
 #endif
@@ -83,7 +83,9 @@ typedef struct {
     uint shadow_bvh_nodes;
 #endif
 #ifdef SOMBRA_HAS_BOUNDS
-    __global const SurfaceTriangleGpu* bound_triangles; /* every volume's bound, corner.w = the volume */
+    __global const SurfaceTriangleGpu* bound_triangles; /* every volume's bound in BVH order, corner.w = the volume */
+    __global const BvhNodeGpu* bound_bvh;
+    uint bound_bvh_nodes;
 #endif
 } CameraState;
 
@@ -98,7 +100,7 @@ inline lfloat surfaces_transmittance(const CameraState* state, lfloat3 p, lfloat
     BvhWalk walk;
     bvh_walk_init(&walk, state->shadow_bvh_nodes);
     uint first, count;
-    while (bvh_walk_next(&walk, state->shadow_bvh, p, dir, t_max, lanes & (result > 0.0f), &first, &count)) {
+    while (bvh_walk_next(&walk, state->shadow_bvh, p, dir, (lfloat)(0.0f), t_max, lanes & (result > 0.0f), &first, &count)) {
         for (uint i = first; i < first + count; ++i) {
             __global const SurfaceTriangleGpu* tri = &state->shadow_triangles[i];
             lfloat t = ray_triangle_t(p, dir, tri->corner.xyz, tri->edge1.xyz, tri->edge2.xyz, lanes);
@@ -131,7 +133,7 @@ inline lfloat shadow_ray(VOLUME_DATA_PARAM, const CameraState* state, __global c
     segment_cursor_init(&cursor, &ray, state->camera->volume_count, state->jitter, lanes);
 #ifdef SOMBRA_HAS_BOUNDS /* polyhedral bounds: their crossings along the ray are segment boundaries */
     segment_cursor_use_bound_triangles(&cursor, &ray, state->volumes, state->camera->volume_count, state->bound_triangles,
-                                       t_max, lanes);
+                                       state->bound_bvh, state->bound_bvh_nodes, t_max, lanes);
 #endif
     lfloat optical_depth = (lfloat)(0.0f);
     lmask sampling;
@@ -407,6 +409,8 @@ __kernel void render_camera(VOLUME_DATA_PARAM, __global const uchar* occupancy, 
 #endif
 #ifdef SOMBRA_HAS_BOUNDS
     state.bound_triangles = bound_triangles;
+    state.bound_bvh = bound_bvh;
+    state.bound_bvh_nodes = bound_bvh_nodes;
 #endif
 #define SOMBRA_JITTER_LANE(c) sombra_pixel_jitter((uint)LC(xs, c), y, camera->jitter_seed)
     state.jitter = LFROM_LANES(SOMBRA_JITTER_LANE);
@@ -477,6 +481,8 @@ __kernel void shadow_probe(VOLUME_DATA_PARAM, __global const uchar* occupancy, _
 #endif
 #ifdef SOMBRA_HAS_BOUNDS
     state.bound_triangles = bound_triangles;
+    state.bound_bvh = bound_bvh;
+    state.bound_bvh_nodes = bound_bvh_nodes;
 #endif
 #ifdef SOMBRA_SHADOW_DSM
     state.views = views;

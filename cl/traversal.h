@@ -46,6 +46,7 @@ inline void intersect_box(lfloat3 o, lfloat3 d, lfloat3 lo, lfloat3 hi, lfloat* 
     *t_near = t0;
     *t_far = t1;
 }
+#include "bvh.h" /* walks hierarchies with intersect_box */
 
 /* Fills ray for t in [t_min, t_max]; a volume's box is [-0.5, dims - 0.5] in voxel space. */
 inline void make_volume_ray(VolumeRay* ray, __global const VolumeGpu* volumes, uint volume_count, lfloat3 origin,
@@ -134,10 +135,11 @@ typedef struct {
     uint next[SOMBRA_LANES], end[SOMBRA_LANES]; /* fragments: the next one and the list's end */
     __global const FragmentGpu* fragments;
     __global const ScreenTriangleGpu* screen;
-    /* triangles: every bound triangle (corner.w: its volume), the last crossing passed (t, index)
-     * and the ray's end */
+    /* triangles: every bound triangle (corner.w: its volume) in BVH order and the hierarchy, the
+     * last crossing passed (t, index) and the ray's end */
     __global const SurfaceTriangleGpu* triangles;
-    uint triangle_count;
+    __global const BvhNodeGpu* bvh;
+    uint bvh_nodes;
     float last_t[SOMBRA_LANES];
     uint last_triangle[SOMBRA_LANES];
     lfloat t_max;
@@ -209,22 +211,27 @@ inline void segment_cursor_use_fragments(SegmentCursor* c, __global const Volume
     c->inside = box_bounded_volumes(volumes, volume_count) | LLOAD(parity);
 }
 
-/* Events from crossing the bound triangles along the ray, 0 < t < t_max, found brute force in
- * (t, triangle) order; the inside bits from the parity of all crossings at t > 0 (to infinity). */
+/* Events from crossing the bound triangles along the ray, 0 < t < t_max, found through their BVH
+ * (cl/bvh.h) in (t, triangle) order; the inside bits from the parity of all crossings at t > 0
+ * (to infinity). */
 inline void segment_cursor_use_bound_triangles(SegmentCursor* c, const VolumeRay* ray, __global const VolumeGpu* volumes,
-                                               uint volume_count, __global const SurfaceTriangleGpu* triangles, lfloat t_max,
-                                               lmask lanes) {
+                                               uint volume_count, __global const SurfaceTriangleGpu* triangles,
+                                               __global const BvhNodeGpu* bvh, uint bvh_nodes, lfloat t_max, lmask lanes) {
     c->source = SOMBRA_EVENTS_TRIANGLES;
     c->triangles = triangles;
-    c->triangle_count = 0u;
-    for (uint i = 0; i < volume_count; ++i) c->triangle_count = max(c->triangle_count, volumes[i].bound_first + volumes[i].bound_count);
+    c->bvh = bvh;
+    c->bvh_nodes = bvh_nodes;
     c->t_max = t_max;
     luint parity = (luint)(0u);
-    for (uint i = 0; i < c->triangle_count; ++i) {
-        __global const SurfaceTriangleGpu* tri = &triangles[i];
-        lfloat t = ray_triangle_t(ray->origin, ray->dir, tri->corner.xyz, tri->edge1.xyz, tri->edge2.xyz, lanes);
-        parity ^= select((luint)(0u), (luint)(1u << (uint)tri->corner.w), t > 0.0f & t < INFINITY);
-    }
+    BvhWalk walk;
+    bvh_walk_init(&walk, bvh_nodes);
+    uint first, count;
+    while (bvh_walk_next(&walk, bvh, ray->origin, ray->dir, (lfloat)(0.0f), (lfloat)(INFINITY), lanes, &first, &count))
+        for (uint i = first; i < first + count; ++i) {
+            __global const SurfaceTriangleGpu* tri = &triangles[i];
+            lfloat t = ray_triangle_t(ray->origin, ray->dir, tri->corner.xyz, tri->edge1.xyz, tri->edge2.xyz, lanes);
+            parity ^= select((luint)(0u), (luint)(1u << (uint)tri->corner.w), t > 0.0f & t < INFINITY);
+        }
     c->inside = box_bounded_volumes(volumes, volume_count) | parity;
     for (int lane = 0; lane < SOMBRA_LANES; ++lane) c->last_t[lane] = 0.0f, c->last_triangle[lane] = SOMBRA_NO_EVENT;
 }
@@ -237,14 +244,19 @@ inline lfloat cursor_peek_event(const SegmentCursor* c, const VolumeRay* ray, lm
          * an edge shared by two triangles, are each passed once, as the parity counted them) */
         lfloat last_t = LLOAD(c->last_t), best = (lfloat)(INFINITY);
         luint last_i = LLOAD(c->last_triangle), best_i = (luint)(SOMBRA_NO_EVENT);
-        for (uint i = 0; i < c->triangle_count; ++i) {
-            __global const SurfaceTriangleGpu* tri = &c->triangles[i];
-            lfloat t = ray_triangle_t(ray->origin, ray->dir, tri->corner.xyz, tri->edge1.xyz, tri->edge2.xyz, lanes);
-            lmask after = (t > last_t) | ((t == last_t) & ((luint)(i) > last_i));
-            lmask better = after & (t < best) & (t < c->t_max);
-            best = select(best, t, better);
-            best_i = select(best_i, (luint)(i), better);
-        }
+        BvhWalk walk;
+        bvh_walk_init(&walk, c->bvh_nodes);
+        uint first, count;
+        /* only boxes between the last crossing and the nearest one found so far */
+        while (bvh_walk_next(&walk, c->bvh, ray->origin, ray->dir, last_t, fmin(best, c->t_max), lanes, &first, &count))
+            for (uint i = first; i < first + count; ++i) {
+                __global const SurfaceTriangleGpu* tri = &c->triangles[i];
+                lfloat t = ray_triangle_t(ray->origin, ray->dir, tri->corner.xyz, tri->edge1.xyz, tri->edge2.xyz, lanes);
+                lmask after = (t > last_t) | ((t == last_t) & ((luint)(i) > last_i));
+                lmask better = after & ((t < best) | ((t == best) & ((luint)(i) < best_i))) & (t < c->t_max);
+                best = select(best, t, better);
+                best_i = select(best_i, (luint)(i), better);
+            }
         LSTORE(best, depth);
         LSTORE(best_i, which);
         return best;

@@ -55,7 +55,8 @@ typedef struct {
     float ambient, diffuse, specular, shininess; /* Phong material (Knecht Eq. 3.8) */
     /* Polyhedral bound (issue 4; Knecht §3.1.2): the volume is active only inside its box AND
      * inside this closed mesh. Its world triangles are [bound_first, bound_first + bound_count) of
-     * the bound-triangle buffer (shadow rays cross them); bound_count 0: bounded by the box only. */
+     * the host's bound-triangle list (PackedScene::bound_triangles; the device holds them in BVH
+     * order, each with its volume in corner.w); bound_count 0: bounded by the box only. */
     sb_uint bound_first;
     sb_uint bound_count;
     sb_uint pad0, pad1;

@@ -323,7 +323,11 @@ int set_shadow_mesh_args(cl::Kernel& kernel, int arg, const PreparedScene& p) {
         kernel.setArg(arg++, p.shadow_bvh.nodes);
         kernel.setArg(arg++, p.shadow_bvh.node_count);
     }
-    if (!p.packed.bound_triangles.empty()) kernel.setArg(arg++, p.device.bound_triangles);
+    if (!p.packed.bound_triangles.empty()) {
+        kernel.setArg(arg++, p.device.bound_triangles);
+        kernel.setArg(arg++, p.device.bound_bvh);
+        kernel.setArg(arg++, p.device.bound_bvh_nodes);
+    }
     return arg;
 }
 
