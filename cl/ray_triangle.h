@@ -1,28 +1,45 @@
-/* sombra — ray/triangle crossing (Möller–Trumbore), the one test every pass uses: shadow rays
- * through surfaces (render.cl surfaces_transmittance) and through polyhedral volume bounds (the
- * segment cursor's triangle source, traversal.h). */
+/* sombra — ray/triangle crossing, the one test every pass uses: shadow rays through surfaces
+ * (render.cl surfaces_transmittance) and through polyhedral volume bounds (the segment cursor's
+ * triangle source, traversal.h). Watertight, like the C++ reference (reference_transmittance.cpp
+ * crossing_t): a ray through an edge two triangles share crosses exactly one of them, so a bound's
+ * parity flips once there and a surface attenuates once. */
 #ifndef SOMBRA_RAY_TRIANGLE_H
 #define SOMBRA_RAY_TRIANGLE_H
 #include "lanes.h"
 
-/* Parameter t of the crossing of each lane's ray origin + t·dir with the triangle (corner,
- * corner + e1, corner + e2); +∞ in lanes outside `lanes`, that miss it, that run in its plane
- * (|det| ≤ 10⁻⁷ |e1 × e2|) or when the triangle is degenerate (e1 × e2 = 0): no division by
- * zero, no NaN. t may be ≤ 0: callers bound it. */
-inline lfloat ray_triangle_t(lfloat3 origin, lfloat3 dir, float3 corner, float3 e1, float3 e2, lmask lanes) {
-    float area2 = dot(cross(e1, e2), cross(e1, e2)); /* |e1 × e2|² */
+inline int lexicographically_before(float3 p, float3 q) {
+    return p.x < q.x || (p.x == q.x && (p.y < q.y || (p.y == q.y && p.z < q.z)));
+}
+
+/* Which side of the edge p → q each lane's line origin + t·dir passes: the sign of the triple
+ * product [dir, p − o, q − o], true for +. It is computed with the edge's endpoints in
+ * lexicographic order and negated for the other direction, so the two triangles that share the
+ * edge (and run it oppositely) get exactly opposite signs whatever the rounding; a line through
+ * the edge (0) takes the side of the lexicographic direction. */
+inline lmask edge_side(lfloat3 origin, lfloat3 dir, float3 p, float3 q) {
+    int forward = lexicographically_before(p, q);
+    float3 lo = forward ? p : q, hi = forward ? q : p;
+    lfloat3 a = l3_sub(l3_splat(lo), origin), b = l3_sub(l3_splat(hi), origin);
+    lfloat w = dir.x * (a.y * b.z - a.z * b.y) + dir.y * (a.z * b.x - a.x * b.z) + dir.z * (a.x * b.y - a.y * b.x);
+    lmask positive = w >= 0.0f;
+    return forward ? positive : !positive;
+}
+
+/* Parameter t of the crossing of each lane's ray origin + t·dir with the triangle (c0, c1, c2):
+ * the line passes all three edges on the same side and meets the plane there. +∞ in lanes
+ * outside `lanes`, that miss it, that run in its plane (|dir · n| ≤ 10⁻⁷ |n|) or when the
+ * triangle is degenerate (n = 0): no division by zero, no NaN. t may be ≤ 0: callers bound it. */
+inline lfloat ray_triangle_t(lfloat3 origin, lfloat3 dir, float3 c0, float3 c1, float3 c2, lmask lanes) {
+    float3 n = cross(c1 - c0, c2 - c0);
+    float area2 = dot(n, n); /* |n|² */
     if (!(area2 > 0.0f)) return (lfloat)(INFINITY); /* (a scalar test: & with a lane mask would truncate it) */
-    lfloat3 pvec = l3(dir.y * e2.z - dir.z * e2.y, dir.z * e2.x - dir.x * e2.z, dir.x * e2.y - dir.y * e2.x);
-    lfloat det = l3_dot_uniform(pvec, e1);
-    lmask crossing = lanes & (det * det > 1e-14f * area2);
+    lfloat facing = l3_dot_uniform(dir, n);
+    lmask crossing = lanes & (facing * facing > 1e-14f * area2);
     if (!lany(crossing)) return (lfloat)(INFINITY);
-    lfloat inv = 1.0f / select((lfloat)(1.0f), det, crossing);
-    lfloat3 tvec = l3_sub(origin, l3_splat(corner));
-    lfloat u = l3_dot(tvec, pvec) * inv;
-    lfloat3 qvec = l3(tvec.y * e1.z - tvec.z * e1.y, tvec.z * e1.x - tvec.x * e1.z, tvec.x * e1.y - tvec.y * e1.x);
-    lfloat v = l3_dot(dir, qvec) * inv;
-    lfloat t = l3_dot_uniform(qvec, e2) * inv;
-    crossing &= (u >= 0.0f) & (v >= 0.0f) & (u + v <= 1.0f);
+    lmask side = edge_side(origin, dir, c0, c1);
+    crossing &= (edge_side(origin, dir, c1, c2) == side) & (edge_side(origin, dir, c2, c0) == side);
+    if (!lany(crossing)) return (lfloat)(INFINITY);
+    lfloat t = l3_dot_uniform(l3_sub(l3_splat(c0), origin), n) / select((lfloat)(1.0f), facing, crossing);
     return select((lfloat)(INFINITY), t, crossing);
 }
 

@@ -103,7 +103,7 @@ inline lfloat surfaces_transmittance(const CameraState* state, lfloat3 p, lfloat
     while (bvh_walk_next(&walk, state->shadow_bvh, p, dir, (lfloat)(0.0f), t_max, lanes & (result > 0.0f), &first, &count)) {
         for (uint i = first; i < first + count; ++i) {
             __global const SurfaceTriangleGpu* tri = &state->shadow_triangles[i];
-            lfloat t = ray_triangle_t(p, dir, tri->corner.xyz, tri->edge1.xyz, tri->edge2.xyz, lanes);
+            lfloat t = ray_triangle_t(p, dir, tri->corner.xyz, tri->corner1.xyz, tri->corner2.xyz, lanes);
             result = select(result, result * (1.0f - tri->corner.w), (t > 0.0f) & (t < t_max));
         }
     }

@@ -44,7 +44,8 @@ inline void composite_surface(VOLUME_DATA_PARAM, CameraState* state, const Segme
             cr[c] = m->color.x, cg[c] = m->color.y, cb[c] = m->color.z;
             ka[c] = m->ambient, kd[c] = m->diffuse, ks[c] = m->specular, shininess[c] = m->shininess;
             /* barycentric coordinates of the fragment's point in the triangle's plane */
-            float3 q = (float3)(ox[c], oy[c], oz[c]) + f.depth * (float3)(dx[c], dy[c], dz[c]) - tri->corner.xyz, e1 = tri->edge1.xyz, e2 = tri->edge2.xyz;
+            float3 q = (float3)(ox[c], oy[c], oz[c]) + f.depth * (float3)(dx[c], dy[c], dz[c]) - tri->corner.xyz;
+            float3 e1 = tri->corner1.xyz - tri->corner.xyz, e2 = tri->corner2.xyz - tri->corner.xyz;
             float d00 = dot(e1, e1), d01 = dot(e1, e2), d11 = dot(e2, e2), d20 = dot(q, e1), d21 = dot(q, e2);
             float denom = d00 * d11 - d01 * d01;
             float v = denom != 0.0f ? clamp((d11 * d20 - d01 * d21) / denom, 0.0f, 1.0f) : 0.0f;

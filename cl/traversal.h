@@ -229,7 +229,7 @@ inline void segment_cursor_use_bound_triangles(SegmentCursor* c, const VolumeRay
     while (bvh_walk_next(&walk, bvh, ray->origin, ray->dir, (lfloat)(0.0f), (lfloat)(INFINITY), lanes, &first, &count))
         for (uint i = first; i < first + count; ++i) {
             __global const SurfaceTriangleGpu* tri = &triangles[i];
-            lfloat t = ray_triangle_t(ray->origin, ray->dir, tri->corner.xyz, tri->edge1.xyz, tri->edge2.xyz, lanes);
+            lfloat t = ray_triangle_t(ray->origin, ray->dir, tri->corner.xyz, tri->corner1.xyz, tri->corner2.xyz, lanes);
             parity ^= select((luint)(0u), (luint)(1u << (uint)tri->corner.w), t > 0.0f & t < INFINITY);
         }
     c->inside = box_bounded_volumes(volumes, volume_count) | parity;
@@ -251,7 +251,7 @@ inline lfloat cursor_peek_event(const SegmentCursor* c, const VolumeRay* ray, lm
         while (bvh_walk_next(&walk, c->bvh, ray->origin, ray->dir, last_t, fmin(best, c->t_max), lanes, &first, &count))
             for (uint i = first; i < first + count; ++i) {
                 __global const SurfaceTriangleGpu* tri = &c->triangles[i];
-                lfloat t = ray_triangle_t(ray->origin, ray->dir, tri->corner.xyz, tri->edge1.xyz, tri->edge2.xyz, lanes);
+                lfloat t = ray_triangle_t(ray->origin, ray->dir, tri->corner.xyz, tri->corner1.xyz, tri->corner2.xyz, lanes);
                 lmask after = (t > last_t) | ((t == last_t) & ((luint)(i) > last_i));
                 lmask better = after & ((t < best) | ((t == best) & ((luint)(i) < best_i))) & (t < c->t_max);
                 best = select(best, t, better);

@@ -20,8 +20,8 @@ using D3 = std::array<double, 3>;
 SurfaceTriangleGpu triangle(const D3& a, const D3& b, const D3& c) {
     SurfaceTriangleGpu t{};
     t.corner = {{float(a[0]), float(a[1]), float(a[2]), 0.5f}};
-    t.edge1 = {{float(b[0] - a[0]), float(b[1] - a[1]), float(b[2] - a[2]), 0.f}};
-    t.edge2 = {{float(c[0] - a[0]), float(c[1] - a[1]), float(c[2] - a[2]), 0.f}};
+    t.corner1 = {{float(b[0]), float(b[1]), float(b[2]), 0.f}};
+    t.corner2 = {{float(c[0]), float(c[1]), float(c[2]), 0.f}};
     return t;
 }
 
@@ -39,7 +39,8 @@ std::vector<SurfaceTriangleGpu> mesh_triangles(const Mesh& m) {
 
 // Möller–Trumbore in double on the float data: does o + t·d cross the triangle for 0 < t < t_max?
 bool crosses(const SurfaceTriangleGpu& tri, const D3& o, const D3& d, double t_max) {
-    D3 e1{tri.edge1.s[0], tri.edge1.s[1], tri.edge1.s[2]}, e2{tri.edge2.s[0], tri.edge2.s[1], tri.edge2.s[2]};
+    D3 e1{double(tri.corner1.s[0]) - tri.corner.s[0], double(tri.corner1.s[1]) - tri.corner.s[1], double(tri.corner1.s[2]) - tri.corner.s[2]};
+    D3 e2{double(tri.corner2.s[0]) - tri.corner.s[0], double(tri.corner2.s[1]) - tri.corner.s[1], double(tri.corner2.s[2]) - tri.corner.s[2]};
     auto cross = [](const D3& a, const D3& b) { return D3{a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]}; };
     auto dot = [](const D3& a, const D3& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; };
     D3 n = cross(e1, e2), p = cross(d, e2);
@@ -121,11 +122,7 @@ void check_structure(const bvh::Hierarchy& h, const std::vector<SurfaceTriangleG
         leaf_triangles += n.count;
         for (std::uint32_t k = n.first; k < n.first + n.count; ++k) {
             const SurfaceTriangleGpu& t = tris[h.order[k]];
-            for (int c = 0; c < 3; ++c) {
-                cl_float4 p = t.corner;
-                for (int a = 0; a < 3; ++a) p.s[a] += c == 1 ? t.edge1.s[a] : c == 2 ? t.edge2.s[a] : 0.f;
-                REQUIRE(inside(n, p, p));
-            }
+            for (const cl_float4* p : {&t.corner, &t.corner1, &t.corner2}) REQUIRE(inside(n, *p, *p));
         }
     }
     REQUIRE(leaf_triangles == tris.size());

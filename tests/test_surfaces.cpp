@@ -152,11 +152,55 @@ TEST_CASE("surfaces in deep shadow maps: a quad of opacity a leaves 1 − a behi
             // its two triangles share: crossed once (watertight), not twice
             CHECK(reference_transmittance(with, 0, kQuadShadowPoints[i]) == Approx(expected).margin(1e-12));
         }
+        // and the shadow rays (watertight in the kernels as well: cl/ray_triangle.h), 8 and 1 lanes
+        for (int lanes : {8, 1}) {
+            RenderOptions rays;
+            rays.shadows = ShadowTechnique::Rays;
+            rays.lanes = lanes;
+            auto r = shadow_transmittance(test::context(), with, 0, kQuadShadowPoints, rays).transmittance;
+            for (std::size_t i = 0; i < r.size(); ++i) {
+                INFO("shadow ray, point " << i << ", " << lanes << " lanes");
+                CHECK(r[i] == Approx(kQuadShadowExpected[i] ? 1.0 : 1 - a).margin(1e-6));
+            }
+        }
         // lanes do not change the maps
         RenderOptions one = o;
         one.lanes = 1;
         auto t1 = shadow_transmittance(test::context(), with, 0, kQuadShadowPoints, one).transmittance;
         for (std::size_t i = 0; i < t.size(); ++i) CHECK(t1[i] == t[i]);
+    }
+}
+
+TEST_CASE("shadow rays through the edge two triangles share cross one of them (watertight), whatever the light",
+          "[surfaces][shadows]") {
+    // points under the quad's diagonal (the edge its triangles share), lights straight above them
+    // and oblique, so that every shadow ray meets the diagonal exactly or within rounding
+    Scene s;
+    s.camera.position = {0, 0, 3};
+    const float a = 0.4f;
+    s.meshes.push_back(quad(0.3f, 0.f, a, {1.f, 1.f, 1.f}));
+    for (Vec3 direction : {Vec3{0.f, 0.f, -1.f}, Vec3{0.3f, 0.3f, -1.f}, Vec3{-0.7f, -0.7f, -1.f}, Vec3{0.1f, 0.1f, -0.37f}}) {
+        // each point's ray to the light meets the plane z = 0 on the diagonal x = y, |x| ≤ 0.246
+        std::vector<Vec3> points;
+        const float rise = 0.5f / -direction[2];
+        for (int i = -20; i <= 20; ++i)
+            points.push_back({0.0123f * float(i) + direction[0] * rise, 0.0123f * float(i) + direction[1] * rise, -0.5f});
+        Light light;
+        light.type = LightType::Directional;
+        light.direction = direction;
+        s.lights = {light};
+        RenderOptions rays;
+        rays.shadows = ShadowTechnique::Rays;
+        for (int lanes : {8, 1}) {
+            rays.lanes = lanes;
+            auto t = shadow_transmittance(test::context(), s, 0, points, rays).transmittance;
+            for (std::size_t i = 0; i < t.size(); ++i) {
+                INFO("light direction (" << direction[0] << ", " << direction[1] << ", " << direction[2] << "), point " << i
+                                         << ", " << lanes << " lanes");
+                CHECK(t[i] == Approx(1 - a).margin(1e-6));
+                CHECK(reference_transmittance(s, 0, points[i]) == Approx(1 - a).margin(1e-12));
+            }
+        }
     }
 }
 

@@ -162,8 +162,9 @@ typedef struct {
  * no normals. */
 typedef struct {
     sb_float4 corner;    /* corner 0; w: the mesh's opacity (shadow rays) */
-    sb_float4 edge1;     /* corner 1 − corner 0 */
-    sb_float4 edge2;     /* corner 2 − corner 0 */
+    sb_float4 corner1;   /* corner 1 (xyz) */
+    sb_float4 corner2;   /* corner 2 (xyz); corners, not edges: a corner that triangles share has
+                          * the same bits in each, so ray_triangle_t is watertight */
     sb_float4 normal[3]; /* unit normal at each corner (the face normal if the mesh has none) */
 } SurfaceTriangleGpu;
 

@@ -139,13 +139,7 @@ Hierarchy build(const std::vector<SurfaceTriangleGpu>& triangles, unsigned leaf_
     for (std::size_t i = 0; i < triangles.size(); ++i) {
         const SurfaceTriangleGpu& t = triangles[i];
         Item& it = items[i];
-        for (int k = 0; k < 3; ++k) {
-            std::array<float, 3> p{t.corner.s[0], t.corner.s[1], t.corner.s[2]};
-            const cl_float4* e = k == 1 ? &t.edge1 : k == 2 ? &t.edge2 : nullptr;
-            if (e)
-                for (int a = 0; a < 3; ++a) p[a] += e->s[a];
-            it.box.grow(p);
-        }
+        for (const cl_float4* c : {&t.corner, &t.corner1, &t.corner2}) it.box.grow(std::array<float, 3>{c->s[0], c->s[1], c->s[2]});
         // padded a little, so that float rounding in the kernels' slab test never misses a triangle
         // lying in a box face (a flat wall's box has no thickness)
         float scale = 1.f;

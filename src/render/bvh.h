@@ -15,7 +15,7 @@ struct Hierarchy {
     std::vector<std::uint32_t> order;  // triangle k of the BVH order is input triangle order[k]
 };
 
-// Builds the hierarchy over `triangles` (corner, edge1, edge2 in world space). Degenerate
+// Builds the hierarchy over `triangles` (corner, corner1, corner2 in world space). Degenerate
 // triangles (zero area, repeated corners) are kept: their boxes are points or lines.
 Hierarchy build(const std::vector<SurfaceTriangleGpu>& triangles, unsigned leaf_size = 4);
 

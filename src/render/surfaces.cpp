@@ -46,7 +46,7 @@ SurfaceTriangleGpu world_triangle(const Mesh& mesh, const std::array<std::uint32
     V3 e2{p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]};
     V3 face = unit({e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]});
     SurfaceTriangleGpu t{};
-    t.corner = f4(p[0], w), t.edge1 = f4(e1), t.edge2 = f4(e2);
+    t.corner = f4(p[0], w), t.corner1 = f4(p[1]), t.corner2 = f4(p[2]);
     for (int k = 0; k < 3; ++k) {
         V3 n = mesh.normals.empty() ? face : unit(transform_normal(transform, mesh.normals[tri[std::size_t(k)]]));
         t.normal[k] = f4(n);
