@@ -18,7 +18,10 @@ import matplotlib.pyplot as plt  # noqa: E402
 METHODS = 5  # rows before the filter-width sweep (lowpass_bench.cpp: SS, AO, CS, FS box, FS gauss)
 
 
-def main(csv_path, png_path):
+def main(argv):
+    if len(argv) != 3:
+        sys.exit("usage: plot_lowpass.py lowpass_table_TAG.csv out.png")
+    csv_path, png_path = argv[1], argv[2]
     with open(csv_path, newline="") as f:
         rows = list(csv.DictReader(f))
     methods, widths = rows[:METHODS], rows[METHODS:]
@@ -50,11 +53,9 @@ def main(csv_path, png_path):
         right.legend(loc="upper left", fontsize=7)
         twin.legend(loc="upper right", fontsize=7)
     fig.suptitle(csv_path.rsplit("/", 1)[-1])
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0, 1, 0.97))
     fig.savefig(png_path)
 
 
 if __name__ == "__main__":
-    if len(sys.argv) != 3:
-        sys.exit("usage: plot_lowpass.py lowpass_table_TAG.csv out.png")
-    main(sys.argv[1], sys.argv[2])
+    main(sys.argv)
