@@ -70,6 +70,9 @@ struct Row {
     float filter = 0;
     double sat_mb = 0, tf_change_ms = 0, light_move_ms = 0, render_ms = 0;
     double uncached_render_ms = 0;  // the SAT methods without the shadow cache (per-sample tables)
+    // what the granular first pass rebuilt (medians): tables and cache entries after a TF change
+    // and after one light moved
+    double tf_tables = 0, tf_entries = 0, move_tables = 0, move_entries = 0;
     double mean_error = 0, max_error = 0;  // |T − T_shadow rays| over the points and lights
 };
 
@@ -89,13 +92,17 @@ sombra::Scene with_opacity(sombra::Scene scene, float f) {
     return scene;
 }
 
-// A copy with every light turned by a small angle about z (a light move).
-sombra::Scene with_lights_turned(sombra::Scene scene, float radians) {
+// A copy with light `k` turned by a small angle about z around the camera's target (a light move:
+// Ament Alg. 1 rebuilds that light's table, if it has its own, and its cache entries).
+sombra::Scene with_light_turned(sombra::Scene scene, std::size_t k, float radians) {
     float c = std::cos(radians), s = std::sin(radians);
-    for (auto& l : scene.lights) {
-        auto turn = [&](sombra::Vec3& v) { v = {c * v[0] - s * v[1], s * v[0] + c * v[1], v[2]}; };
-        turn(l.direction), turn(l.position);
-    }
+    const sombra::Vec3 o = scene.camera.look_at;
+    auto turn = [&](sombra::Vec3& v, float w) {
+        float x = v[0] - w * o[0], y = v[1] - w * o[1];
+        v = {c * x - s * y + w * o[0], s * x + c * y + w * o[1], v[2]};
+    };
+    sombra::Light& l = scene.lights.at(k);
+    turn(l.direction, 0.f), turn(l.position, 1.f);
     return scene;
 }
 
@@ -109,18 +116,31 @@ Row measure(sombra::Context& context, const sombra::Scene& scene, const BenchOpt
     options.cone_angle_deg = o.cone_deg;
     Row row;
     row.method = m.name, row.filter = filter;
-    std::vector<double> tf, move, render;
+    std::vector<double> tf, move, render, tf_tables, tf_entries, move_tables, move_entries;
     sombra::render(context, scene, options);  // warm-up: programs, kernel cache
-    for (int i = 0; i < o.runs; ++i) {
-        sombra::RenderStats changed = sombra::render(context, with_opacity(scene, i % 2 ? 1.f : 0.999f), options).stats;
+    for (int i = 0; i < o.runs && m.technique == sombra::ShadowTechnique::Rays; ++i)  // nothing to rebuild
+        render.push_back(sombra::render(context, scene, options).stats.stage_ms.at("camera_pass"));
+    for (int i = 0; i < o.runs && m.technique != sombra::ShadowTechnique::Rays; ++i) {
+        // a transfer-function change: every table holds the volumes, the entries they reach
+        sombra::Scene changed_tf = with_opacity(scene, i % 2 ? 1.f : 0.999f);
+        sombra::RenderStats changed = sombra::render(context, changed_tf, options).stats;
         tf.push_back(rebuild_ms(changed));
-        sombra::RenderStats moved = sombra::render(context, with_lights_turned(scene, 0.01f * float(i + 1)), options).stats;
+        tf_tables.push_back(changed.sat_tables_built), tf_entries.push_back(changed.shadow_cache_entries_built);
+        // one light moves (each in turn): its own table, if any, and its cache entries
+        sombra::Scene moved_scene = with_light_turned(changed_tf, std::size_t(i) % scene.lights.size(), 0.01f * float(i + 1));
+        sombra::RenderStats moved = sombra::render(context, moved_scene, options).stats;
         move.push_back(rebuild_ms(moved));
-        sombra::RenderStats again = sombra::render(context, with_lights_turned(scene, 0.01f * float(i + 1)), options).stats;
+        move_tables.push_back(moved.sat_tables_built), move_entries.push_back(moved.shadow_cache_entries_built);
+        sombra::RenderStats again = sombra::render(context, moved_scene, options).stats;
         render.push_back(again.stage_ms.at("camera_pass"));  // shadow data reused
         row.sat_mb = double(again.sat_bytes) / (1 << 20);
     }
-    row.tf_change_ms = median(tf), row.light_move_ms = median(move), row.render_ms = median(render);
+    row.render_ms = median(render);
+    if (!tf.empty()) {
+        row.tf_change_ms = median(tf), row.light_move_ms = median(move);
+        row.tf_tables = median(tf_tables), row.tf_entries = median(tf_entries);
+        row.move_tables = median(move_tables), row.move_entries = median(move_entries);
+    }
     if (m.technique != sombra::ShadowTechnique::Rays) {  // the uncached mode: every sample reads the tables
         sombra::RenderOptions uncached = options;
         uncached.lowpass_cache = false;
@@ -144,21 +164,26 @@ Row measure(sombra::Context& context, const sombra::Scene& scene, const BenchOpt
 
 std::string markdown(const std::vector<Row>& rows) {
     std::ostringstream s;
-    s << "| method | filter | SAT MB | TF change ms | light move ms | render ms | render ms, no cache | mean \\|ΔT\\| vs rays | max \\|ΔT\\| |\n"
-         "|---|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+    s << "| method | filter | SAT MB | TF change ms | rebuilt on TF change | light move ms | rebuilt on light move | render ms | "
+         "render ms, no cache | mean \\|ΔT\\| vs rays | max \\|ΔT\\| |\n"
+         "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+    auto rebuilt = [](double tables, double entries) { return fixed(tables, 0) + " / " + fixed(entries, 0); };
     for (const Row& r : rows)
         s << "| " << r.method << " | " << (r.filter > 0 ? fixed(r.filter, 0) : "–") << " | " << fixed(r.sat_mb, 1) << " | "
-          << fixed(r.tf_change_ms, 1) << " | " << fixed(r.light_move_ms, 1) << " | " << fixed(r.render_ms, 1) << " | "
+          << fixed(r.tf_change_ms, 1) << " | " << rebuilt(r.tf_tables, r.tf_entries) << " | " << fixed(r.light_move_ms, 1) << " | "
+          << rebuilt(r.move_tables, r.move_entries) << " | " << fixed(r.render_ms, 1) << " | "
           << (r.uncached_render_ms > 0 ? fixed(r.uncached_render_ms, 1) : "–") << " | " << sci(r.mean_error) << " | " << sci(r.max_error) << " |\n";
     return s.str();
 }
 
 std::string csv(const std::vector<Row>& rows) {
     std::ostringstream s;
-    s << "method,filter,sat_mb,tf_change_ms,light_move_ms,render_ms,uncached_render_ms,mean_abs_error,max_abs_error\n";
+    s << "method,filter,sat_mb,tf_change_ms,tf_tables_built,tf_entries_built,light_move_ms,move_tables_built,move_entries_built,"
+         "render_ms,uncached_render_ms,mean_abs_error,max_abs_error\n";
     for (const Row& r : rows)
         s << r.method << ',' << r.filter << ',' << fixed(r.sat_mb, 3) << ',' << fixed(r.tf_change_ms, 3) << ','
-          << fixed(r.light_move_ms, 3) << ',' << fixed(r.render_ms, 3) << ',' << fixed(r.uncached_render_ms, 3) << ',' << r.mean_error << ',' << r.max_error << '\n';
+          << r.tf_tables << ',' << r.tf_entries << ',' << fixed(r.light_move_ms, 3) << ',' << r.move_tables << ',' << r.move_entries
+          << ',' << fixed(r.render_ms, 3) << ',' << fixed(r.uncached_render_ms, 3) << ',' << r.mean_error << ',' << r.max_error << '\n';
     return s.str();
 }
 

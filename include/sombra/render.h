@@ -108,6 +108,10 @@ struct RenderStats {
     int sat_tables = 0;
     unsigned long long sat_bytes = 0;
     unsigned long long shadow_cache_bytes = 0;  // Ament Alg. 1 shadow cache, when used
+    // Ament Alg. 1's first pass on a kept Context: tables (CSAT, SSAT, volume-aligned SAT) and shadow
+    // cache entries (volume × light) built by this call because their inputs changed, and kept
+    int sat_tables_built = 0, sat_tables_reused = 0;
+    int shadow_cache_entries_built = 0, shadow_cache_entries_reused = 0;
     // true when the scene's device data of the previous call on this Context were reused (only
     // the camera, image size, shading options or lights changed); the deep shadow maps of lights
     // that did not move are reused too (dsm_views_generated counts those regenerated)

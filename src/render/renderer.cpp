@@ -1,6 +1,7 @@
 // sombra — the camera pass on the host, and the shadow queries that share its preparation.
 #include <atomic>
 #include <chrono>
+#include <cstring>
 #include <cmath>
 #include <sstream>
 
@@ -11,6 +12,7 @@
 #include "shadows/dsm_builder.h"
 #include "shadows/dsm_views.h"
 #include "shadows/sat_grid.h"
+#include "shadows/sat_update.h"
 #include "sombra/error.h"
 #include "sombra/render.h"
 
@@ -105,11 +107,7 @@ std::string volumes_key(const Scene& scene, const RenderOptions& o, bool use_ima
     key.precision(9);
     for (const VolumeInstance& vi : scene.volumes) {
         const Volume& v = *vi.volume;
-        key << "V" << static_cast<const void*>(&v) << ' ' << v.dims[0] << ' ' << v.dims[1] << ' ' << v.dims[2];
-        std::size_t n = v.voxels.size(), stride = std::max<std::size_t>(1, n / 4096);
-        double sum = 0;
-        for (std::size_t i = 0; i < n; i += stride) sum += double(v.voxels[i]) * double(i % 7919 + 1);
-        key << ' ' << sum;
+        key << "V" << shadows::volume_data_key(v);
         for (float f : vi.transform) key << ' ' << f;
         for (float f : vi.spacing) key << ' ' << f;
         for (auto& c : vi.transfer_function.color_points) key << ' ' << c.x << ' ' << c.r << ' ' << c.g << ' ' << c.b;
@@ -131,9 +129,7 @@ std::string volumes_key(const Scene& scene, const RenderOptions& o, bool use_ima
         << o.dsm_precompression << ' ' << o.dsm_prefilter << ' ' << o.dsm_prefilter_jitter << ' ' << o.dsm_prefilter_seed << ' '
         << use_images << ' ' << o.lowpass_max_entries;
     if (maps) key << ' ' << dsm_lanes;  // same maps, but asking for other packets builds them so
-    if (uses_sat(o))  // the light-aligned tables follow every light
-        for (const Light& l : scene.lights) key << ' ' << light_view_key(l);
-    return key.str();
+    return key.str();  // the low-pass tables have their own keys (update_sat_tables)
 }
 
 
@@ -190,6 +186,19 @@ int update_lights(host::Runtime& runtime, const Scene& scene, const RenderOption
     return prepared.dsm.stats.views_generated;
 }
 
+// Ament Alg. 1, first pass: rebuilds the low-pass tables whose inputs changed, keeps the others
+// (shadows/sat_update.h); frees them when the technique needs none.
+void update_sat_tables(host::Runtime& runtime, const Scene& scene, const RenderOptions& options, PreparedScene& p,
+                       RenderStats& stats) {
+    if (!p.use_sat) return shadows::release_sats(runtime);
+    shadows::SatUpdateCounts counts;
+    p.sat = shadows::update_sats(runtime, scene, p.packed, p.device, options.shadows == ShadowTechnique::Lowpass,
+                                 options.lowpass_max_entries, counts);
+    for (auto& [stage, ms] : p.sat.stage_ms) stats.stage_ms[stage] = ms;
+    stats.sat_tables_built = counts.built, stats.sat_tables_reused = counts.reused;
+    copy_sat_stats(p.sat, stats);
+}
+
 // The prepared scene of the last call when nothing it depends on changed (a moved camera
 // rebuilds nothing: Knecht §3.2 "Deep Shadow Map Re-Generation"), with the maps of moved lights
 // regenerated, else a new one.
@@ -218,7 +227,7 @@ std::shared_ptr<PreparedScene> prepare(host::Runtime& runtime, const Scene& scen
             copy_dsm_stats(kept->prepared->dsm.stats, options.dsm_storage, stats);
             stats.dsm_views_generated = generated;
         }
-        if (kept->prepared->use_sat) copy_sat_stats(kept->prepared->sat, stats);
+        update_sat_tables(runtime, scene, options, *kept->prepared, stats);
         return kept->prepared;
     }
     slot.reset();  // free the old device data before allocating the new
@@ -226,6 +235,7 @@ std::shared_ptr<PreparedScene> prepare(host::Runtime& runtime, const Scene& scen
     fresh->key = key;
     fresh->light_keys = light_keys;
     fresh->prepared = std::make_shared<PreparedScene>(prepare_anew(runtime, scene, options, stats));
+    update_sat_tables(runtime, scene, options, *fresh->prepared, stats);
     slot = fresh;
     return fresh->prepared;
 }
@@ -270,13 +280,6 @@ PreparedScene prepare_anew(host::Runtime& runtime, const Scene& scene, const Ren
                                  std::string("polyhedral bounds are not supported by --shadows ") + shadow_technique_name(options.shadows));
     if (prepared.use_sat && runtime.device().getInfo<CL_DEVICE_DOUBLE_FP_CONFIG>() == 0)  // cl/lowpass.h reads corners in double
         throw Error("--shadows: the summed-area-table techniques need double precision, which " + runtime.info().name + " lacks");
-    if (prepared.use_sat) {
-        prepared.sat = options.shadows == ShadowTechnique::Lowpass
-                           ? shadows::build_light_sats(runtime, scene, prepared.packed, prepared.device, options.lowpass_max_entries)
-                           : shadows::build_volume_sat(runtime, scene, prepared.packed, prepared.device, options.lowpass_max_entries);
-        for (auto& [stage, ms] : prepared.sat.stage_ms) stats.stage_ms[stage] = ms;
-        copy_sat_stats(prepared.sat, stats);
-    }
     return prepared;
 }
 
@@ -360,7 +363,10 @@ std::string RenderStats::to_json() const {
                     {"views_generated", dsm_views_generated},
                     {"storage", dsm_storage}};
     }
-    if (sat_tables > 0) j["sat"] = {{"tables", sat_tables}, {"bytes", sat_bytes}, {"shadow_cache_bytes", shadow_cache_bytes}};
+    if (sat_tables > 0)
+        j["sat"] = {{"tables", sat_tables}, {"bytes", sat_bytes}, {"shadow_cache_bytes", shadow_cache_bytes},
+                    {"tables_built", sat_tables_built}, {"tables_reused", sat_tables_reused},
+                    {"cache_entries_built", shadow_cache_entries_built}, {"cache_entries_reused", shadow_cache_entries_reused}};
     return j.dump(2);
 }
 
@@ -390,11 +396,13 @@ double run_shadow_probe(host::Runtime& runtime, const Scene& scene, const Prepar
     return host::Runtime::event_ms(event);
 }
 
-// Ament Alg. 1, first pass: the shadow cache of the SAT techniques (ShadowCacheGpu), built by
-// shadow_probe at each volume's lattice points for every light.
+// Ament Alg. 1, first pass (updateShadowCache): the shadow cache of the SAT techniques
+// (ShadowCacheGpu), built by shadow_probe at each volume's lattice points for every light. Kept on
+// the Context; an entry (volume × light) is rebuilt only when its key changed
+// (shadows::shadow_cache_keys), the others stay in place.
 struct ShadowCache {
-    std::uint64_t prepared_serial = 0;
-    std::string options_key;
+    std::vector<ShadowCacheGpu> layout;
+    std::vector<std::string> keys;  // per entry; empty: not built
     cl::Buffer values, table;
     std::size_t bytes = 0;
 };
@@ -408,17 +416,8 @@ std::array<int, 3> cache_lattice(const std::array<int, 3>& dims) {
     return n;
 }
 
-std::shared_ptr<ShadowCache> shadow_cache(host::Runtime& runtime, const Scene& scene, const PreparedScene& prepared,
-                                          const RenderOptions& options, RenderStats& stats) {
-    std::ostringstream key;
-    key << options.lowpass_filter_width << ' ' << options.lowpass_filter_kernel << ' ' << options.cone_angle_deg << ' '
-        << options.jitter_seed;
-    auto& slot = runtime.kept_state("renderer.shadow_cache");
-    auto kept = std::static_pointer_cast<ShadowCache>(slot);
-    if (kept && kept->prepared_serial == prepared.serial && kept->options_key == key.str()) return kept;
-    slot.reset();
-    auto cache = std::make_shared<ShadowCache>();
-    cache->prepared_serial = prepared.serial, cache->options_key = key.str();
+// Entry (volume i, light m) of the cache: its lattice and its place in the values.
+std::vector<ShadowCacheGpu> cache_layout(const Scene& scene) {
     std::vector<ShadowCacheGpu> table;
     std::size_t total = 0;
     for (const VolumeInstance& vi : scene.volumes) {
@@ -435,34 +434,68 @@ std::shared_ptr<ShadowCache> shadow_cache(host::Runtime& runtime, const Scene& s
         }
     }
     if (total > 0xffffffffull) throw Error("shadow cache: more than 2^32 entries");
-    cache->values = host::make_buffer(runtime, CL_MEM_READ_WRITE, total * sizeof(float), nullptr, "shadow cache");
-    cache->table = host::make_buffer(runtime, CL_MEM_READ_ONLY, table.size() * sizeof(ShadowCacheGpu), table.data(), "shadow cache table");
-    cache->bytes = total * sizeof(float);
+    return table;
+}
+
+// World positions of a volume's lattice points (c: any of its entries).
+std::vector<cl_float4> lattice_points(const ShadowCacheGpu& c, const std::array<float, 16>& m /* voxel to world, row-major */) {
+    std::vector<cl_float4> points;
+    for (int z = 0; z < c.dims.s[2]; ++z)
+        for (int y = 0; y < c.dims.s[1]; ++y)
+            for (int x = 0; x < c.dims.s[0]; ++x) {
+                float v[3] = {x * c.spacing.s[0], y * c.spacing.s[1], z * c.spacing.s[2]};
+                cl_float4 p{};
+                for (int r = 0; r < 3; ++r) p.s[r] = m[std::size_t(4 * r)] * v[0] + m[std::size_t(4 * r + 1)] * v[1] + m[std::size_t(4 * r + 2)] * v[2] + m[std::size_t(4 * r + 3)];
+                p.s[3] = 1.f;
+                points.push_back(p);
+            }
+    return points;
+}
+
+std::shared_ptr<ShadowCache> shadow_cache(host::Runtime& runtime, const Scene& scene, const PreparedScene& prepared,
+                                          const RenderOptions& options, RenderStats& stats) {
+    std::vector<ShadowCacheGpu> layout = cache_layout(scene);
+    std::vector<std::string> keys = shadows::shadow_cache_keys(
+        scene, prepared.packed, prepared.sat, shadows::extinction_keys(scene, prepared.packed, prepared.use_images), options);
+    auto& slot = runtime.kept_state("renderer.shadow_cache");
+    auto cache = std::static_pointer_cast<ShadowCache>(slot);
+    bool same_layout = cache && cache->layout.size() == layout.size() &&
+                       std::equal(layout.begin(), layout.end(), cache->layout.begin(), [](const ShadowCacheGpu& a, const ShadowCacheGpu& b) {
+                           return std::memcmp(&a, &b, sizeof(ShadowCacheGpu)) == 0;
+                       });
+    if (!same_layout) {  // other volumes or lights: a new cache
+        slot.reset();
+        cache = std::make_shared<ShadowCache>();
+        cache->layout = layout;
+        cache->keys.assign(layout.size(), std::string());
+        std::size_t total = layout.empty() ? 0 : layout.back().offset + std::size_t(layout.back().dims.s[0]) * layout.back().dims.s[1] * layout.back().dims.s[2];
+        cache->values = host::make_buffer(runtime, CL_MEM_READ_WRITE, std::max<std::size_t>(total, 1) * sizeof(float), nullptr, "shadow cache");
+        cache->table = host::make_buffer(runtime, CL_MEM_READ_ONLY, std::max<std::size_t>(layout.size(), 1) * sizeof(ShadowCacheGpu),
+                                         layout.empty() ? nullptr : layout.data(), "shadow cache table");
+        cache->bytes = total * sizeof(float);
+        slot = cache;
+    }
     double ms = 0;
+    std::size_t lights = scene.lights.size();
     for (std::size_t i = 0; i < scene.volumes.size(); ++i) {
-        const ShadowCacheGpu& c = table[i * scene.lights.size()];
-        const std::array<float, 16>& m = prepared.packed.voxel_to_world[i];  // row-major
-        std::vector<cl_float4> points;
-        for (int z = 0; z < c.dims.s[2]; ++z)
-            for (int y = 0; y < c.dims.s[1]; ++y)
-                for (int x = 0; x < c.dims.s[0]; ++x) {
-                    float v[3] = {x * c.spacing.s[0], y * c.spacing.s[1], z * c.spacing.s[2]};
-                    cl_float4 p{};
-                    for (int r = 0; r < 3; ++r) p.s[r] = m[std::size_t(4 * r)] * v[0] + m[std::size_t(4 * r + 1)] * v[1] + m[std::size_t(4 * r + 2)] * v[2] + m[std::size_t(4 * r + 3)];
-                    p.s[3] = 1.f;
-                    points.push_back(p);
-                }
+        std::vector<std::size_t> stale;
+        for (std::size_t m = 0; m < lights; ++m)
+            if (cache->keys[i * lights + m] != keys[i * lights + m]) stale.push_back(m);
+        stats.shadow_cache_entries_reused += int(lights - stale.size());
+        if (stale.empty()) continue;
+        std::vector<cl_float4> points = lattice_points(layout[i * lights], prepared.packed.voxel_to_world[i]);
         cl::Buffer point_buffer = host::make_buffer(runtime, CL_MEM_READ_ONLY, points.size() * sizeof(cl_float4), points.data(), "shadow cache points");
         cl::Buffer out = host::make_buffer(runtime, CL_MEM_READ_WRITE, points.size() * sizeof(float), nullptr, "shadow cache entries");
-        for (std::size_t light = 0; light < scene.lights.size(); ++light) {
-            ms += run_shadow_probe(runtime, scene, prepared, options, int(light), point_buffer, points.size(), out);
-            runtime.queue().enqueueCopyBuffer(out, cache->values, 0, table[i * scene.lights.size() + light].offset * sizeof(float),
-                                              points.size() * sizeof(float));
+        for (std::size_t m : stale) {
+            cache->keys[i * lights + m].clear();
+            ms += run_shadow_probe(runtime, scene, prepared, options, int(m), point_buffer, points.size(), out);
+            runtime.queue().enqueueCopyBuffer(out, cache->values, 0, layout[i * lights + m].offset * sizeof(float), points.size() * sizeof(float));
+            runtime.queue().finish();
+            cache->keys[i * lights + m] = keys[i * lights + m];
+            ++stats.shadow_cache_entries_built;
         }
     }
-    runtime.queue().finish();
-    stats.stage_ms["shadow_cache"] = ms;
-    slot = cache;
+    if (stats.shadow_cache_entries_built > 0) stats.stage_ms["shadow_cache"] = ms;
     return cache;
 }
 

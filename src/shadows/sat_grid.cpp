@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <type_traits>
 
 #include "shadows/dsm_builder.h"
 #include "sombra/error.h"
@@ -16,25 +17,6 @@ D3 normalized(const D3& a) {
     return {a[0] / n, a[1] / n, a[2] / n};
 }
 cl_float4 f4(const D3& v, double w = 0) { return {{float(v[0]), float(v[1]), float(v[2]), float(w)}}; }
-
-// World corners of every volume's box [−0.5, dims − 0.5] and the smallest world voxel length.
-std::vector<D3> scene_corners(const packing::PackedScene& packed, double& voxel_size) {
-    std::vector<D3> corners;
-    voxel_size = INFINITY;
-    for (std::size_t v = 0; v < packed.volumes.size(); ++v) {
-        const auto& m = packed.voxel_to_world[v];
-        const auto& dims = packed.volumes[v].dims.s;
-        for (int c = 0; c < 3; ++c) voxel_size = std::min(voxel_size, std::sqrt(double(m[c]) * m[c] + double(m[4 + c]) * m[4 + c] + double(m[8 + c]) * m[8 + c]));
-        for (int corner = 0; corner < 8; ++corner) {
-            double q[3];
-            for (int a = 0; a < 3; ++a) q[a] = (corner >> a) & 1 ? dims[a] - 0.5 : -0.5;
-            D3 p;
-            for (int r = 0; r < 3; ++r) p[std::size_t(r)] = m[std::size_t(4 * r)] * q[0] + m[std::size_t(4 * r + 1)] * q[1] + m[std::size_t(4 * r + 2)] * q[2] + m[std::size_t(4 * r + 3)];
-            corners.push_back(p);
-        }
-    }
-    return corners;
-}
 
 // A unit vector ⟂ w, from the world axis least aligned with w.
 D3 perpendicular(const D3& w) {
@@ -60,6 +42,24 @@ int shared_axis(const SatFrame& frame, const D3& towards_light, bool& positive) 
 
 }  // namespace
 
+std::vector<D3> scene_corners(const packing::PackedScene& packed, double& voxel_size) {
+    std::vector<D3> corners;
+    voxel_size = INFINITY;
+    for (std::size_t v = 0; v < packed.volumes.size(); ++v) {
+        const auto& m = packed.voxel_to_world[v];
+        const auto& dims = packed.volumes[v].dims.s;
+        for (int c = 0; c < 3; ++c) voxel_size = std::min(voxel_size, std::sqrt(double(m[c]) * m[c] + double(m[4 + c]) * m[4 + c] + double(m[8 + c]) * m[8 + c]));
+        for (int corner = 0; corner < 8; ++corner) {
+            double q[3];
+            for (int a = 0; a < 3; ++a) q[a] = (corner >> a) & 1 ? dims[a] - 0.5 : -0.5;
+            D3 p;
+            for (int r = 0; r < 3; ++r) p[std::size_t(r)] = m[std::size_t(4 * r)] * q[0] + m[std::size_t(4 * r + 1)] * q[1] + m[std::size_t(4 * r + 2)] * q[2] + m[std::size_t(4 * r + 3)];
+            corners.push_back(p);
+        }
+    }
+    return corners;
+}
+
 D3 SatFrame::cell_centre(int i, int j, int k) const {
     D3 p = origin;
     double c[3] = {i + 0.5, j + 0.5, k + 0.5};
@@ -68,11 +68,35 @@ D3 SatFrame::cell_centre(int i, int j, int k) const {
     return p;
 }
 
-SatFrame make_csat_frame(const packing::PackedScene& packed, const D3& towards_light, std::size_t max_entries) {
+namespace {
+// r_v = l × r_u so that r_u × r_v = l (Ament Eq. 9)
+std::array<D3, 3> csat_axes(const D3& towards_light) {
     D3 w = normalized(towards_light);
-    // r_v = l × r_u so that r_u × r_v = l (Ament Eq. 9)
     D3 u = perpendicular(w), v = cross(w, u);
-    return make_sat_frame(packed, {u, v, w}, max_entries);
+    return {u, v, w};
+}
+}  // namespace
+
+SatFrame make_csat_frame(const packing::PackedScene& packed, const D3& towards_light, std::size_t max_entries) {
+    return make_sat_frame(packed, csat_axes(towards_light), max_entries);
+}
+
+SatFrame make_shared_csat_frame(const packing::PackedScene& packed, const D3& towards_light, std::size_t max_entries) {
+    std::array<D3, 3> axes = csat_axes(towards_light);
+    auto major = [](const D3& a) {  // index of the largest |component| (the first of equals)
+        std::size_t m = 0;
+        for (std::size_t r = 1; r < 3; ++r)
+            if (std::fabs(a[r]) > std::fabs(a[m])) m = r;
+        return m;
+    };
+    for (D3& a : axes) {
+        double sign = a[major(a)] < 0 ? -1.0 : 1.0;
+        for (double& c : a) c = sign * c + 0.0;  // + 0.0: no −0, so equal frames have equal bits
+    }
+    std::sort(axes.begin(), axes.end(), [&](const D3& a, const D3& b) {
+        return major(a) != major(b) ? major(a) < major(b) : a < b;
+    });
+    return make_sat_frame(packed, axes, max_entries);
 }
 
 SatFrame make_volume_sat_frame(const packing::PackedScene& packed, std::size_t max_entries) {
@@ -236,26 +260,92 @@ SatGridGpu sat_grid(const SatFrame& f, std::size_t offset, int axis, bool positi
     return g;
 }
 
-// Allocates `total` entries and builds every table of `sat` into them: resample, prefix sums.
-void build_tables(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
-                  const packing::DeviceScene& device_scene, DeviceSat& sat, std::size_t total) {
-    sat.bytes = total * sizeof(cl_ulong);
-    sat.data = host::make_buffer(runtime, CL_MEM_READ_WRITE, sat.bytes, nullptr, "summed-area tables");
-    if (total == 0) return;
+// Bit-exact text of a value (the table keys compare inputs exactly).
+template <typename T>
+std::string bits(const T& value) {
+    static_assert(std::is_trivially_copyable<T>::value, "bits: plain data only");
+    const auto* bytes = reinterpret_cast<const unsigned char*>(&value);
+    static const char* hex = "0123456789abcdef";
+    std::string s;
+    for (std::size_t i = 0; i < sizeof(T); ++i) s += hex[bytes[i] >> 4], s += hex[bytes[i] & 15];
+    return s;
+}
 
-    cl::Event event;
-    runtime.queue().enqueueFillBuffer(sat.data, cl_ulong(0), 0, sat.bytes, nullptr, &event);
+// The lights with an SSAT, in light order: table frames.size() + i is the SSAT of light sphere_lights[i].
+std::vector<std::size_t> sphere_lights(const DeviceSat& sat) {
+    std::vector<std::size_t> lights;
+    for (std::size_t l = 0; l < sat.spheres.size(); ++l)
+        if (sat.spheres[l].dims.s[3] != 0) lights.push_back(l);
+    return lights;
+}
+
+// Places `sat`'s tables one after the other into a fresh buffer and builds them all.
+void build_all(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
+               const packing::DeviceScene& device_scene, DeviceSat& sat) {
+    std::size_t total = 0;
+    for (std::size_t t = 0; t < sat_table_count(sat); ++t) {
+        place_sat_table(sat, t, total);
+        total += sat_table_entries(sat, t);
+    }
+    if (total > 0xffffffffull) throw Error("--shadows lowpass: summed-area tables exceed 2^32 entries");
+    sat.bytes = total * sizeof(cl_ulong);
+    sat.data = host::make_buffer(runtime, CL_MEM_READ_WRITE, std::max<std::size_t>(sat.bytes, 8), nullptr, "summed-area tables");
+    for (std::size_t t = 0; t < sat_table_count(sat); ++t) build_sat_table(runtime, scene, packed, device_scene, sat, t);
+}
+
+}  // namespace
+
+std::size_t sat_table_count(const DeviceSat& sat) { return sat.frames.size() + sphere_lights(sat).size(); }
+
+std::size_t sat_table_entries(const DeviceSat& sat, std::size_t table) {
+    if (table < sat.frames.size()) return sat.frames[table].entries();
+    return ssat_entries(sat.spheres[sphere_lights(sat).at(table - sat.frames.size())]);
+}
+
+std::size_t sat_table_offset(const DeviceSat& sat, std::size_t table) {
+    if (table < sat.frames.size()) return sat.offsets[table];
+    return sat.spheres[sphere_lights(sat).at(table - sat.frames.size())].data_offset;
+}
+
+void place_sat_table(DeviceSat& sat, std::size_t table, std::size_t offset) {
+    if (offset + sat_table_entries(sat, table) > 0xffffffffull)
+        throw Error("--shadows lowpass: summed-area tables exceed 2^32 entries");
+    if (table >= sat.frames.size()) {
+        sat.spheres[sphere_lights(sat).at(table - sat.frames.size())].data_offset = cl_uint(offset);
+        return;
+    }
+    sat.offsets[table] = offset;
+    for (std::size_t l = 0; l < sat.grids.size(); ++l)
+        if (sat.light_frame[l] == int(table)) sat.grids[l].data_offset = cl_uint(offset);
+}
+
+std::string sat_table_geometry_key(const DeviceSat& sat, std::size_t table) {
+    if (table >= sat.frames.size()) {
+        SsatGridGpu g = sat.spheres[sphere_lights(sat).at(table - sat.frames.size())];
+        g.data_offset = 0, g.half_width = 0;  // where it is stored, and the filter: not its cells
+        return "SSAT " + bits(g);
+    }
+    const SatFrame& f = sat.frames[table];
+    return "CSAT " + bits(f.axes) + ' ' + bits(f.origin) + ' ' + bits(f.dims) + ' ' + bits(f.cell_size);
+}
+
+void build_sat_table(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
+                     const packing::DeviceScene& device_scene, DeviceSat& sat, std::size_t table) {
+    std::size_t offset = sat_table_offset(sat, table), entries = sat_table_entries(sat, table);
+    cl::Event event;  // the zero borders S(0, ·, ·), … (the kernels write every other entry)
+    runtime.queue().enqueueFillBuffer(sat.data, cl_ulong(0), offset * sizeof(cl_ulong), entries * sizeof(cl_ulong), nullptr, &event);
     event.wait();
-    sat.stage_ms["sat_clear"] = host::Runtime::event_ms(event);
+    sat.stage_ms["sat_clear"] += host::Runtime::event_ms(event);
     auto defines = volume_pass_defines(scene, device_scene.uses_images, false);
     defines.push_back("SOMBRA_LANES=1");
     cl::Program& program = runtime.program("sat_build.cl", defines);
-    cl::Kernel resample(program, "sat_resample"), resample_sphere(program, "ssat_resample"), scan(program, "sat_scan");
-    for (std::size_t t = 0; t < sat.frames.size(); ++t) {
-        const SatFrame& f = sat.frames[t];
+    cl::Kernel scan(program, "sat_scan");
+    if (table < sat.frames.size()) {  // Ament Alg. 1: recomputeCSAT
+        cl::Kernel resample(program, "sat_resample");
+        const SatFrame& f = sat.frames[table];
         cl_int4 n = {{f.dims[0], f.dims[1], f.dims[2], 1}};
         int a = set_volume_args(resample, packed, device_scene, sat.data);
-        resample.setArg(a++, cl_uint(sat.offsets[t]));
+        resample.setArg(a++, cl_uint(offset));
         resample.setArg(a++, n);
         resample.setArg(a++, f4(f.origin));
         for (std::size_t axis = 0; axis < 3; ++axis) {
@@ -264,66 +354,72 @@ void build_tables(host::Runtime& runtime, const Scene& scene, const packing::Pac
         }
         resample.setArg(a++, float(f.cell_size));
         sat.stage_ms["sat_resample"] += run_2d(runtime, resample, f.dims[0], f.dims[1]);
-        sat.stage_ms["sat_scan"] += scan_table(runtime, scan, sat.data, sat.offsets[t], n);
+        sat.stage_ms["sat_scan"] += scan_table(runtime, scan, sat.data, offset, n);
+        return;
     }
-    for (const SsatGridGpu& sphere : sat.spheres) {
-        if (sphere.dims.s[3] == 0) continue;
-        cl::Buffer grid = host::make_buffer(runtime, CL_MEM_READ_ONLY, sizeof(SsatGridGpu), &sphere, "SSAT grid");
-        int a = set_volume_args(resample_sphere, packed, device_scene, sat.data);
-        resample_sphere.setArg(a++, grid);
-        sat.stage_ms["ssat_resample"] += run_2d(runtime, resample_sphere, sphere.dims.s[0], sphere.dims.s[1]);
-        sat.stage_ms["sat_scan"] += scan_table(runtime, scan, sat.data, sphere.data_offset, sphere.dims);
-    }
+    // Ament Alg. 1: recomputeSSAT, one per point light
+    cl::Kernel resample_sphere(program, "ssat_resample");
+    const SsatGridGpu& sphere = sat.spheres[sphere_lights(sat).at(table - sat.frames.size())];
+    cl::Buffer grid = host::make_buffer(runtime, CL_MEM_READ_ONLY, sizeof(SsatGridGpu), &sphere, "SSAT grid");
+    int a = set_volume_args(resample_sphere, packed, device_scene, sat.data);
+    resample_sphere.setArg(a++, grid);
+    sat.stage_ms["ssat_resample"] += run_2d(runtime, resample_sphere, sphere.dims.s[0], sphere.dims.s[1]);
+    sat.stage_ms["sat_scan"] += scan_table(runtime, scan, sat.data, offset, sphere.dims);
 }
 
-
-}  // namespace
-
-DeviceSat build_light_sats(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
-                           const packing::DeviceScene& device_scene, std::size_t max_entries) {
+DeviceSat plan_light_sats(const packing::PackedScene& packed, std::size_t max_entries) {
     DeviceSat sat;
     scene_corners(packed, sat.voxel_size);
-    std::vector<int> table_of(packed.lights.size(), -1);
-    std::size_t total = 0;
     for (std::size_t l = 0; l < packed.lights.size(); ++l) {
         const LightGpu& light = packed.lights[l];
         SatGridGpu g{};
         SsatGridGpu sphere{};
+        int frame = -1;
         if (light.type == SOMBRA_LIGHT_DIRECTIONAL) {
             D3 towards = {-light.direction.s[0], -light.direction.s[1], -light.direction.s[2]};
             bool positive = true;
             int axis = -1;
-            std::size_t t = 0;
-            for (; t < sat.frames.size() && axis < 0; ++t) axis = shared_axis(sat.frames[t], towards, positive);
-            if (axis < 0) {  // a new table (Ament Alg. 1: recomputeCSAT)
-                sat.frames.push_back(make_csat_frame(packed, towards, max_entries));
-                sat.offsets.push_back(total);
-                total += sat.frames.back().entries();
-                axis = 2, positive = true, t = sat.frames.size();
+            for (std::size_t t = 0; t < sat.frames.size() && axis < 0; ++t)
+                if ((axis = shared_axis(sat.frames[t], towards, positive)) >= 0) frame = int(t);
+            if (axis < 0) {  // a new table, founded by this light
+                sat.frames.push_back(make_shared_csat_frame(packed, towards, max_entries));
+                sat.offsets.push_back(0);
+                frame = int(sat.frames.size()) - 1;
+                axis = shared_axis(sat.frames.back(), towards, positive);
             }
-            g = sat_grid(sat.frames[t - 1], sat.offsets[t - 1], axis, positive);
-        } else {  // Ament Alg. 1: recomputeSSAT, one per point light
+            g = sat_grid(sat.frames[std::size_t(frame)], 0, axis, positive);
+        } else {
             sphere = make_ssat_grid(packed, {light.position.s[0], light.position.s[1], light.position.s[2]}, max_entries);
-            sphere.data_offset = cl_uint(total);
-            total += ssat_entries(sphere);
         }
-        if (total > 0xffffffffull) throw Error("--shadows lowpass: summed-area tables exceed 2^32 entries");
         sat.grids.push_back(g);
         sat.spheres.push_back(sphere);
+        sat.light_frame.push_back(frame);
     }
-    build_tables(runtime, scene, packed, device_scene, sat, total);
     return sat;
 }
 
-DeviceSat build_volume_sat(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
-                           const packing::DeviceScene& device_scene, std::size_t max_entries) {
+DeviceSat plan_volume_sat(const packing::PackedScene& packed, std::size_t max_entries) {
     DeviceSat sat;
     scene_corners(packed, sat.voxel_size);
     sat.frames.push_back(make_volume_sat_frame(packed, max_entries));
     sat.offsets.push_back(0);
     sat.grids.assign(std::max<std::size_t>(packed.lights.size(), 1), sat_grid(sat.frames[0], 0, 2, true));
     sat.spheres.assign(sat.grids.size(), SsatGridGpu{});
-    build_tables(runtime, scene, packed, device_scene, sat, sat.frames[0].entries());
+    sat.light_frame.assign(sat.grids.size(), 0);
+    return sat;
+}
+
+DeviceSat build_light_sats(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
+                           const packing::DeviceScene& device_scene, std::size_t max_entries) {
+    DeviceSat sat = plan_light_sats(packed, max_entries);
+    build_all(runtime, scene, packed, device_scene, sat);
+    return sat;
+}
+
+DeviceSat build_volume_sat(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
+                           const packing::DeviceScene& device_scene, std::size_t max_entries) {
+    DeviceSat sat = plan_volume_sat(packed, max_entries);
+    build_all(runtime, scene, packed, device_scene, sat);
     return sat;
 }
 

@@ -16,6 +16,10 @@ namespace sombra::shadows {
 
 using D3 = std::array<double, 3>;
 
+// World corners of every volume's box [−0.5, dims − 0.5] (8 per volume, in volume order) and the
+// smallest world voxel length.
+std::vector<D3> scene_corners(const packing::PackedScene& packed, double& voxel_size);
+
 // A grid aligned with a light: axes[2] points towards the (first) light, axes[0] × axes[1] =
 // axes[2] (Ament Eq. 9). Cell (i, j, k) covers origin + [i, i+1]·h·axes[0] + … ; the grid is
 // centred on the scene's bounds, which it contains.
@@ -33,6 +37,11 @@ struct SatFrame {
 // over the volumes of `packed`, with cells of the smallest voxel size, coarsened until the table
 // has at most `max_entries` entries.
 SatFrame make_csat_frame(const packing::PackedScene& packed, const D3& towards_light, std::size_t max_entries);
+// The CSAT frame a group of orthodirectional lights shares (Ament §4.2.2): the axes of
+// make_csat_frame made canonical (each axis signed so that its largest component is positive, the
+// axes ordered by that component), so that every light of the group founds the same frame — bit
+// for bit when the axes are the world axes. The light lies along any of its axes.
+SatFrame make_shared_csat_frame(const packing::PackedScene& packed, const D3& towards_light, std::size_t max_entries);
 // The same for a frame aligned with the first volume's axes (the volume-aligned SAT of the
 // baselines, Schlegel et al. 2011), and for any orthonormal axes.
 SatFrame make_volume_sat_frame(const packing::PackedScene& packed, std::size_t max_entries);
@@ -53,6 +62,7 @@ std::uint64_t sat_fixed_point(double tau);
 
 struct DeviceSat {
     std::vector<SatFrame> frames;      // one per CSAT
+    std::vector<int> light_frame;      // per light: its frame in `frames`, or −1
     std::vector<SatGridGpu> grids;     // one per light; dims.w = 0: the light has no CSAT
     std::vector<SsatGridGpu> spheres;  // one per light; dims.w = 0: the light has no SSAT
     std::vector<std::size_t> offsets;  // first entry of each CSAT in `data`
@@ -62,8 +72,29 @@ struct DeviceSat {
     std::map<std::string, double> stage_ms;
 };
 
-// One CSAT per group of directional lights whose directions are ± the axes of one frame
-// (orthodirectional lights, Ament §4.2.2); one SSAT per point or spot light (§4.2.3).
+// The tables of a DeviceSat, numbered: first its CSAT frames, then the SSAT of each point or spot
+// light in light order. A plan (below) has every table at offset 0 and no data; place each table
+// (place_sat_table), allocate `data`, then build each table into it (build_sat_table).
+std::size_t sat_table_count(const DeviceSat& sat);
+std::size_t sat_table_entries(const DeviceSat& sat, std::size_t table);
+std::size_t sat_table_offset(const DeviceSat& sat, std::size_t table);
+void place_sat_table(DeviceSat& sat, std::size_t table, std::size_t offset);
+// Everything but the voxels that a table's cells depend on: its kind, frame or spherical grid
+// (bit-exact), and its size. Two tables with equal keys built from equal volumes are equal.
+std::string sat_table_geometry_key(const DeviceSat& sat, std::size_t table);
+// Resamples and sums one table into sat.data at its offset (its entries are cleared first);
+// adds the kernels' times to sat.stage_ms.
+void build_sat_table(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
+                     const packing::DeviceScene& device_scene, DeviceSat& sat, std::size_t table);
+
+// The plan of Ament Alg. 1's tables for the lights: one CSAT per group of directional lights whose
+// directions are ± the axes of one frame (orthodirectional lights, §4.2.2; the group's first
+// light founds the shared frame), one SSAT per point or spot light (§4.2.3).
+DeviceSat plan_light_sats(const packing::PackedScene& packed, std::size_t max_entries);
+// The plan of the baselines' one volume-aligned SAT (see build_volume_sat).
+DeviceSat plan_volume_sat(const packing::PackedScene& packed, std::size_t max_entries);
+
+// A plan placed contiguously and built into a fresh buffer (plan_light_sats).
 DeviceSat build_light_sats(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
                            const packing::DeviceScene& device_scene, std::size_t max_entries);
 
