@@ -39,14 +39,19 @@
 #define SOMBRA_SHADOW_RAY_MESHES /* shadow rays are attenuated by the world-space triangles */
 #define SHADOW_MESH_PARAMS , __global const SurfaceTriangleGpu *shadow_triangles, __global const BvhNodeGpu *shadow_bvh, \
                            uint shadow_bvh_nodes
+#define SHADOW_MESH_STATE_INIT(s) \
+    (s).shadow_triangles = shadow_triangles, (s).shadow_bvh = shadow_bvh, (s).shadow_bvh_nodes = shadow_bvh_nodes;
 #else
 #define SHADOW_MESH_PARAMS
+#define SHADOW_MESH_STATE_INIT(s)
 #endif
 #ifdef SOMBRA_HAS_BOUNDS
 /* every volume's bound triangles in BVH order (corner.w: the volume) and the hierarchy's nodes */
 #define BOUND_PARAMS , __global const SurfaceTriangleGpu *bound_triangles, __global const BvhNodeGpu *bound_bvh, uint bound_bvh_nodes
+#define BOUND_STATE_INIT(s) (s).bound_triangles = bound_triangles, (s).bound_bvh = bound_bvh, (s).bound_bvh_nodes = bound_bvh_nodes;
 #else
 #define BOUND_PARAMS
+#define BOUND_STATE_INIT(s)
 #endif
 
 /* What every sample of the camera pass reads and accumulates. */
@@ -402,16 +407,8 @@ __kernel void render_camera(VOLUME_DATA_PARAM, __global const uchar* occupancy, 
     state.shadow_cache_table = shadow_cache_table;
 #endif
 #endif
-#ifdef SOMBRA_SHADOW_RAY_MESHES
-    state.shadow_triangles = shadow_triangles;
-    state.shadow_bvh = shadow_bvh;
-    state.shadow_bvh_nodes = shadow_bvh_nodes;
-#endif
-#ifdef SOMBRA_HAS_BOUNDS
-    state.bound_triangles = bound_triangles;
-    state.bound_bvh = bound_bvh;
-    state.bound_bvh_nodes = bound_bvh_nodes;
-#endif
+    SHADOW_MESH_STATE_INIT(state)
+    BOUND_STATE_INIT(state)
 #define SOMBRA_JITTER_LANE(c) sombra_pixel_jitter((uint)LC(xs, c), y, camera->jitter_seed)
     state.jitter = LFROM_LANES(SOMBRA_JITTER_LANE);
 #undef SOMBRA_JITTER_LANE
@@ -474,16 +471,8 @@ __kernel void shadow_probe(VOLUME_DATA_PARAM, __global const uchar* occupancy, _
     state.tf_tables = tf_tables;
     state.occupancy = occupancy;
     state.jitter = sombra_pixel_jitter((uint)i, 0u, camera->jitter_seed);
-#ifdef SOMBRA_SHADOW_RAY_MESHES
-    state.shadow_triangles = shadow_triangles;
-    state.shadow_bvh = shadow_bvh;
-    state.shadow_bvh_nodes = shadow_bvh_nodes;
-#endif
-#ifdef SOMBRA_HAS_BOUNDS
-    state.bound_triangles = bound_triangles;
-    state.bound_bvh = bound_bvh;
-    state.bound_bvh_nodes = bound_bvh_nodes;
-#endif
+    SHADOW_MESH_STATE_INIT(state)
+    BOUND_STATE_INIT(state)
 #ifdef SOMBRA_SHADOW_DSM
     state.views = views;
     DSM_READ_STATE_INIT(state);
