@@ -13,7 +13,8 @@
  * SOMBRA_HAS_MESHES (per-pixel fragment lists of surfaces and polyhedral volume bounds merged
  * into the segment cursor's boundaries, traversal.h; surfaces composited at their depth:
  * surfaces.h; with SOMBRA_SHADOW_RAYS shadow rays also cross the mesh triangles),
- * SOMBRA_HAS_BOUNDS (some volume has a polyhedral bound: shadow rays cross its triangles). */
+ * SOMBRA_HAS_BOUNDS (with SOMBRA_SHADOW_RAYS: some volume has a polyhedral bound, whose triangles
+ * shadow rays cross; the other passes see the bounds as fragments). */
 #include "shared/types.h"
 #include "shared/hash.h"
 #include "lanes.h"

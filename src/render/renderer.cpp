@@ -48,7 +48,8 @@ std::vector<std::string> camera_pass_defines(const Scene& scene, const RenderOpt
     if (options.shading == ShadingModel::Scattering) defines.push_back("SOMBRA_SCATTERING");
     if (!scene.lights.empty() && uses_sat(options) && options.lowpass_cache) defines.push_back("SOMBRA_LOWPASS_CACHED");
     if (surfaces::has_fragments(scene)) defines.push_back("SOMBRA_HAS_MESHES");
-    if (surfaces::has_bounds(scene)) defines.push_back("SOMBRA_HAS_BOUNDS");
+    if (!scene.lights.empty() && options.shadows == ShadowTechnique::Rays && surfaces::has_bounds(scene))
+        defines.push_back("SOMBRA_HAS_BOUNDS");  // shadow rays cross the bounds (the other passes see their fragments)
     if (!scene.lights.empty() && options.shadows == ShadowTechnique::Rays) defines.push_back("SOMBRA_SHADOW_RAYS");
     if (!scene.lights.empty() && options.shadows == ShadowTechnique::Ao) defines.push_back("SOMBRA_LOWPASS_AO");
     if (!scene.lights.empty() && options.shadows == ShadowTechnique::Cone) defines.push_back("SOMBRA_LOWPASS_CONE");
@@ -76,6 +77,7 @@ struct PreparedScene {
     shadows::DeviceSat sat;  // low-pass shadows: light-aligned summed-area tables
     surfaces::DeviceSurfaces surfaces;  // scenes with meshes
     surfaces::ShadowBvh shadow_bvh;     // shadow rays through meshes: the triangles' hierarchy
+    surfaces::ShadowBvh bound_bvh;      // shadow rays through polyhedral bounds: theirs
     bool use_images = false, use_dsm = false, use_sat = false;
     std::uint64_t serial = 0;  // tells preparations apart (what is derived from one is kept with its serial)
     bool ray_meshes = false;  // shadow rays cross the mesh triangles (render.cl SOMBRA_SHADOW_RAY_MESHES)
@@ -262,7 +264,9 @@ PreparedScene prepare_anew(host::Runtime& runtime, const Scene& scene, const Ren
         prepared.surfaces = surfaces::upload_surfaces(runtime, packed_surfaces);
         if (prepared.ray_meshes) {
             auto bvh_start = clock_type::now();
-            prepared.shadow_bvh = surfaces::upload_shadow_bvh(runtime, packed_surfaces);
+            prepared.shadow_bvh = surfaces::upload_shadow_bvh(runtime, packed_surfaces.triangles, "shadow-ray");
+            if (!prepared.packed.bound_triangles.empty())
+                prepared.bound_bvh = surfaces::upload_shadow_bvh(runtime, prepared.packed.bound_triangles, "volume bound");
             stats.stage_ms["bvh_build"] = ms_since(bvh_start);
         }
     }
@@ -326,10 +330,10 @@ int set_shadow_mesh_args(cl::Kernel& kernel, int arg, const PreparedScene& p) {
         kernel.setArg(arg++, p.shadow_bvh.nodes);
         kernel.setArg(arg++, p.shadow_bvh.node_count);
     }
-    if (!p.packed.bound_triangles.empty()) {
-        kernel.setArg(arg++, p.device.bound_triangles);
-        kernel.setArg(arg++, p.device.bound_bvh);
-        kernel.setArg(arg++, p.device.bound_bvh_nodes);
+    if (p.ray_meshes && !p.packed.bound_triangles.empty()) {
+        kernel.setArg(arg++, p.bound_bvh.triangles);
+        kernel.setArg(arg++, p.bound_bvh.nodes);
+        kernel.setArg(arg++, p.bound_bvh.node_count);
     }
     return arg;
 }

@@ -4,7 +4,6 @@
 #include <cmath>
 #include <glm/glm.hpp>
 
-#include "render/bvh.h"
 #include "render/surfaces.h"
 #include "sombra/error.h"
 
@@ -182,14 +181,6 @@ DeviceScene upload_scene(host::Runtime& runtime, const Scene& scene, const Packe
     d.tf_tables = host::make_buffer(runtime, ro, packed.tf_tables.size() * sizeof(cl_float4), packed.tf_tables.data(), "transfer-function tables");
     d.volumes = host::make_buffer(runtime, ro, packed.volumes.size() * sizeof(VolumeGpu), packed.volumes.data(), "volume descriptors");
     d.lights = host::make_buffer(runtime, ro, packed.lights.size() * sizeof(LightGpu), packed.lights.data(), "lights");
-    // shadow rays find the bounds' crossings through a hierarchy (render.cl, traversal.h)
-    bvh::Hierarchy bound_bvh = bvh::build(packed.bound_triangles);
-    std::vector<SurfaceTriangleGpu> bound_triangles = bvh::reorder(packed.bound_triangles, bound_bvh);
-    d.bound_triangles = host::make_buffer(runtime, ro, bound_triangles.size() * sizeof(SurfaceTriangleGpu),
-                                          bound_triangles.data(), "volume bound triangles");
-    d.bound_bvh = host::make_buffer(runtime, ro, bound_bvh.nodes.size() * sizeof(BvhNodeGpu), bound_bvh.nodes.data(),
-                                    "volume bound BVH");
-    d.bound_bvh_nodes = cl_uint(bound_bvh.nodes.size());
 
     std::size_t total = 0, max_x = 1, max_y = 1, sum_z = 0;
     for (auto& vi : scene.volumes) {

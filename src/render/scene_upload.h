@@ -43,9 +43,6 @@ struct DeviceScene {
     cl::Buffer voxel_buffer;
     cl::Image3D voxel_image;
     cl::Buffer occupancy, tf_tables, volumes, lights;
-    cl::Buffer bound_triangles;  // PackedScene::bound_triangles in BVH order (16 bytes when there are none)
-    cl::Buffer bound_bvh;        // the hierarchy over them (render/bvh.h) and its node count
-    cl_uint bound_bvh_nodes = 0;
     double upload_ms = 0;  // sum of the upload commands' profiling times
 };
 DeviceScene upload_scene(host::Runtime& runtime, const Scene& scene, const PackedScene& packed, bool use_images);

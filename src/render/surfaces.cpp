@@ -101,14 +101,14 @@ DeviceSurfaces upload_surfaces(host::Runtime& rt, const PackedSurfaces& p) {
     return d;
 }
 
-ShadowBvh upload_shadow_bvh(host::Runtime& rt, const PackedSurfaces& p) {
-    bvh::Hierarchy h = bvh::build(p.triangles);
-    std::vector<SurfaceTriangleGpu> ordered = bvh::reorder(p.triangles, h);
+ShadowBvh upload_shadow_bvh(host::Runtime& rt, const std::vector<SurfaceTriangleGpu>& triangles, const std::string& what) {
+    bvh::Hierarchy h = bvh::build(triangles);
+    std::vector<SurfaceTriangleGpu> ordered = bvh::reorder(triangles, h);
     ShadowBvh d;
     d.node_count = cl_uint(h.nodes.size());
     d.triangles = host::make_buffer(rt, CL_MEM_READ_ONLY, ordered.size() * sizeof(SurfaceTriangleGpu), ordered.data(),
-                                    "shadow-ray triangles");
-    d.nodes = host::make_buffer(rt, CL_MEM_READ_ONLY, h.nodes.size() * sizeof(BvhNodeGpu), h.nodes.data(), "shadow-ray BVH");
+                                    what + " triangles");
+    d.nodes = host::make_buffer(rt, CL_MEM_READ_ONLY, h.nodes.size() * sizeof(BvhNodeGpu), h.nodes.data(), what + " BVH");
     return d;
 }
 

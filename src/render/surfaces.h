@@ -29,13 +29,15 @@ struct DeviceSurfaces {
 };
 DeviceSurfaces upload_surfaces(host::Runtime& runtime, const PackedSurfaces& packed);
 
-// What shadow rays cross (render.cl surfaces_transmittance): the triangles in the order of a
-// bounding-volume hierarchy over them (render/bvh.h) and its nodes.
+// What shadow rays cross (render.cl: surfaces_transmittance, or the polyhedral bounds' crossings):
+// the triangles in the order of a bounding-volume hierarchy over them (render/bvh.h) and its
+// nodes. `what` names them in allocation errors.
 struct ShadowBvh {
     cl::Buffer triangles, nodes;
     cl_uint node_count = 0;
 };
-ShadowBvh upload_shadow_bvh(host::Runtime& runtime, const PackedSurfaces& packed);
+ShadowBvh upload_shadow_bvh(host::Runtime& runtime, const std::vector<SurfaceTriangleGpu>& triangles,
+                           const std::string& what);
 
 // A view's fragments: each pixel's covering triangles — the meshes' surfaces and the volumes'
 // bound meshes (flagged SOMBRA_TRI_BOUND, mesh = the volume's index) — sorted near to far, with
