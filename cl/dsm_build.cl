@@ -88,10 +88,8 @@ DSM_GENERATION_KERNEL(VOLUME_DATA_PARAM, __global const uchar* occupancy, __glob
         transmittance[lane] = 1.0f;
         previous_t[lane] = -INFINITY;
     }
-#ifdef SOMBRA_DSM_PRECOMPRESSED
-    lfloat previous_density = (lfloat)(0.0f);
-    lint previous_segment = (lint)(-1), previous_k = (lint)(-1);
-#endif
+    lfloat front[SOMBRA_VOLUME_SLOTS]; /* each volume's density at the previous point */
+    for (uint i = 0; i < SOMBRA_VOLUME_SLOTS; ++i) front[i] = (lfloat)(0.0f);
     lmask sampling;
     while (lany(sampling = segment_cursor_next(&cursor, &ray, volumes, volume_count, occupancy))) {
 #ifdef SOMBRA_HAS_MESHES
@@ -104,26 +102,22 @@ DSM_GENERATION_KERNEL(VOLUME_DATA_PARAM, __global const uchar* occupancy, __glob
         }
 #endif
         lfloat t = select((lfloat)(0.0f), cursor.t, sampling); /* finite positions in idle lanes */
-        lmask stepwise = sampling; /* lanes whose sample is an extinction sample */
+        lmask stepwise = sampling; /* lanes whose interval is one exact value, not a table's nodes */
 #ifdef SOMBRA_DSM_PRECOMPRESSED
-        /* Hadwiger §3.2: in a segment of one volume, the step from the previous sample to this one
-         * is replaced by its pre-compressed visibility function, so an isosurface between two
-         * samples rises where it lies, not at the next sample */
-        lmask single = sampling & (cursor.active != 0u) & ((cursor.active & (cursor.active - 1u)) == 0u);
-        lfloat density = (lfloat)(0.0f);
+        /* Hadwiger §3.2: a whole step between two samples of a one-volume segment is replaced by
+         * its pre-compressed visibility function, so an isosurface between two samples rises where
+         * it lies, not at the next sample (partial intervals at segment ends are integrated) */
+        lmask single = cursor.full_step & sampling & (cursor.active != 0u) & ((cursor.active & (cursor.active - 1u)) == 0u);
+        lfloat front_density = (lfloat)(0.0f), density = (lfloat)(0.0f);
         lmask tabled = (lmask)(0);
         for (uint i = 0; i < SOMBRA_VOLUME_SLOTS; ++i) {
             lmask here = single & (cursor.active == (1u << i));
-            if (!lany(here)) continue;
-            density = select(density, sample_density(volume_data, &volumes[i], ray_voxel_point(&ray, i, t)), here);
-            if (precompression[i].size > 0) tabled |= here;
+            if (!lany(here) || precompression[i].size == 0) continue;
+            front_density = select(front_density, front[i], here);
+            density = select(density, density_at_point(volume_data, &volumes[i], &ray, i, t), here);
+            front[i] = select(front[i], density, here);
+            tabled |= here;
         }
-        /* consecutive samples of one segment (a surface ends its segment: the step across it is sampled) */
-        tabled &= (cursor.segment == previous_segment) & (cursor.k == previous_k + 1);
-        lfloat front_density = previous_density;
-        previous_segment = select(previous_segment, cursor.segment, single);
-        previous_k = select(previous_k, cursor.k, single);
-        previous_density = select(previous_density, density, single);
         stepwise &= !tabled;
         int tabled_lane[SOMBRA_LANES];
         uint active_lane[SOMBRA_LANES];
@@ -133,18 +127,15 @@ DSM_GENERATION_KERNEL(VOLUME_DATA_PARAM, __global const uchar* occupancy, __glob
         LSTORE(front_density, front_lane);
         LSTORE(density, back_lane);
 #endif
-        lfloat sigma = lany(stepwise) ? extinction_at(volume_data, volumes, tf_tables, &ray, t, cursor.active, stepwise)
+        lfloat depth = lany(stepwise) ? interval_optical_depth(volume_data, volumes, tf_tables, &ray, &cursor, t, front, stepwise)
                                       : (lfloat)(0.0f);
-        /* opacity starts to rise within the sample's step, not before the previous sample */
-        lfloat first_z = fmax(LLOAD(previous_t), t - cursor.step);
         int sampling_lane[SOMBRA_LANES];
-        float t_lane[SOMBRA_LANES], step_lane[SOMBRA_LANES], sigma_lane[SOMBRA_LANES], first_z_lane[SOMBRA_LANES];
+        float t_lane[SOMBRA_LANES], step_lane[SOMBRA_LANES], depth_lane[SOMBRA_LANES];
         LSTORE(sampling, sampling_lane);
         LSTORE(t, t_lane);
         LSTORE(cursor.step, step_lane);
-        LSTORE(first_z, first_z_lane);
-        LSTORE(sigma, sigma_lane);
-        /* each lane's sample goes to its own compressor */
+        LSTORE(depth, depth_lane);
+        /* each lane's point goes to its own compressor */
         for (uint lane = 0; lane < SOMBRA_LANES; ++lane) {
             if (!sampling_lane[lane]) continue;
             float t = t_lane[lane];
@@ -168,13 +159,15 @@ DSM_GENERATION_KERNEL(VOLUME_DATA_PARAM, __global const uchar* occupancy, __glob
                 continue;
             }
 #endif
+            /* α_acc += α_interval (1 − α_acc), Knecht Eq. 3.2, the interval's optical depth exact
+             * (scalar exp: the same bits as 1 lane); the opacity starts to rise at the previous point */
+            float first_z = previous_t[lane];
             previous_t[lane] = t;
-            /* α_acc += α_sample (1 − α_acc), Knecht Eq. 3.2 (scalar exp: the same bits as 1 lane) */
-            if (sigma_lane[lane] != 0.0f) transmittance[lane] *= exp(-sigma_lane[lane] * step_lane[lane]);
+            if (depth_lane[lane] != 0.0f) transmittance[lane] *= exp(-depth_lane[lane]);
             float alpha = 1.0f - transmittance[lane];
             /* empty space before the first opacity changes nothing in a compressor (compress.h) */
             if (compressor[lane].started || alpha > 0.0f)
-                STORE_NODES(lane, compressor_add(&compressor[lane], t, alpha, first_z_lane[lane]));
+                STORE_NODES(lane, compressor_add(&compressor[lane], t, alpha, first_z));
         }
         cursor.alive &= !(LLOAD(transmittance) < DSM_TERMINATION_TRANSMITTANCE);
     }

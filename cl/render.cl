@@ -118,8 +118,9 @@ inline lfloat surfaces_transmittance(const CameraState* state, lfloat3 p, lfloat
 #endif
 
 #if defined(SOMBRA_SHADOW_RAYS) || defined(SOMBRA_SHADOW_LOWPASS)
-/* Shadow-ray baseline: transmittance exp(−Σσ·Δ) from p to the light, marched over the same
- * segments as the camera rays, stopping once it falls below 10⁻⁶ (course slides: shadow rays);
+/* Shadow-ray baseline: transmittance exp(−∫σ) from p to the light, marched over the same
+ * segments as the camera rays, each interval pre-integrated and of its exact length (traversal.h),
+ * stopping once it falls below 10⁻⁶ (course slides: shadow rays);
  * with meshes, times Π(1 − a) of the triangles crossed (surfaces_transmittance). */
 inline lfloat shadow_ray(VOLUME_DATA_PARAM, const CameraState* state, __global const LightGpu* light, lfloat3 p,
                          lmask lanes) {
@@ -142,10 +143,12 @@ inline lfloat shadow_ray(VOLUME_DATA_PARAM, const CameraState* state, __global c
                                        state->bound_bvh, state->bound_bvh_nodes, t_max, lanes);
 #endif
     lfloat optical_depth = (lfloat)(0.0f);
+    lfloat front[SOMBRA_VOLUME_SLOTS]; /* each volume's density at the previous point */
+    for (uint i = 0; i < SOMBRA_VOLUME_SLOTS; ++i) front[i] = (lfloat)(0.0f);
     lmask sampling;
     while (lany(sampling = segment_cursor_next(&cursor, &ray, state->volumes, state->camera->volume_count, state->occupancy))) {
         lfloat t = select((lfloat)(0.0f), cursor.t, sampling); /* finite positions in idle lanes */
-        optical_depth += extinction_at(volume_data, state->volumes, state->tf_tables, &ray, t, cursor.active, sampling) * cursor.step;
+        optical_depth += interval_optical_depth(volume_data, state->volumes, state->tf_tables, &ray, &cursor, t, front, sampling);
         cursor.alive &= !(optical_depth > 13.8155f); /* exp(−13.8) = 10⁻⁶ */
     }
 #ifdef SOMBRA_SHADOW_RAY_MESHES
@@ -295,11 +298,13 @@ inline lfloat cached_shadow(const CameraState* state, uint i, uint m, lfloat3 pv
 }
 #endif
 
-/* One sample of all active volumes: extinction-weighted blend of their shaded colours,
- * α = 1 − exp(−Σσ·Δ), then I_acc += I_p α t_acc; t_acc *= 1 − α (Knecht Eq. 3.10–3.11).
- * Returns the lanes whose ray goes on (early ray termination). */
+/* One point of all active volumes, closing the interval [t − delta, t] (traversal.h): the
+ * interval's opacity α = 1 − exp(−Σ σ̄ᵢ·delta) from each volume's pre-integrated extinction σ̄ᵢ,
+ * the colours shaded at t blended by σ̄ᵢ, then I_acc += I_p α t_acc; t_acc *= 1 − α (Knecht Eq.
+ * 3.10–3.11). front[i]: volume i's density at the previous point. Returns the lanes whose ray
+ * goes on (early ray termination). */
 inline lmask shade_sample(VOLUME_DATA_PARAM, CameraState* state, const VolumeRay* ray, const SegmentCursor* cursor,
-                          lmask sampling) {
+                          lfloat* front, lmask sampling) {
     lfloat t = select((lfloat)(0.0f), cursor->t, sampling); /* finite positions in idle lanes */
     lfloat3 p = l3_mad(ray->dir, t, ray->origin);
     lfloat sigma_sum = (lfloat)(0.0f);
@@ -313,11 +318,12 @@ inline lmask shade_sample(VOLUME_DATA_PARAM, CameraState* state, const VolumeRay
         if (!lany(here)) continue;
         __global const VolumeGpu* v = &state->volumes[i];
         lfloat3 pv = ray_voxel_point(ray, i, t);
-        Classified c = classify(state->tf_tables, v, sample_density(volume_data, v, pv));
+        lfloat density = sample_density(volume_data, v, pv);
         state->samples += select((luint)(0u), (luint)(1u), here);
-        lfloat sigma = select((lfloat)(0.0f), c.sigma, here);
-        lmask visible = sigma > 0.0f;
+        lfloat sigma = interval_sigma(state->tf_tables, v, density, &front[i], here);
+        lmask visible = (sigma > 0.0f) & (cursor->delta > 0.0f);
         if (!lany(visible)) continue;
+        Classified c = classify(state->tf_tables, v, density);
         lfloat3 normal = l3((lfloat)(0.0f), (lfloat)(0.0f), (lfloat)(0.0f));
 #if defined(SOMBRA_HAS_LIGHTS) && !defined(SOMBRA_SCATTERING)
         normal = normal_from_gradient(v, gradient_voxel(volume_data, v, pv));
@@ -343,11 +349,12 @@ inline lmask shade_sample(VOLUME_DATA_PARAM, CameraState* state, const VolumeRay
         lfloat3 shaded = phong_shade(state->lights, light_count, state->camera->ambient_intensity, v, c.color, p, normal,
                                      state->to_viewer, shadow);
 #endif
+        sigma = select((lfloat)(0.0f), sigma, visible);
         sigma_sum += sigma;
         color_sum = l3_mad(shaded, sigma, color_sum);
     }
     lmask lit = sigma_sum > 0.0f;
-    lfloat alpha = 1.0f - exp(-sigma_sum * cursor->step);
+    lfloat alpha = 1.0f - exp(-sigma_sum * cursor->delta);
     lfloat weight = select((lfloat)(0.0f), alpha * state->transmittance / select((lfloat)(1.0f), sigma_sum, lit), lit);
     state->radiance = l3_mad(color_sum, weight, state->radiance);
     state->transmittance = select(state->transmittance, state->transmittance * (1.0f - alpha), lit);
@@ -424,6 +431,8 @@ __kernel void render_camera(VOLUME_DATA_PARAM, __global const uchar* occupancy, 
     for (int c = 0; c < SOMBRA_LANES; ++c) pixel[c] = y * camera->width + (in_lane[c] ? (uint)x_lane[c] : 0u);
     segment_cursor_use_fragments(&cursor, volumes, camera->volume_count, fragment_first, fragments, screen_triangles, pixel, lanes);
 #endif
+    lfloat front[SOMBRA_VOLUME_SLOTS]; /* each volume's density at the previous point */
+    for (uint i = 0; i < SOMBRA_VOLUME_SLOTS; ++i) front[i] = (lfloat)(0.0f);
     lmask sampling;
     while (lany(sampling = segment_cursor_next(&cursor, &ray, volumes, camera->volume_count, occupancy))) {
 #ifdef SOMBRA_HAS_MESHES /* a surface at a segment boundary, in depth order with the samples */
@@ -434,7 +443,7 @@ __kernel void render_camera(VOLUME_DATA_PARAM, __global const uchar* occupancy, 
             if (!lany(sampling)) continue;
         }
 #endif
-        cursor.alive &= shade_sample(volume_data, &state, &ray, &cursor, sampling) | !sampling;
+        cursor.alive &= shade_sample(volume_data, &state, &ray, &cursor, front, sampling) | !sampling;
     }
 
     float red[SOMBRA_LANES], green[SOMBRA_LANES], blue[SOMBRA_LANES], transmittance[SOMBRA_LANES];

@@ -7,14 +7,21 @@
  * brick min/max). Each lane follows its own segments; lanes only share the loop.
  *
  * Written once for every pass as a cursor: a pass calls segment_cursor_next() in a loop and does
- * its own work per sample; nested traversals (shadow rays from a camera sample) need nothing more.
+ * its own work per point; nested traversals (shadow rays from a camera sample) need nothing more.
  *     SegmentCursor cursor;
  *     segment_cursor_init(&cursor, &ray, volume_count, jitter, lanes);
  *     lmask sampling;
  *     while (lany(sampling = segment_cursor_next(&cursor, &ray, volumes, volume_count, occupancy))) {
- *         … cursor.t, cursor.step, cursor.active …
+ *         … cursor.t, cursor.delta, cursor.active …
  *         cursor.alive &= go_on | !sampling;   // early termination
- *     } */
+ *     }
+ *
+ * Exact intervals: the points of a segment [t_start, t_end] are its start, the samples
+ * t_start + (k + jitter)·step strictly inside it, and its end. Each point closes the interval
+ * from the previous point, of length cursor.delta (0 at a segment's start point, a whole step
+ * between two samples, the part inside the segment at both ends, at a surface, a polyhedral bound
+ * and the ray's t_max), so a pass that integrates over the intervals (interval_optical_depth)
+ * counts exactly the length of medium that lies on the ray — never a whole step for a part. */
 #ifndef SOMBRA_TRAVERSAL_H
 #define SOMBRA_TRAVERSAL_H
 #include "volume_sample.h"
@@ -119,14 +126,20 @@ typedef struct {
     lfloat bounds[2 * SOMBRA_VOLUME_SLOTS];
     uint bound_count;
     lmask alive;     /* lanes whose ray goes on; a pass clears lanes to stop them */
-    lint segment;    /* segments begun − 1: tells consecutive samples apart (pre-compression) */
+    lint segment;    /* segments begun − 1 */
     lint next_bound; /* the first box bound not passed yet */
     lfloat t_start, t_end;
     lfloat step;     /* of the current segment: the smallest step of its active volumes */
     luint active;    /* bit i: volume i is active in the current segment */
-    lint k;          /* sample index in the segment: an integer, so that it never stalls */
+    lint phase;      /* 0: the segment's start point comes next; 1: its samples; 2: its end point was the last */
+    lint k;          /* index of the last sample in the segment: an integer, so that it never stalls */
     lfloat jitter;
-    lfloat t;        /* parameter of the current sample (t_start + (k + jitter) · step) or surface */
+    lfloat t;        /* the current point (start, t_start + (k + jitter) · step, resume or end) or surface */
+    lfloat delta;    /* length of the interval the current point closes: t − the previous point (0: a start) */
+    lmask full_step; /* the interval is a whole step between two consecutive samples (delta = step) */
+    lmask last_was_sample; /* the previous point was a sample reached by stepping */
+    lmask resuming;  /* brick skipping: the next point is resume_t, where the empty bricks end */
+    lfloat resume_t;
 #ifdef SOMBRA_HAS_MESHES
     lmask surface;   /* lanes whose event at t is the surface fragment surface_fragment[lane] */
     uint surface_fragment[SOMBRA_LANES];
@@ -168,8 +181,11 @@ inline void segment_cursor_init(SegmentCursor* c, const VolumeRay* ray, uint vol
     c->t_start = c->t_end = (lfloat)(0.0f); /* rays start at t = 0: the first segment ends at the first bound */
     c->step = (lfloat)(1.0f);
     c->active = (luint)(0u);
+    c->phase = (lint)(2); /* the first call moves on to the first segment */
     c->k = (lint)(-1);
     c->jitter = jitter;
+    c->t = c->delta = c->resume_t = (lfloat)(0.0f);
+    c->full_step = c->last_was_sample = c->resuming = (lmask)(0);
 #ifdef SOMBRA_HAS_MESHES
     c->surface = (lmask)(0);
     c->source = SOMBRA_EVENTS_NONE;
@@ -316,105 +332,144 @@ inline lmask cursor_pass_events(SegmentCursor* c, lmask lanes) {
 }
 #endif
 
-/* Moves every live lane to its next sample or event, front to back: next k, else the next
- * non-empty segment; skips samples in empty bricks. Returns the lanes that sample at c->t
- * (possibly after several steps of skipping) and, with meshes, the lanes c->surface whose surface
- * fragment lies at c->t; no lane once every ray is done. */
+/* Moves every live lane to its next point or event, front to back: the segment's start point,
+ * its samples, its end point, then the next non-empty segment; a sample in empty bricks of every
+ * active volume makes the next point the bricks' end (the interval between has σ = 0: the
+ * bricks' value range maps to zero extinction). Returns the lanes that have a point at c->t and,
+ * with meshes, the lanes c->surface whose surface fragment lies at c->t; no lane once every ray
+ * is done. */
 inline lmask segment_cursor_next(SegmentCursor* c, const VolumeRay* ray, __global const VolumeGpu* volumes,
                                  uint volume_count, __global const uchar* occupancy) {
-    for (;;) {
-        c->k += 1;
-        lfloat t = c->t_start + (LCONVERT_FLOAT(c->k) + c->jitter) * c->step;
-        /* lanes past their segment's end move on to their next non-empty segment */
-        lmask exhausted = c->alive & (t >= c->t_end);
+    /* lanes whose last point ended their segment (or that handed over a surface) move on to their
+     * next non-empty segment */
+    lmask exhausted = c->alive & (c->phase == 2);
 #ifdef SOMBRA_HAS_MESHES
-        exhausted |= c->surface & c->alive; /* a surface handed over last time: its segment is done */
-        c->surface = (lmask)(0);
+    c->surface = (lmask)(0);
 #endif
-        while (lany(exhausted)) {
+    while (lany(exhausted)) {
 #ifdef SOMBRA_HAS_MESHES
-            /* the event at the end of the segment: bounds toggle, surfaces go to the pass */
-            lmask surface = cursor_pass_events(c, exhausted);
-            c->surface |= surface;
-            exhausted &= !surface;
-            if (!lany(exhausted)) break;
+        /* the event at the end of the segment: bounds toggle, surfaces go to the pass */
+        lmask surface = cursor_pass_events(c, exhausted);
+        c->surface |= surface;
+        exhausted &= !surface;
+        if (!lany(exhausted)) break;
 #endif
-            c->segment = select(c->segment, c->segment + 1, exhausted);
-            lfloat next_box = (lfloat)(INFINITY);
-            for (uint s = 0; s < c->bound_count; ++s) next_box = select(next_box, c->bounds[s], exhausted & (c->next_bound == (int)s));
-            lfloat next_end = next_box;
+        c->segment = select(c->segment, c->segment + 1, exhausted);
+        lfloat next_box = (lfloat)(INFINITY);
+        for (uint s = 0; s < c->bound_count; ++s) next_box = select(next_box, c->bounds[s], exhausted & (c->next_bound == (int)s));
+        lfloat next_end = next_box;
 #ifdef SOMBRA_HAS_MESHES
-            uint which[SOMBRA_LANES];
-            lfloat next_event = cursor_peek_event(c, ray, exhausted, which);
-            lmask take = exhausted & (next_event < next_box); /* a tie: the box bound first */
-            cursor_take_event(c, exhausted, take, which, next_event);
-            next_end = fmin(next_box, next_event);
+        uint which[SOMBRA_LANES];
+        lfloat next_event = cursor_peek_event(c, ray, exhausted, which);
+        lmask take = exhausted & (next_event < next_box); /* a tie: the box bound first */
+        cursor_take_event(c, exhausted, take, which, next_event);
+        next_end = fmin(next_box, next_event);
 #else
-            lmask take = (lmask)(0);
+        lmask take = (lmask)(0);
 #endif
-            /* nothing finite ahead: every later segment is empty */
-            lmask finished = exhausted & !(next_end < INFINITY);
-            c->alive &= !finished;
-            exhausted &= !finished;
-            if (!lany(exhausted)) break;
-            c->next_bound = select(c->next_bound, c->next_bound + 1, exhausted & !take);
-            c->t_start = select(c->t_start, c->t_end, exhausted);
-            c->t_end = select(c->t_end, next_end, exhausted);
-            lfloat mid = 0.5f * (c->t_start + c->t_end);
-            lfloat new_step = (lfloat)(INFINITY);
-            luint new_active = (luint)(0u);
-            for (uint i = 0; i < volume_count; ++i) {
-                lmask inside = (ray->t_enter[i] <= mid) & (mid < ray->t_exit[i]);
+        /* nothing finite ahead: every later segment is empty */
+        lmask finished = exhausted & !(next_end < INFINITY);
+        c->alive &= !finished;
+        exhausted &= !finished;
+        if (!lany(exhausted)) break;
+        c->next_bound = select(c->next_bound, c->next_bound + 1, exhausted & !take);
+        c->t_start = select(c->t_start, c->t_end, exhausted);
+        c->t_end = select(c->t_end, next_end, exhausted);
+        lfloat mid = 0.5f * (c->t_start + c->t_end);
+        lfloat new_step = (lfloat)(INFINITY);
+        luint new_active = (luint)(0u);
+        for (uint i = 0; i < volume_count; ++i) {
+            lmask inside = (ray->t_enter[i] <= mid) & (mid < ray->t_exit[i]);
 #ifdef SOMBRA_HAS_MESHES
-                inside &= (c->inside & (1u << i)) != 0u; /* box AND polyhedral bound */
+            inside &= (c->inside & (1u << i)) != 0u; /* box AND polyhedral bound */
 #endif
-                new_active |= select((luint)(0u), (luint)(1u << i), inside);
-                new_step = select(new_step, fmin(new_step, volumes[i].step), inside);
-            }
-            c->active = select(c->active, new_active, exhausted);
-            c->step = select(c->step, select(new_step, (lfloat)(1.0f), new_active == 0u), exhausted);
-            c->k = select(c->k, (lint)(0), exhausted);
-            t = select(t, c->t_start + (LCONVERT_FLOAT(c->k) + c->jitter) * c->step, exhausted);
-            /* empty segments (no active volume, zero length, or +∞ bounds) are exhausted at once */
-            exhausted &= (t >= c->t_end) | (new_active == 0u) | !(c->t_end > c->t_start);
+            new_active |= select((luint)(0u), (luint)(1u << i), inside);
+            new_step = select(new_step, fmin(new_step, volumes[i].step), inside);
         }
-        if (!lany(c->alive)) return c->alive;
-        lmask sampling = c->alive;
-#ifdef SOMBRA_HAS_MESHES
-        sampling &= !c->surface;
-        t = select(t, c->t_end, c->surface); /* a surface lies where its segment ends */
-#endif
-        c->t = t;
-#ifdef SOMBRA_SKIP_EMPTY
-        lfloat t_resume;
-        lmask skip = in_empty_bricks(occupancy, volumes, volume_count, ray, c->active, t, sampling, &t_resume);
-        /* the next call samples at the first k at or beyond the brick exit */
-        /* fmax/fmin also map NaN and ±∞ (a ray parallel to a brick face, outside it) into range:
-         * converting them to int is undefined */
-        lfloat resume_index = fmin(fmax(ceil((t_resume - c->t_start) / c->step - c->jitter), -1.0f), 1.0e9f);
-        c->k = select(c->k, max(c->k, LCONVERT_INT(resume_index) - 1), skip);
-        sampling &= !skip;
-#endif
-#ifdef SOMBRA_HAS_MESHES
-        sampling |= c->surface;
-#endif
-        if (lany(sampling)) return sampling;
+        c->active = select(c->active, new_active, exhausted);
+        c->step = select(c->step, select(new_step, (lfloat)(1.0f), new_active == 0u), exhausted);
+        /* the first sample lies strictly after the start point (k = 0, or 1 without jitter) */
+        c->k = select(c->k, select((lint)(-1), (lint)(0), c->jitter <= 0.0f), exhausted);
+        c->phase = select(c->phase, (lint)(0), exhausted);
+        c->resuming &= !exhausted;
+        /* empty segments (no active volume, zero length) are passed at once */
+        exhausted &= (new_active == 0u) | !(c->t_end > c->t_start);
     }
+    lmask moving = c->alive;
+#ifdef SOMBRA_HAS_MESHES
+    moving &= !c->surface;
+    c->t = select(c->t, c->t_end, c->surface); /* a surface lies where its segment ends */
+#endif
+    if (!lany(moving)) {
+#ifdef SOMBRA_HAS_MESHES
+        return c->surface; /* surfaces only */
+#else
+        return moving;
+#endif
+    }
+    lmask starting = moving & (c->phase == 0);
+    lmask resuming = moving & c->resuming & !starting;
+    lmask stepping = moving & !starting & !resuming;
+    c->k = select(c->k, c->k + 1, stepping);
+    lfloat t = c->t_start + (LCONVERT_FLOAT(c->k) + c->jitter) * c->step;
+    t = select(t, c->resume_t, resuming);
+    t = select(t, c->t_start, starting);
+    lmask ending = moving & !starting & (t >= c->t_end);
+    t = select(t, c->t_end, ending);
+    lmask sample = stepping & !ending;
+    c->full_step = sample & c->last_was_sample;
+    c->delta = select(c->delta, select(select(t - c->t, c->step, c->full_step), (lfloat)(0.0f), starting), moving);
+    c->last_was_sample = select(c->last_was_sample, sample, moving);
+    c->t = select(c->t, t, moving);
+    c->phase = select(select(c->phase, (lint)(1), starting), (lint)(2), ending);
+    c->resuming &= !moving;
+#ifdef SOMBRA_SKIP_EMPTY
+    lfloat t_resume;
+    lmask skip = in_empty_bricks(occupancy, volumes, volume_count, ray, c->active, t, sample, &t_resume);
+    skip &= t_resume > t; /* NaN and ±∞ (a ray parallel to a brick face, outside it) skip nothing */
+    skip &= t_resume < INFINITY;
+    c->resuming |= skip;
+    c->resume_t = select(c->resume_t, t_resume, skip);
+    /* the sample after the resume point: the first k with t_start + (k + jitter)·step > t_resume
+     * (fmin keeps the conversion to int defined) */
+    lfloat resume_index = fmin(floor((t_resume - c->t_start) / c->step - c->jitter) + 1.0f, 1.0e9f);
+    c->k = select(c->k, max(c->k, LCONVERT_INT(select((lfloat)(0.0f), resume_index, skip)) - 1), skip);
+#endif
+#ifdef SOMBRA_HAS_MESHES
+    return moving | c->surface;
+#else
+    return moving;
+#endif
 }
 
-/* Extinction σ of every active volume at t, summed (an overlap blends by extinction); 0 in lanes
- * outside `sampling`. Callers keep t finite in every lane. */
-inline lfloat extinction_at(VOLUME_DATA_PARAM, __global const VolumeGpu* volumes, __global const float* tf_tables,
-                            const VolumeRay* ray, lfloat t, luint active, lmask sampling) {
+/* Density of volume i at the cursor's point (trilinear, voxel space) in lanes `here`. */
+inline lfloat density_at_point(VOLUME_DATA_PARAM, __global const VolumeGpu* v, const VolumeRay* ray, uint i, lfloat t) {
+    return sample_density(volume_data, v, ray_voxel_point(ray, i, t));
+}
+
+/* Mean extinction of volume i over the interval the cursor's point closes: pre-integrated
+ * (volume_sample.h) between the density at the previous point, *front, and `density` at this
+ * one; *front becomes `density` in lanes `here`. A start point (delta 0) only sets *front. */
+inline lfloat interval_sigma(__global const float* tf_tables, __global const VolumeGpu* v, lfloat density, lfloat* front,
+                             lmask here) {
+    lfloat sigma = preintegrated_sigma(tf_tables, v, *front, density);
+    *front = select(*front, density, here);
+    return select((lfloat)(0.0f), sigma, here);
+}
+
+/* Optical depth ∫σ over the interval [t − delta, t] the cursor's point closes, summed over the
+ * active volumes (an overlap adds extinctions); front[i]: volume i's density at the previous
+ * point, updated. 0 in lanes outside `sampling`. Callers keep t finite in every lane. */
+inline lfloat interval_optical_depth(VOLUME_DATA_PARAM, __global const VolumeGpu* volumes, __global const float* tf_tables,
+                                     const VolumeRay* ray, const SegmentCursor* c, lfloat t, lfloat* front, lmask sampling) {
     lfloat sigma = (lfloat)(0.0f);
     for (uint i = 0; i < SOMBRA_VOLUME_SLOTS; ++i) {
-        lmask here = sampling & ((active & (1u << i)) != 0u);
+        lmask here = sampling & ((c->active & (1u << i)) != 0u);
         if (!lany(here)) continue;
         __global const VolumeGpu* v = &volumes[i];
-        Classified c = classify(tf_tables, v, sample_density(volume_data, v, ray_voxel_point(ray, i, t)));
-        sigma += select((lfloat)(0.0f), c.sigma, here);
+        sigma += interval_sigma(tf_tables, v, density_at_point(volume_data, v, ray, i, t), &front[i], here);
     }
-    return sigma;
+    return sigma * c->delta;
 }
 
 #endif

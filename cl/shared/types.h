@@ -59,7 +59,11 @@ typedef struct {
      * order, each with its volume in corner.w); bound_count 0: bounded by the box only. */
     sb_uint bound_first;
     sb_uint bound_count;
-    sb_uint pad0, pad1;
+    /* Pre-integration (volume_sample.h preintegrated_sigma): F[i] = ∫₀ⁱ σ du over the table (u in
+     * entries, σ linear between entries), as float pairs (hi, lo) at tf_integral_offset floats
+     * into the transfer-function buffer; F[i] = hi + lo to ~48 bits. */
+    sb_uint tf_integral_offset;
+    sb_uint pad1;
 } VolumeGpu;
 
 typedef struct {

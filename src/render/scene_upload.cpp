@@ -24,6 +24,23 @@ cl_float4 f4(float x, float y, float z, float w = 0.f) {
 }
 cl_float4 f4(const Vec3& v, float w = 0.f) { return f4(v[0], v[1], v[2], w); }
 
+// The prefix integrals F[i] = ∫₀ⁱ σ du of a transfer-function table (σ linear between entries,
+// trapezoids summed in double) for pre-integration (cl/volume_sample.h preintegrated_sigma),
+// appended to the buffer as (hi, lo) float pairs, F = hi + lo; g.tf_integral_offset in floats.
+void append_sigma_prefix(const std::vector<std::array<float, 4>>& table, VolumeGpu& g, std::vector<cl_float4>& tables) {
+    std::vector<float> pairs;
+    double prefix = 0;
+    for (std::size_t i = 0; i < table.size(); ++i) {
+        if (i > 0) prefix += 0.5 * (double(table[i - 1][3]) + double(table[i][3]));
+        float hi = float(prefix);
+        pairs.push_back(hi);
+        pairs.push_back(float(prefix - double(hi)));
+    }
+    pairs.resize((pairs.size() + 3) / 4 * 4, 0.f);
+    g.tf_integral_offset = cl_uint(4 * tables.size());
+    for (std::size_t i = 0; i < pairs.size(); i += 4) tables.push_back(f4(pairs[i], pairs[i + 1], pairs[i + 2], pairs[i + 3]));
+}
+
 Vec3 normalized(Vec3 v) {
     float len = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
     return {v[0] / len, v[1] / len, v[2] / len};
@@ -129,6 +146,7 @@ PackedScene pack_scene(const Scene& scene) {
         float range = tf.domain_max() - tf.domain_min();
         g.tf_domain_scale = range > 0.f ? float(table.size() - 1) / range : 0.f;
         for (auto& e : table) packed.tf_tables.push_back(f4(e[0], e[1], e[2], e[3]));
+        append_sigma_prefix(table, g, packed.tf_tables);
 
         // A brick is visible when any table entry its value range touches has σ > 0.
         g.brick_offset = cl_uint(packed.occupancy.size());
