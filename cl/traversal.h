@@ -457,19 +457,59 @@ inline lfloat interval_sigma(__global const float* tf_tables, __global const Vol
     return select((lfloat)(0.0f), sigma, here);
 }
 
+/* ∫σ of volume i over [t0, t1], the density `front` at t0 and `back` at t1: pre-integrated over
+ * the whole interval, or for a stiff volume piece by piece between the ray's crossings of
+ * voxel-centre planes (integer voxel coordinates, one per axis at most: steps ≤ 1 voxel), where
+ * the trilinear density has its kinks — a peak between two samples is then sampled, not cut off
+ * (a one-voxel wall: the tent of its value along the ray is linear between the crossings). */
+inline lfloat interval_volume_depth(VOLUME_DATA_PARAM, __global const VolumeGpu* v, __global const float* tf_tables,
+                                    const VolumeRay* ray, uint i, lfloat t0, lfloat t1, lfloat front, lfloat back, lmask here) {
+    if (!v->stiff) return preintegrated_sigma(tf_tables, v, front, back) * (t1 - t0);
+    lfloat3 o = ray->vox_origin[i], d = ray->vox_dir[i];
+    lfloat oa[3] = {o.x, o.y, o.z}, da[3] = {d.x, d.y, d.z}, crossing[3];
+    for (int a = 0; a < 3; ++a) {
+        lfloat f0 = floor(mad(da[a], t0, oa[a])), f1 = floor(mad(da[a], t1, oa[a]));
+        lfloat tc = (fmax(f0, f1) - oa[a]) / select(da[a], (lfloat)(1.0f), da[a] == 0.0f);
+        crossing[a] = select((lfloat)(INFINITY), tc, here & (f0 != f1) & (tc > t0) & (tc < t1));
+    }
+    for (int j = 0; j < 2; ++j) /* sort the three (∞: none) */
+        for (int a = 0; a < 2 - j; ++a) {
+            lfloat lo = fmin(crossing[a], crossing[a + 1]), hi = fmax(crossing[a], crossing[a + 1]);
+            crossing[a] = lo, crossing[a + 1] = hi;
+        }
+    lfloat depth = (lfloat)(0.0f), t = t0, density = front;
+    for (int j = 0; j < 3; ++j) {
+        lmask crosses = crossing[j] < INFINITY;
+        if (!lany(crosses)) break;
+        lfloat tc = select(t, crossing[j], crosses);
+        lfloat dc = density_at_point(volume_data, v, ray, i, tc);
+        depth += select((lfloat)(0.0f), preintegrated_sigma(tf_tables, v, density, dc) * (tc - t), crosses);
+        t = tc;
+        density = select(density, dc, crosses);
+    }
+    return depth + preintegrated_sigma(tf_tables, v, density, back) * (t1 - t);
+}
+
 /* Optical depth ∫σ over the interval [t − delta, t] the cursor's point closes, summed over the
  * active volumes (an overlap adds extinctions); front[i]: volume i's density at the previous
- * point, updated. 0 in lanes outside `sampling`. Callers keep t finite in every lane. */
+ * point, updated. 0 in lanes outside `sampling`. Callers keep t finite in every lane. Used by the
+ * light passes (shadow rays, DSM generation); the camera pass blends colours by interval_sigma. */
 inline lfloat interval_optical_depth(VOLUME_DATA_PARAM, __global const VolumeGpu* volumes, __global const float* tf_tables,
                                      const VolumeRay* ray, const SegmentCursor* c, lfloat t, lfloat* front, lmask sampling) {
-    lfloat sigma = (lfloat)(0.0f);
+    lfloat depth = (lfloat)(0.0f);
+    lfloat t0 = t - select((lfloat)(0.0f), c->delta, sampling);
     for (uint i = 0; i < SOMBRA_VOLUME_SLOTS; ++i) {
-        lmask here = sampling & ((c->active & (1u << i)) != 0u);
-        if (!lany(here)) continue;
+        lmask here = sampling & ((c->active & (1u << i)) != 0u) & (c->delta > 0.0f);
+        lmask starts = sampling & ((c->active & (1u << i)) != 0u);
+        if (!lany(starts)) continue;
         __global const VolumeGpu* v = &volumes[i];
-        sigma += interval_sigma(tf_tables, v, density_at_point(volume_data, v, ray, i, t), &front[i], here);
+        lfloat back = density_at_point(volume_data, v, ray, i, t);
+        if (lany(here))
+            depth += select((lfloat)(0.0f),
+                            interval_volume_depth(volume_data, v, tf_tables, ray, i, t0, t, front[i], back, here), here);
+        front[i] = select(front[i], back, starts);
     }
-    return sigma * c->delta;
+    return depth;
 }
 
 #endif

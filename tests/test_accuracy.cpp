@@ -118,3 +118,59 @@ TEST_CASE("accuracy: point light inside a homogeneous cube, T = exp(-sigma r)", 
         CHECK(dsm.max <= eps + 1e-4);
     }
 }
+
+namespace {
+
+// ∫₀¹ −ln(1 − a·d) dd: the optical depth (in opacity units) of one flank of a trilinear tent
+// whose peak value 1 maps to opacity a, the transfer function's opacity linear from 0 to a.
+double tent_flank_depth(double a) { return ((1 - a) * std::log1p(-a) - (1 - a) + 1) / a; }
+
+// A one-voxel wall: voxels of value 1 in the slice x = n/2, 0 elsewhere; opacity linear in the
+// value from 0 to `peak` per voxel; light along the wall's normal (+x).
+Scene one_voxel_wall(int n, float h, float peak) {
+    Volume v;
+    v.dims = {n, n, n};
+    v.voxels.assign(v.voxel_count(), 0.f);
+    for (int z = 0; z < n; ++z)
+        for (int y = 0; y < n; ++y) v.voxels[std::size_t((z * n + y) * n + n / 2)] = 1.f;
+    v.source = "wall";
+    v.update_range();
+    Scene scene;
+    VolumeInstance vi;
+    vi.volume = std::make_shared<const Volume>(std::move(v));
+    vi.transfer_function.color_points = {{0.f, 1.f, 1.f, 1.f}};
+    vi.transfer_function.opacity_points = {{0.f, 0.f}, {1.f, peak}};
+    vi.transform = make_transform({0, 0, 0}, {0, 0, 0}, {h, h, h});
+    scene.volumes.push_back(vi);
+    scene.lights = {directional({1, 0, 0})};
+    return scene;
+}
+
+}  // namespace
+
+TEST_CASE("accuracy: one-voxel near-opaque wall, light along its normal", "[accuracy]") {
+    const int n = 16;
+    const float h = 1.f / n, peak = 0.999999f;
+    Scene scene = one_voxel_wall(n, h, peak);
+    const double behind = std::exp(-2 * tent_flank_depth(peak));  // ≈ e⁻² = 0.135
+    std::mt19937 rng(3);
+    std::uniform_real_distribution<float> across(-0.4f, 0.4f), depth(0.2f, 0.45f);
+    std::vector<Vec3> points;
+    std::vector<double> exact;
+    for (int i = 0; i < 200; ++i) {
+        points.push_back({depth(rng), across(rng), across(rng)});  // behind the wall (x > 1.5 voxels)
+        exact.push_back(behind);
+    }
+    Errors rays = errors_of(query(scene, points, technique(ShadowTechnique::Rays)), exact);
+    // DSM: the model's error plus the compression's ε (the default ε 0.02 alone allows 0.02)
+    Errors dsm_fine = errors_of(query(scene, points, technique(ShadowTechnique::Dsm, "atlas", 0.005f, 64)), exact);
+    Errors dsm_default = errors_of(query(scene, points, technique(ShadowTechnique::Dsm, "atlas", 0.02f, 64)), exact);
+    INFO("wall: model T " << behind << "; rays " << rays.describe() << "; dsm eps 0.005 " << dsm_fine.describe()
+                          << "; dsm eps 0.02 " << dsm_default.describe());
+    CHECK(rays.valid);
+    CHECK(dsm_fine.valid);
+    CHECK(dsm_default.valid);
+    CHECK(rays.max <= 0.01);
+    CHECK(dsm_fine.max <= 0.01);
+    CHECK(dsm_default.max <= 0.02 + 0.005);
+}

@@ -147,6 +147,9 @@ PackedScene pack_scene(const Scene& scene) {
         g.tf_domain_scale = range > 0.f ? float(table.size() - 1) / range : 0.f;
         for (auto& e : table) packed.tf_tables.push_back(f4(e[0], e[1], e[2], e[3]));
         append_sigma_prefix(table, g, packed.tf_tables);
+        float max_sigma = 0.f;
+        for (auto& e : table) max_sigma = std::max(max_sigma, e[3]);
+        g.stiff = max_sigma * voxel_size >= 1.f ? 1u : 0u;
 
         // A brick is visible when any table entry its value range touches has σ > 0.
         g.brick_offset = cl_uint(packed.occupancy.size());

@@ -48,7 +48,15 @@ struct RefVolume {
     const VolumeInstance* instance;
     Affine world_to_voxel;
     double step, opacity_unit;
+    bool stiff;  // σ·voxel ≥ 1 somewhere on the kernel's table grid: light passes split at voxel planes
 };
+
+// Extinction per world unit: σ = −ln(1 − α) / opacity_unit, α = 1 capped at T = 1e-6 (README).
+double extinction(const TransferFunction& tf, double value, double unit) {
+    double alpha = std::clamp(double(tf.opacity(float(value))), 0.0, 1.0);
+    double cap = -std::log(1e-6) / unit;
+    return alpha >= 1.0 ? cap : std::min(cap, -std::log1p(-alpha) / unit);
+}
 
 RefVolume prepare(const VolumeInstance& vi) {
     const Volume& v = *vi.volume;
@@ -66,14 +74,12 @@ RefVolume prepare(const VolumeInstance& vi) {
     double voxel_size = std::numeric_limits<double>::infinity();
     for (int j = 0; j < 3; ++j)
         voxel_size = std::min(voxel_size, norm({voxel_to_world.m[0][j], voxel_to_world.m[1][j], voxel_to_world.m[2][j]}));
-    return {&vi, voxel_to_world.inverse(), vi.step_voxels * voxel_size, vi.opacity_unit > 0 ? vi.opacity_unit : voxel_size};
-}
-
-// Extinction per world unit: σ = −ln(1 − α) / opacity_unit, α = 1 capped at T = 1e-6 (README).
-double extinction(const TransferFunction& tf, double value, double unit) {
-    double alpha = std::clamp(double(tf.opacity(float(value))), 0.0, 1.0);
-    double cap = -std::log(1e-6) / unit;
-    return alpha >= 1.0 ? cap : std::min(cap, -std::log1p(-alpha) / unit);
+    double unit = vi.opacity_unit > 0 ? vi.opacity_unit : voxel_size;
+    const TransferFunction& tf = vi.transfer_function;
+    double max_sigma = 0;
+    for (int i = 0; i < 1024; ++i)  // the kernel's table grid (src/render/scene_upload.h kTransferTableSize)
+        max_sigma = std::max(max_sigma, extinction(tf, tf.domain_min() + (tf.domain_max() - tf.domain_min()) * i / 1023.0, unit));
+    return {&vi, voxel_to_world.inverse(), vi.step_voxels * voxel_size, unit, max_sigma * voxel_size >= 1.0};
 }
 
 V3 gradient(const Volume& v, V3 p, bool sobel) {
@@ -129,9 +135,20 @@ V3 shade(const Scene& scene, const Material& mat, V3 color, V3 p, V3 normal, V3 
     return result;
 }
 
-// Calls visit(t, step, active volumes) for every sample of the ray origin + t·dir, t in [0, t_max],
-// over homogeneous segments (sorted box entries/exits; step = smallest of the active volumes),
-// samples at segment start + (k + jitter)·step, until visit returns false.
+// Mean extinction over an interval along which the value runs linearly from front to back
+// (pre-integration, Engel et al. 2001): the transfer function evaluated directly at 16 midpoints.
+double preintegrated_extinction(const TransferFunction& tf, double front, double back, double unit) {
+    if (front == back) return extinction(tf, front, unit);
+    const int n = 16;
+    double sum = 0;
+    for (int k = 0; k < n; ++k) sum += extinction(tf, front + (k + 0.5) / n * (back - front), unit);
+    return sum / n;
+}
+
+// Calls visit(t, delta, active volumes) for every point of the ray origin + t·dir, t in [0, t_max],
+// over homogeneous segments (sorted box entries/exits; step = smallest of the active volumes): each
+// segment's start (delta 0), its samples start + (k + jitter)·step strictly inside it, and its end;
+// delta is the length from the previous point (cl/traversal.h). Stops when visit returns false.
 template <typename Visit>
 void march_segments(const std::vector<RefVolume>& volumes, V3 origin, V3 dir, double t_max, double jitter, Visit visit) {
     std::vector<double> enter(volumes.size()), exit(volumes.size()), bounds;
@@ -158,13 +175,60 @@ void march_segments(const std::vector<RefVolume>& volumes, V3 origin, V3 dir, do
         for (std::size_t i = 0; i < volumes.size(); ++i)
             if (enter[i] <= mid && mid < exit[i]) active.push_back(i), step = std::min(step, volumes[i].step);
         if (active.empty() || !(b > a)) continue;
-        for (double k = 0;; k += 1) {
+        if (!visit(a, 0.0, active)) return;
+        double previous = a;
+        for (double k = jitter > 0 ? 0 : 1;; k += 1) {
             double t = a + (k + jitter) * step;
             if (t >= b) break;
-            if (!visit(t, step, active)) return;
+            if (!visit(t, t - previous, active)) return;
+            previous = t;
         }
+        if (!visit(b, b - previous, active)) return;
     }
 }
+
+// The value of each volume at the previous point of a march; the mean extinction of volume i
+// over the interval to point q (pre-integrated, for the camera pass) or its optical depth (light
+// passes: stiff volumes split at the ray's crossings of voxel-centre planes, as the kernel does).
+struct IntervalValues {
+    std::vector<double> front;
+    std::vector<V3> front_voxel;
+    explicit IntervalValues(std::size_t n) : front(n, 0.0), front_voxel(n, V3{0, 0, 0}) {}
+    double value_at(const RefVolume& rv, V3 pv) const { return sample_trilinear(*rv.instance->volume, pv[0], pv[1], pv[2]); }
+    double sigma(const RefVolume& rv, std::size_t i, V3 q, double* value_out = nullptr) {
+        V3 pv = rv.world_to_voxel.point(q);
+        double value = value_at(rv, pv);
+        double sigma = preintegrated_extinction(rv.instance->transfer_function, front[i], value, rv.opacity_unit);
+        front[i] = value, front_voxel[i] = pv;
+        if (value_out) *value_out = value;
+        return sigma;
+    }
+    double depth(const RefVolume& rv, std::size_t i, V3 q, double delta) {
+        V3 a = front_voxel[i], b = rv.world_to_voxel.point(q);
+        double value = value_at(rv, b), front_value = front[i];
+        front[i] = value, front_voxel[i] = b;
+        if (!(delta > 0)) return 0;
+        const TransferFunction& tf = rv.instance->transfer_function;
+        std::vector<double> cuts;  // fractions of the interval at voxel-centre planes
+        if (rv.stiff)
+            for (int axis = 0; axis < 3; ++axis) {
+                double f0 = std::floor(a[axis]), f1 = std::floor(b[axis]);
+                if (f0 == f1) continue;
+                double u = (std::max(f0, f1) - a[axis]) / (b[axis] - a[axis]);
+                if (u > 0 && u < 1) cuts.push_back(u);
+            }
+        std::sort(cuts.begin(), cuts.end());
+        cuts.push_back(1.0);
+        double tau = 0, u0 = 0, v0 = front_value;
+        for (double u : cuts) {
+            V3 p = a + u * (b - a);
+            double v1 = u < 1.0 ? value_at(rv, p) : value;
+            tau += preintegrated_extinction(tf, v0, v1, rv.opacity_unit) * (u - u0) * delta;
+            u0 = u, v0 = v1;
+        }
+        return tau;
+    }
+};
 
 // Transmittance from p to the light along a shadow ray (same segments and jitter as camera rays),
 // stopped once the optical depth passes −ln 10⁻⁶, as the kernel does.
@@ -179,13 +243,10 @@ double shadow_ray_transmittance(const std::vector<RefVolume>& volumes, const Lig
         dir = (1.0 / std::max(t_max, 1e-30)) * d;
     }
     double optical_depth = 0;
-    march_segments(volumes, p, dir, t_max, jitter, [&](double t, double step, const std::vector<std::size_t>& active) {
+    IntervalValues values(volumes.size());
+    march_segments(volumes, p, dir, t_max, jitter, [&](double t, double delta, const std::vector<std::size_t>& active) {
         V3 q = p + t * dir;
-        for (std::size_t i : active) {
-            V3 pv = volumes[i].world_to_voxel.point(q);
-            const VolumeInstance& vi = *volumes[i].instance;
-            optical_depth += extinction(vi.transfer_function, sample_trilinear(*vi.volume, pv[0], pv[1], pv[2]), volumes[i].opacity_unit) * step;
-        }
+        for (std::size_t i : active) optical_depth += values.depth(volumes[i], i, q, delta);
         return !(optical_depth > 13.8155);
     });
     return std::exp(-optical_depth);
@@ -200,16 +261,13 @@ std::vector<VisibilitySample> visibility_samples(const Scene& scene, const Vec3&
     std::vector<VisibilitySample> out;
     double transmittance = 1;
     V3 o = from(origin), d = unit(from(dir));
-    march_segments(volumes, o, d, INFINITY, jitter, [&](double t, double step, const std::vector<std::size_t>& active) {
+    IntervalValues values(volumes.size());
+    march_segments(volumes, o, d, INFINITY, jitter, [&](double t, double delta, const std::vector<std::size_t>& active) {
         V3 q = o + t * d;
-        double sigma = 0;
-        for (std::size_t i : active) {
-            V3 pv = volumes[i].world_to_voxel.point(q);
-            const VolumeInstance& vi = *volumes[i].instance;
-            sigma += extinction(vi.transfer_function, sample_trilinear(*vi.volume, pv[0], pv[1], pv[2]), volumes[i].opacity_unit);
-        }
-        transmittance *= std::exp(-sigma * step);
-        out.push_back({t, 1 - transmittance});
+        double depth = 0;
+        for (std::size_t i : active) depth += values.depth(volumes[i], i, q, delta);
+        transmittance *= std::exp(-depth);
+        if (delta > 0) out.push_back({t, 1 - transmittance});
         return transmittance >= stop_transmittance;
     });
     return out;
@@ -263,7 +321,8 @@ Image render_reference(const Scene& scene, int width, int height, const Referenc
             double jitter = sombra_pixel_jitter(std::uint32_t(x), std::uint32_t(y), options.jitter_seed);
             V3 radiance{0, 0, 0};
             double transmittance = 1;
-            march_segments(volumes, eye, dir, INFINITY, jitter, [&](double t, double step, const std::vector<std::size_t>& active) {
+            IntervalValues values(volumes.size());
+            march_segments(volumes, eye, dir, INFINITY, jitter, [&](double t, double delta, const std::vector<std::size_t>& active) {
                 V3 p = eye + t * dir;
                 double sigma_sum = 0;
                 V3 color_sum{0, 0, 0};
@@ -271,9 +330,9 @@ Image render_reference(const Scene& scene, int width, int height, const Referenc
                 for (std::size_t i : active) {
                     const VolumeInstance& vi = *volumes[i].instance;
                     V3 pv = volumes[i].world_to_voxel.point(p);
-                    double value = sample_trilinear(*vi.volume, pv[0], pv[1], pv[2]);
-                    double sigma = extinction(vi.transfer_function, value, volumes[i].opacity_unit);
-                    if (sigma <= 0) continue;
+                    double value = 0;
+                    double sigma = values.sigma(volumes[i], i, p, &value);
+                    if (sigma <= 0 || delta <= 0) continue;
                     auto c = vi.transfer_function.color(float(value));
                     V3 normal{0, 0, 0};
                     if (!scene.lights.empty()) {
@@ -293,8 +352,8 @@ Image render_reference(const Scene& scene, int width, int height, const Referenc
                     sigma_sum += sigma;
                     color_sum = color_sum + sigma * shaded;
                 }
-                if (sigma_sum > 0) {  // Knecht Eq. 3.10–3.11 with α = 1 − exp(−Σσ Δ)
-                    double alpha = 1 - std::exp(-sigma_sum * step);
+                if (sigma_sum > 0) {  // Knecht Eq. 3.10–3.11 with α = 1 − exp(−Σσ̄ Δ) over the interval
+                    double alpha = 1 - std::exp(-sigma_sum * delta);
                     radiance = radiance + (alpha * transmittance / sigma_sum) * color_sum;
                     transmittance *= 1 - alpha;
                 }
