@@ -20,19 +20,28 @@ inline uint dsm_view_number(__global const DsmViewGpu* v) { return v->first_texe
 
 #define DSM_NO_BLOCK 0xffffffffu
 
+/* An entry whose claim found the pool empty: later claims of it give up at once. */
+#define DSM_BLOCK_WANTED 0xffffffffu
+
 /* Knecht Alg. 4.1 with CAS only (spin-waits deadlock on PoCL): the block recorded in *entry
- * (stored + 1; 0 = none), else a fresh one from counters[0] claimed by compare-and-swap. A pool
- * that ran out counts the request in counters[1]; a block lost to another work-item that claimed
- * the entry first is counted in counters[lost] (waste). */
+ * (stored + 1; 0 = none), else a fresh one from counters[0] claimed by compare-and-swap. A claim
+ * that finds the pool empty gives its number back (counters[0] counts handed-out blocks only and
+ * never exceeds the pool) and marks the entry wanted; counters[1] counts the wanted entries, each
+ * once, so the host grows the pool by what is missing, not by how often it was asked. A block
+ * lost to another work-item that claimed the entry first is counted in counters[lost] (waste). */
 inline uint claim_block(__global uint* entry, __global uint* counters, uint pool, uint lost) {
     uint held = *entry;
+    if (held == DSM_BLOCK_WANTED) return DSM_NO_BLOCK;
     if (held) return held - 1;
     uint fresh = atomic_inc(&counters[0]);
     if (fresh >= pool) {
-        atomic_inc(&counters[1]);
-        return DSM_NO_BLOCK;
+        atomic_dec(&counters[0]);
+        uint previous = atomic_cmpxchg(entry, 0u, DSM_BLOCK_WANTED);
+        if (previous == 0u) atomic_inc(&counters[1]);
+        return previous == 0u || previous == DSM_BLOCK_WANTED ? DSM_NO_BLOCK : previous - 1;
     }
     uint previous = atomic_cmpxchg(entry, 0u, fresh + 1);
+    if (previous == DSM_BLOCK_WANTED) return DSM_NO_BLOCK; /* the pool is short anyway: a rebuild follows */
     if (previous) {
         atomic_inc(&counters[lost]);
         return previous - 1;

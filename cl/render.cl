@@ -151,10 +151,14 @@ inline lfloat shadow_ray(VOLUME_DATA_PARAM, const CameraState* state, __global c
         optical_depth += interval_optical_depth(volume_data, state->volumes, state->tf_tables, &ray, &cursor, t, front, sampling);
         cursor.alive &= !(optical_depth > 13.8155f); /* exp(−13.8) = 10⁻⁶ */
     }
+    /* scalar exp per lane: the same bits as 1 lane (PoCL's vector exp may differ in the last bit) */
+    float depth_lane[SOMBRA_LANES];
+    LSTORE(optical_depth, depth_lane);
+    for (int lane = 0; lane < SOMBRA_LANES; ++lane) depth_lane[lane] = exp(-depth_lane[lane]);
 #ifdef SOMBRA_SHADOW_RAY_MESHES
-    return exp(-optical_depth) * surfaces_transmittance(state, p, dir, t_max, lanes);
+    return LLOAD(depth_lane) * surfaces_transmittance(state, p, dir, t_max, lanes);
 #else
-    return exp(-optical_depth);
+    return LLOAD(depth_lane);
 #endif
 }
 #endif

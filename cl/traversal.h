@@ -351,6 +351,7 @@ inline lmask segment_cursor_next(SegmentCursor* c, const VolumeRay* ray, __globa
         /* the event at the end of the segment: bounds toggle, surfaces go to the pass */
         lmask surface = cursor_pass_events(c, exhausted);
         c->surface |= surface;
+        c->phase = select(c->phase, (lint)(2), surface); /* the next call moves on past the surface */
         exhausted &= !surface;
         if (!lany(exhausted)) break;
 #endif
@@ -457,14 +458,12 @@ inline lfloat interval_sigma(__global const float* tf_tables, __global const Vol
     return select((lfloat)(0.0f), sigma, here);
 }
 
-/* ∫σ of volume i over [t0, t1], the density `front` at t0 and `back` at t1: pre-integrated over
- * the whole interval, or for a stiff volume piece by piece between the ray's crossings of
- * voxel-centre planes (integer voxel coordinates, one per axis at most: steps ≤ 1 voxel), where
- * the trilinear density has its kinks — a peak between two samples is then sampled, not cut off
- * (a one-voxel wall: the tent of its value along the ray is linear between the crossings). */
-inline lfloat interval_volume_depth(VOLUME_DATA_PARAM, __global const VolumeGpu* v, __global const float* tf_tables,
-                                    const VolumeRay* ray, uint i, lfloat t0, lfloat t1, lfloat front, lfloat back, lmask here) {
-    if (!v->stiff) return preintegrated_sigma(tf_tables, v, front, back) * (t1 - t0);
+/* ∫σ of volume i over [t0, t1] (at most one voxel along every axis), the density `front` at t0
+ * and `back` at t1, split where the ray crosses a voxel-centre plane (integer voxel coordinate,
+ * one per axis at most), where the trilinear density has its kinks: between the crossings it is
+ * nearly linear and the pre-integrated σ of each piece is its exact mean. */
+inline lfloat voxel_piece_depth(VOLUME_DATA_PARAM, __global const VolumeGpu* v, __global const float* tf_tables,
+                                const VolumeRay* ray, uint i, lfloat t0, lfloat t1, lfloat front, lfloat back, lmask here) {
     lfloat3 o = ray->vox_origin[i], d = ray->vox_dir[i];
     lfloat oa[3] = {o.x, o.y, o.z}, da[3] = {d.x, d.y, d.z}, crossing[3];
     for (int a = 0; a < 3; ++a) {
@@ -488,6 +487,35 @@ inline lfloat interval_volume_depth(VOLUME_DATA_PARAM, __global const VolumeGpu*
         density = select(density, dc, crosses);
     }
     return depth + preintegrated_sigma(tf_tables, v, density, back) * (t1 - t);
+}
+
+/* The most pieces a stiff interval is cut into (a longer interval, e.g. a step of 16 voxels, keeps
+ * its last piece longer than a voxel). */
+#define SOMBRA_STIFF_MAX_PIECES 16
+
+/* ∫σ of volume i over [t0, t1], the density `front` at t0 and `back` at t1: pre-integrated over
+ * the whole interval, or for a stiff volume in pieces of at most one voxel along every axis, each
+ * split at the voxel-centre planes it crosses (voxel_piece_depth) — a peak between two samples is
+ * then sampled, not cut off (a one-voxel wall: the tent of its value along the ray is linear
+ * between the crossings). */
+inline lfloat interval_volume_depth(VOLUME_DATA_PARAM, __global const VolumeGpu* v, __global const float* tf_tables,
+                                    const VolumeRay* ray, uint i, lfloat t0, lfloat t1, lfloat front, lfloat back, lmask here) {
+    if (!v->stiff) return preintegrated_sigma(tf_tables, v, front, back) * (t1 - t0);
+    lfloat3 span = l3_scale(ray->vox_dir[i], t1 - t0);
+    lfloat longest = fmax(fabs(span.x), fmax(fabs(span.y), fabs(span.z)));
+    lint pieces = clamp(LCONVERT_INT(ceil(select((lfloat)(1.0f), longest, here))), 1, SOMBRA_STIFF_MAX_PIECES);
+    lfloat length = (t1 - t0) / LCONVERT_FLOAT(pieces);
+    lfloat depth = (lfloat)(0.0f), t = t0, density = front;
+    for (int j = 1; j < SOMBRA_STIFF_MAX_PIECES; ++j) {
+        lmask more = here & (pieces > j);
+        if (!lany(more)) break;
+        lfloat tb = select(t, t0 + LCONVERT_FLOAT((lint)(j)) * length, more);
+        lfloat db = density_at_point(volume_data, v, ray, i, tb);
+        depth += select((lfloat)(0.0f), voxel_piece_depth(volume_data, v, tf_tables, ray, i, t, tb, density, db, more), more);
+        t = tb;
+        density = select(density, db, more);
+    }
+    return depth + voxel_piece_depth(volume_data, v, tf_tables, ray, i, t, t1, density, back, here);
 }
 
 /* Optical depth ∫σ over the interval [t − delta, t] the cursor's point closes, summed over the

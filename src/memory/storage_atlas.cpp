@@ -71,8 +71,10 @@ public:
                 capped_per_view_[v] = counters[2] - capped_before;
             }
             if (counters[1] == 0) break;
-            if (attempt > 0) throw Error("atlas storage: the pool ran out twice (internal error)");
-            pool = counters[0];
+            if (attempt > 2) throw Error("atlas storage: the pool ran out four times (internal error)");
+            // grow by the entries that found no block (each counted once) and the blocks lost in
+            // races this time, plus 1/64 for the races of the next run
+            pool = cl_uint(std::size_t(counters[0]) + counters[1] + counters[3] + counters[0] / 64 + 1);
         }
         // Shrink the pool to the blocks handed out (they are numbered from 0): memory follows the
         // node count, not the first guess.

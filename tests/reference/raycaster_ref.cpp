@@ -209,14 +209,23 @@ struct IntervalValues {
         front[i] = value, front_voxel[i] = b;
         if (!(delta > 0)) return 0;
         const TransferFunction& tf = rv.instance->transfer_function;
-        std::vector<double> cuts;  // fractions of the interval at voxel-centre planes
-        if (rv.stiff)
-            for (int axis = 0; axis < 3; ++axis) {
-                double f0 = std::floor(a[axis]), f1 = std::floor(b[axis]);
-                if (f0 == f1) continue;
-                double u = (std::max(f0, f1) - a[axis]) / (b[axis] - a[axis]);
-                if (u > 0 && u < 1) cuts.push_back(u);
+        std::vector<double> cuts;  // fractions of the interval: pieces of ≤ 1 voxel per axis, then voxel-centre planes
+        if (rv.stiff) {
+            double longest = 0;
+            for (int axis = 0; axis < 3; ++axis) longest = std::max(longest, std::fabs(b[axis] - a[axis]));
+            int pieces = std::clamp(int(std::ceil(longest)), 1, 16);  // cl/traversal.h SOMBRA_STIFF_MAX_PIECES
+            for (int j = 0; j < pieces; ++j) {
+                double u0 = double(j) / pieces, u1 = double(j + 1) / pieces;
+                if (j > 0) cuts.push_back(u0);
+                V3 pa = a + u0 * (b - a), pb = a + u1 * (b - a);
+                for (int axis = 0; axis < 3; ++axis) {
+                    double f0 = std::floor(pa[axis]), f1 = std::floor(pb[axis]);
+                    if (f0 == f1) continue;
+                    double u = (std::max(f0, f1) - a[axis]) / (b[axis] - a[axis]);
+                    if (u > u0 && u < u1) cuts.push_back(u);
+                }
             }
+        }
         std::sort(cuts.begin(), cuts.end());
         cuts.push_back(1.0);
         double tau = 0, u0 = 0, v0 = front_value;
