@@ -493,14 +493,13 @@ inline lfloat voxel_piece_depth(VOLUME_DATA_PARAM, __global const VolumeGpu* v, 
  * its last piece longer than a voxel). */
 #define SOMBRA_STIFF_MAX_PIECES 16
 
-/* ∫σ of volume i over [t0, t1], the density `front` at t0 and `back` at t1: pre-integrated over
- * the whole interval, or for a stiff volume in pieces of at most one voxel along every axis, each
+/* ∫σ of volume i over [t0, t1], the density `front` at t0 and `back` at t1, in pieces of at most one voxel along every axis, each
  * split at the voxel-centre planes it crosses (voxel_piece_depth) — a peak between two samples is
  * then sampled, not cut off (a one-voxel wall: the tent of its value along the ray is linear
- * between the crossings). */
-inline lfloat interval_volume_depth(VOLUME_DATA_PARAM, __global const VolumeGpu* v, __global const float* tf_tables,
-                                    const VolumeRay* ray, uint i, lfloat t0, lfloat t1, lfloat front, lfloat back, lmask here) {
-    if (!v->stiff) return preintegrated_sigma(tf_tables, v, front, back) * (t1 - t0);
+ * between the crossings). interval_volume_depth: this for stiff volumes, else one pre-integrated
+ * interval. */
+inline lfloat split_interval_depth(VOLUME_DATA_PARAM, __global const VolumeGpu* v, __global const float* tf_tables,
+                                   const VolumeRay* ray, uint i, lfloat t0, lfloat t1, lfloat front, lfloat back, lmask here) {
     lfloat3 span = l3_scale(ray->vox_dir[i], t1 - t0);
     lfloat longest = fmax(fabs(span.x), fmax(fabs(span.y), fabs(span.z)));
     lint pieces = clamp(LCONVERT_INT(ceil(select((lfloat)(1.0f), longest, here))), 1, SOMBRA_STIFF_MAX_PIECES);
@@ -516,6 +515,12 @@ inline lfloat interval_volume_depth(VOLUME_DATA_PARAM, __global const VolumeGpu*
         density = select(density, db, more);
     }
     return depth + voxel_piece_depth(volume_data, v, tf_tables, ray, i, t, t1, density, back, here);
+}
+
+inline lfloat interval_volume_depth(VOLUME_DATA_PARAM, __global const VolumeGpu* v, __global const float* tf_tables,
+                                    const VolumeRay* ray, uint i, lfloat t0, lfloat t1, lfloat front, lfloat back, lmask here) {
+    if (!v->stiff) return preintegrated_sigma(tf_tables, v, front, back) * (t1 - t0);
+    return split_interval_depth(volume_data, v, tf_tables, ray, i, t0, t1, front, back, here);
 }
 
 /* Optical depth ∫σ over the interval [t − delta, t] the cursor's point closes, summed over the
