@@ -1,6 +1,6 @@
-/* sombra — building a light-aligned summed-area table (Ament §4.2.1, §5). sat_resample samples the
- * extinction σ of every volume (through its transfer function, as the camera pass classifies it)
- * in each cell of a grid aligned with the light and stores the cell's optical depth σ·h as a
+/* sombra — building a light-aligned summed-area table (Ament §4.2.1, §5). sat_resample integrates
+ * the extinction σ of every volume (through its transfer function, as the camera pass classifies
+ * it) over each cell of a grid aligned with the light and stores the cell's optical depth as a
  * 64-bit fixed-point integer (shared/types.h), already summed along grid axis 2; sat_scan sums
  * along axis 0 or 1. One work-item per line: the prefix sums run in parallel over lines. Integer
  * sums are exact and independent of the order, so the table cannot cancel the way float32 SATs
@@ -8,45 +8,68 @@
 #include "shared/types.h"
 #include "lanes.h"
 #include "volume_sample.h"
+#include "traversal.h"
 #include "lowpass.h"
 
-/* Sum of σ over the volumes whose box [−0.5, dims − 0.5] (voxel space) holds world point p. */
-inline float extinction_at_point(VOLUME_DATA_PARAM, __global const VolumeGpu* volumes, uint volume_count,
-                                 __global const float* tf_tables, float3 p) {
-    float sigma = 0.0f;
+/* Optical depth of the segment from a to b under the renderer's model: each volume's part inside
+ * its box [−0.5, dims − 0.5] in steps of at most its ray step, each split at the voxel-centre
+ * planes it crosses and pre-integrated (traversal.h split_interval_depth, whatever the volume's
+ * stiffness: a table is built once per light). */
+inline float segment_optical_depth(VOLUME_DATA_PARAM, __global const VolumeGpu* volumes, uint volume_count,
+                                   __global const float* tf_tables, float3 a, float3 b) {
+    float length = distance(a, b);
+    if (!(length > 0.0f)) return 0.0f;
+    VolumeRay ray;
+    make_volume_ray(&ray, volumes, volume_count, l3_splat(a), l3_splat((b - a) / length), 0.0f, length);
+    float depth = 0.0f;
     for (uint i = 0; i < volume_count; ++i) {
         __global const VolumeGpu* v = &volumes[i];
-        float3 q = (float3)(dot(v->world_to_voxel[0].xyz, p) + v->world_to_voxel[0].w,
-                            dot(v->world_to_voxel[1].xyz, p) + v->world_to_voxel[1].w,
-                            dot(v->world_to_voxel[2].xyz, p) + v->world_to_voxel[2].w);
-        float3 hi = convert_float3(v->dims.xyz) - 0.5f;
-        if (any(q < -0.5f) || any(q > hi)) continue;
-        sigma += classify(tf_tables, v, sample_density(volume_data, v, l3(q.x, q.y, q.z))).sigma;
+        float t0 = ray.t_enter[i], t1 = ray.t_exit[i];
+        if (!(t0 < t1)) continue;
+        int steps = clamp((int)ceil((t1 - t0) / v->step - 1e-3f), 1, 4096); /* 1e-3: the same count in double */
+        float h = (t1 - t0) / (float)steps, ta = t0, da = density_at_point(volume_data, v, &ray, i, t0);
+        for (int s = 1; s <= steps; ++s) {
+            float tb = s == steps ? t1 : t0 + (float)s * h;
+            float db = density_at_point(volume_data, v, &ray, i, tb);
+            depth += split_interval_depth(volume_data, v, tf_tables, &ray, i, ta, tb, da, db, 1);
+            ta = tb, da = db;
+        }
     }
-    return sigma;
+    return depth;
 }
 
-/* Work-item (i, j): the column of cells (i, j, 0 … n.z − 1), sampled at their centres origin +
- * (i + ½)·cell_u + (j + ½)·cell_v + (k + ½)·cell_w; σ·h is clamped to SOMBRA_SAT_MAX_CELL_TAU and
- * rounded to fixed point. Writes the column's running sums into S(i + 1, j + 1, k + 1); the zero
- * border S(0, ·, ·) … is cleared by the host. */
+/* Work-item (i, j): the column of cells (i, j, 0 … n.z − 1) of the grid origin + i·cell_u + j·cell_v
+ * + k·cell_w. A cell holds the optical depth along the lights' axes through its centre, face to
+ * face (the mean over the axes in light_axes: bit a = a light shines along grid axis a; a table
+ * no light is aligned with uses all three) — ∫σ over the cell under the renderer's model, not σ at
+ * its centre times the cell, so a thin near-opaque feature inside a cell counts in full. Clamped
+ * to SOMBRA_SAT_MAX_CELL_TAU and rounded to fixed point; the column's running sums go to
+ * S(i + 1, j + 1, k + 1); the zero border S(0, ·, ·) … is cleared by the host. */
 __kernel void sat_resample(VOLUME_DATA_PARAM, __global const float* tf_tables, __global const VolumeGpu* volumes,
                            uint volume_count, __global ulong* sat, uint data_offset, int4 n, float4 origin,
-                           float4 cell_u, float4 cell_v, float4 cell_w, float cell_length) {
+                           float4 cell_u, float4 cell_v, float4 cell_w, float cell_length, uint light_axes) {
     int i = get_global_id(0), j = get_global_id(1);
     if (i >= n.x || j >= n.y) return;
     float3 base = origin.xyz + (i + 0.5f) * cell_u.xyz + (j + 0.5f) * cell_v.xyz;
+    float3 axis[3] = {cell_u.xyz, cell_v.xyz, cell_w.xyz};
+    uint axes = light_axes & 7u ? light_axes & 7u : 7u;
+    float count = (float)popcount(axes);
     __global ulong* s = sat + data_offset;
     ulong running = 0;
     for (int k = 0; k < n.z; ++k) {
-        float sigma = extinction_at_point(volume_data, volumes, volume_count, tf_tables, base + (k + 0.5f) * cell_w.xyz);
-        running += sat_fixed_point(sigma * cell_length);
+        float3 centre = base + (k + 0.5f) * cell_w.xyz;
+        float tau = 0.0f;
+        for (int a = 0; a < 3; ++a)
+            if (axes & (1u << a))
+                tau += segment_optical_depth(volume_data, volumes, volume_count, tf_tables, centre - 0.5f * axis[a], centre + 0.5f * axis[a]);
+        running += sat_fixed_point(tau / count);
         s[sat_entry(n, i + 1, j + 1, k + 1)] = running;
     }
 }
 
 /* SSAT (Ament §4.2.3): work-item (i, j) is the ray of cells (φ_i, θ_j, r_0 … r_n.z−1) from the
- * light, sampled at their centres; a cell holds σ·Δr·w_θ (shared/types.h, SsatGridGpu). */
+ * light; a cell holds the optical depth of its radial segment through the cell's centre angles
+ * (segment_optical_depth) times w_θ (shared/types.h, SsatGridGpu). */
 __kernel void ssat_resample(VOLUME_DATA_PARAM, __global const float* tf_tables, __global const VolumeGpu* volumes,
                             uint volume_count, __global ulong* sat, __global const SsatGridGpu* grid) {
     int4 n = grid->dims;
@@ -61,9 +84,9 @@ __kernel void ssat_resample(VOLUME_DATA_PARAM, __global const float* tf_tables, 
     __global ulong* s = sat + grid->data_offset;
     ulong running = 0;
     for (int k = 0; k < n.z; ++k) {
-        float r = grid->start.z + (k + 0.5f) * grid->cell.z;
-        float sigma = extinction_at_point(volume_data, volumes, volume_count, tf_tables, grid->light.xyz + r * dir);
-        running += sat_fixed_point(sigma * grid->cell.z * w_theta);
+        float r0 = grid->start.z + k * grid->cell.z;
+        float3 a = grid->light.xyz + r0 * dir, b = grid->light.xyz + (r0 + grid->cell.z) * dir;
+        running += sat_fixed_point(segment_optical_depth(volume_data, volumes, volume_count, tf_tables, a, b) * w_theta);
         s[sat_entry(n, i + 1, j + 1, k + 1)] = running;
     }
 }

@@ -502,7 +502,7 @@ inline lfloat split_interval_depth(VOLUME_DATA_PARAM, __global const VolumeGpu* 
                                    const VolumeRay* ray, uint i, lfloat t0, lfloat t1, lfloat front, lfloat back, lmask here) {
     lfloat3 span = l3_scale(ray->vox_dir[i], t1 - t0);
     lfloat longest = fmax(fabs(span.x), fmax(fabs(span.y), fabs(span.z)));
-    lint pieces = clamp(LCONVERT_INT(ceil(select((lfloat)(1.0f), longest, here))), 1, SOMBRA_STIFF_MAX_PIECES);
+    lint pieces = clamp(LCONVERT_INT(ceil(select((lfloat)(1.0f), longest, here) - 1e-3f)), 1, SOMBRA_STIFF_MAX_PIECES);
     lfloat length = (t1 - t0) / LCONVERT_FLOAT(pieces);
     lfloat depth = (lfloat)(0.0f), t = t0, density = front;
     for (int j = 1; j < SOMBRA_STIFF_MAX_PIECES; ++j) {

@@ -173,6 +173,12 @@ TEST_CASE("accuracy: one-voxel near-opaque wall, light along its normal", "[accu
     CHECK(rays.max <= 0.01);
     CHECK(dsm_fine.max <= 0.01);
     CHECK(dsm_default.max <= 0.02 + 0.005);
+    RenderOptions lowpass = technique(ShadowTechnique::Lowpass);
+    lowpass.lowpass_filter_width = 1.f;
+    Errors low = errors_of(query(scene, points, lowpass), exact);
+    INFO("low-pass W 1 " << low.describe());
+    CHECK(low.valid);
+    CHECK(low.max <= 0.02);
 }
 
 TEST_CASE("atlas memory follows the nodes: a many-node map within 2x of compact's bytes", "[accuracy][dsm]") {

@@ -114,7 +114,7 @@ TEST_CASE("CSAT: device cells and box sums match the CPU reference on a random v
     const shadows::SatFrame& frame = b.sat.frames[0];
     auto table = shadows::read_sat(test::context().runtime(), b.sat, b.sat.offsets[0], frame.entries());
     reference::CellGrid device = reference::cells_of_table(table, frame.dims);
-    reference::CellGrid ref = reference::sat_cells(scene, frame);
+    reference::CellGrid ref = reference::sat_cells(scene, frame, shadows::sat_frame_light_axes(b.sat, 0));
     double max_cell = *std::max_element(ref.cells.begin(), ref.cells.end()), worst = 0;
     REQUIRE(max_cell > 0.05);
     for (std::size_t i = 0; i < ref.cells.size(); ++i) worst = std::max(worst, std::fabs(device.cells[i] - ref.cells[i]));
@@ -176,7 +176,7 @@ TEST_CASE("CSAT: the kernel's filtered optical depth matches the CPU reference",
     BuiltSat b = build(scene);
     const shadows::SatFrame& frame = b.sat.frames[0];
     reference::CellGrid device = reference::cells_of_table(shadows::read_sat(test::context().runtime(), b.sat, b.sat.offsets[0], frame.entries()), frame.dims);
-    reference::CellGrid ref = reference::sat_cells(scene, frame);
+    reference::CellGrid ref = reference::sat_cells(scene, frame, shadows::sat_frame_light_axes(b.sat, 0));
     auto points = random_points(300, 0.6f, 5);
     for (int width : {1, 3, 6}) {
         auto t = lowpass(scene, 0, points, float(width));
@@ -259,24 +259,33 @@ TEST_CASE("CSAT: empty and saturated volumes give finite transmittance in [0, 1]
     CHECK_THROWS_WITH(render(test::context(), stiff, o), Catch::Contains("--filter"));
 }
 
-TEST_CASE("CSAT: six orthodirectional lights share one table and match separately built ones", "[lowpass]") {
+TEST_CASE("CSAT: six orthodirectional lights share one table and stay close to separately built ones", "[lowpass]") {
     std::vector<Light> six;
     for (D3 d : {D3{1, 0, 0}, D3{-1, 0, 0}, D3{0, 1, 0}, D3{0, -1, 0}, D3{0, 0, 1}, D3{0, 0, -1}}) six.push_back(directional(d));
     auto volume = std::make_shared<const Volume>(make_cloud_noise(20, 8));
     Scene all = one_volume(volume, test::ramp_tf(0.1f, 0.6f, 0.5f), six);
     BuiltSat shared = build(all);
     CHECK(shared.sat.frames.size() == 1);  // Ament §4.2.2: one CSAT for the six lights
+    CHECK(shadows::sat_frame_light_axes(shared.sat, 0) == 7u);  // lights along all three axes
+    // A table of one light integrates each cell along that light's axis; the shared one along all
+    // three, averaged (cl/sat_build.cl): the same within the cells' anisotropy, not bit for bit.
     auto points = random_points(150, 0.55f, 12);
+    double worst = 0, sum = 0;
+    int count = 0;
     for (int l = 0; l < 6; ++l) {
         Scene alone = one_volume(volume, test::ramp_tf(0.1f, 0.6f, 0.5f), {six[std::size_t(l)]});
         for (float width : {1.f, 4.f}) {
             auto a = lowpass(all, l, points, width), b = lowpass(alone, 0, points, width);
             for (std::size_t i = 0; i < points.size(); ++i) {
                 INFO("light " << l << " W " << width << " point " << i);
-                CHECK(a[i] == Approx(b[i]).margin(1e-4));
+                CHECK(std::isfinite(a[i]));
+                worst = std::max(worst, std::fabs(a[i] - b[i])), sum += std::fabs(a[i] - b[i]), ++count;
             }
         }
     }
+    INFO("shared vs own table |ΔT| mean " << sum / count << " max " << worst);
+    CHECK(sum / count < 0.005);
+    CHECK(worst < 0.05);
 }
 
 namespace {

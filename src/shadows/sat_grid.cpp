@@ -295,6 +295,13 @@ void build_all(host::Runtime& runtime, const Scene& scene, const packing::Packed
 
 }  // namespace
 
+cl_uint sat_frame_light_axes(const DeviceSat& sat, std::size_t frame) {
+    cl_uint axes = 0;
+    for (std::size_t l = 0; l < sat.grids.size() && l < sat.light_frame.size(); ++l)
+        if (sat.light_frame[l] == int(frame)) axes |= 1u << sat.grids[l].light_axis;
+    return axes;
+}
+
 std::size_t sat_table_count(const DeviceSat& sat) { return sat.frames.size() + sphere_lights(sat).size(); }
 
 std::size_t sat_table_entries(const DeviceSat& sat, std::size_t table) {
@@ -326,7 +333,8 @@ std::string sat_table_geometry_key(const DeviceSat& sat, std::size_t table) {
         return "SSAT " + bits(g);
     }
     const SatFrame& f = sat.frames[table];
-    return "CSAT " + bits(f.axes) + ' ' + bits(f.origin) + ' ' + bits(f.dims) + ' ' + bits(f.cell_size);
+    return "CSAT " + bits(f.axes) + ' ' + bits(f.origin) + ' ' + bits(f.dims) + ' ' + bits(f.cell_size) + " axes " +
+           std::to_string(sat_frame_light_axes(sat, table));
 }
 
 void build_sat_table(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
@@ -353,6 +361,7 @@ void build_sat_table(host::Runtime& runtime, const Scene& scene, const packing::
             resample.setArg(a++, f4({r[0] * f.cell_size, r[1] * f.cell_size, r[2] * f.cell_size}));
         }
         resample.setArg(a++, float(f.cell_size));
+        resample.setArg(a++, sat_frame_light_axes(sat, table));
         sat.stage_ms["sat_resample"] += run_2d(runtime, resample, f.dims[0], f.dims[1]);
         sat.stage_ms["sat_scan"] += scan_table(runtime, scan, sat.data, offset, n);
         return;

@@ -76,6 +76,10 @@ struct DeviceSat {
 // light in light order. A plan (below) has every table at offset 0 and no data; place each table
 // (place_sat_table), allocate `data`, then build each table into it (build_sat_table).
 std::size_t sat_table_count(const DeviceSat& sat);
+// The grid axes the lights of CSAT frame `frame` shine along (bit a: axis a); 0 for a table no
+// light is aligned with (the volume-aligned SAT of the baselines). Its cells integrate σ along
+// those axes (cl/sat_build.cl sat_resample).
+cl_uint sat_frame_light_axes(const DeviceSat& sat, std::size_t frame);
 std::size_t sat_table_entries(const DeviceSat& sat, std::size_t table);
 std::size_t sat_table_offset(const DeviceSat& sat, std::size_t table);
 void place_sat_table(DeviceSat& sat, std::size_t table, std::size_t offset);

@@ -213,7 +213,7 @@ struct IntervalValues {
         if (rv.stiff) {
             double longest = 0;
             for (int axis = 0; axis < 3; ++axis) longest = std::max(longest, std::fabs(b[axis] - a[axis]));
-            int pieces = std::clamp(int(std::ceil(longest)), 1, 16);  // cl/traversal.h SOMBRA_STIFF_MAX_PIECES
+            int pieces = std::clamp(int(std::ceil(longest - 1e-3)), 1, 16);  // cl/traversal.h SOMBRA_STIFF_MAX_PIECES
             for (int j = 0; j < pieces; ++j) {
                 double u0 = double(j) / pieces, u1 = double(j + 1) / pieces;
                 if (j > 0) cuts.push_back(u0);
@@ -280,6 +280,38 @@ std::vector<VisibilitySample> visibility_samples(const Scene& scene, const Vec3&
         return transmittance >= stop_transmittance;
     });
     return out;
+}
+
+double segment_optical_depth(const Scene& scene, const Vec3& a, const Vec3& b) {
+    V3 o = from(a), d = from(b) - o;
+    double length = norm(d);
+    if (!(length > 0)) return 0;
+    d = (1.0 / length) * d;
+    double depth = 0;
+    for (const auto& vi : scene.volumes) {
+        RefVolume rv = prepare(vi);
+        rv.stiff = true;  // cells always split at voxel planes (cl/sat_build.cl)
+        V3 ov = rv.world_to_voxel.point(o), dv = rv.world_to_voxel.direction(d);
+        double t0 = 0, t1 = length;
+        for (int axis = 0; axis < 3; ++axis) {  // slab test against [−0.5, dims − 0.5]
+            double lo = -0.5, hi = vi.volume->dims[axis] - 0.5;
+            if (std::fabs(dv[axis]) < 1e-30) {
+                if (ov[axis] < lo || ov[axis] > hi) t0 = INFINITY;
+                continue;
+            }
+            double ta = (lo - ov[axis]) / dv[axis], tb = (hi - ov[axis]) / dv[axis];
+            t0 = std::max(t0, std::min(ta, tb)), t1 = std::min(t1, std::max(ta, tb));
+        }
+        if (!(t0 < t1)) continue;
+        int steps = std::clamp(int(std::ceil((t1 - t0) / rv.step - 1e-3)), 1, 4096);
+        IntervalValues values(1);
+        values.depth(rv, 0, o + t0 * d, 0.0);  // the value at the entry
+        for (int s = 1; s <= steps; ++s) {
+            double t = s == steps ? t1 : t0 + s * (t1 - t0) / steps;
+            depth += values.depth(rv, 0, o + t * d, (t1 - t0) / steps);
+        }
+    }
+    return depth;
 }
 
 double extinction_at_point(const Scene& scene, const Vec3& p) {

@@ -31,6 +31,11 @@ std::vector<VisibilitySample> visibility_samples(const Scene& scene, const Vec3&
 // [−0.5, dims − 0.5] (voxel space) holds p, the transfer function evaluated directly.
 double extinction_at_point(const Scene& scene, const Vec3& p);
 
+// Optical depth ∫σ of the segment from a to b (world points) as cl/sat_build.cl integrates a cell:
+// each volume's part inside its box in equal steps of at most its ray step, split at voxel-centre
+// planes and pre-integrated between the values at the piece ends, in double.
+double segment_optical_depth(const Scene& scene, const Vec3& a, const Vec3& b);
+
 // Trilinear density at a continuous voxel position, clamped to the edge (for unit tests).
 double sample_trilinear(const Volume& volume, double x, double y, double z);
 

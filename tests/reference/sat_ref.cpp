@@ -7,7 +7,8 @@
 
 namespace sombra::reference {
 
-CellGrid sat_cells(const Scene& scene, const shadows::SatFrame& frame) {
+CellGrid sat_cells(const Scene& scene, const shadows::SatFrame& frame, unsigned light_axes) {
+    unsigned axes = light_axes & 7u ? light_axes & 7u : 7u;
     CellGrid g;
     g.dims = frame.dims;
     g.cells.reserve(std::size_t(g.dims[0]) * g.dims[1] * g.dims[2]);
@@ -15,7 +16,18 @@ CellGrid sat_cells(const Scene& scene, const shadows::SatFrame& frame) {
         for (int j = 0; j < g.dims[1]; ++j)
             for (int i = 0; i < g.dims[0]; ++i) {
                 shadows::D3 p = frame.cell_centre(i, j, k);
-                g.cells.push_back(extinction_at_point(scene, {float(p[0]), float(p[1]), float(p[2])}) * frame.cell_size);
+                double tau = 0;
+                int count = 0;
+                for (int a = 0; a < 3; ++a) {
+                    if (!(axes & (1u << a))) continue;
+                    Vec3 lo, hi;
+                    for (int c = 0; c < 3; ++c) {
+                        double half = 0.5 * frame.cell_size * frame.axes[std::size_t(a)][std::size_t(c)];
+                        lo[std::size_t(c)] = float(p[std::size_t(c)] - half), hi[std::size_t(c)] = float(p[std::size_t(c)] + half);
+                    }
+                    tau += segment_optical_depth(scene, lo, hi), ++count;
+                }
+                g.cells.push_back(tau / count);
             }
     return g;
 }
@@ -29,13 +41,15 @@ CellGrid ssat_cells(const Scene& scene, const SsatGridGpu& grid) {
             for (int i = 0; i < g.dims[0]; ++i) {
                 double phi = v(grid.start, 0) + (i + 0.5) * v(grid.cell, 0);
                 double theta0 = v(grid.start, 1) + j * v(grid.cell, 1), theta = theta0 + 0.5 * v(grid.cell, 1);
-                double r = v(grid.start, 2) + (k + 0.5) * v(grid.cell, 2);
+                double r0 = v(grid.start, 2) + k * v(grid.cell, 2), r1 = r0 + v(grid.cell, 2);
                 double w = (std::cos(theta0) - std::cos(theta0 + v(grid.cell, 1))) / v(grid.cell, 1);
                 double d[3] = {std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta)};
-                Vec3 p;
-                for (int a = 0; a < 3; ++a)
-                    p[std::size_t(a)] = float(v(grid.light, a) + r * (d[0] * v(grid.axes[0], a) + d[1] * v(grid.axes[1], a) + d[2] * v(grid.axes[2], a)));
-                g.cells.push_back(extinction_at_point(scene, p) * v(grid.cell, 2) * w);
+                Vec3 a, b;  // the cell's radial segment
+                for (int c = 0; c < 3; ++c) {
+                    double along = d[0] * v(grid.axes[0], c) + d[1] * v(grid.axes[1], c) + d[2] * v(grid.axes[2], c);
+                    a[std::size_t(c)] = float(v(grid.light, c) + r0 * along), b[std::size_t(c)] = float(v(grid.light, c) + r1 * along);
+                }
+                g.cells.push_back(segment_optical_depth(scene, a, b) * w);
             }
     return g;
 }

@@ -17,12 +17,13 @@ struct CellGrid {
     double at(int i, int j, int k) const { return cells[std::size_t(i) + std::size_t(dims[0]) * (std::size_t(j) + std::size_t(dims[1]) * std::size_t(k))]; }
 };
 
-// Optical depth σ·h of every cell of `frame`, σ sampled at the cell centre (transfer function
-// evaluated directly, extinction_at_point).
-CellGrid sat_cells(const Scene& scene, const shadows::SatFrame& frame);
+// Optical depth of every cell of `frame`: the mean over the grid axes in light_axes (bit a: axis a;
+// 0: all three) of ∫σ along that axis through the cell's centre, face to face
+// (segment_optical_depth, the transfer function evaluated directly), as cl/sat_build.cl.
+CellGrid sat_cells(const Scene& scene, const shadows::SatFrame& frame, unsigned light_axes);
 
-// Cells σ·Δr·w_θ of a point light's spherical grid (SSAT, Ament §4.2.3), σ at the cell centre,
-// w_θ = (cos θ_j − cos θ_j+1)/Δθ.
+// Cells of a point light's spherical grid (SSAT, Ament §4.2.3): ∫σ over the cell's radial segment
+// through its centre angles times w_θ = (cos θ_j − cos θ_j+1)/Δθ.
 CellGrid ssat_cells(const Scene& scene, const SsatGridGpu& grid);
 
 // The cells of a device table (exclusive SAT, fixed point), recovered by differencing, as τ.
