@@ -109,6 +109,10 @@ inline lfloat preintegrated_sigma(__global const float* tf_tables, __global cons
     lfloat ub = (fmax(d_front, d_back) - v->tf_domain_min) * v->tf_domain_scale;
     lfloat width = ub - ua;
     lfloat ca = clamp(ua, 0.0f, last), cb = clamp(ub, 0.0f, last);
+    /* both ends in one entry cell, inside the table: the mean of the linear σ is σ at the middle */
+    lmask one_cell = (ua == ca) & (ub == cb) &
+                     (min(LCONVERT_INT(ca), (int)v->tf_size - 2) == min(LCONVERT_INT(cb), (int)v->tf_size - 2));
+    if (!lany(!one_cell)) return table_sigma(table, v->tf_size, 0.5f * (ca + cb));
     lfloat below = fmax(fmin(ub, 0.0f) - ua, 0.0f), above = fmax(ub - fmax(ua, last), 0.0f);
     lfloat integral = below * table[3] + above * table[4 * (v->tf_size - 1) + 3] +
                       table_sigma_integral(table, prefix, v->tf_size, ca, cb);

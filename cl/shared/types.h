@@ -63,8 +63,8 @@ typedef struct {
      * entries, σ linear between entries), as float pairs (hi, lo) at tf_integral_offset floats
      * into the transfer-function buffer; F[i] = hi + lo to ~48 bits. */
     sb_uint tf_integral_offset;
-    /* 1: the transfer function reaches σ·(voxel size) ≥ 1 somewhere (opacity ≥ 63 % per voxel): the
-     * light passes split each interval where the ray crosses a voxel-centre plane (traversal.h
+    /* 1: the transfer function reaches σ·step ≥ 2 somewhere (one step can absorb 86 %): the light
+     * passes split each interval where the ray crosses a voxel-centre plane (traversal.h
      * interval_volume_depth), so a thin near-opaque feature between two samples counts in full */
     sb_uint stiff;
 } VolumeGpu;

@@ -149,7 +149,8 @@ PackedScene pack_scene(const Scene& scene) {
         append_sigma_prefix(table, g, packed.tf_tables);
         float max_sigma = 0.f;
         for (auto& e : table) max_sigma = std::max(max_sigma, e[3]);
-        g.stiff = max_sigma * voxel_size >= 1.f ? 1u : 0u;
+        g.step = vi.step_voxels * voxel_size;
+        g.stiff = max_sigma * g.step >= 2.f ? 1u : 0u;  // one step can absorb 86 %: see VolumeGpu.stiff
 
         // A brick is visible when any table entry its value range touches has σ > 0.
         g.brick_offset = cl_uint(packed.occupancy.size());
@@ -164,7 +165,6 @@ PackedScene pack_scene(const Scene& scene) {
             packed.occupancy.push_back(visible ? 1 : 0);
         }
 
-        g.step = vi.step_voxels * voxel_size;
         g.ambient = vi.material.ambient, g.diffuse = vi.material.diffuse;
         g.specular = vi.material.specular, g.shininess = vi.material.shininess;
         packed.volumes.push_back(g);

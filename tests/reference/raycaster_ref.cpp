@@ -48,7 +48,7 @@ struct RefVolume {
     const VolumeInstance* instance;
     Affine world_to_voxel;
     double step, opacity_unit;
-    bool stiff;  // σ·voxel ≥ 1 somewhere on the kernel's table grid: light passes split at voxel planes
+    bool stiff;  // σ·step ≥ 2 somewhere on the kernel's table grid: light passes split at voxel planes
 };
 
 // Extinction per world unit: σ = −ln(1 − α) / opacity_unit, α = 1 capped at T = 1e-6 (README).
@@ -79,7 +79,8 @@ RefVolume prepare(const VolumeInstance& vi) {
     double max_sigma = 0;
     for (int i = 0; i < 1024; ++i)  // the kernel's table grid (src/render/scene_upload.h kTransferTableSize)
         max_sigma = std::max(max_sigma, extinction(tf, tf.domain_min() + (tf.domain_max() - tf.domain_min()) * i / 1023.0, unit));
-    return {&vi, voxel_to_world.inverse(), vi.step_voxels * voxel_size, unit, max_sigma * voxel_size >= 1.0};
+    double step = vi.step_voxels * voxel_size;
+    return {&vi, voxel_to_world.inverse(), step, unit, float(max_sigma) * float(step) >= 2.f};
 }
 
 V3 gradient(const Volume& v, V3 p, bool sobel) {
