@@ -76,16 +76,19 @@ std::vector<double> query(const Scene& scene, const std::vector<Vec3>& points, c
     return shadow_transmittance(test::context(), scene, 0, points, o).transmittance;
 }
 
-// A homogeneous cube of n³ voxels of size h centred at the origin, opacity alpha per voxel.
-Scene homogeneous_cube(int n, float h, float alpha) {
+// One volume of voxel size h centred at the origin.
+Scene one_volume(std::shared_ptr<const Volume> volume, const TransferFunction& tf, float h) {
     Scene scene;
     VolumeInstance vi;
-    vi.volume = constant_volume({n, n, n}, 1.f);
-    vi.transfer_function = constant_tf(alpha);
+    vi.volume = std::move(volume);
+    vi.transfer_function = tf;
     vi.transform = make_transform({0, 0, 0}, {0, 0, 0}, {h, h, h});
     scene.volumes.push_back(vi);
     return scene;
 }
+
+// A homogeneous cube of n³ voxels of size h centred at the origin, opacity alpha per voxel.
+Scene homogeneous_cube(int n, float h, float alpha) { return one_volume(constant_volume({n, n, n}, 1.f), constant_tf(alpha), h); }
 
 }  // namespace
 
@@ -135,13 +138,10 @@ Scene one_voxel_wall(int n, float h, float peak) {
         for (int y = 0; y < n; ++y) v.voxels[std::size_t((z * n + y) * n + n / 2)] = 1.f;
     v.source = "wall";
     v.update_range();
-    Scene scene;
-    VolumeInstance vi;
-    vi.volume = std::make_shared<const Volume>(std::move(v));
-    vi.transfer_function.color_points = {{0.f, 1.f, 1.f, 1.f}};
-    vi.transfer_function.opacity_points = {{0.f, 0.f}, {1.f, peak}};
-    vi.transform = make_transform({0, 0, 0}, {0, 0, 0}, {h, h, h});
-    scene.volumes.push_back(vi);
+    TransferFunction tf;
+    tf.color_points = {{0.f, 1.f, 1.f, 1.f}};
+    tf.opacity_points = {{0.f, 0.f}, {1.f, peak}};
+    Scene scene = one_volume(std::make_shared<const Volume>(std::move(v)), tf, h);
     scene.lights = {directional({1, 0, 0})};
     return scene;
 }
