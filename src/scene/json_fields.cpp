@@ -1,16 +1,13 @@
 #include "scene/json_fields.h"
 
-#include <fstream>
-#include <sstream>
+#include "scene/input_file.h"
+#include "sombra/limits.h"
 
 namespace sombra::detail {
 
 nlohmann::json parse_json_file(const std::string& path) {
-    std::ifstream in(path, std::ios::binary);
-    if (!in) throw file_error(path, "", "cannot open file");
-    std::stringstream buffer;
-    buffer << in.rdbuf();
-    std::string text = buffer.str();
+    const std::vector<unsigned char> bytes = read_regular_file(path, limits::kMaxInputFileBytes);
+    const std::string text(bytes.begin(), bytes.end());
     try {
         return nlohmann::json::parse(text, nullptr, true, /*ignore_comments=*/true);
     } catch (const nlohmann::json::parse_error& e) {
