@@ -4,11 +4,16 @@
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
 
+#include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <filesystem>
 #include <map>
 
+#include "scene/input_file.h"
+#include "scene/mesh_ply.h"
 #include "sombra/error.h"
+#include "sombra/limits.h"
 
 namespace sombra {
 namespace {
@@ -80,8 +85,9 @@ void check_closed(const Mesh& mesh, const std::string& where) {
     if (edges.empty()) throw file_error(where, "", "mesh is not closed (no triangle with area)");
 }
 
-Mesh load_mesh(const std::string& path) {
-    if (!std::filesystem::is_regular_file(path)) throw file_error(path, "", "cannot open file");
+namespace {
+
+Mesh read_obj(const std::string& path) {
     Assimp::Importer importer;
     // Points and lines are dropped; Assimp checks its scene (face indices) before processing it.
     importer.SetPropertyInteger(AI_CONFIG_PP_SBP_REMOVE, aiPrimitiveType_POINT | aiPrimitiveType_LINE);
@@ -97,6 +103,25 @@ Mesh load_mesh(const std::string& path) {
     bool mixed_normals = false;
     walk(mesh, *scene, *scene->mRootNode, aiMatrix4x4(), mixed_normals);
     if (mixed_normals) mesh.normals.clear();  // some parts without normals: none at all
+    if (mesh.positions.size() > limits::kMaxMeshVertices || mesh.triangles.size() > limits::kMaxMeshTriangles)
+        throw file_error(path, "", "more than " + std::to_string(limits::kMaxMeshVertices) + " vertices or triangles");
+    return mesh;
+}
+
+}  // namespace
+
+Mesh load_mesh(const std::string& path) {
+    const std::uint64_t size = detail::regular_file_size(path);  // Assimp would block on a FIFO
+    if (size > limits::kMaxInputFileBytes)
+        throw file_error(path, "", "file too large: " + std::to_string(size) + " bytes (at most " +
+                                       std::to_string(limits::kMaxInputFileBytes) + ")");
+    std::string extension = std::filesystem::path(path).extension().string();
+    std::transform(extension.begin(), extension.end(), extension.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+    Mesh mesh;
+    if (extension == ".ply") mesh = detail::read_ply(path);
+    else if (extension == ".obj") mesh = read_obj(path);  // only OBJ reaches Assimp's importers
+    else throw file_error(path, "", "unknown mesh format (expected .obj or .ply)");
+    mesh.source = path;
     validate_mesh(mesh, path);
     return mesh;
 }
