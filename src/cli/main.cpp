@@ -11,60 +11,45 @@
 #include <sstream>
 #include <algorithm>
 
+#include "host/staged_outputs.h"
 #include "sombra/sombra.h"
 
 namespace {
 
 void write_text_file(const std::string& path, const std::string& text) {
-    std::string temporary = path + ".part";
-    {
-        std::ofstream out(temporary);
-        if (!(out << text << '\n')) {
-            std::remove(temporary.c_str());
-            throw sombra::Error(path + ": cannot write file");
-        }
-    }
-    std::filesystem::rename(temporary, path);
+    std::ofstream out(path);
+    if (!(out << text << '\n') || !(out.flush())) throw sombra::Error(path + ": cannot write file");
 }
 
-// sombra dsm: one deep EXR per view of the light (a point light has six cube faces).
+// --stats next to the other outputs: staged with them.
+void stage_stats(sombra::host::StagedOutputs& outputs, const std::string& stats_path, const sombra::RenderStats& stats) {
+    if (!stats_path.empty())
+        outputs.write(stats_path, [&](const std::string& path) { write_text_file(path, stats.to_json()); });
+}
+
+// sombra dsm: one deep EXR per view of the light (a point light has six cube faces), all written
+// (with the stats) before any takes its name.
 int write_dsm(sombra::Context& context, const sombra::Scene& scene, int light, const sombra::RenderOptions& options,
               const std::string& output, const std::string& stats_path) {
     sombra::RenderStats stats;
     auto maps = sombra::build_deep_shadow_maps(context, scene, light, options, &stats);
     std::filesystem::path out(output);
+    sombra::host::StagedOutputs outputs;
+    std::vector<std::string> written;
     for (const sombra::DeepShadowMap& map : maps) {
         std::string path = output;
         if (maps.size() > 1) {  // NAME.exr → NAME.+x.exr …
             std::string face = map.light_name.substr(map.light_name.rfind('.') + 1);
             path = (out.parent_path() / (out.stem().string() + "." + face + out.extension().string())).string();
         }
-        sombra::write_deep_exr(map, path);
-        std::cerr << "sombra: wrote " << path << " (" << map.width << "×" << map.height << ", " << map.nodes.size()
-                  << " nodes)\n";
+        outputs.write(path, [&](const std::string& staged) { sombra::write_deep_exr(map, staged); });
+        written.push_back(path + " (" + std::to_string(map.width) + "×" + std::to_string(map.height) + ", " +
+                          std::to_string(map.nodes.size()) + " nodes)");
     }
-    if (!stats_path.empty()) write_text_file(stats_path, stats.to_json());
+    stage_stats(outputs, stats_path, stats);
+    outputs.commit();
+    for (const std::string& line : written) std::cerr << "sombra: wrote " << line << "\n";
     return 0;
-}
-
-std::vector<sombra::Vec3> read_points(const std::string& path) {
-    std::ifstream in(path);
-    if (!in) throw sombra::file_error(path, "", "cannot open file");
-    std::vector<sombra::Vec3> points;
-    std::string line;
-    for (int number = 1; std::getline(in, line); ++number) {
-        if (line.empty() || line[0] == '#' || line.find_first_not_of(" \t\r") == std::string::npos) continue;
-        for (char& c : line)
-            if (c == ',' || c == ';') c = ' ';
-        std::istringstream fields(line);
-        sombra::Vec3 p;
-        std::string rest;
-        if (!(fields >> p[0] >> p[1] >> p[2]) || (fields >> rest) || !std::isfinite(p[0]) || !std::isfinite(p[1]) ||
-            !std::isfinite(p[2]))
-            throw sombra::file_error(path, "line " + std::to_string(number), "expected three finite numbers x,y,z");
-        points.push_back(p);
-    }
-    return points;
 }
 
 // sombra visibility: per point, each technique's transmittance (deep shadow map, shadow ray,
@@ -72,7 +57,7 @@ std::vector<sombra::Vec3> read_points(const std::string& path) {
 // differences; then the mean and max error of each.
 int print_visibility(sombra::Context& context, const sombra::Scene& scene, int light,
                      const sombra::RenderOptions& options, const std::string& points_path, const std::string& stats_path) {
-    auto points = read_points(points_path);
+    auto points = sombra::load_points_csv(points_path);
     const std::pair<const char*, sombra::ShadowTechnique> techniques[] = {{"dsm", sombra::ShadowTechnique::Dsm},
                                                                           {"shadow_ray", sombra::ShadowTechnique::Rays},
                                                                           {"shadow_map", sombra::ShadowTechnique::ShadowMap},
@@ -105,7 +90,9 @@ int print_visibility(sombra::Context& context, const sombra::Scene& scene, int l
     for (int k = 0; k < count; ++k) std::cerr << (k ? "," : "") << " " << techniques[k].first << " " << sum[k] / n << "/" << worst[k];
     std::cerr << " (lowpass W " << options.lowpass_filter_width << ")\n";
     sombra::ShadowQuery& dsm = queries.front();
-    if (!stats_path.empty()) write_text_file(stats_path, dsm.stats.to_json());
+    sombra::host::StagedOutputs outputs;
+    stage_stats(outputs, stats_path, dsm.stats);
+    outputs.commit();
     return 0;
 }
 
@@ -120,8 +107,16 @@ int run(int argc, char** argv) {
     CLI::App* render = app.add_subcommand("render", "render a scene to an image (PNG or EXR)");
     render->add_option("scene", scene_path, "scene file (JSON)")->required();
     render->add_option("-o,--output", output, "output image, .png (sRGB) or .exr (linear float)")->required();
-    render->add_option("--width", width, "image width (default: the scene's)");
-    render->add_option("--height", height, "image height (default: the scene's)");
+    const std::string side_range = "[1, " + std::to_string(sombra::limits::kMaxImageSide) + "]";
+    const CLI::Validator image_side(
+        [side_range](std::string& text) {
+            int value = 0;
+            const bool ok = CLI::detail::lexical_cast(text, value) && value >= 1 && value <= sombra::limits::kMaxImageSide;
+            return ok ? std::string() : "must lie in " + side_range + ", got " + text;
+        },
+        "INT in " + side_range);
+    render->add_option("--width", width, "image width (default: the scene's)")->check(image_side);
+    render->add_option("--height", height, "image height (default: the scene's)")->check(image_side);
     render->add_option("--device", device, "auto, cpu, gpu, or an index from `sombra devices`");
     render->add_option("--stats", stats_path, "write per-stage times and sample counts as JSON");
     render->add_option("--gradient", gradient, "central or sobel")->check(CLI::IsMember({"central", "sobel"}));
@@ -221,6 +216,17 @@ int run(int argc, char** argv) {
         return 0;
     }
 
+    // a wrong output name fails before the work, not after it
+    const std::string output_extension = [&] {
+        std::string e = std::filesystem::path(output).extension().string();
+        std::transform(e.begin(), e.end(), e.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+        return e;
+    }();
+    if (render->parsed() && output_extension != ".png" && output_extension != ".exr")
+        throw sombra::Error(output + ": output must end in .png or .exr");
+    if (dsm->parsed() && output_extension != ".exr")
+        throw sombra::Error(output + ": a deep shadow map is written as OpenEXR: the name must end in .exr");
+
     sombra::VolumeLoadOptions load;
     load.non_finite = non_finite == "sanitize" ? sombra::NonFinitePolicy::Sanitize : sombra::NonFinitePolicy::Reject;
     sombra::Scene scene = sombra::load_scene(scene_path, load);
@@ -262,8 +268,10 @@ int run(int argc, char** argv) {
     if (dsm->parsed()) return write_dsm(context, scene, light_index, options, output, stats_path);
     if (visibility->parsed()) return print_visibility(context, scene, light_index, options, points_path, stats_path);
     sombra::RenderResult result = sombra::render(context, scene, options);
-    sombra::write_image(result.image, output);
-    if (!stats_path.empty()) write_text_file(stats_path, result.stats.to_json());
+    sombra::host::StagedOutputs outputs;
+    outputs.write(output, [&](const std::string& staged) { sombra::write_image(result.image, staged); });
+    stage_stats(outputs, stats_path, result.stats);
+    outputs.commit();
     std::cerr << "sombra: wrote " << output << " (" << result.image.width << "×" << result.image.height << ", "
               << result.stats.device << ", camera pass " << result.stats.stage_ms["camera_pass"] << " ms, "
               << result.stats.msamples_per_s << " Msamples/s)\n";
