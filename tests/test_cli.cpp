@@ -237,6 +237,11 @@ TEST_CASE("hostile arguments and outputs: exit 2 for bad sizes, nothing left aft
         require_clean_failure(run, "--width", "[1, 16384]", out);
         CHECK(run.exit_code == 2);
     }
+    for (const char* option : {"--filter nan", "--cone-angle nan", "--eps nan", "--dsm-res 8193"}) {  // NaN passes CLI::Range
+        CliRun run = run_cli("render " + f + " -o " + out + " " + option);
+        require_clean_failure(run, std::string(option).substr(0, std::string(option).find(' ')), "must lie in", out);
+        CHECK(run.exit_code == 2);
+    }
     SECTION("a failing --stats leaves neither the image nor a part file") {
         require_clean_failure(run_cli("render " + f + " -o " + out + " --stats " + dir), dir, "is a directory", out);
         require_clean_failure(run_cli("render " + f + " -o " + out + " --stats " + dir + "/no/such/stats.json"),

@@ -96,6 +96,21 @@ int print_visibility(sombra::Context& context, const sombra::Scene& scene, int l
     return 0;
 }
 
+// A number of type T in [lo, hi], checked after conversion to T (CLI::Range lets NaN through, and
+// an int option would wrap 4294967304 before a range check on the narrowed value).
+template <typename T>
+CLI::Validator in_range(T lo, T hi) {
+    std::ostringstream range;
+    range << "[" << lo << ", " << hi << "]";
+    return CLI::Validator(
+        [lo, hi, range = range.str()](std::string& text) {
+            T value{};
+            const bool ok = CLI::detail::lexical_cast(text, value) && value >= lo && value <= hi;
+            return ok ? std::string() : "must lie in " + range + ", got " + text;
+        },
+        std::string(std::is_integral_v<T> ? "INT" : "NUMBER") + " in " + range.str());
+}
+
 int run(int argc, char** argv) {
     CLI::App app{"sombra — volumetric shadows for scenes of volumes and translucent geometry"};
     app.require_subcommand(1);
@@ -107,14 +122,7 @@ int run(int argc, char** argv) {
     CLI::App* render = app.add_subcommand("render", "render a scene to an image (PNG or EXR)");
     render->add_option("scene", scene_path, "scene file (JSON)")->required();
     render->add_option("-o,--output", output, "output image, .png (sRGB) or .exr (linear float)")->required();
-    const std::string side_range = "[1, " + std::to_string(sombra::limits::kMaxImageSide) + "]";
-    const CLI::Validator image_side(
-        [side_range](std::string& text) {
-            int value = 0;
-            const bool ok = CLI::detail::lexical_cast(text, value) && value >= 1 && value <= sombra::limits::kMaxImageSide;
-            return ok ? std::string() : "must lie in " + side_range + ", got " + text;
-        },
-        "INT in " + side_range);
+    const CLI::Validator image_side = in_range<int>(1, sombra::limits::kMaxImageSide);
     render->add_option("--width", width, "image width (default: the scene's)")->check(image_side);
     render->add_option("--height", height, "image height (default: the scene's)")->check(image_side);
     render->add_option("--device", device, "auto, cpu, gpu, or an index from `sombra devices`");
@@ -135,12 +143,12 @@ int run(int argc, char** argv) {
         ->check(CLI::IsMember({"none", "rays", "dsm", "shadowmap", "lowpass", "ao", "cone"}));
     float filter_width = 3.f;
     render->add_option("--filter", filter_width, "lowpass: filter width in voxels (softness of the shadows); ao: cube side")
-        ->check(CLI::Range(0.0f, 4096.0f));
+        ->check(in_range<float>(0, 4096));
     float cone_angle = 10.f;
     bool no_shadow_cache = false;
     render->add_flag("--no-shadow-cache", no_shadow_cache,
                      "lowpass/ao/cone: evaluate the tables per sample instead of reading the shadow cache (Ament Alg. 1)");
-    render->add_option("--cone-angle", cone_angle, "cone: half angle of the shadow cones in degrees")->check(CLI::Range(0.01f, 60.0f));
+    render->add_option("--cone-angle", cone_angle, "cone: half angle of the shadow cones in degrees")->check(in_range<float>(0.01f, 60));
     std::string filter_kernel = "box";
     render->add_option("--filter-kernel", filter_kernel, "lowpass: box (one SAT box) or gauss (5×5 sub-boxes, Ament Eq. 25)")
         ->check(CLI::IsMember({"box", "gauss"}));
@@ -149,7 +157,7 @@ int run(int argc, char** argv) {
     std::string dsm_storage = "atlas";
     bool precompression = false;
     std::string prefilter = "none";
-    render->add_option("--dsm-res", dsm_resolution, "deep shadow map texels per side")->check(CLI::Range(1, 8192));
+    render->add_option("--dsm-res", dsm_resolution, "deep shadow map texels per side")->check(in_range<int>(1, 8192));
     render->add_option("--storage", dsm_storage, "deep shadow map storage: atlas, chunked, chunked-ondemand (Knecht) or compact")
         ->check(CLI::IsMember({"atlas", "chunked", "chunked-ondemand", "compact"}));
     render->add_flag("--precompression", precompression, "pre-compressed visibility tables for DSM generation (Hadwiger §3.2)");
@@ -159,7 +167,7 @@ int run(int argc, char** argv) {
         ->check(CLI::IsMember({"none", "box", "tent", "5tap"}));
     render->add_option("--prefilter-jitter", prefilter_jitter, "jittered sub-pixel rays: on (seed 1), off, or a seed");
     render->add_option("--eps", dsm_epsilon, "deep shadow map compression error bound ε (Knecht Eq. 3.1)")
-        ->check(CLI::Range(0.0f, 1e6f));
+        ->check(in_range<float>(0, 1e6f));
     render->add_option("--volume-storage", storage, "auto (buffer on CPUs, image on GPUs), buffer or image")
         ->check(CLI::IsMember({"auto", "buffer", "image"}));
     render->add_option("--non-finite", non_finite, "NaN/Inf voxels: reject (error) or sanitize (set to 0, warn)")
@@ -184,18 +192,20 @@ int run(int argc, char** argv) {
     visibility->add_option("--points", points_path, "CSV file of x,y,z world points (one per line)")->required();
     for (CLI::App* sub : {dsm, visibility}) {
         sub->add_option("--device", device, "auto, cpu, gpu, or an index from `sombra devices`");
-        sub->add_option("--dsm-res", dsm_resolution, "deep shadow map texels per side")->check(CLI::Range(1, 8192));
+        sub->add_option("--dsm-res", dsm_resolution, "deep shadow map texels per side")->check(in_range<int>(1, 8192));
         sub->add_option("--storage", dsm_storage, "deep shadow map storage: atlas, chunked, chunked-ondemand (Knecht) or compact")
             ->check(CLI::IsMember({"atlas", "chunked", "chunked-ondemand", "compact"}));
         sub->add_flag("--precompression", precompression, "pre-compressed visibility tables (Hadwiger §3.2)");
         sub->add_option("--prefilter", prefilter, "DSM pre-filtering: none, box, tent or 5tap")
             ->check(CLI::IsMember({"none", "box", "tent", "5tap"}));
         sub->add_option("--prefilter-jitter", prefilter_jitter, "jittered sub-pixel rays: on (seed 1), off, or a seed");
-        sub->add_option("--eps", dsm_epsilon, "compression error bound ε")->check(CLI::Range(0.0f, 1e6f));
+        sub->add_option("--eps", dsm_epsilon, "compression error bound ε")->check(in_range<float>(0, 1e6f));
         sub->add_option("--stats", stats_path, "write build times and DSM sizes as JSON");
     }
-    visibility->add_option("--filter", filter_width, "low-pass filter width W in voxels (Ament §4.2.1)");
-    visibility->add_option("--filter-kernel", filter_kernel, "low-pass filter kernel: box or gauss");
+    visibility->add_option("--filter", filter_width, "low-pass filter width W in voxels (Ament §4.2.1)")
+        ->check(in_range<float>(0, 4096));
+    visibility->add_option("--filter-kernel", filter_kernel, "low-pass filter kernel: box or gauss")
+        ->check(CLI::IsMember({"box", "gauss"}));
 
     try {
         app.parse(argc, argv);
