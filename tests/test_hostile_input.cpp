@@ -164,7 +164,7 @@ TEST_CASE("hostile input: scene numbers are checked as the type they are used as
                                    R"(, "transfer_function": {"rgb_points": [0, 1, 1, 1], "opacity_points": [0, 0, 4e38, 1]}}]})"),
          "volumes[0].transfer_function.opacity_points"},
     };
-    for (const auto& [file, field] : cases) require_error(error_of([&] { load_scene(file); }), file, field);
+    for (const auto& c : cases) require_error(error_of([&] { load_scene(c.first); }), c.first, c.second);
 
     // the largest values that pass still give a finite, drawable scene
     Scene ok = load_scene(scene_with("edge.json", R"("generator": {"type": "blobs", "size": 8, "count": 256, "seed": 4294967295})"));
