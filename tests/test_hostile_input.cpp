@@ -160,6 +160,7 @@ TEST_CASE("hostile input: scene numbers are checked as the type they are used as
         {scene_with("matrix.json", sphere + R"(, "transform": {"matrix": [1e39, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1]})"),
          "volumes[0].transform.matrix"},
         {scene_with("camera.json", sphere, R"(, "camera": {"position": [1e30, 0, 0]})"), "camera.position"},
+        {scene_with("double.json", sphere, R"(, "ambient_intensity": 1e400)"), "json: [json.exception.out_of_range.406]"},
         {write_file("tf.json", std::string(R"({"volumes": [{)") + sphere +
                                    R"(, "transfer_function": {"rgb_points": [0, 1, 1, 1], "opacity_points": [0, 0, 4e38, 1]}}]})"),
          "volumes[0].transfer_function.opacity_points"},

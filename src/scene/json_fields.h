@@ -104,7 +104,11 @@ private:
     std::set<std::string> used_;
 };
 
-// Parses a whole JSON file; a syntax error names the line and column.
+// nlohmann's message of e, cut to one short line.
+std::string json_error_text(const nlohmann::json::exception& e);
+
+// Parses a whole JSON file; a syntax error names the line and column, any other JSON error (a
+// number that overflows a double) is "FILE: json: …".
 nlohmann::json parse_json_file(const std::string& path);
 
 }  // namespace sombra::detail

@@ -53,8 +53,8 @@ Volume read_raw_json(const std::string& path) {
     json doc;
     try {
         doc = json::parse(text.begin(), text.end());
-    } catch (const json::parse_error& e) {
-        throw file_error(path, "json", e.what());
+    } catch (const json::exception& e) {  // syntax errors, and numbers that overflow a double
+        throw file_error(path, "json", detail::json_error_text(e));
     }
     if (!doc.is_object()) throw file_error(path, "json", "the header must be a JSON object");
     for (const auto& item : doc.items()) {
