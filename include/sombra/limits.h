@@ -16,6 +16,7 @@ constexpr std::uint64_t kMaxMeshVertices = std::uint64_t(1) << 26;   // per mesh
 constexpr std::uint64_t kMaxMeshTriangles = std::uint64_t(1) << 26;  // per mesh file (after triangulation)
 constexpr std::uint64_t kMaxPoints = std::uint64_t(1) << 24;         // rows of a --points file
 constexpr std::uint64_t kMaxInputFileBytes = std::uint64_t(1) << 30; // scene JSON, raw headers, meshes, points CSV
-constexpr double kMaxCoordinate = 1e18;                              // |world coordinate|, sizes, spacings
+constexpr double kMaxCoordinate = 1e18;                              // |world coordinate| of boxes, camera, lights
+constexpr float kMinLength = 1e-12f;                                 // voxel spacing, opacity_unit (so σ stays finite)
 
 }  // namespace sombra::limits

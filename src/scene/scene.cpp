@@ -147,13 +147,14 @@ VolumeInstance read_volume(const json& j, const std::string& file, const std::st
     }
     vi.spacing = f.vec3("spacing", vi.volume->spacing);
     for (float s : vi.spacing)
-        if (!(s > 0.f)) f.fail("spacing", "must be positive");
+        if (!(s >= limits::kMinLength)) f.fail("spacing", "must be ≥ 1e-12 (positive)");
     if (f.has("transform")) vi.transform = read_transform(f.at("transform"), file, f.field("transform"));
     vi.transfer_function = read_transfer_function(f.at("transfer_function"), file, f.field("transfer_function"));
     vi.step_voxels = f.number("step_voxels", vi.step_voxels);
     if (!(vi.step_voxels >= 0.01f && vi.step_voxels <= 16.f)) f.fail("step_voxels", "must lie in [0.01, 16]");
     vi.opacity_unit = f.number("opacity_unit", 0.f);
-    if (vi.opacity_unit < 0.f) f.fail("opacity_unit", "must be ≥ 0 (0: one voxel)");
+    if (!(vi.opacity_unit == 0.f || vi.opacity_unit >= limits::kMinLength))  // σ = −ln(1 − α)/unit stays finite
+        f.fail("opacity_unit", "must be 0 (one voxel) or ≥ 1e-12");
     if (f.has("material")) {
         JsonFields m(f.at("material"), file, f.field("material"));
         vi.material = read_phong(m, vi.material);
