@@ -200,3 +200,27 @@ TEST_CASE("hostile input: PLY files that crashed or hung Assimp give one line", 
     const std::string other = write_file("mesh.stl", "solid x\nendsolid x\n");  // only OBJ reaches Assimp
     require_error(error_of([&] { load_mesh(other); }), other, "unknown mesh format");
 }
+
+TEST_CASE("hostile input: OBJ files are parsed from memory, every index checked", "[hostile][mesh]") {
+    const std::string fifo = test::temp_dir() + "/materials.fifo";
+    std::filesystem::remove(fifo);
+    REQUIRE(::mkfifo(fifo.c_str(), 0600) == 0);
+    const std::string tri = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";
+    // mtllib is never opened (a FIFO would block); the mesh still loads
+    Mesh m = load_mesh(write_file("mtllib.obj", "mtllib " + fifo + "\n" + tri + "f 1 2 3\n"));
+    CHECK(m.triangles.size() == 1);
+    std::string big_face = tri + "f";
+    for (int i = 0; i < 300; ++i) big_face += " " + std::to_string(1 + i % 3);
+    const std::vector<std::pair<std::string, std::string>> cases = {
+        {tri + "f 1 2 3 9\n", "vertex index out of range"},     // a quad with a bad corner (skipped silently before)
+        {tri + "f -7 1 2\n", "vertex index out of range"},
+        {tri + "f 1 2 99999999999999999999\n", "line 4: face index does not fit"},  // atoi would make it -1
+        {big_face + "\n", "more than 255 corners"},
+        {tri, "no triangles"},
+    };
+    int i = 0;
+    for (const auto& c : cases) {
+        const std::string f = write_file("hostile" + std::to_string(i++) + ".obj", c.first);
+        require_error(error_of([&] { load_mesh(f); }), f, c.second);
+    }
+}

@@ -2,7 +2,7 @@
 // PLY importer segfaults, aborts on an assertion or loops for ever on malformed files (issue 12).
 // The header is checked whole, and its element counts against the bytes the file really holds,
 // before anything is allocated; every read is bounds-checked; errors are one line.
-#include "scene/mesh_ply.h"
+#include "scene/mesh_formats.h"
 
 #include <algorithm>
 #include <cctype>
