@@ -15,10 +15,10 @@ struct Mesh {
     std::string source;                                   // file path or generator name, for messages
 };
 
-// Reads a mesh, choosing the format by the file's name: Wavefront OBJ (.obj, through Assimp; all
-// meshes of the file joined, node transforms applied, vertices with identical attributes welded)
-// or Stanford PLY (.ply, ASCII or binary, by sombra's own strict reader). Polygons are
-// triangulated. Throws sombra::Error "FILE: what" for a missing, malformed or empty file, a file
+// Reads a mesh, choosing the format by the file's name: Wavefront OBJ (.obj, through tinyobjloader;
+// all groups joined, corners with identical position and normal welded; `mtllib` is ignored) or
+// Stanford PLY (.ply, ASCII or binary, by sombra's own strict reader). Polygons are triangulated
+// as fans. Throws sombra::Error "FILE: what" for a missing, malformed or empty file, a file
 // that is not regular, counts past sombra/limits.h, out-of-range indices and non-finite coordinates.
 Mesh load_mesh(const std::string& path);
 
