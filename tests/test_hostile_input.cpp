@@ -16,6 +16,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "host/staged_outputs.h"
 #include "sombra/sombra.h"
 #include "test_support.h"
 
@@ -223,4 +224,41 @@ TEST_CASE("hostile input: OBJ files are parsed from memory, every index checked"
         const std::string f = write_file("hostile" + std::to_string(i++) + ".obj", c.first);
         require_error(error_of([&] { load_mesh(f); }), f, c.second);
     }
+}
+
+TEST_CASE("hostile input: outputs are committed together or not at all", "[hostile]") {
+    namespace fs = std::filesystem;
+    const fs::path dir = fs::path(test::temp_dir()) / "outputs";
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+    const auto write = [](const std::string& path) { std::ofstream(path) << "data"; };
+    {  // an error before the commit: nothing at the final names, no staged file
+        host::StagedOutputs outputs;
+        outputs.write((dir / "a.png").string(), write);
+        CHECK_THROWS_AS(outputs.write((dir / "b.json").string(), [](const std::string&) { throw Error("x: failed"); }), Error);
+    }
+    CHECK(fs::is_empty(dir));
+    {  // a rename that fails in the commit takes back the ones before it
+        host::StagedOutputs outputs;
+        outputs.write((dir / "a.png").string(), write);
+        outputs.write((dir / "b.json").string(), write);
+        fs::create_directories(dir / "b.json" / "child");  // b.json became a non-empty folder
+        const std::string message = error_of([&] { outputs.commit(); });
+        CHECK(message.rfind((dir / "b.json").string() + ": cannot write", 0) == 0);
+    }
+    CHECK_FALSE(fs::exists(dir / "a.png"));
+    CHECK(std::distance(fs::directory_iterator(dir), fs::directory_iterator()) == 1);  // only the folder b.json
+    fs::remove_all(dir / "b.json");
+    {  // errors name the final path, not the staged one
+        host::StagedOutputs outputs;
+        const std::string message =
+            error_of([&] { outputs.write((dir / "c.exr").string(), [](const std::string& p) { throw Error(p + ": disk full"); }); });
+        CHECK(message == (dir / "c.exr").string() + ": disk full");
+    }
+    {
+        host::StagedOutputs outputs;
+        outputs.write((dir / "c.exr").string(), write);
+        outputs.commit();
+    }
+    CHECK(fs::exists(dir / "c.exr"));
 }

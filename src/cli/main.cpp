@@ -236,6 +236,8 @@ int run(int argc, char** argv) {
         throw sombra::Error(output + ": output must end in .png or .exr");
     if (dsm->parsed() && output_extension != ".exr")
         throw sombra::Error(output + ": a deep shadow map is written as OpenEXR: the name must end in .exr");
+    for (const std::string& path : {output, stats_path})
+        if (!path.empty()) sombra::host::StagedOutputs::check_target(path);
 
     sombra::VolumeLoadOptions load;
     load.non_finite = non_finite == "sanitize" ? sombra::NonFinitePolicy::Sanitize : sombra::NonFinitePolicy::Reject;

@@ -17,10 +17,16 @@ StagedOutputs::~StagedOutputs() {
     }
 }
 
-std::string StagedOutputs::stage(const std::string& final_path) {
-    const fs::path target(final_path);
+void StagedOutputs::check_target(const std::string& final_path) {
+    const fs::path target(final_path), folder = target.parent_path().empty() ? fs::path(".") : target.parent_path();
     std::error_code ec;
     if (fs::is_directory(target, ec)) throw Error(final_path + ": cannot write: is a directory");
+    if (!fs::is_directory(folder, ec)) throw Error(final_path + ": cannot write: no folder " + folder.string());
+}
+
+std::string StagedOutputs::stage(const std::string& final_path) {
+    check_target(final_path);
+    const fs::path target(final_path);
     for (const auto& file : files_)
         if (file.second == final_path) throw Error(final_path + ": named twice as an output");
     // hidden, unique to this process, same extension: NAME.png → .NAME.sombra-PID-K.png

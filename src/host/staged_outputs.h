@@ -14,8 +14,12 @@ public:
     StagedOutputs& operator=(const StagedOutputs&) = delete;
     ~StagedOutputs();  // removes every staged file that was not committed
 
+    // Throws "FINAL: cannot write: …" when final_path is a directory or its folder does not exist,
+    // so that a command can refuse an impossible output before its work.
+    static void check_target(const std::string& final_path);
+
     // A temporary path next to `final_path` with the same extension (writers pick the format by
-    // it); write the output there. Throws when final_path is a directory.
+    // it); write the output there. Checks the target first (check_target).
     std::string stage(const std::string& final_path);
 
     // Stages final_path and calls write(staged path); errors name final_path, not the staged one.
