@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <sys/stat.h>
 #include <sys/wait.h>
 
 #include <nlohmann/json.hpp>
@@ -224,4 +225,62 @@ TEST_CASE("sombra visibility prints every technique against the reference, and r
     CHECK(run.exit_code != 0);
     CHECK(run.stderr_text.find("bad_points.csv") != std::string::npos);
     CHECK(run.stderr_text.find("line 2") != std::string::npos);
+}
+
+TEST_CASE("hostile arguments and outputs: exit 2 for bad sizes, nothing left after a failed output", "[cli][hostile]") {
+    const std::string dir = sombra::test::temp_dir();
+    std::string f = scene_file("outputs.json", {{"image", {{"width", 8}, {"height", 8}}}});
+    std::string out = dir + "/kept.png";
+    std::remove(out.c_str());
+    for (const char* option : {"--width 0", "--width -7", "--width 4294967304", "--filter nan", "--cone-angle nan",
+                               "--eps nan", "--dsm-res 8193"}) {  // NaN passes CLI::Range; ints would wrap
+        CliRun run = run_cli("render " + f + " -o " + out + " " + option);
+        require_clean_failure(run, std::string(option).substr(0, std::string(option).find(' ')), "must lie in", out);
+        CHECK(run.exit_code == 2);
+    }
+    // an impossible --stats fails before the render, leaving neither the image nor a part file
+    require_clean_failure(run_cli("render " + f + " -o " + out + " --stats " + dir), dir, "is a directory", out);
+    require_clean_failure(run_cli("render " + f + " -o " + out + " --stats " + dir + "/no/such/stats.json"),
+                          "stats.json", "cannot write", out);
+    // sombra dsm: a point light's six faces are committed together; a .png name is refused
+    std::string point = scene_file("point.json", {{"lights", {{{"type", "point"}, {"position", {0, 0.5, 0.5}}}}}});
+    require_clean_failure(run_cli("dsm " + point + " --light 0 -o " + dir + "/d.png"), "d.png", ".exr", dir + "/d.png");
+    CliRun ok = run_cli("dsm " + point + " --light 0 --dsm-res 8 -o " + dir + "/faces.exr");
+    INFO(ok.stderr_text);
+    CHECK(ok.exit_code == 0);
+    for (const char* face : {"+x", "-x", "+y", "-y", "+z", "-z"})
+        CHECK(std::filesystem::exists(dir + "/faces." + face + ".exr"));
+    for (const auto& entry : std::filesystem::directory_iterator(dir))  // no staged file left behind
+        CHECK(entry.path().filename().string().find(".sombra-") == std::string::npos);
+}
+
+TEST_CASE("hostile volume, scene and points files through the CLI: one line, exit 1", "[cli][hostile]") {
+    const std::string dir = sombra::test::temp_dir(), out = dir + "/hostile.png";
+    std::remove(out.c_str());
+    // an unknown NIfTI datatype: our line only, not niftiio's "** ERROR"
+    std::string header(352, '\0');
+    const auto put16 = [&](std::size_t at, int v) { header[at] = char(v & 0xff), header[at + 1] = char((v >> 8) & 0xff); };
+    put16(0, 348);
+    for (int i = 0; i < 4; ++i) put16(40 + 2 * std::size_t(i), i == 0 ? 3 : 2);
+    put16(70, 1234), put16(72, 32);
+    header.replace(344, 4, std::string("n+1\0", 4));
+    write_file("datatype.nii", header);
+    std::string f = scene_file("datatype_scene.json", {{"volumes", {{{"file", "datatype.nii"},
+                                                                     {"transfer_function", {{"rgb_points", {0, 1, 1, 1}},
+                                                                                            {"opacity_points", {0, 0, 1, 1}}}}}}}});
+    CliRun run = run_cli("render " + f + " -o " + out);
+    require_clean_failure(run, "datatype.nii", "datatype", out);
+    CHECK(run.exit_code == 1);
+    CHECK(run.stderr_text.find("** ERROR") == std::string::npos);
+
+    const std::string fifo = dir + "/points.fifo";
+    std::remove(fifo.c_str());
+    REQUIRE(::mkfifo(fifo.c_str(), 0600) == 0);
+    std::string scene = scene_file("fifo_scene.json", nlohmann::json::object());
+    for (const std::string& points : {fifo, std::string("/dev/zero"), dir}) {
+        run = run_cli("visibility " + scene + " --light 0 --points " + points);
+        require_clean_failure(run, points, "not a regular file", out);
+        CHECK(run.exit_code == 1);
+    }
+    require_clean_failure(run_cli("render " + fifo + " -o " + out), fifo, "a FIFO", out);
 }

@@ -349,8 +349,10 @@ TEST_CASE("vtk: ASCII and big-endian BINARY, corrupt files", "[volume_io]") {
                                                 encode<std::int16_t>({1, 2, 3}, true)),
                        "data", "truncated");
     require_load_error(tmp.file("acut.vtk", text_bytes(vtk("ASCII", "2 3 4", "24", "float") + "1 2 3\n")), "data",
-                       "found 3");
-    require_load_error(tmp.file("nan_text.vtk", text_bytes(vtk("ASCII", "2 3 4", "24", "float") + "1 x 3\n")),
+                       "truncated: 24 ASCII values need at least 47 bytes, found 6");
+    require_load_error(tmp.file("acut2.vtk", text_bytes(vtk("ASCII", "2 3 4", "24", "float") + values.substr(0, 70))),
+                       "data", "expected 24 values, found 7");
+    require_load_error(tmp.file("nan_text.vtk", text_bytes(vtk("ASCII", "2 3 4", "24", "float") + "1 x " + values)),
                        "data", "not a number");
     require_load_error(tmp.file("points.vtk", text_bytes(vtk("ASCII", "2 3 4", "23", "float") + values)), "POINT_DATA");
     require_load_error(tmp.file("zero.vtk", text_bytes(vtk("ASCII", "2 0 4", "0", "float"))), "dims");

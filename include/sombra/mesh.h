@@ -15,11 +15,11 @@ struct Mesh {
     std::string source;                                   // file path or generator name, for messages
 };
 
-// Reads a mesh with Assimp, choosing the format by the file's content and name: Wavefront OBJ
-// (.obj) and Stanford PLY (.ply, ASCII or binary); other formats Assimp reads work too. Polygons
-// are triangulated, all meshes of the file are joined (node transforms applied) and vertices with
-// identical attributes are welded. Throws sombra::Error "FILE: what" for a missing, malformed or
-// empty file, out-of-range indices and non-finite coordinates.
+// Reads a mesh, choosing the format by the file's name: Wavefront OBJ (.obj, through tinyobjloader;
+// all groups joined, corners with identical position and normal welded; `mtllib` is ignored) or
+// Stanford PLY (.ply, ASCII or binary, by sombra's own strict reader). Polygons are triangulated
+// as fans. Throws sombra::Error "FILE: what" for a missing, malformed or empty file, a file
+// that is not regular, counts past sombra/limits.h, out-of-range indices and non-finite coordinates.
 Mesh load_mesh(const std::string& path);
 
 // Checks a mesh built in memory (indices in range, finite positions, normals count); throws

@@ -91,6 +91,10 @@ struct Scene {
 // (e.g. "scene.json: lights[1].cone_angle_deg: must lie in (0, 90]").
 Scene load_scene(const std::string& path, const VolumeLoadOptions& options = {});
 
+// World points of a CSV file, one "x,y,z" per line (',', ';' or blanks between; '#' comments and
+// blank lines skipped), at most limits::kMaxPoints; throws "FILE: line N: …" for anything else.
+std::vector<Vec3> load_points_csv(const std::string& path);
+
 // Checks values that make no sense (camera at its look-at point, zero-size volumes, …).
 void validate_scene(const Scene& scene, const std::string& where);
 

@@ -8,3 +8,4 @@
 #include "sombra/shadows.h"
 #include "sombra/transfer_function.h"
 #include "sombra/volume.h"
+#include "sombra/limits.h"

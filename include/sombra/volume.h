@@ -34,6 +34,7 @@ enum class NonFinitePolicy {
 
 struct VolumeLoadOptions {
     NonFinitePolicy non_finite = NonFinitePolicy::Reject;
+    std::uint64_t max_voxels = std::uint64_t(1) << 30;  // per volume (file or generator); ≤ limits::kMaxVolumeVoxels
 };
 
 struct VolumeLoadReport {

@@ -11,60 +11,45 @@
 #include <sstream>
 #include <algorithm>
 
+#include "host/staged_outputs.h"
 #include "sombra/sombra.h"
 
 namespace {
 
 void write_text_file(const std::string& path, const std::string& text) {
-    std::string temporary = path + ".part";
-    {
-        std::ofstream out(temporary);
-        if (!(out << text << '\n')) {
-            std::remove(temporary.c_str());
-            throw sombra::Error(path + ": cannot write file");
-        }
-    }
-    std::filesystem::rename(temporary, path);
+    std::ofstream out(path);
+    if (!(out << text << '\n') || !(out.flush())) throw sombra::Error(path + ": cannot write file");
 }
 
-// sombra dsm: one deep EXR per view of the light (a point light has six cube faces).
+// --stats next to the other outputs: staged with them.
+void stage_stats(sombra::host::StagedOutputs& outputs, const std::string& stats_path, const sombra::RenderStats& stats) {
+    if (!stats_path.empty())
+        outputs.write(stats_path, [&](const std::string& path) { write_text_file(path, stats.to_json()); });
+}
+
+// sombra dsm: one deep EXR per view of the light (a point light has six cube faces), all written
+// (with the stats) before any takes its name.
 int write_dsm(sombra::Context& context, const sombra::Scene& scene, int light, const sombra::RenderOptions& options,
               const std::string& output, const std::string& stats_path) {
     sombra::RenderStats stats;
     auto maps = sombra::build_deep_shadow_maps(context, scene, light, options, &stats);
     std::filesystem::path out(output);
+    sombra::host::StagedOutputs outputs;
+    std::vector<std::string> written;
     for (const sombra::DeepShadowMap& map : maps) {
         std::string path = output;
         if (maps.size() > 1) {  // NAME.exr → NAME.+x.exr …
             std::string face = map.light_name.substr(map.light_name.rfind('.') + 1);
             path = (out.parent_path() / (out.stem().string() + "." + face + out.extension().string())).string();
         }
-        sombra::write_deep_exr(map, path);
-        std::cerr << "sombra: wrote " << path << " (" << map.width << "×" << map.height << ", " << map.nodes.size()
-                  << " nodes)\n";
+        outputs.write(path, [&](const std::string& staged) { sombra::write_deep_exr(map, staged); });
+        written.push_back(path + " (" + std::to_string(map.width) + "×" + std::to_string(map.height) + ", " +
+                          std::to_string(map.nodes.size()) + " nodes)");
     }
-    if (!stats_path.empty()) write_text_file(stats_path, stats.to_json());
+    stage_stats(outputs, stats_path, stats);
+    outputs.commit();
+    for (const std::string& line : written) std::cerr << "sombra: wrote " << line << "\n";
     return 0;
-}
-
-std::vector<sombra::Vec3> read_points(const std::string& path) {
-    std::ifstream in(path);
-    if (!in) throw sombra::file_error(path, "", "cannot open file");
-    std::vector<sombra::Vec3> points;
-    std::string line;
-    for (int number = 1; std::getline(in, line); ++number) {
-        if (line.empty() || line[0] == '#' || line.find_first_not_of(" \t\r") == std::string::npos) continue;
-        for (char& c : line)
-            if (c == ',' || c == ';') c = ' ';
-        std::istringstream fields(line);
-        sombra::Vec3 p;
-        std::string rest;
-        if (!(fields >> p[0] >> p[1] >> p[2]) || (fields >> rest) || !std::isfinite(p[0]) || !std::isfinite(p[1]) ||
-            !std::isfinite(p[2]))
-            throw sombra::file_error(path, "line " + std::to_string(number), "expected three finite numbers x,y,z");
-        points.push_back(p);
-    }
-    return points;
 }
 
 // sombra visibility: per point, each technique's transmittance (deep shadow map, shadow ray,
@@ -72,7 +57,7 @@ std::vector<sombra::Vec3> read_points(const std::string& path) {
 // differences; then the mean and max error of each.
 int print_visibility(sombra::Context& context, const sombra::Scene& scene, int light,
                      const sombra::RenderOptions& options, const std::string& points_path, const std::string& stats_path) {
-    auto points = read_points(points_path);
+    auto points = sombra::load_points_csv(points_path);
     const std::pair<const char*, sombra::ShadowTechnique> techniques[] = {{"dsm", sombra::ShadowTechnique::Dsm},
                                                                           {"shadow_ray", sombra::ShadowTechnique::Rays},
                                                                           {"shadow_map", sombra::ShadowTechnique::ShadowMap},
@@ -105,8 +90,25 @@ int print_visibility(sombra::Context& context, const sombra::Scene& scene, int l
     for (int k = 0; k < count; ++k) std::cerr << (k ? "," : "") << " " << techniques[k].first << " " << sum[k] / n << "/" << worst[k];
     std::cerr << " (lowpass W " << options.lowpass_filter_width << ")\n";
     sombra::ShadowQuery& dsm = queries.front();
-    if (!stats_path.empty()) write_text_file(stats_path, dsm.stats.to_json());
+    sombra::host::StagedOutputs outputs;
+    stage_stats(outputs, stats_path, dsm.stats);
+    outputs.commit();
     return 0;
+}
+
+// A number of type T in [lo, hi], checked after conversion to T (CLI::Range lets NaN through, and
+// an int option would wrap 4294967304 before a range check on the narrowed value).
+template <typename T>
+CLI::Validator in_range(T lo, T hi) {
+    std::ostringstream range;
+    range << "[" << lo << ", " << hi << "]";
+    return CLI::Validator(
+        [lo, hi, range = range.str()](std::string& text) {
+            T value{};
+            const bool ok = CLI::detail::lexical_cast(text, value) && value >= lo && value <= hi;
+            return ok ? std::string() : "must lie in " + range + ", got " + text;
+        },
+        std::string(std::is_integral_v<T> ? "INT" : "NUMBER") + " in " + range.str());
 }
 
 int run(int argc, char** argv) {
@@ -120,8 +122,9 @@ int run(int argc, char** argv) {
     CLI::App* render = app.add_subcommand("render", "render a scene to an image (PNG or EXR)");
     render->add_option("scene", scene_path, "scene file (JSON)")->required();
     render->add_option("-o,--output", output, "output image, .png (sRGB) or .exr (linear float)")->required();
-    render->add_option("--width", width, "image width (default: the scene's)");
-    render->add_option("--height", height, "image height (default: the scene's)");
+    const CLI::Validator image_side = in_range<int>(1, sombra::limits::kMaxImageSide);
+    render->add_option("--width", width, "image width (default: the scene's)")->check(image_side);
+    render->add_option("--height", height, "image height (default: the scene's)")->check(image_side);
     render->add_option("--device", device, "auto, cpu, gpu, or an index from `sombra devices`");
     render->add_option("--stats", stats_path, "write per-stage times and sample counts as JSON");
     render->add_option("--gradient", gradient, "central or sobel")->check(CLI::IsMember({"central", "sobel"}));
@@ -140,12 +143,12 @@ int run(int argc, char** argv) {
         ->check(CLI::IsMember({"none", "rays", "dsm", "shadowmap", "lowpass", "ao", "cone"}));
     float filter_width = 3.f;
     render->add_option("--filter", filter_width, "lowpass: filter width in voxels (softness of the shadows); ao: cube side")
-        ->check(CLI::Range(0.0f, 4096.0f));
+        ->check(in_range<float>(0, 4096));
     float cone_angle = 10.f;
     bool no_shadow_cache = false;
     render->add_flag("--no-shadow-cache", no_shadow_cache,
                      "lowpass/ao/cone: evaluate the tables per sample instead of reading the shadow cache (Ament Alg. 1)");
-    render->add_option("--cone-angle", cone_angle, "cone: half angle of the shadow cones in degrees")->check(CLI::Range(0.01f, 60.0f));
+    render->add_option("--cone-angle", cone_angle, "cone: half angle of the shadow cones in degrees")->check(in_range<float>(0.01f, 60));
     std::string filter_kernel = "box";
     render->add_option("--filter-kernel", filter_kernel, "lowpass: box (one SAT box) or gauss (5×5 sub-boxes, Ament Eq. 25)")
         ->check(CLI::IsMember({"box", "gauss"}));
@@ -154,7 +157,7 @@ int run(int argc, char** argv) {
     std::string dsm_storage = "atlas";
     bool precompression = false;
     std::string prefilter = "none";
-    render->add_option("--dsm-res", dsm_resolution, "deep shadow map texels per side")->check(CLI::Range(1, 8192));
+    render->add_option("--dsm-res", dsm_resolution, "deep shadow map texels per side")->check(in_range<int>(1, 8192));
     render->add_option("--storage", dsm_storage, "deep shadow map storage: atlas, chunked, chunked-ondemand (Knecht) or compact")
         ->check(CLI::IsMember({"atlas", "chunked", "chunked-ondemand", "compact"}));
     render->add_flag("--precompression", precompression, "pre-compressed visibility tables for DSM generation (Hadwiger §3.2)");
@@ -164,7 +167,7 @@ int run(int argc, char** argv) {
         ->check(CLI::IsMember({"none", "box", "tent", "5tap"}));
     render->add_option("--prefilter-jitter", prefilter_jitter, "jittered sub-pixel rays: on (seed 1), off, or a seed");
     render->add_option("--eps", dsm_epsilon, "deep shadow map compression error bound ε (Knecht Eq. 3.1)")
-        ->check(CLI::Range(0.0f, 1e6f));
+        ->check(in_range<float>(0, 1e6f));
     render->add_option("--volume-storage", storage, "auto (buffer on CPUs, image on GPUs), buffer or image")
         ->check(CLI::IsMember({"auto", "buffer", "image"}));
     render->add_option("--non-finite", non_finite, "NaN/Inf voxels: reject (error) or sanitize (set to 0, warn)")
@@ -189,18 +192,20 @@ int run(int argc, char** argv) {
     visibility->add_option("--points", points_path, "CSV file of x,y,z world points (one per line)")->required();
     for (CLI::App* sub : {dsm, visibility}) {
         sub->add_option("--device", device, "auto, cpu, gpu, or an index from `sombra devices`");
-        sub->add_option("--dsm-res", dsm_resolution, "deep shadow map texels per side")->check(CLI::Range(1, 8192));
+        sub->add_option("--dsm-res", dsm_resolution, "deep shadow map texels per side")->check(in_range<int>(1, 8192));
         sub->add_option("--storage", dsm_storage, "deep shadow map storage: atlas, chunked, chunked-ondemand (Knecht) or compact")
             ->check(CLI::IsMember({"atlas", "chunked", "chunked-ondemand", "compact"}));
         sub->add_flag("--precompression", precompression, "pre-compressed visibility tables (Hadwiger §3.2)");
         sub->add_option("--prefilter", prefilter, "DSM pre-filtering: none, box, tent or 5tap")
             ->check(CLI::IsMember({"none", "box", "tent", "5tap"}));
         sub->add_option("--prefilter-jitter", prefilter_jitter, "jittered sub-pixel rays: on (seed 1), off, or a seed");
-        sub->add_option("--eps", dsm_epsilon, "compression error bound ε")->check(CLI::Range(0.0f, 1e6f));
+        sub->add_option("--eps", dsm_epsilon, "compression error bound ε")->check(in_range<float>(0, 1e6f));
         sub->add_option("--stats", stats_path, "write build times and DSM sizes as JSON");
     }
-    visibility->add_option("--filter", filter_width, "low-pass filter width W in voxels (Ament §4.2.1)");
-    visibility->add_option("--filter-kernel", filter_kernel, "low-pass filter kernel: box or gauss");
+    visibility->add_option("--filter", filter_width, "low-pass filter width W in voxels (Ament §4.2.1)")
+        ->check(in_range<float>(0, 4096));
+    visibility->add_option("--filter-kernel", filter_kernel, "low-pass filter kernel: box or gauss")
+        ->check(CLI::IsMember({"box", "gauss"}));
 
     try {
         app.parse(argc, argv);
@@ -220,6 +225,19 @@ int run(int argc, char** argv) {
                       << d.opencl_c_version << ", " << (d.global_memory_bytes >> 20) << " MiB\n";
         return 0;
     }
+
+    // a wrong output name fails before the work, not after it
+    const std::string output_extension = [&] {
+        std::string e = std::filesystem::path(output).extension().string();
+        std::transform(e.begin(), e.end(), e.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+        return e;
+    }();
+    if (render->parsed() && output_extension != ".png" && output_extension != ".exr")
+        throw sombra::Error(output + ": output must end in .png or .exr");
+    if (dsm->parsed() && output_extension != ".exr")
+        throw sombra::Error(output + ": a deep shadow map is written as OpenEXR: the name must end in .exr");
+    for (const std::string& path : {output, stats_path})
+        if (!path.empty()) sombra::host::StagedOutputs::check_target(path);
 
     sombra::VolumeLoadOptions load;
     load.non_finite = non_finite == "sanitize" ? sombra::NonFinitePolicy::Sanitize : sombra::NonFinitePolicy::Reject;
@@ -262,8 +280,10 @@ int run(int argc, char** argv) {
     if (dsm->parsed()) return write_dsm(context, scene, light_index, options, output, stats_path);
     if (visibility->parsed()) return print_visibility(context, scene, light_index, options, points_path, stats_path);
     sombra::RenderResult result = sombra::render(context, scene, options);
-    sombra::write_image(result.image, output);
-    if (!stats_path.empty()) write_text_file(stats_path, result.stats.to_json());
+    sombra::host::StagedOutputs outputs;
+    outputs.write(output, [&](const std::string& staged) { sombra::write_image(result.image, staged); });
+    stage_stats(outputs, stats_path, result.stats);
+    outputs.commit();
     std::cerr << "sombra: wrote " << output << " (" << result.image.width << "×" << result.image.height << ", "
               << result.stats.device << ", camera pass " << result.stats.stage_ms["camera_pass"] << " ms, "
               << result.stats.msamples_per_s << " Msamples/s)\n";

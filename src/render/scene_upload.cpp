@@ -143,8 +143,8 @@ PackedScene pack_scene(const Scene& scene) {
         g.tf_offset = cl_uint(packed.tf_tables.size());
         g.tf_size = cl_uint(table.size());
         g.tf_domain_min = tf.domain_min();
-        float range = tf.domain_max() - tf.domain_min();
-        g.tf_domain_scale = range > 0.f ? float(table.size() - 1) / range : 0.f;
+        const double range = double(tf.domain_max()) - tf.domain_min();  // in float it overflows near ±3.4e38
+        g.tf_domain_scale = range > 0 ? float(double(table.size() - 1) / range) : 0.f;
         for (auto& e : table) packed.tf_tables.push_back(f4(e[0], e[1], e[2], e[3]));
         append_sigma_prefix(table, g, packed.tf_tables);
         float max_sigma = 0.f;

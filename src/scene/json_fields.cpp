@@ -1,16 +1,19 @@
 #include "scene/json_fields.h"
 
-#include <fstream>
-#include <sstream>
+#include "scene/input_file.h"
+#include "sombra/limits.h"
 
 namespace sombra::detail {
 
+std::string json_error_text(const nlohmann::json::exception& e) {
+    std::string text = e.what();
+    if (text.size() > 200) text = text.substr(0, 200) + "…";  // it may quote a whole token
+    return text;
+}
+
 nlohmann::json parse_json_file(const std::string& path) {
-    std::ifstream in(path, std::ios::binary);
-    if (!in) throw file_error(path, "", "cannot open file");
-    std::stringstream buffer;
-    buffer << in.rdbuf();
-    std::string text = buffer.str();
+    const std::vector<unsigned char> bytes = read_regular_file(path, limits::kMaxInputFileBytes);
+    const std::string text(bytes.begin(), bytes.end());
     try {
         return nlohmann::json::parse(text, nullptr, true, /*ignore_comments=*/true);
     } catch (const nlohmann::json::parse_error& e) {
@@ -20,6 +23,8 @@ nlohmann::json parse_json_file(const std::string& path) {
         }
         throw file_error(path, "line " + std::to_string(line) + " column " + std::to_string(column),
                          "JSON syntax error");
+    } catch (const nlohmann::json::exception& e) {  // e.g. out_of_range 406: a number overflows double
+        throw file_error(path, "json", json_error_text(e));
     }
 }
 

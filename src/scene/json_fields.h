@@ -4,12 +4,38 @@
 #include <nlohmann/json.hpp>
 
 #include <array>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <optional>
 #include <set>
 #include <string>
 
 #include "sombra/error.h"
 
 namespace sombra::detail {
+
+// Conversions that check the value as the type it is used as, never after a narrowing cast:
+// a JSON integer within [lo, hi] (64-bit, signed or unsigned in the file) ...
+inline std::optional<std::int64_t> integer_in(const nlohmann::json& v, std::int64_t lo, std::int64_t hi) {
+    if (v.is_number_unsigned()) {
+        const std::uint64_t u = v.get<std::uint64_t>();
+        if (u > std::uint64_t(std::numeric_limits<std::int64_t>::max()) || std::int64_t(u) < lo || std::int64_t(u) > hi)
+            return std::nullopt;
+        return std::int64_t(u);
+    }
+    if (!v.is_number_integer()) return std::nullopt;
+    const std::int64_t i = v.get<std::int64_t>();
+    if (i < lo || i > hi) return std::nullopt;
+    return i;
+}
+// ... and a JSON number that is still finite as a float (1e39 is not).
+inline std::optional<float> finite_float(const nlohmann::json& v) {
+    if (!v.is_number()) return std::nullopt;
+    const double d = v.get<double>();
+    if (!(std::fabs(d) <= double(std::numeric_limits<float>::max()))) return std::nullopt;
+    return float(d);
+}
 
 class JsonFields {
 public:
@@ -37,11 +63,12 @@ public:
         return number_of(object_.at(key), key);
     }
     float number(const std::string& key) { return number_of(at(key), key); }
-    int integer(const std::string& key, int fallback) {
+    // An integer within [lo, hi] (checked as a 64-bit value, before any narrowing).
+    std::int64_t integer(const std::string& key, std::int64_t fallback, std::int64_t lo, std::int64_t hi) {
         if (!has(key)) return fallback;
-        const auto& v = object_.at(key);
-        if (!v.is_number_integer()) fail(key, "must be an integer");
-        return v.get<int>();
+        const auto value = integer_in(object_.at(key), lo, hi);
+        if (!value) fail(key, "must be an integer in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
+        return *value;
     }
     std::string string(const std::string& key) {
         const auto& v = at(key);
@@ -62,20 +89,26 @@ public:
             if (!used_.count(it.key())) fail(it.key(), "unknown key");
     }
 
-private:
+    // v (an element of key's value) as a finite float.
     float number_of(const nlohmann::json& v, const std::string& key) const {
         if (!v.is_number()) fail(key, "must be a number");
-        double d = v.get<double>();
-        if (!std::isfinite(d)) fail(key, "must be finite");
-        return float(d);
+        const auto value = finite_float(v);
+        if (!value) fail(key, "must be finite (|value| <= 3.4e38)");
+        return *value;
     }
+
+private:
 
     const nlohmann::json& object_;
     std::string file_, path_;
     std::set<std::string> used_;
 };
 
-// Parses a whole JSON file; a syntax error names the line and column.
+// nlohmann's message of e, cut to one short line.
+std::string json_error_text(const nlohmann::json::exception& e);
+
+// Parses a whole JSON file; a syntax error names the line and column, any other JSON error (a
+// number that overflows a double) is "FILE: json: …".
 nlohmann::json parse_json_file(const std::string& path);
 
 }  // namespace sombra::detail

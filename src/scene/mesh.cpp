@@ -1,50 +1,19 @@
 #include "sombra/mesh.h"
 
-#include <assimp/Importer.hpp>
-#include <assimp/postprocess.h>
-#include <assimp/scene.h>
-
+#include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <filesystem>
 #include <map>
 
+#include "scene/input_file.h"
+#include "scene/mesh_formats.h"
 #include "sombra/error.h"
+#include "sombra/limits.h"
 
 namespace sombra {
 namespace {
-
 constexpr float kPi = 3.14159265358979f;
-
-// Appends one Assimp mesh, its vertices moved by the node's accumulated transform.
-void append(Mesh& out, const aiMesh& m, const aiMatrix4x4& transform) {
-    const auto base = std::uint32_t(out.positions.size());
-    aiMatrix3x3 normal_matrix(transform);
-    normal_matrix.Inverse().Transpose();
-    for (unsigned i = 0; i < m.mNumVertices; ++i) {
-        aiVector3D p = transform * m.mVertices[i];
-        out.positions.push_back({p.x, p.y, p.z});
-        if (m.HasNormals()) {
-            aiVector3D n = (normal_matrix * m.mNormals[i]).NormalizeSafe();
-            out.normals.push_back({n.x, n.y, n.z});
-        }
-    }
-    for (unsigned f = 0; f < m.mNumFaces; ++f) {
-        const aiFace& face = m.mFaces[f];
-        if (face.mNumIndices != 3) continue;  // points and lines left by triangulation
-        out.triangles.push_back({base + face.mIndices[0], base + face.mIndices[1], base + face.mIndices[2]});
-    }
-}
-
-void walk(Mesh& out, const aiScene& scene, const aiNode& node, const aiMatrix4x4& parent, bool& mixed_normals) {
-    aiMatrix4x4 transform = parent * node.mTransformation;
-    for (unsigned i = 0; i < node.mNumMeshes; ++i) {
-        const aiMesh& m = *scene.mMeshes[node.mMeshes[i]];
-        if (!out.positions.empty() && m.HasNormals() != !out.normals.empty()) mixed_normals = true;
-        append(out, m, transform);
-    }
-    for (unsigned i = 0; i < node.mNumChildren; ++i) walk(out, scene, *node.mChildren[i], transform, mixed_normals);
-}
-
 }  // namespace
 
 void validate_mesh(const Mesh& mesh, const std::string& where) {
@@ -81,22 +50,17 @@ void check_closed(const Mesh& mesh, const std::string& where) {
 }
 
 Mesh load_mesh(const std::string& path) {
-    if (!std::filesystem::is_regular_file(path)) throw file_error(path, "", "cannot open file");
-    Assimp::Importer importer;
-    // Points and lines are dropped; Assimp checks its scene (face indices) before processing it.
-    importer.SetPropertyInteger(AI_CONFIG_PP_SBP_REMOVE, aiPrimitiveType_POINT | aiPrimitiveType_LINE);
-    const aiScene* scene = importer.ReadFile(
-        path, aiProcess_ValidateDataStructure | aiProcess_Triangulate | aiProcess_JoinIdenticalVertices |
-                  aiProcess_SortByPType);
-    if (!scene || (scene->mFlags & AI_SCENE_FLAGS_INCOMPLETE) || !scene->mRootNode) {
-        std::string why = importer.GetErrorString();
-        throw file_error(path, "", "cannot read mesh" + (why.empty() ? std::string() : " (" + why + ")"));
-    }
+    const std::uint64_t size = detail::regular_file_size(path);
+    if (size > limits::kMaxInputFileBytes)
+        throw file_error(path, "", "file too large: " + std::to_string(size) + " bytes (at most " +
+                                       std::to_string(limits::kMaxInputFileBytes) + ")");
+    std::string extension = std::filesystem::path(path).extension().string();
+    std::transform(extension.begin(), extension.end(), extension.begin(), [](unsigned char c) { return char(std::tolower(c)); });
     Mesh mesh;
+    if (extension == ".ply") mesh = detail::read_ply(path);
+    else if (extension == ".obj") mesh = detail::read_obj(path);
+    else throw file_error(path, "", "unknown mesh format (expected .obj or .ply)");
     mesh.source = path;
-    bool mixed_normals = false;
-    walk(mesh, *scene, *scene->mRootNode, aiMatrix4x4(), mixed_normals);
-    if (mixed_normals) mesh.normals.clear();  // some parts without normals: none at all
     validate_mesh(mesh, path);
     return mesh;
 }

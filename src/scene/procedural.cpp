@@ -1,6 +1,7 @@
 // sombra — procedural volumes for tests and small scenes. Deterministic on every platform: the
 // random numbers come from a fixed integer hash, not from <random>'s distributions.
 #include "sombra/error.h"
+#include "sombra/limits.h"
 #include "sombra/volume.h"
 
 #include <algorithm>
@@ -10,7 +11,9 @@ namespace sombra {
 namespace {
 
 Volume empty_cube(const char* name, int n) {
-    if (n < 1) throw file_error(name, "n", "grid size must be >= 1, got " + std::to_string(n));
+    if (n < 1 || n > limits::kMaxGeneratorSize)
+        throw file_error(name, "n", "grid size must lie in [1, " + std::to_string(limits::kMaxGeneratorSize) + "], got " +
+                                        std::to_string(n));
     Volume v;
     v.dims = {n, n, n};
     v.voxels.assign(std::size_t(n) * n * n, 0.f);
@@ -94,7 +97,9 @@ Volume make_slab(int n, int axis, float lo_fraction, float hi_fraction, float de
 }
 
 Volume make_gaussian_blobs(int n, int blob_count, std::uint32_t seed) {
-    if (blob_count < 1) throw file_error("make_gaussian_blobs", "blob_count", "must be >= 1");
+    if (blob_count < 1 || blob_count > limits::kMaxGeneratorBlobs)
+        throw file_error("make_gaussian_blobs", "blob_count",
+                         "must lie in [1, " + std::to_string(limits::kMaxGeneratorBlobs) + "]");
     Volume v = empty_cube("make_gaussian_blobs", n);
     struct Blob { float x, y, z, inv2s2, weight; };
     std::vector<Blob> blobs;

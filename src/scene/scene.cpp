@@ -4,6 +4,7 @@
 #include <filesystem>
 
 #include "scene/json_fields.h"
+#include "sombra/limits.h"
 #include "shared/types.h"
 
 namespace sombra {
@@ -27,11 +28,10 @@ std::vector<float> flat_numbers(JsonFields& f, const std::string& key, std::size
     const json& v = f.at(key);
     if (!v.is_array() || v.empty() || v.size() % group != 0)
         f.fail(key, "must be a flat array of " + std::to_string(group) + "-tuples");
+    if (v.size() / group > limits::kMaxTransferPoints)
+        f.fail(key, "at most " + std::to_string(limits::kMaxTransferPoints) + " points");
     std::vector<float> out;
-    for (const auto& e : v) {
-        if (!e.is_number()) f.fail(key, "must contain numbers only");
-        out.push_back(e.get<float>());
-    }
+    for (const auto& e : v) out.push_back(f.number_of(e, key));
     return out;
 }
 
@@ -57,10 +57,7 @@ std::array<float, 16> read_transform(const json& j, const std::string& file, con
         const json& m = f.at("matrix");
         if (!m.is_array() || m.size() != 16) f.fail("matrix", "must be 16 numbers (row-major 4×4)");
         std::array<float, 16> out{};
-        for (int i = 0; i < 16; ++i) {
-            if (!m[i].is_number()) f.fail("matrix", "must contain numbers only");
-            out[i] = m[i].get<float>();
-        }
+        for (int i = 0; i < 16; ++i) out[i] = f.number_of(m[i], "matrix");
         f.finish();
         return out;
     }
@@ -69,7 +66,7 @@ std::array<float, 16> read_transform(const json& j, const std::string& file, con
     Vec3 scale{1, 1, 1};
     if (f.has("scale")) {
         const json& s = f.at("scale");
-        if (s.is_number()) scale = {s.get<float>(), s.get<float>(), s.get<float>()};
+        if (s.is_number()) scale.fill(f.number_of(s, "scale"));
         else scale = f.vec3("scale", scale);
     }
     for (float s : scale)
@@ -78,21 +75,23 @@ std::array<float, 16> read_transform(const json& j, const std::string& file, con
     return make_transform(translate, rotate, scale);
 }
 
-std::shared_ptr<const Volume> read_generator(const json& j, const std::string& file, const std::string& path) {
+std::shared_ptr<const Volume> read_generator(const json& j, const std::string& file, const std::string& path,
+                                             const VolumeLoadOptions& options) {
     JsonFields f(j, file, path);
     std::string type = f.string("type");
-    int size = f.integer("size", 64);
-    if (size < 1 || size > 1024) f.fail("size", "must lie in [1, 1024]");
+    const int size = int(f.integer("size", 64, 1, limits::kMaxGeneratorSize));
+    if (std::uint64_t(size) * size * size > options.max_voxels)
+        f.fail("size", std::to_string(size) + "³ voxels exceed the limit of " + std::to_string(options.max_voxels));
+    const auto seed = [&] { return std::uint32_t(f.integer("seed", 1, 0, UINT32_MAX)); };
     float density = f.number("density", 1.f);
     Volume v;
     if (type == "sphere") v = make_sphere(size, f.number("radius_fraction", 0.4f), density);
     else if (type == "slab") {
-        int axis = f.integer("axis", 2);
-        if (axis < 0 || axis > 2) f.fail("axis", "must be 0, 1 or 2");
+        const int axis = int(f.integer("axis", 2, 0, 2));
         v = make_slab(size, axis, f.number("lo", 0.25f), f.number("hi", 0.75f), density);
-    } else if (type == "blobs") v = make_gaussian_blobs(size, f.integer("count", 8), std::uint32_t(f.integer("seed", 1)));
-    else if (type == "cloud") v = make_cloud_noise(size, std::uint32_t(f.integer("seed", 1)));
-    else if (type == "steam") v = make_steam_plume(size, std::uint32_t(f.integer("seed", 1)));
+    } else if (type == "blobs") v = make_gaussian_blobs(size, int(f.integer("count", 8, 1, limits::kMaxGeneratorBlobs)), seed());
+    else if (type == "cloud") v = make_cloud_noise(size, seed());
+    else if (type == "steam") v = make_steam_plume(size, seed());
     else f.fail("type", "unknown generator '" + type + "' (sphere, slab, blobs, cloud, steam)");
     f.finish();
     return std::make_shared<const Volume>(std::move(v));
@@ -144,17 +143,18 @@ VolumeInstance read_volume(const json& j, const std::string& file, const std::st
     if (has_file) {
         vi.volume = std::make_shared<const Volume>(load_volume(relative_to(file, f.string("file")).string(), options));
     } else {
-        vi.volume = read_generator(f.at("generator"), file, f.field("generator"));
+        vi.volume = read_generator(f.at("generator"), file, f.field("generator"), options);
     }
     vi.spacing = f.vec3("spacing", vi.volume->spacing);
     for (float s : vi.spacing)
-        if (!(s > 0.f)) f.fail("spacing", "must be positive");
+        if (!(s >= limits::kMinLength)) f.fail("spacing", "must be ≥ 1e-12 (positive)");
     if (f.has("transform")) vi.transform = read_transform(f.at("transform"), file, f.field("transform"));
     vi.transfer_function = read_transfer_function(f.at("transfer_function"), file, f.field("transfer_function"));
     vi.step_voxels = f.number("step_voxels", vi.step_voxels);
     if (!(vi.step_voxels >= 0.01f && vi.step_voxels <= 16.f)) f.fail("step_voxels", "must lie in [0.01, 16]");
     vi.opacity_unit = f.number("opacity_unit", 0.f);
-    if (vi.opacity_unit < 0.f) f.fail("opacity_unit", "must be ≥ 0 (0: one voxel)");
+    if (!(vi.opacity_unit == 0.f || vi.opacity_unit >= limits::kMinLength))  // σ = −ln(1 − α)/unit stays finite
+        f.fail("opacity_unit", "must be 0 (one voxel) or ≥ 1e-12");
     if (f.has("material")) {
         JsonFields m(f.at("material"), file, f.field("material"));
         vi.material = read_phong(m, vi.material);
@@ -196,9 +196,9 @@ Light read_light(const json& j, const std::string& file, const std::string& path
     if (l.type != LightType::Directional) l.position = f.vec3("position", l.position);
     if (l.type != LightType::Point) {
         l.direction = f.vec3("direction", l.direction);
-        float len = std::sqrt(l.direction[0] * l.direction[0] + l.direction[1] * l.direction[1] + l.direction[2] * l.direction[2]);
-        if (!(len > 1e-6f)) f.fail("direction", "must be a non-zero vector");
-        for (float& c : l.direction) c /= len;
+        const double len = std::hypot(double(l.direction[0]), double(l.direction[1]), double(l.direction[2]));
+        if (!(len > 1e-6)) f.fail("direction", "must be a non-zero vector");
+        for (float& c : l.direction) c = float(c / len);
     }
     l.color = f.vec3("color", l.color);
     for (float c : l.color)
@@ -219,6 +219,24 @@ Light read_light(const json& j, const std::string& file, const std::string& path
     }
     f.finish();
     return l;
+}
+
+// Every corner of the box [lo, hi] mapped by `transform` must lie within ±kMaxCoordinate, so that
+// distances, their squares and the kernels' products stay finite as floats.
+void check_world_extent(const std::string& where, const std::string& field, const std::array<float, 16>& transform,
+                        const Vec3& lo, const Vec3& hi) {
+    for (int corner = 0; corner < 8; ++corner)
+        for (int row = 0; row < 3; ++row) {
+            double w = transform[std::size_t(row * 4 + 3)];
+            for (int a = 0; a < 3; ++a) w += double(transform[std::size_t(row * 4 + a)]) * ((corner >> a) & 1 ? hi[a] : lo[a]);
+            if (!(std::fabs(w) <= limits::kMaxCoordinate))
+                throw file_error(where, field, "places the object beyond ±1e18 (world coordinates must stay finite)");
+        }
+}
+
+void check_point(const std::string& where, const std::string& field, const Vec3& p) {
+    for (float c : p)
+        if (!(std::fabs(c) <= limits::kMaxCoordinate)) throw file_error(where, field, "must lie within ±1e18");
 }
 
 }  // namespace
@@ -243,6 +261,8 @@ void validate_scene(const Scene& scene, const std::string& where) {
     const Camera& c = scene.camera;
     Vec3 d{c.look_at[0] - c.position[0], c.look_at[1] - c.position[1], c.look_at[2] - c.position[2]};
     float len = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    check_point(where, "camera.position", c.position);
+    check_point(where, "camera.look_at", c.look_at);
     if (!(len > 1e-6f)) throw file_error(where, "camera.look_at", "must differ from camera.position");
     Vec3 u = c.up;
     Vec3 cross{d[1] * u[2] - d[2] * u[1], d[2] * u[0] - d[0] * u[2], d[0] * u[1] - d[1] * u[0]};
@@ -250,14 +270,29 @@ void validate_scene(const Scene& scene, const std::string& where) {
     if (!(std::sqrt(cross[0] * cross[0] + cross[1] * cross[1] + cross[2] * cross[2]) > 1e-6f * len * ulen))
         throw file_error(where, "camera.up", "must not be parallel to the view direction");
     if (!(c.fov_y_deg > 0.f && c.fov_y_deg < 180.f)) throw file_error(where, "camera.fov_y_deg", "must lie in (0, 180)");
-    if (scene.width < 1 || scene.height < 1 || scene.width > 16384 || scene.height > 16384)
-        throw file_error(where, "image", "width and height must lie in [1, 16384]");
+    if (scene.width < 1 || scene.height < 1 || scene.width > limits::kMaxImageSide || scene.height > limits::kMaxImageSide)
+        throw file_error(where, "image", "width and height must lie in [1, " + std::to_string(limits::kMaxImageSide) + "]");
     if (scene.volumes.size() > SOMBRA_MAX_VOLUMES)
         throw file_error(where, "volumes", "at most " + std::to_string(SOMBRA_MAX_VOLUMES) + " volumes per scene");
-    if (scene.lights.size() > 8) throw file_error(where, "lights", "at most 8 lights per scene");
+    if (scene.lights.size() > std::size_t(limits::kMaxLights))
+        throw file_error(where, "lights", "at most " + std::to_string(limits::kMaxLights) + " lights per scene");
+    for (std::size_t i = 0; i < scene.lights.size(); ++i)
+        check_point(where, "lights[" + std::to_string(i) + "].position", scene.lights[i].position);
+    for (std::size_t i = 0; i < scene.meshes.size(); ++i) {
+        const MeshInstance& mi = scene.meshes[i];
+        if (!mi.mesh || mi.mesh->positions.empty()) continue;
+        Vec3 lo = mi.mesh->positions.front(), hi = lo;
+        for (const Vec3& p : mi.mesh->positions)
+            for (int a = 0; a < 3; ++a) lo[a] = std::min(lo[a], p[a]), hi[a] = std::max(hi[a], p[a]);
+        check_world_extent(where, "meshes[" + std::to_string(i) + "]", mi.transform, lo, hi);
+    }
     for (std::size_t i = 0; i < scene.volumes.size(); ++i) {
         if (!scene.volumes[i].volume || scene.volumes[i].volume->voxel_count() == 0)
             throw file_error(where, "volumes[" + std::to_string(i) + "]", "volume is empty");
+        const VolumeInstance& vi = scene.volumes[i];
+        Vec3 half;
+        for (int a = 0; a < 3; ++a) half[a] = 0.5f * float(vi.volume->dims[a]) * vi.spacing[a];
+        check_world_extent(where, "volumes[" + std::to_string(i) + "]", vi.transform, {-half[0], -half[1], -half[2]}, half);
         if (const auto& bound = scene.volumes[i].bound.mesh) {  // API users build bounds in memory
             std::string field = "volumes[" + std::to_string(i) + "].bounds.mesh";
             try {
@@ -285,8 +320,8 @@ Scene load_scene(const std::string& path, const VolumeLoadOptions& options) {
     }
     if (f.has("image")) {
         JsonFields im(f.at("image"), path, "image");
-        scene.width = im.integer("width", scene.width);
-        scene.height = im.integer("height", scene.height);
+        scene.width = int(im.integer("width", scene.width, 1, limits::kMaxImageSide));
+        scene.height = int(im.integer("height", scene.height, 1, limits::kMaxImageSide));
         im.finish();
     }
     scene.background = f.vec3("background", scene.background);
@@ -295,6 +330,8 @@ Scene load_scene(const std::string& path, const VolumeLoadOptions& options) {
     if (f.has("meshes")) {
         const json& meshes = f.at("meshes");
         if (!meshes.is_array()) f.fail("meshes", "must be an array");
+        if (meshes.size() > std::size_t(limits::kMaxMeshes))
+            f.fail("meshes", "at most " + std::to_string(limits::kMaxMeshes) + " meshes per scene");
         for (std::size_t i = 0; i < meshes.size(); ++i)
             scene.meshes.push_back(read_mesh(meshes[i], path, "meshes[" + std::to_string(i) + "]"));
     }
@@ -303,12 +340,16 @@ Scene load_scene(const std::string& path, const VolumeLoadOptions& options) {
         const json& volumes = f.at("volumes");
         if (!volumes.is_array() || (volumes.empty() && scene.meshes.empty()))
             f.fail("volumes", scene.meshes.empty() ? "must be a non-empty array" : "must be an array");
+        if (volumes.size() > SOMBRA_MAX_VOLUMES)  // before any is loaded
+            f.fail("volumes", "at most " + std::to_string(SOMBRA_MAX_VOLUMES) + " volumes per scene");
         for (std::size_t i = 0; i < volumes.size(); ++i)
             scene.volumes.push_back(read_volume(volumes[i], path, "volumes[" + std::to_string(i) + "]", options));
     }
     if (f.has("lights")) {
         const json& lights = f.at("lights");
         if (!lights.is_array()) f.fail("lights", "must be an array");
+        if (lights.size() > std::size_t(limits::kMaxLights))
+            f.fail("lights", "at most " + std::to_string(limits::kMaxLights) + " lights per scene");
         for (std::size_t i = 0; i < lights.size(); ++i)
             scene.lights.push_back(read_light(lights[i], path, "lights[" + std::to_string(i) + "]"));
     }

@@ -12,11 +12,12 @@ namespace {
 template <typename Point, typename Value>
 Value interpolate(const std::vector<Point>& points, float x, Value (*value)(const Point&)) {
     if (x <= points.front().x) return value(points.front());
-    if (x >= points.back().x) return value(points.back());
+    if (!(x < points.back().x)) return value(points.back());  // also NaN: upper_bound would find end()
     auto upper = std::upper_bound(points.begin(), points.end(), x, [](float v, const Point& p) { return v < p.x; });
     const Point& b = *upper;
     const Point& a = *(upper - 1);
-    float f = b.x > a.x ? (x - a.x) / (b.x - a.x) : 1.f;
+    // in double: b.x - a.x overflows float for points near ±3.4e38
+    const float f = b.x > a.x ? float((double(x) - a.x) / (double(b.x) - a.x)) : 1.f;
     Value va = value(a), vb = value(b);
     return va + (vb - va) * f;
 }
@@ -48,7 +49,7 @@ std::vector<std::array<float, 4>> TransferFunction::table(int size, float opacit
     float lo = domain_min(), hi = domain_max();
     const float max_sigma = -std::log(1e-6f) / opacity_unit;
     for (std::size_t i = 0; i < out.size(); ++i) {
-        float x = out.size() > 1 && hi > lo ? lo + (hi - lo) * float(i) / float(out.size() - 1) : lo;
+        const float x = hi > lo ? float(lo + (double(hi) - lo) * double(i) / double(out.size() - 1)) : lo;
         auto c = color(x);
         float alpha = std::clamp(opacity(x), 0.f, 1.f);
         float sigma = alpha >= 1.f ? max_sigma : std::min(max_sigma, -std::log1p(-alpha) / opacity_unit);

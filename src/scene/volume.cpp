@@ -1,6 +1,7 @@
 // sombra — Volume helpers and load_volume: reader dispatch plus the checks every format shares.
 #include "sombra/volume.h"
 
+#include "scene/input_file.h"
 #include "scene/volume_io_common.h"
 
 #include <algorithm>
@@ -54,10 +55,14 @@ const Reader& reader_for(const std::string& path) {
 
 Volume load_volume(const std::string& path, const VolumeLoadOptions& options, VolumeLoadReport* report) {
     const Reader& reader = reader_for(path);
+    detail::regular_file_size(path);  // no directory, FIFO or device, whatever the reader
     Volume volume = reader.read(path);
 
     const std::size_t count = volume_io::checked_voxel_count(
         path, {volume.dims[0], volume.dims[1], volume.dims[2]});
+    if (count > options.max_voxels)
+        throw file_error(path, "dims", std::to_string(count) + " voxels exceed the limit of " +
+                                           std::to_string(options.max_voxels));
     if (volume.voxels.size() != count)
         throw file_error(path, "data", "holds " + std::to_string(volume.voxels.size()) + " voxels, expected " +
                                            std::to_string(count));

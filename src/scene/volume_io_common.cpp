@@ -1,12 +1,13 @@
 // sombra — helpers shared by the volume file readers.
 #include "scene/volume_io_common.h"
 
+#include "scene/input_file.h"
+
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
-#include <fstream>
 #include <limits>
 #include <type_traits>
 
@@ -30,27 +31,19 @@ Endian native_endian() {
 }
 
 std::vector<unsigned char> read_file(const std::string& path) {
-    std::ifstream in(path, std::ios::binary | std::ios::ate);
-    if (!in) throw file_error(path, "", std::string("cannot open for reading: ") + std::strerror(errno));
-    const std::streamoff size = in.tellg();
-    if (size < 0) throw file_error(path, "", "cannot determine the file size");
-    std::vector<unsigned char> bytes(static_cast<std::size_t>(size));
-    in.seekg(0);
-    if (!in.read(reinterpret_cast<char*>(bytes.data()), size)) throw file_error(path, "", "read error");
-    return bytes;
+    return detail::read_regular_file(path, kMaxVolumeFileBytes);
 }
 
-std::size_t checked_voxel_count(const std::string& file, const std::array<long long, 3>& dims,
-                                std::size_t item_size) {
+std::size_t checked_voxel_count(const std::string& file, const std::array<long long, 3>& dims) {
     const std::string text = std::to_string(dims[0]) + " x " + std::to_string(dims[1]) + " x " +
                              std::to_string(dims[2]);
     std::uint64_t count = 1;
     for (long long d : dims) {
         if (d <= 0) throw file_error(file, "dims", "empty volume " + text + " (every dimension must be > 0)");
-        if (d > std::numeric_limits<int>::max()) throw file_error(file, "dims", "dimension too large in " + text);
+        if (std::uint64_t(d) > limits::kMaxVolumeVoxels / count)  // count * d would pass the limit (or overflow)
+            throw file_error(file, "dims", "volume " + text + " has more than " +
+                                               std::to_string(limits::kMaxVolumeVoxels) + " voxels");
         count *= std::uint64_t(d);
-        if (count > (std::uint64_t(1) << 40) / std::max<std::size_t>(item_size, 1))
-            throw file_error(file, "dims", "volume " + text + " is too large");
     }
     return static_cast<std::size_t>(count);
 }

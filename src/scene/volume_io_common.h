@@ -1,6 +1,7 @@
 // sombra — helpers shared by the volume file readers (internal to src/scene).
 #pragma once
 #include "sombra/error.h"
+#include "sombra/limits.h"
 #include "sombra/volume.h"
 
 #include <array>
@@ -17,13 +18,15 @@ enum class Endian { little, big };
 std::size_t type_size(ScalarType type);
 Endian native_endian();
 
-// Reads a whole file; throws "FILE: cannot open ..." / "FILE: read error".
+// The largest volume file read whole: the largest volume in the widest type, plus headers.
+constexpr std::uint64_t kMaxVolumeFileBytes = limits::kMaxVolumeVoxels * 8 + (std::uint64_t(1) << 24);
+
+// Reads a whole regular file (detail::read_regular_file); throws "FILE: cannot open ..." etc.
 std::vector<unsigned char> read_file(const std::string& path);
 
-// Checks that every dimension is positive and that the voxel count (and its byte size for
-// item_size) fits in memory; throws "FILE: dims: ..." otherwise. Returns the voxel count.
-std::size_t checked_voxel_count(const std::string& file, const std::array<long long, 3>& dims,
-                                std::size_t item_size = 4);
+// Checks that every dimension is positive and that the voxel count is at most
+// limits::kMaxVolumeVoxels; throws "FILE: dims: ..." otherwise. Returns the voxel count.
+std::size_t checked_voxel_count(const std::string& file, const std::array<long long, 3>& dims);
 
 // Throws "FILE: FIELD: [SUBJECT is ]truncated: ..." when actual < expected and
 // "FILE: FIELD: [SUBJECT ]has N extra bytes ..." when actual > expected.

@@ -24,7 +24,7 @@ Volume read_den(const std::string& path) {
     const long long version = le16(bytes.data());
     if (version != 1) throw file_error(path, "version", "unsupported map version " + std::to_string(version));
     const std::array<long long, 3> dims = {le16(&bytes[50]), le16(&bytes[52]), le16(&bytes[54])};
-    const std::size_t count = checked_voxel_count(path, dims, 1);
+    const std::size_t count = checked_voxel_count(path, dims);
     const long long map_length = le32(&bytes[58]);
     if (map_length != static_cast<long long>(count))
         throw file_error(path, "map_length", "header says " + std::to_string(map_length) + " voxels, dims " +

@@ -65,7 +65,7 @@ Volume read_inr(const std::string& path) {
     if (pixsize.size() > 5 && pixsize.compare(pixsize.size() - 5, 5, " bits") == 0) pixsize.resize(pixsize.size() - 5);
     const ScalarType type = inr_type(path, get("TYPE", nullptr), parse_int(path, "PIXSIZE", pixsize));
     const Endian endian = type_size(type) == 1 ? Endian::little : inr_endian(path, get("CPU", nullptr));
-    const std::size_t count = checked_voxel_count(path, dims, type_size(type));
+    const std::size_t count = checked_voxel_count(path, dims);
     check_exact_size(path, "data", std::uint64_t(count) * type_size(type), bytes.size() - header_bytes);
 
     Volume volume;

@@ -1,8 +1,11 @@
 // sombra — NIfTI-1 (.nii, .nii.gz) reading and writing through niftiio.
 #include "scene/volume_io_common.h"
 
+#include "scene/input_file.h"
+
 #include <nifti1_io.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -32,16 +35,18 @@ ScalarType scalar_type(const std::string& path, int datatype) {
         case NIFTI_TYPE_FLOAT32: return ScalarType::f32;
         case NIFTI_TYPE_FLOAT64: return ScalarType::f64;
         default:
-            throw file_error(path, "datatype", std::string("unsupported NIfTI datatype ") +
-                                                   nifti_datatype_string(datatype) + " (" +
-                                                   std::to_string(datatype) + ")");
+            throw file_error(path, "datatype", "unsupported NIfTI datatype " + std::to_string(datatype) +
+                                                   (nifti_is_valid_datatype(datatype)
+                                                        ? std::string(" (") + nifti_datatype_string(datatype) + ")"
+                                                        : std::string()) +
+                                                   " (expected uint8, int8, uint16, int16, uint32, int32, float32 or float64)");
     }
 }
 
 float spacing_of(float pixdim) { return std::isfinite(pixdim) && pixdim != 0.f ? std::fabs(pixdim) : 1.f; }
 
 // Checks the header as stored, before niftiio sees it: nifti_image_read prints to stderr on a bad
-// header whatever the debug level, and silently turns dimensions <= 0 into 1.
+// header (dimensions, datatype) whatever the debug level, and silently turns dimensions <= 0 into 1.
 std::array<long long, 3> checked_header(const std::string& path) {
     int swapped = 0;
     std::unique_ptr<nifti_1_header, void (*)(void*)> header(nifti_read_header(path.c_str(), &swapped, 0), std::free);
@@ -50,29 +55,45 @@ std::array<long long, 3> checked_header(const std::string& path) {
         throw file_error(path, "magic", "not a NIfTI-1 file");
     if (header->dim[0] < 1 || header->dim[0] > 7)
         throw file_error(path, "dim", "dim[0] = " + std::to_string(header->dim[0]) + " is not in 1..7");
+    for (int d = 4; d <= header->dim[0]; ++d)
+        if (header->dim[d] < 1) throw file_error(path, "dim", "dim[" + std::to_string(d) + "] must be >= 1");
     const std::array<long long, 3> dims = {header->dim[1], header->dim[2], header->dim[3]};
     checked_voxel_count(path, dims);
+    scalar_type(path, header->datatype);
     return dims;
 }
 
 // Reads the voxel bytes ourselves (not nifti_image_load): niftiio neither reports a short read
 // of an uncompressed file nor keeps NaN/Inf (it silently turns them into 0).
+// Memory grows with the bytes that really arrive, so a header that promises gigabytes over a short
+// (or compressed) file allocates nothing up front.
 std::vector<unsigned char> read_voxel_bytes(const std::string& path, const nifti_image& nim, std::size_t bytes) {
-    znzFile file = znzopen(nim.iname, "rb", nifti_is_gzfile(nim.iname));
+    const bool compressed = nifti_is_gzfile(nim.iname);
+    const std::uint64_t file_size = detail::regular_file_size(nim.iname);  // znzopen would block on a FIFO
+    if (!compressed && file_size < std::uint64_t(nim.iname_offset) + bytes)
+        check_exact_size(path, "data", bytes, file_size - std::min<std::uint64_t>(file_size, nim.iname_offset));
+    znzFile file = znzopen(nim.iname, "rb", compressed);
     if (znz_isnull(file)) throw file_error(path, "", "cannot open for reading");
-    std::vector<unsigned char> data(bytes);
-    std::size_t got = 0;
-    if (znzseek(file, nim.iname_offset, SEEK_SET) >= 0) got = znzread(data.data(), 1, bytes, file);
+    std::vector<unsigned char> data;
+    bool overrun = false, failed = znzseek(file, nim.iname_offset, SEEK_SET) < 0;
+    if (!failed)
+        data = detail::read_declared(
+            bytes,
+            [&](unsigned char* to, std::size_t n) -> long long {
+                const std::size_t got = znzread(to, 1, n, file);
+                return got > n ? -1 : static_cast<long long>(got);  // (size_t)-1: a corrupt stream
+            },
+            &overrun, &failed);
     znzclose(file);
-    if (got > bytes) throw file_error(path, "data", "unreadable voxel data (corrupt compressed stream)");  // -1
-    check_exact_size(path, "data", bytes, got);  // a short read: truncated
+    if (failed) throw file_error(path, "data", "unreadable voxel data (corrupt compressed stream)");
+    check_exact_size(path, "data", bytes, data.size());  // a short read: truncated
     return data;
 }
 
 }  // namespace
 
 Volume read_nifti(const std::string& path) {
-    if (!std::ifstream(path, std::ios::binary)) throw file_error(path, "", "cannot open for reading");
+    detail::regular_file_size(path);
     nifti_set_debug_level(0);
     const std::array<long long, 3> dims = checked_header(path);
     NiftiPtr nim(nifti_image_read(path.c_str(), 0));
@@ -83,7 +104,7 @@ Volume read_nifti(const std::string& path) {
         throw file_error(path, "dim", "expected a 3-D image (or 4-D with one frame), found " +
                                           std::to_string(nim->ndim) + " dimensions");
     const ScalarType type = scalar_type(path, nim->datatype);
-    const std::size_t count = checked_voxel_count(path, dims, type_size(type));
+    const std::size_t count = checked_voxel_count(path, dims);
     if (std::size_t(nim->nvox) != count || std::size_t(nim->nbyper) != type_size(type) || nim->iname_offset < 0)
         throw file_error(path, "dim", "header sizes are inconsistent");
     const std::vector<unsigned char> data = read_voxel_bytes(path, *nim, count * type_size(type));

@@ -1,6 +1,8 @@
 // sombra — NumPy .npy arrays and .npz archives holding exactly one array.
 #include "scene/volume_io_common.h"
 
+#include "scene/input_file.h"
+
 #include <zip.h>
 
 #include <algorithm>
@@ -84,9 +86,11 @@ ScalarType dtype(const std::string& name, const std::string& descr, Endian* endi
 }
 
 std::array<long long, 3> shape(const std::string& name, const std::string& text) {
+    if (text.empty() || text[0] != '(')
+        throw file_error(name, "shape", "expected a 3-D shape (z, y, x), found '" + text + "'");
     std::vector<long long> values;
     const char* p = text.c_str() + 1;  // after '('
-    while (*p && *p != ')') {
+    while (*p && *p != ')' && values.size() <= 3) {
         char* end = nullptr;
         const long long v = std::strtoll(p, &end, 10);
         if (end == p) throw file_error(name, "shape", "not a tuple of integers: " + text);
@@ -94,7 +98,7 @@ std::array<long long, 3> shape(const std::string& name, const std::string& text)
         p = end;
         while (*p == ',' || std::isspace(static_cast<unsigned char>(*p))) ++p;
     }
-    if (text.empty() || text[0] != '(' || values.size() != 3)
+    if (values.size() != 3)
         throw file_error(name, "shape", "expected a 3-D shape (z, y, x), found " + text);
     return {values[2], values[1], values[0]};
 }
@@ -125,7 +129,7 @@ Volume parse_npy(const std::string& name, const unsigned char* data, std::size_t
     Endian endian;
     const ScalarType type = dtype(name, dict["descr"], &endian);
     const std::array<long long, 3> dims = shape(name, dict["shape"]);
-    const std::size_t count = checked_voxel_count(name, dims, type_size(type));
+    const std::size_t count = checked_voxel_count(name, dims);
     check_exact_size(name, "data", std::uint64_t(count) * type_size(type), size - data_start);
 
     Volume volume;
@@ -141,6 +145,7 @@ Volume read_npy(const std::string& path) {
 }
 
 Volume read_npz(const std::string& path) {
+    detail::regular_file_size(path);  // libzip would block on a FIFO
     int code = 0;
     std::unique_ptr<zip_t, int (*)(zip_t*)> archive(zip_open(path.c_str(), ZIP_RDONLY, &code), zip_close);
     if (!archive) {
@@ -161,13 +166,19 @@ Volume read_npz(const std::string& path) {
     zip_stat_t st;
     if (zip_stat_index(archive.get(), 0, 0, &st) != 0 || !(st.valid & ZIP_STAT_SIZE))
         throw file_error(name, "archive", "cannot read the member size");
-    if (st.size > (zip_uint64_t(1) << 40)) throw file_error(name, "archive", "member is too large");
+    if (st.size > kMaxVolumeFileBytes)
+        throw file_error(name, "archive", "member declares " + std::to_string(st.size) + " bytes, more than a volume may hold");
     std::unique_ptr<zip_file_t, int (*)(zip_file_t*)> file(zip_fopen_index(archive.get(), 0, 0), zip_fclose);
-    std::vector<unsigned char> bytes(static_cast<std::size_t>(st.size));
-    const zip_int64_t got = file ? zip_fread(file.get(), bytes.data(), bytes.size()) : -1;
-    if (got < 0 || zip_uint64_t(got) != st.size)
-        throw file_error(name, "archive", std::string("cannot decompress the member: ") +
-                                              (file ? zip_file_strerror(file.get()) : zip_strerror(archive.get())));
+    if (!file) throw file_error(name, "archive", std::string("cannot open the member: ") + zip_strerror(archive.get()));
+    // The declared size is only a claim: memory grows with the bytes that really decompress.
+    bool overrun = false, failed = false;
+    const std::vector<unsigned char> bytes = detail::read_declared(
+        st.size, [&](unsigned char* to, std::size_t n) -> long long { return zip_fread(file.get(), to, n); },
+        &overrun, &failed);
+    if (failed) throw file_error(name, "archive", std::string("cannot decompress the member: ") + zip_file_strerror(file.get()));
+    if (bytes.size() != st.size || overrun)
+        throw file_error(name, "archive", "member declares " + std::to_string(st.size) + " bytes but holds " +
+                                              (overrun ? "more" : std::to_string(bytes.size())));
     return parse_npy(name, bytes.data(), bytes.size());
 }
 

@@ -3,11 +3,16 @@
 //    "endian": "little", "header_bytes": 0}
 #include "scene/volume_io_common.h"
 
+#include "scene/input_file.h"
+#include "scene/json_fields.h"
+
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
 #include <filesystem>
+#include <limits>
 #include <map>
+#include <optional>
 
 namespace sombra::volume_io {
 namespace {
@@ -36,26 +41,20 @@ std::string string_field(const std::string& path, const json& doc, const char* k
     return v.get<std::string>();
 }
 
-std::array<double, 3> triple(const std::string& path, const json& v, const char* key, bool integers) {
+const json& triple(const std::string& path, const json& v, const char* key) {
     if (!v.is_array() || v.size() != 3) throw file_error(path, key, "must be an array of 3 numbers");
-    std::array<double, 3> out{};
-    for (int a = 0; a < 3; ++a) {
-        if (integers ? !v[a].is_number_integer() : !v[a].is_number())
-            throw file_error(path, key, integers ? "must hold 3 integers" : "must hold 3 numbers");
-        out[a] = v[a].get<double>();
-    }
-    return out;
+    return v;
 }
 
 }  // namespace
 
 Volume read_raw_json(const std::string& path) {
-    const std::vector<unsigned char> text = read_file(path);
+    const std::vector<unsigned char> text = detail::read_regular_file(path, limits::kMaxInputFileBytes);
     json doc;
     try {
         doc = json::parse(text.begin(), text.end());
-    } catch (const json::parse_error& e) {
-        throw file_error(path, "json", e.what());
+    } catch (const json::exception& e) {  // syntax errors, and numbers that overflow a double
+        throw file_error(path, "json", detail::json_error_text(e));
     }
     if (!doc.is_object()) throw file_error(path, "json", "the header must be a JSON object");
     for (const auto& item : doc.items()) {
@@ -65,8 +64,13 @@ Volume read_raw_json(const std::string& path) {
     }
 
     const std::string raw = string_field(path, doc, "raw", nullptr);
-    const std::array<double, 3> d = triple(path, field(path, doc, "dims", true), "dims", true);
-    const std::array<long long, 3> dims = {(long long)d[0], (long long)d[1], (long long)d[2]};
+    const json& d = triple(path, field(path, doc, "dims", true), "dims");
+    std::array<long long, 3> dims{};
+    for (int a = 0; a < 3; ++a) {
+        const auto n = detail::integer_in(d[a], 1, std::numeric_limits<int>::max());
+        if (!n) throw file_error(path, "dims", "must hold 3 integers in [1, 2147483647]");
+        dims[a] = *n;
+    }
     const std::string type_name = string_field(path, doc, "type", nullptr);
     const auto type_it = raw_types().find(type_name);
     if (type_it == raw_types().end())
@@ -75,33 +79,47 @@ Volume read_raw_json(const std::string& path) {
     const std::string endian = string_field(path, doc, "endian", "little");
     if (endian != "little" && endian != "big") throw file_error(path, "endian", "must be \"little\" or \"big\"");
     const json& skip = field(path, doc, "header_bytes", false);
-    if (!skip.is_null() && !skip.is_number_unsigned()) throw file_error(path, "header_bytes", "must be an integer >= 0");
-    const std::uint64_t header_bytes = skip.is_null() ? 0 : skip.get<std::uint64_t>();
+    const auto header_bytes = skip.is_null() ? std::optional<std::int64_t>(0)
+                                             : detail::integer_in(skip, 0, std::numeric_limits<std::int64_t>::max());
+    if (!header_bytes) throw file_error(path, "header_bytes", "must be an integer in [0, 2^63 - 1]");
 
     Volume volume;
     const json& spacing = field(path, doc, "spacing", false);
     if (!spacing.is_null()) {
-        const std::array<double, 3> s = triple(path, spacing, "spacing", false);
+        const json& s = triple(path, spacing, "spacing");
         for (int a = 0; a < 3; ++a) {
-            if (!(s[a] > 0)) throw file_error(path, "spacing", "voxel size must be > 0");
-            volume.spacing[a] = float(s[a]);
+            const auto size = detail::finite_float(s[a]);
+            if (!size || !(*size > 0)) throw file_error(path, "spacing", "voxel sizes must be finite numbers > 0");
+            volume.spacing[a] = *size;
         }
     }
 
     const ScalarType type = type_it->second;
-    const std::size_t count = checked_voxel_count(path, dims, type_size(type));
-    const std::filesystem::path raw_path = std::filesystem::path(path).parent_path() / raw;
-    std::vector<unsigned char> bytes;
+    const std::size_t count = checked_voxel_count(path, dims);
+    const std::string raw_path = (std::filesystem::path(path).parent_path() / raw).string();
+    // Sizes against the file's real size before anything is read (count * size < 2^34: no overflow).
+    std::uint64_t raw_size = 0;
     try {
-        bytes = read_file(raw_path.string());
+        raw_size = detail::regular_file_size(raw_path);
     } catch (const Error& e) {
         throw file_error(path, "raw", e.what());
     }
-    const std::uint64_t needed = header_bytes + std::uint64_t(count) * type_size(type);
-    check_exact_size(path, "raw", needed, bytes.size(), "'" + raw_path.string() + "'");
+    const std::uint64_t data_bytes = std::uint64_t(count) * type_size(type);
+    if (std::uint64_t(*header_bytes) > raw_size)
+        throw file_error(path, "header_bytes", std::to_string(*header_bytes) + " is more than the size of '" + raw_path +
+                                                   "' (" + std::to_string(raw_size) + " bytes)");
+    check_exact_size(path, "raw", data_bytes, raw_size - std::uint64_t(*header_bytes),
+                     "'" + raw_path + "' after " + std::to_string(*header_bytes) + " header bytes");
+    std::vector<unsigned char> bytes;
+    try {
+        bytes = read_file(raw_path);
+    } catch (const Error& e) {
+        throw file_error(path, "raw", e.what());
+    }
+    check_exact_size(path, "raw", std::uint64_t(*header_bytes) + data_bytes, bytes.size(), "'" + raw_path + "'");
 
     volume.dims = {int(dims[0]), int(dims[1]), int(dims[2])};
-    volume.voxels = to_float(bytes.data() + header_bytes, count, type, endian == "big" ? Endian::big : Endian::little);
+    volume.voxels = to_float(bytes.data() + *header_bytes, count, type, endian == "big" ? Endian::big : Endian::little);
     volume.source = path;
     return volume;
 }

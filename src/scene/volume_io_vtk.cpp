@@ -131,6 +131,11 @@ Volume read_vtk(const std::string& path) {
         if (available < needed) check_exact_size(path, "data", needed, available);  // throws "truncated"
         volume.voxels = to_float(bytes.data() + lines.pos(), count, type, Endian::big);
     } else {
+        // n ASCII values need at least 2n - 1 bytes (digits and separators): check before allocating
+        const std::size_t available = bytes.size() - lines.pos();
+        if (available < 2 * count - 1)
+            throw file_error(path, "data", "truncated: " + std::to_string(count) + " ASCII values need at least " +
+                                               std::to_string(2 * count - 1) + " bytes, found " + std::to_string(available));
         volume.voxels = parse_ascii(path, bytes, lines.pos(), count);
     }
     volume.source = path;

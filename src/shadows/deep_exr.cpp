@@ -6,6 +6,8 @@
 #include <OpenImageIO/deepdata.h>
 #include <OpenImageIO/imageio.h>
 
+#include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -84,6 +86,9 @@ int channel_index(const OIIO::ImageSpec& spec, const std::string& name) {
 }  // namespace
 
 void write_deep_exr(const DeepShadowMap& map, const std::string& path) {
+    std::string extension = std::filesystem::path(path).extension().string();
+    std::transform(extension.begin(), extension.end(), extension.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+    if (extension != ".exr") throw Error(path + ": a deep shadow map is written as OpenEXR: the name must end in .exr");
     validate(map, path);
 
     OIIO::ImageSpec spec(map.width, map.height, 3, OIIO::TypeDesc::FLOAT);

@@ -1,0 +1,124 @@
+#!/usr/bin/env python3
+"""Writes the seed corpora of the fuzz harnesses (fuzz/corpus/<harness>/): small valid files of
+every format, made by hand here, plus the small files and cut headers of data/. Standard library
+only. Run from anywhere: python3 fuzz/make_seeds.py"""
+import gzip, io, os, shutil, struct, zipfile
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+CORPUS = os.path.join(ROOT, "fuzz", "corpus")
+DATA = os.path.join(ROOT, "data")
+
+
+def put(harness, name, data):
+    folder = os.path.join(CORPUS, harness)
+    os.makedirs(folder, exist_ok=True)
+    with open(os.path.join(folder, name), "wb") as f:
+        f.write(data if isinstance(data, bytes) else data.encode())
+
+
+def head(path, n):
+    with open(os.path.join(DATA, path), "rb") as f:
+        return f.read(n)
+
+
+voxels = [float(i % 7) for i in range(2 * 3 * 4)]  # 2 x 3 x 4, x fastest
+
+def npy(descr="<f4", fmt="<24f", values=voxels):
+    header = "{'descr': '%s', 'fortran_order': False, 'shape': (4, 3, 2), }" % descr
+    header = header.ljust(117) + "\n"
+    return b"\x93NUMPY\x01\x00" + struct.pack("<H", len(header)) + header.encode() + struct.pack(fmt, *values)
+
+def nifti(datatype=16, bitpix=32, fmt="<24f"):
+    h = bytearray(348)
+    struct.pack_into("<i", h, 0, 348)
+    struct.pack_into("<8h", h, 40, 3, 2, 3, 4, 1, 1, 1, 1)
+    struct.pack_into("<hh", h, 70, datatype, bitpix)
+    struct.pack_into("<8f", h, 76, 1, 1, 2, 3, 1, 1, 1, 1)
+    struct.pack_into("<f", h, 108, 352.0)
+    struct.pack_into("<f", h, 112, 1.0)
+    h[344:348] = b"n+1\0"
+    values = voxels if fmt.endswith("f") else [int(v) for v in voxels]
+    return bytes(h) + b"\0\0\0\0" + struct.pack(fmt, *values)
+
+def den():
+    h = bytearray(62)
+    struct.pack_into("<h", h, 0, 1)
+    struct.pack_into("<3h", h, 50, 2, 3, 4)
+    struct.pack_into("<i", h, 58, 24)
+    return bytes(h) + bytes(int(v) for v in voxels)
+
+def inr(kind="float", bits=32, cpu="decm", fmt="<24f"):
+    text = "#INRIMAGE-4#{\nXDIM=2\nYDIM=3\nZDIM=4\nVDIM=1\nTYPE=%s\nPIXSIZE=%d bits\nCPU=%s\nVX=1\nVY=2\nVZ=3\n" % (kind, bits, cpu)
+    text = text.ljust(252, "\n") + "##}\n"
+    values = voxels if fmt.endswith("f") else [int(v) for v in voxels]
+    return text.encode() + struct.pack(fmt, *values)
+
+def vtk(mode="ASCII"):
+    head_text = ("# vtk DataFile Version 3.0\nseed\n%s\nDATASET STRUCTURED_POINTS\nDIMENSIONS 2 3 4\n"
+                 "SPACING 1 2 3\nORIGIN 0 0 0\nPOINT_DATA 24\nSCALARS v float 1\nLOOKUP_TABLE default\n" % mode)
+    body = (" ".join("%g" % v for v in voxels) + "\n").encode() if mode == "ASCII" else struct.pack(">24f", *voxels)
+    return head_text.encode() + body
+
+put("npy", "f4.npy", npy())
+put("npy", "u2_big.npy", npy(">u2", ">24H", [int(v) for v in voxels]))
+for name, method in (("stored.npz", zipfile.ZIP_STORED), ("deflated.npz", zipfile.ZIP_DEFLATED)):
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w", method) as z:
+        z.writestr("arr_0.npy", npy())
+    put("npz", name, buf.getvalue())
+put("nifti", "f32.nii", nifti())
+put("nifti", "u8.nii", nifti(2, 8, "<24B"))
+put("nifti_gz", "f32.nii.gz", gzip.compress(nifti(), mtime=0))
+put("nifti_gz", "ch2_head.nii.gz", head("volumes/ch2.nii.gz", 2048))
+put("den", "small.den", den())
+put("den", "brainsmall_head.den", head("volumes/brainsmall.den", 1024))
+put("inr", "f32.inr", inr())
+put("inr", "u16_sun.inr", inr("unsigned fixed", 16, "sun", ">24H"))
+put("inr", "skull_head.inr", head("volumes/skull_2.9.inr", 1024))
+put("vtk", "ascii.vtk", vtk("ASCII"))
+put("vtk", "binary.vtk", vtk("BINARY"))
+put("vtk", "heart_head.vtk", head("volumes/heart.vtk", 2048))
+# raw: the JSON header, a NUL, then the bytes of v.raw beside it (see fuzz/fuzz_raw.cpp)
+put("raw", "int16.raw", b'{"raw": "v.raw", "dims": [2, 3, 4], "type": "int16", "endian": "big", "header_bytes": 2, '
+                        b'"spacing": [1, 2, 0.5]}\0' + b"\0\0" + struct.pack(">24h", *[int(v) for v in voxels]))
+put("raw", "cloud_header.raw", head("volumes/cloud_shape_128.json", 4096).replace(b"cloud_shape_128.bin", b"v.raw") +
+    b"\0" + bytes(64))
+
+vertex = "element vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
+face = "element face 2\nproperty list uchar int vertex_indices\n"
+put("mesh_ply", "ascii.ply", "ply\nformat ascii 1.0\ncomment seed\n" + vertex + face + "end_header\n"
+    "0 0 0\n1 0 0\n1 1 0\n0 1 0\n3 0 1 2\n4 0 1 2 3\n")
+put("mesh_ply", "normals.ply", "ply\nformat ascii 1.0\n" + vertex + "property float nx\nproperty float ny\nproperty float nz\n"
+    + face + "end_header\n0 0 0 0 0 1\n1 0 0 0 0 1\n1 1 0 0 0 1\n0 1 0 0 0 1\n3 0 1 2\n3 0 2 3\n")
+for order, fmt in (("little", "<"), ("big", ">")):
+    body = struct.pack(fmt + "12f", 0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0)
+    body += struct.pack(fmt + "B3i", 3, 0, 1, 2) + struct.pack(fmt + "B4i", 4, 0, 1, 2, 3)
+    put("mesh_ply", "binary_%s.ply" % order,
+        ("ply\nformat binary_%s_endian 1.0\n" % order + vertex + face + "end_header\n").encode() + body)
+put("mesh_obj", "quad.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//1 3//1 4//1\n")
+shutil.copy(os.path.join(DATA, "meshes", "wall.obj"), os.path.join(CORPUS, "mesh_obj", "wall.obj"))
+put("mesh_obj", "teapot_head.obj", head("meshes/teapot.obj", 4096))
+
+os.makedirs(os.path.join(CORPUS, "scene"), exist_ok=True)
+for name in sorted(os.listdir(os.path.join(DATA, "scenes"))):
+    if os.path.getsize(os.path.join(DATA, "scenes", name)) <= 4096:
+        shutil.copy(os.path.join(DATA, "scenes", name), os.path.join(CORPUS, "scene", name))
+put("scene", "generators.json", """{
+  "camera": {"position": [0, -3, 1], "look_at": [0, 0, 0], "up": [0, 0, 1], "fov_y_deg": 40},
+  "image": {"width": 64, "height": 48}, "background": [0, 0, 0.1], "ambient_intensity": 0.5,
+  "volumes": [
+    {"name": "a", "generator": {"type": "blobs", "size": 16, "count": 3, "seed": 7}, "spacing": [0.1, 0.1, 0.1],
+     "transform": {"translate": [0, 0, 0], "rotate_deg": [10, 0, 0], "scale": 1}, "step_voxels": 0.5, "opacity_unit": 0,
+     "transfer_function": {"rgb_points": [0, 1, 1, 1, 1, 1, 0.5, 0.2], "opacity_points": [0, 0, 1, 0.5]},
+     "material": {"ambient": 0.2, "diffuse": 0.7, "specular": 0.3, "shininess": 20}},
+    {"generator": {"type": "slab", "size": 8, "axis": 1, "lo": 0.2, "hi": 0.6, "density": 2},
+     "transform": {"matrix": [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1]},
+     "transfer_function": {"rgb_points": [0, 1, 0, 0], "opacity_points": [0, 0, 2, 1]}}
+  ],
+  "lights": [{"type": "directional", "direction": [0.4, 0.8, -0.45], "color": [1, 1, 1], "intensity": 1},
+             {"type": "spot", "position": [0, -2, 2], "direction": [0, 1, -1], "cone_angle_deg": 25, "cone_softness": 0.1,
+              "attenuation": [1, 0, 0]},
+             {"type": "point", "position": [1, 1, 1], "attenuation": [1, 0.1, 0.01]}]
+}
+""")
+put("points", "points.csv", "# x,y,z\n0,0,0\n0.1;0.05;0\n  0 0.1 0.02\n\n1e3,-2.5e-3,7\n")

@@ -1,0 +1,45 @@
+// sombra — the outputs of one command (image, stats, DSM faces), written under temporary names and
+// renamed to their own names together only when every one was written: a failure leaves none.
+#pragma once
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace sombra::host {
+
+class StagedOutputs {
+public:
+    StagedOutputs() = default;
+    StagedOutputs(const StagedOutputs&) = delete;
+    StagedOutputs& operator=(const StagedOutputs&) = delete;
+    ~StagedOutputs();  // removes every staged file that was not committed
+
+    // Throws "FINAL: cannot write: …" when final_path is a directory or its folder does not exist,
+    // so that a command can refuse an impossible output before its work.
+    static void check_target(const std::string& final_path);
+
+    // A temporary path next to `final_path` with the same extension (writers pick the format by
+    // it); write the output there. Checks the target first (check_target).
+    std::string stage(const std::string& final_path);
+
+    // Stages final_path and calls write(staged path); errors name final_path, not the staged one.
+    template <typename Write>
+    void write(const std::string& final_path, Write write) {
+        const std::string staged = stage(final_path);
+        try {
+            write(staged);
+        } catch (const std::exception& e) {
+            throw_renamed(e.what(), staged, final_path);
+        }
+    }
+
+    // Renames every staged file to its final name. Throws "FINAL: cannot write: …" (and removes
+    // what it had renamed) when one cannot be renamed.
+    void commit();
+
+private:
+    [[noreturn]] static void throw_renamed(std::string message, const std::string& staged, const std::string& final_path);
+    std::vector<std::pair<std::string, std::string>> files_;  // (staged, final)
+};
+
+}  // namespace sombra::host
