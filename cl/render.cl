@@ -325,7 +325,7 @@ inline lmask shade_sample(VOLUME_DATA_PARAM, CameraState* state, const VolumeRay
         lfloat density = sample_density(volume_data, v, pv);
         state->samples += select((luint)(0u), (luint)(1u), here);
         lfloat sigma = interval_sigma(state->tf_tables, v, density, &front[i], here);
-        lmask visible = (sigma > 0.0f) & (cursor->delta > 0.0f);
+        lmask visible = (sigma > 0.0f) & (cursor->delta > 0.0f) & !cursor->empty_interval;
         if (!lany(visible)) continue;
         Classified c = classify(state->tf_tables, v, density);
         lfloat3 normal = l3((lfloat)(0.0f), (lfloat)(0.0f), (lfloat)(0.0f));

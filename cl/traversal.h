@@ -139,6 +139,7 @@ typedef struct {
     lmask full_step; /* the interval is a whole step between two consecutive samples (delta = step) */
     lmask last_was_sample; /* the previous point was a sample reached by stepping */
     lmask resuming;  /* brick skipping: the next point is resume_t, where the empty bricks end */
+    lmask empty_interval; /* the current point closes an interval through empty bricks only: σ = 0 */
     lfloat resume_t;
 #ifdef SOMBRA_HAS_MESHES
     lmask surface;   /* lanes whose event at t is the surface fragment surface_fragment[lane] */
@@ -185,7 +186,7 @@ inline void segment_cursor_init(SegmentCursor* c, const VolumeRay* ray, uint vol
     c->k = (lint)(-1);
     c->jitter = jitter;
     c->t = c->delta = c->resume_t = (lfloat)(0.0f);
-    c->full_step = c->last_was_sample = c->resuming = (lmask)(0);
+    c->full_step = c->last_was_sample = c->resuming = c->empty_interval = (lmask)(0);
 #ifdef SOMBRA_HAS_MESHES
     c->surface = (lmask)(0);
     c->source = SOMBRA_EVENTS_NONE;
@@ -419,6 +420,7 @@ inline lmask segment_cursor_next(SegmentCursor* c, const VolumeRay* ray, __globa
     t = select(t, c->t_end, ending);
     lmask sample = stepping & !ending;
     c->full_step = sample & c->last_was_sample;
+    c->empty_interval = resuming; /* from the sample in the first empty brick to where they end */
     c->delta = select(c->delta, select(select(t - c->t, c->step, c->full_step), (lfloat)(0.0f), starting), moving);
     c->last_was_sample = select(c->last_was_sample, sample, moving);
     c->t = select(c->t, t, moving);
@@ -429,6 +431,16 @@ inline lmask segment_cursor_next(SegmentCursor* c, const VolumeRay* ray, __globa
     lmask skip = in_empty_bricks(occupancy, volumes, volume_count, ray, c->active, t, sample, &t_resume);
     skip &= t_resume > t; /* NaN and ±∞ (a ray parallel to a brick face, outside it) skip nothing */
     skip &= t_resume < INFINITY;
+    /* a run of empty bricks is one interval: while the brick the ray enters at t_resume (tested
+     * just past its face) is empty too, the resume point moves to its exit */
+    lmask hopping = skip & (t_resume < c->t_end);
+    for (int hop = 0; hop < 64 && lany(hopping); ++hop) {
+        lfloat t_probe = select(t, t_resume + 1e-3f * c->step, hopping), t_exit;
+        lmask empty = in_empty_bricks(occupancy, volumes, volume_count, ray, c->active, t_probe, hopping, &t_exit);
+        hopping = empty & (t_exit > t_resume) & (t_exit < INFINITY);
+        t_resume = select(t_resume, t_exit, hopping);
+        hopping &= t_resume < c->t_end;
+    }
     c->resuming |= skip;
     c->resume_t = select(c->resume_t, t_resume, skip);
     /* the sample after the resume point: the first k with t_start + (k + jitter)·step > t_resume
@@ -532,7 +544,7 @@ inline lfloat interval_optical_depth(VOLUME_DATA_PARAM, __global const VolumeGpu
     lfloat depth = (lfloat)(0.0f);
     lfloat t0 = t - select((lfloat)(0.0f), c->delta, sampling);
     for (uint i = 0; i < SOMBRA_VOLUME_SLOTS; ++i) {
-        lmask here = sampling & ((c->active & (1u << i)) != 0u) & (c->delta > 0.0f);
+        lmask here = sampling & ((c->active & (1u << i)) != 0u) & (c->delta > 0.0f) & !c->empty_interval;
         lmask starts = sampling & ((c->active & (1u << i)) != 0u);
         if (!lany(starts)) continue;
         __global const VolumeGpu* v = &volumes[i];

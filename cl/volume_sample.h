@@ -79,46 +79,39 @@ inline lfloat table_sigma(__global const float* table, uint size, lfloat u) {
     return mix(gather(table, 4 * i0 + 3), gather(table, 4 * i0 + 7), f);
 }
 
-/* ∫ₐᵇ σ du for 0 ≤ a ≤ b ≤ size − 1: within one entry cell the mean of the linear σ is σ at the
- * middle (exact); across cells the partial cells at both ends plus the whole cells between them
- * from the prefix sums F (hi + lo pairs). Every term is ≥ 0: no cancellation, however close a
- * and b are. */
-inline lfloat table_sigma_integral(__global const float* table, __global const float* prefix, uint size, lfloat a,
-                                   lfloat b) {
-    lint ia = min(LCONVERT_INT(a), (int)size - 2), ib = min(LCONVERT_INT(b), (int)size - 2);
-    lfloat a_end = LCONVERT_FLOAT(ia + 1), b_start = LCONVERT_FLOAT(ib);
-    lfloat one_cell = (b - a) * table_sigma(table, size, 0.5f * (a + b));
-    lfloat whole = (gather(prefix, 2 * ib) - gather(prefix, 2 * (ia + 1))) + (gather(prefix, 2 * ib + 1) - gather(prefix, 2 * (ia + 1) + 1));
-    lfloat across = (a_end - a) * table_sigma(table, size, 0.5f * (a + a_end)) +
-                    (b - b_start) * table_sigma(table, size, 0.5f * (b_start + b)) + whole;
-    return select(across, one_cell, ia == ib);
-}
-
 /* Pre-integrated extinction (Engel et al. 2001, in the form of an integral function): the mean σ
  * over an interval along which the density runs linearly from d_front to d_back, under the
  * table's model (σ linear between entries, constant beyond both ends). Times the interval's
  * length it is the interval's optical depth, exact for homogeneous media and for density linear
  * along the ray, whatever the step — so a thin, stiff feature between two samples adds what the
- * model says, not what one sample of it says. Equal densities give classify()'s σ. */
+ * model says, not what one sample of it says. Equal densities give classify()'s σ.
+ * Within one entry cell the mean of the linear σ is σ at the middle (exact, no cancellation);
+ * across cells, ∫σ du is the partial cells at both ends plus the whole cells between them from
+ * the prefix sums F (hi + lo pairs), plus the clamped parts beyond the table: every term ≥ 0. */
 inline lfloat preintegrated_sigma(__global const float* tf_tables, __global const VolumeGpu* v, lfloat d_front,
                                   lfloat d_back) {
     __global const float* table = tf_tables + 4 * v->tf_offset;
     __global const float* prefix = tf_tables + v->tf_integral_offset;
-    float last = (float)(v->tf_size - 1);
+    uint size = v->tf_size;
+    float last = (float)(size - 1);
     lfloat ua = (fmin(d_front, d_back) - v->tf_domain_min) * v->tf_domain_scale;
     lfloat ub = (fmax(d_front, d_back) - v->tf_domain_min) * v->tf_domain_scale;
+    lfloat a = clamp(ua, 0.0f, last), b = clamp(ub, 0.0f, last);
+    lint ia = min(LCONVERT_INT(a), (int)size - 2), ib = min(LCONVERT_INT(b), (int)size - 2);
+    lfloat mid_sigma = table_sigma(table, size, 0.5f * (a + b));
+    lmask one_cell = ia == ib;
+    lmask simple = one_cell & (ua == a) & (ub == b); /* no clamped part either: the mean is mid_sigma */
+    if (!lany(!simple)) return mid_sigma;
     lfloat width = ub - ua;
-    lfloat ca = clamp(ua, 0.0f, last), cb = clamp(ub, 0.0f, last);
-    /* both ends in one entry cell, inside the table: the mean of the linear σ is σ at the middle */
-    lmask one_cell = (ua == ca) & (ub == cb) &
-                     (min(LCONVERT_INT(ca), (int)v->tf_size - 2) == min(LCONVERT_INT(cb), (int)v->tf_size - 2));
-    if (!lany(!one_cell)) return table_sigma(table, v->tf_size, 0.5f * (ca + cb));
+    lfloat a_end = LCONVERT_FLOAT(ia + 1), b_start = LCONVERT_FLOAT(ib);
+    lfloat whole = (gather(prefix, 2 * ib) - gather(prefix, 2 * (ia + 1))) + (gather(prefix, 2 * ib + 1) - gather(prefix, 2 * (ia + 1) + 1));
+    lfloat across = (a_end - a) * table_sigma(table, size, 0.5f * (a + a_end)) +
+                    (b - b_start) * table_sigma(table, size, 0.5f * (b_start + b)) + whole;
+    lfloat inside = select(across, (b - a) * mid_sigma, one_cell);
     lfloat below = fmax(fmin(ub, 0.0f) - ua, 0.0f), above = fmax(ub - fmax(ua, last), 0.0f);
-    lfloat integral = below * table[3] + above * table[4 * (v->tf_size - 1) + 3] +
-                      table_sigma_integral(table, prefix, v->tf_size, ca, cb);
-    lfloat at_point = table_sigma(table, v->tf_size, ca);
+    lfloat integral = below * table[3] + above * table[4 * (size - 1) + 3] + inside;
     lmask interval = width > 0.0f;
-    return select(at_point, integral / select((lfloat)(1.0f), width, interval), interval);
+    return select(mid_sigma, integral / select((lfloat)(1.0f), width, interval), interval & !simple);
 }
 
 inline lfloat3 offset_voxel(lfloat3 p, float dx, float dy, float dz) { return l3(p.x + dx, p.y + dy, p.z + dz); }
