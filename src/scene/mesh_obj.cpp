@@ -1,8 +1,8 @@
 // sombra — Wavefront OBJ meshes through tinyobjloader (Debian libtinyobjloader-dev, compiled into
 // this file so that the sanitizers and the fuzzer see it). Replaces Assimp, whose post-processing
 // aborted on an assertion and whose OBJ importer leaked on malformed files (issue 12). The file is
-// read by us (a regular file, size-capped) and parsed from memory, so `mtllib` never opens another
-// file; polygons are triangulated here as fans with every index checked.
+// read by us (a regular file, size-capped), only its v, vn and f lines are parsed, from memory (so
+// `mtllib` never opens another file); polygons are triangulated here as fans, every index checked.
 #define TINYOBJLOADER_IMPLEMENTATION
 #include <tiny_obj_loader.h>
 
@@ -20,31 +20,46 @@ namespace sombra::detail {
 
 namespace {
 
-// tinyobjloader reads face indices with atoi, which maps 99999999999999999999 to a valid index:
-// refuse index runs of more than 9 digits on face lines first.
-void check_face_indices(const std::string& path, const std::vector<unsigned char>& bytes) {
-    std::size_t line = 1, digits = 0;
-    bool face_line = false, line_start = true;
-    for (const unsigned char c : bytes) {
-        if (line_start) face_line = c == 'f';
-        line_start = c == '\n';
-        digits = std::isdigit(c) ? digits + 1 : 0;
-        if (face_line && digits > 9)
-            throw file_error(path, "line " + std::to_string(line), "face index does not fit in 32 bits");
-        line += c == '\n';
+// The statements sombra uses — v, vn and f — with every other line emptied (line numbers stay),
+// so that no other part of tinyobjloader's parser sees hostile input (fuzzing found a `vw` line
+// whose joint id inf it converts to int: undefined behaviour). Face indices of more than 9 digits
+// are refused: tinyobjloader reads them with atoi, which maps 99999999999999999999 to a valid index.
+std::string used_statements(const std::string& path, const std::vector<unsigned char>& bytes) {
+    std::string text;
+    text.reserve(bytes.size());
+    std::size_t line_number = 1;
+    for (std::size_t start = 0; start < bytes.size(); ++line_number) {
+        std::size_t end = start;
+        while (end < bytes.size() && bytes[end] != '\n') ++end;
+        std::size_t word = start;
+        while (word < end && (bytes[word] == ' ' || bytes[word] == '\t')) ++word;
+        std::size_t word_end = word;
+        while (word_end < end && !std::isspace(bytes[word_end])) ++word_end;
+        const std::string keyword(bytes.begin() + std::ptrdiff_t(word), bytes.begin() + std::ptrdiff_t(word_end));
+        if (keyword == "v" || keyword == "vn" || keyword == "f") {
+            std::size_t digits = 0;
+            for (std::size_t i = word_end; i < end; ++i) {
+                digits = std::isdigit(bytes[i]) ? digits + 1 : 0;
+                if (keyword == "f" && digits > 9)
+                    throw file_error(path, "line " + std::to_string(line_number), "face index does not fit in 32 bits");
+            }
+            text.append(bytes.begin() + std::ptrdiff_t(start), bytes.begin() + std::ptrdiff_t(end));
+        }
+        text += '\n';
+        start = end + 1;
     }
+    return text;
 }
 
 }  // namespace
 
 Mesh read_obj(const std::string& path) {
     const std::vector<unsigned char> bytes = read_regular_file(path, limits::kMaxInputFileBytes);
-    check_face_indices(path, bytes);
     tinyobj::ObjReaderConfig config;
     config.triangulate = false;  // fans below, with checked indices
     config.vertex_color = false;
     tinyobj::ObjReader reader;
-    if (!reader.ParseFromString(std::string(bytes.begin(), bytes.end()), "", config)) {
+    if (!reader.ParseFromString(used_statements(path, bytes), "", config)) {
         std::string why = reader.Error();
         while (!why.empty() && (why.back() == '\n' || why.back() == '.')) why.pop_back();
         throw file_error(path, "", "cannot read mesh" + (why.empty() ? std::string() : " (" + why.substr(0, 200) + ")"));
