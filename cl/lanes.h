@@ -1,5 +1,5 @@
 /* sombra — ray packets. A work-item marches SOMBRA_LANES rays at once in OpenCL vector types:
- * PoCL does not vectorize kernels with inner loops across work-items (OPENCL-NOTES.md), so on CPU
+ * PoCL does not vectorize kernels with inner loops across work-items (docs/architecture.md "Facts about PoCL"), so on CPU
  * devices the packet is how the kernel reaches the SIMD units; GPUs build with SOMBRA_LANES=1 and
  * the same code is plain scalar code. Everything is written with masks:
  *   lfloat / lint / luint   one value per lane

@@ -4,7 +4,7 @@
  * 64-bit fixed-point integer (shared/types.h), already summed along grid axis 2; sat_scan sums
  * along axis 0 or 1. One work-item per line: the prefix sums run in parallel over lines. Integer
  * sums are exact and independent of the order, so the table cannot cancel the way float32 SATs
- * do (DESIGN.md "SAT precision"). Built with SOMBRA_LANES=1; defines as dsm_build.cl. */
+ * do (docs/architecture.md "Numerics"). Built with SOMBRA_LANES=1; defines as dsm_build.cl. */
 #include "shared/types.h"
 #include "lanes.h"
 #include "volume_sample.h"

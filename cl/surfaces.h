@@ -1,4 +1,4 @@
-/* sombra — translucent surfaces in the camera pass (issue 4; Knecht §3.1, DESIGN.md "Data flow"):
+/* sombra — translucent surfaces in the camera pass (issue 4; Knecht §3.1, docs/architecture.md "Data flow"):
  * each pixel's surface fragments (render/fragments.h: depth along the camera ray, sorted near to
  * far) bound its segments; the segment cursor (traversal.h) hands each one over at its depth, in
  * order with the volume samples, and it is composited front to back. Colour: Phong with the

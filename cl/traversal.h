@@ -1,4 +1,4 @@
-/* sombra — ray traversal as homogeneous segments (Knecht §3.1.2, DESIGN.md "Data flow"), for a
+/* sombra — ray traversal as homogeneous segments (Knecht §3.1.2, docs/architecture.md "Data flow"), for a
  * packet of SOMBRA_LANES rays marched in lockstep (lanes.h).
  *
  * The boundaries of every volume's box along a ray cut it into segments; inside one segment the

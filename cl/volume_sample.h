@@ -1,6 +1,6 @@
 /* sombra — reading a volume for a packet of rays (lanes.h): density at continuous voxel positions,
  * transfer function, gradient. One function, sample_density(), hides where voxels live: a float
- * buffer with manual trilinear interpolation (fast on PoCL: 80 vs 35 Msamples/s, OPENCL-NOTES.md)
+ * buffer with manual trilinear interpolation (fast on PoCL: 80 vs 35 Msamples/s, docs/architecture.md)
  * or a 3D image atlas with the hardware's linear filter (GPUs), chosen by SOMBRA_USE_IMAGES. */
 #ifndef SOMBRA_VOLUME_SAMPLE_H
 #define SOMBRA_VOLUME_SAMPLE_H

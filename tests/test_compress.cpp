@@ -1,5 +1,5 @@
 // On-the-fly visibility compression (cl/shared/compress.h, the code the DSM kernel runs): property
-// tests over many random visibility functions plus the stiff and extreme cases of DESIGN.md.
+// tests over many random visibility functions plus the stiff and extreme cases of docs/architecture.md.
 #include <catch2/catch.hpp>
 
 #include <algorithm>

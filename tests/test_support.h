@@ -8,7 +8,7 @@
 
 namespace sombra::test {
 
-Context& context();  // one per test process (DESIGN.md: tests share one context)
+Context& context();  // one per test process (docs/architecture.md: tests share one context)
 
 struct ImageDifference {
     double max_abs = 0, mean_abs = 0;

@@ -1,5 +1,5 @@
 /* sombra — deterministic per-pixel jitter, shared by the kernels and the CPU references so both
- * offset each ray's first sample identically (DESIGN.md: banding). Compiles as OpenCL C and C++. */
+ * offset each ray's first sample identically (docs/architecture.md "Banding"). Compiles as OpenCL C and C++. */
 #ifndef SOMBRA_SHARED_HASH_H
 #define SOMBRA_SHARED_HASH_H
 

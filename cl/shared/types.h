@@ -84,7 +84,7 @@ typedef struct {
 } LightGpu;
 
 /* One deep shadow map view: a spot light, one cube face of a point light (90°), or a
- * directional light's orthographic box fitted to the scene. Depth convention (DESIGN.md): the
+ * directional light's orthographic box fitted to the scene. Depth convention (docs/architecture.md): the
  * distance from the light along the texel's ray (perspective) or from the near plane along
  * axis_z (orthographic), in world units — never NDC z. */
 typedef struct {

@@ -10,7 +10,7 @@
 namespace sombra::host {
 namespace {
 
-// PoCL links kernels with `ld` and aborts the process when it is not on PATH (OPENCL-NOTES.md).
+// PoCL links kernels with `ld` and aborts the process when it is not on PATH (docs/architecture.md "Facts about PoCL").
 void ensure_linker_on_path() {
     const char* path = std::getenv("PATH");
     std::string value = path ? path : "";

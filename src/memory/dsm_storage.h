@@ -1,4 +1,4 @@
-// sombra — deep shadow map storage backends behind one interface (DESIGN.md "Storage backends
+// sombra — deep shadow map storage backends behind one interface (docs/architecture.md "Host/kernel contract
 // are swappable on both sides"). Each backend has a kernel header of the same function names
 // (cl/storage_<name>.h) and this C++ side: it allocates for a set of DSM views, runs generation
 // into its layout, binds its buffers to lookup kernels, reports bytes used and wasted, and reads a

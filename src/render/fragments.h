@@ -1,4 +1,4 @@
-// sombra — the fragment stage after the raster stage (DESIGN.md data flow; Knecht §3.1.2): per
+// sombra — the fragment stage after the raster stage (docs/architecture.md "Data flow"; Knecht §3.1.2): per
 // pixel, the triangles crossing its ray sorted by depth — the boundaries of its homogeneous
 // segments. Runs cl/segments.cl on the tile lists of render/rasterizer.h. Standalone for now.
 #pragma once

@@ -1,4 +1,4 @@
-// sombra — the raster stage of the data flow (DESIGN.md; Knecht §3.1.1, §4.1.1): meshes projected
+// sombra — the raster stage of the data flow (docs/architecture.md "Data flow"; Knecht §3.1.1, §4.1.1): meshes projected
 // into a camera or light view, clipped, snapped to fixed point, then rasterized into 8×8 tiles by
 // cl/raster.cl (coverage masks + triangle ids in chunks of 64 per tile). Standalone: the camera
 // pass and DSM generation do not use it yet.

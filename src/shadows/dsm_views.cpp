@@ -17,7 +17,7 @@ cl_float4 f4(const glm::vec3& v, float w = 0.f) {
 }
 
 // An orthonormal frame looking along `forward`, with an up hint that is never parallel to it
-// (a directional light along an axis is a stiff case of DESIGN.md).
+// (a directional light along an axis is a stiff case of docs/architecture.md).
 void frame(const glm::vec3& forward, glm::vec3& x, glm::vec3& y, glm::vec3& z) {
     z = glm::normalize(forward);
     glm::vec3 hint = std::fabs(z.y) < 0.9f ? glm::vec3(0, 1, 0) : glm::vec3(1, 0, 0);
