@@ -203,6 +203,36 @@ TEST_CASE("--stats holds the version, the scene, the options and the whole comma
     CHECK(j.at("scene") == point);
 }
 
+TEST_CASE("EXR is premultiplied (no background where nothing is), PNG has the background composited", "[cli]") {
+    const std::string dir = sombra::test::temp_dir();
+    std::string scene = scene_file("premultiplied.json", {{"background", {0.55, 0.6, 0.7}}});
+    const std::string png = dir + "/premultiplied.png", exr = dir + "/premultiplied.exr";
+    for (const std::string& out : {png, exr}) {
+        CliRun run = run_cli("render " + scene + " -o " + out + " --shadows rays");
+        INFO(run.stderr_text);
+        REQUIRE(run.exit_code == 0);
+    }
+    sombra::Image e = sombra::read_image(exr), p = sombra::read_image(png);
+    REQUIRE(e.width == p.width);
+    REQUIRE(e.height == p.height);
+    for (int c = 0; c < 4; ++c) CHECK(e.rgba[std::size_t(c)] == 0.f);  // the corner: empty, transparent black
+    const float background[3] = {0.55f, 0.6f, 0.7f};
+    const auto to_srgb = [](float v) {
+        v = std::min(std::max(v, 0.f), 1.f);
+        return v <= 0.0031308f ? 12.92f * v : 1.055f * std::pow(v, 1.f / 2.4f) - 0.055f;
+    };
+    double covered = 0, worst = 0;
+    for (std::size_t i = 0; i < e.rgba.size(); i += 4) {
+        covered += e.rgba[i + 3];
+        for (std::size_t c = 0; c < 3; ++c) {  // EXR over the background = the PNG (8-bit sRGB of the same linear value)
+            const float composite = e.rgba[i + c] + (1.f - e.rgba[i + 3]) * background[c];
+            worst = std::max(worst, double(std::fabs(to_srgb(composite) - p.rgba[i + c])));
+        }
+    }
+    CHECK(covered > 1);  // the sphere is in the picture
+    CHECK(worst <= 0.51 / 255);
+}
+
 TEST_CASE("sombra devices lists the PoCL device", "[cli]") {
     CHECK(run_cli("devices").exit_code == 0);
 }
