@@ -131,6 +131,7 @@ TEST_CASE("misspelt commands, options and scene keys name the closest real one",
     check_line("rendr " + f + " -o " + out, "sombra: error: unknown command 'rendr' (did you mean 'render'?)");
     check_line("visiblity " + f, "sombra: error: unknown command 'visiblity' (did you mean 'visibility'?)");
     check_line("frobnicate", "sombra: error: unknown command 'frobnicate'");
+    check_line("--verison", "sombra: error: unknown option '--verison' (did you mean '--version'?)");
     check_line("render " + f + " -o " + out + " --shadow dsm",
                "sombra: error: unknown option '--shadow' (did you mean '--shadows'?)");
     // named before the missing -o, also in the --name=value form

@@ -217,13 +217,14 @@ std::string command_word(int argc, char** argv) {
 }
 
 // The first argument after the command word that looks like an option `command` does not have
-// ("--shadow", "--shadow=dsm", "-x"; not "-7", not after "--"), "" when there is none.
+// ("--shadow", "--shadow=dsm", "-x"; not "-7", not after "--"), "" when there is none. For sombra
+// itself (no command word), every argument is looked at.
 std::string unknown_option(const CLI::App& command, int argc, char** argv, std::vector<std::string>& known) {
     for (const CLI::Option* option : command.get_options()) {
         for (const std::string& name : option->get_lnames()) known.push_back("--" + name);
         for (const std::string& name : option->get_snames()) known.push_back("-" + name);
     }
-    bool after_command = false;
+    bool after_command = command.get_parent() == nullptr;
     for (int i = 1; i < argc; ++i) {
         const std::string arg = argv[i];
         if (!after_command) {
@@ -355,8 +356,8 @@ int run(int argc, char** argv) {
             return 2;
         }
         known.clear();
-        if (!command.empty()) {
-            const std::string option = unknown_option(*app.get_subcommand(command), argc, argv, known);
+        {
+            const std::string option = unknown_option(command.empty() ? app : *app.get_subcommand(command), argc, argv, known);
             if (!option.empty()) {
                 std::cerr << "sombra: error: unknown option '" << option << "'" << sombra::detail::did_you_mean(option, known) << "\n";
                 return 2;
