@@ -167,7 +167,7 @@ TEST_CASE("sombra render --help shows every option's default, from RenderOptions
     CHECK_THAT(line_of("--device"), Catch::Contains("=auto"));
 }
 
-TEST_CASE("--stats holds the version, the scene, the options and the whole command's time", "[cli]") {
+TEST_CASE("sombra render and dsm --stats hold the version, the scene, the options and the whole command time", "[cli]") {
     const std::string dir = sombra::test::temp_dir();
     std::string scene = scene_file("stats_fields.json", {{"image", {{"width", 8}, {"height", 8}}}});
     std::string stats = dir + "/stats_fields.stats.json";
@@ -183,7 +183,7 @@ TEST_CASE("--stats holds the version, the scene, the options and the whole comma
     const nlohmann::json& o = j.at("options");
     CHECK(o.at("shadows") == "dsm");
     CHECK(o.at("dsm_resolution") == 16);
-    CHECK(o.at("dsm_epsilon").get<double>() == Approx(0.05));
+    CHECK(o.at("dsm_epsilon").get<double>() == 0.05);  // the float's shortest decimal form
     CHECK(o.at("lanes") == 4);
     CHECK(o.at("lowpass_filter_width").get<double>() == Approx(sombra::RenderOptions{}.lowpass_filter_width));
     CHECK(o.at("storage") == "auto");
@@ -201,6 +201,7 @@ TEST_CASE("--stats holds the version, the scene, the options and the whole comma
     CHECK(j.at("dsm").at("nodes").get<double>() > 0);
     CHECK(j.at("dsm").at("bytes_used").get<double>() > 0);
     CHECK(j.at("options").at("dsm_resolution") == 8);
+    CHECK_FALSE(j.at("options").contains("shadows"));  // camera options do not apply
     CHECK(j.at("scene") == point);
 }
 

@@ -10,7 +10,9 @@
 #include <iostream>
 #include <sstream>
 #include <algorithm>
+#include <charconv>
 #include <chrono>
+#include <cstdlib>
 
 #include <nlohmann/json.hpp>
 
@@ -62,6 +64,13 @@ void write_text_file(const std::string& path, const std::string& text) {
     if (!(out << text << '\n') || !(out.flush())) throw sombra::Error(path + ": cannot write file");
 }
 
+// A float as the JSON number of its shortest decimal form (0.02f → 0.02, not 0.0199999996).
+double decimal(float value) {
+    char text[32];
+    const auto end = std::to_chars(text, text + sizeof text, value).ptr;
+    return std::strtod(std::string(text, end).c_str(), nullptr);
+}
+
 // The effective options of the command, as --stats writes them.
 nlohmann::json options_json(const sombra::RenderOptions& o) {
     return {{"width", o.width},
@@ -69,21 +78,21 @@ nlohmann::json options_json(const sombra::RenderOptions& o) {
             {"shadows", name_of(kShadowNames, o.shadows)},
             {"shading", name_of(kShadingNames, o.shading)},
             {"gradient", name_of(kGradientNames, o.gradient)},
-            {"phase_g", o.phase_g},
+            {"phase_g", decimal(o.phase_g)},
             {"dsm_resolution", o.dsm_resolution},
-            {"dsm_epsilon", o.dsm_epsilon},
+            {"dsm_epsilon", decimal(o.dsm_epsilon)},
             {"dsm_storage", o.dsm_storage},
             {"dsm_precompression", o.dsm_precompression},
             {"dsm_prefilter", o.dsm_prefilter},
             {"dsm_prefilter_jitter", o.dsm_prefilter_jitter},
             {"dsm_prefilter_seed", o.dsm_prefilter_seed},
-            {"lowpass_filter_width", o.lowpass_filter_width},
+            {"lowpass_filter_width", decimal(o.lowpass_filter_width)},
             {"lowpass_filter_kernel", o.lowpass_filter_kernel},
             {"lowpass_cache", o.lowpass_cache},
-            {"cone_angle_deg", o.cone_angle_deg},
+            {"cone_angle_deg", decimal(o.cone_angle_deg)},
             {"storage", name_of(kStorageNames, o.storage)},
             {"empty_space_skipping", o.empty_space_skipping},
-            {"termination_transmittance", o.termination_transmittance},
+            {"termination_transmittance", decimal(o.termination_transmittance)},
             {"jitter_seed", o.jitter_seed},
             {"lanes", o.lanes}};
 }
@@ -133,6 +142,10 @@ int write_dsm(sombra::Context& context, const sombra::Scene& scene, int light, c
     // no camera here: the stats describe this light's maps, not an image
     nlohmann::json j = command_stats(stats, stats_context);
     for (const char* camera_only : {"width", "height", "samples", "msamples_per_s"}) j.erase(camera_only);
+    for (const char* camera_only : {"width", "height", "shadows", "shading", "gradient", "phase_g", "jitter_seed",
+                                    "termination_transmittance", "lowpass_filter_width", "lowpass_filter_kernel",
+                                    "lowpass_cache", "cone_angle_deg"})
+        j["options"].erase(camera_only);
     unsigned long long nodes = 0;
     for (const sombra::DeepShadowMap& map : maps) nodes += map.nodes.size();
     nlohmann::json& dsm_stats = j["dsm"];
@@ -188,7 +201,11 @@ int print_visibility(sombra::Context& context, const sombra::Scene& scene, int l
     std::cerr << " (lowpass W " << options.lowpass_filter_width << ")\n";
     sombra::ShadowQuery& dsm = queries.front();
     sombra::host::StagedOutputs outputs;
-    stage_stats(outputs, stats_path, command_stats(dsm.stats, stats_context));
+    nlohmann::json j = command_stats(dsm.stats, stats_context);
+    // every technique was asked, at points rather than pixels: no camera options
+    for (const char* camera_only : {"width", "height", "shadows", "shading", "gradient", "phase_g", "jitter_seed"})
+        j["options"].erase(camera_only);
+    stage_stats(outputs, stats_path, j);
     outputs.commit();
     return 0;
 }
