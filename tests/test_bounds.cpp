@@ -240,7 +240,7 @@ TEST_CASE("bounds: scene JSON reads a bound mesh, and missing, malformed or open
     std::string bad = write_file("bad.json", scene_with("{\"mesh\": \"" + garbage + "\"}"));
     CHECK_THROWS_WITH(load_scene(bad), Catch::Contains("volumes[0].bounds.mesh:") && Catch::Contains("garbage.obj"));
     std::string typo = write_file("typo.json", scene_with("{\"mesh\": \"" + bunny + "\", \"scale\": 2}"));
-    CHECK_THROWS_WITH(load_scene(typo), Catch::Contains("volumes[0].bounds.scale: unknown key"));
+    CHECK_THROWS_WITH(load_scene(typo), Catch::Contains("volumes[0].bounds: unknown key 'scale'"));
     for (ShadowTechnique t : {ShadowTechnique::Lowpass, ShadowTechnique::Ao, ShadowTechnique::Cone}) {
         RenderOptions o;
         o.shadows = t;

@@ -31,6 +31,25 @@ CliRun run_cli(const std::string& args) {
     return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, text.str()};
 }
 
+// stdout and stderr of one run
+struct CliOutput {
+    int exit_code;
+    std::string out, err;
+};
+
+CliOutput run_cli_output(const std::string& args) {
+    const std::string dir = sombra::test::temp_dir();
+    std::string command = std::string(SOMBRA_CLI) + " " + args + " >" + dir + "/stdout.txt 2>" + dir + "/stderr.txt";
+    int status = std::system(command.c_str());
+    const auto read = [](const std::string& path) {
+        std::ifstream in(path);
+        std::stringstream text;
+        text << in.rdbuf();
+        return text.str();
+    };
+    return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, read(dir + "/stdout.txt"), read(dir + "/stderr.txt")};
+}
+
 std::string write_file(const std::string& name, const std::string& content) {
     std::string path = sombra::test::temp_dir() + "/" + name;
     std::ofstream(path) << content;
@@ -90,6 +109,132 @@ TEST_CASE("sombra render --shadows lowpass writes soft shadows", "[cli]") {
     CHECK(nlohmann::json::parse(in).at("sat").at("tables").get<int>() == 1);
 }
 
+TEST_CASE("sombra --version prints the project's version", "[cli]") {
+    CliOutput run = run_cli_output("--version");
+    INFO(run.err);
+    CHECK(run.exit_code == 0);
+    CHECK(run.out == std::string("sombra ") + SOMBRA_VERSION + "\n");
+    CHECK(std::string(SOMBRA_VERSION).find('.') != std::string::npos);
+}
+
+TEST_CASE("misspelt commands, options and scene keys name the closest real one", "[cli]") {
+    std::string f = scene_file("suggest.json", nlohmann::json::object());
+    std::string out = sombra::test::temp_dir() + "/suggest.png";
+    std::remove(out.c_str());
+    const auto check_line = [&](const std::string& args, const std::string& line) {
+        CliRun run = run_cli(args);
+        INFO(args);
+        CHECK(run.stderr_text == line + "\n");
+        CHECK(run.exit_code == 2);
+        CHECK_FALSE(std::filesystem::exists(out));
+    };
+    check_line("rendr " + f + " -o " + out, "sombra: error: unknown command 'rendr' (did you mean 'render'?)");
+    check_line("visiblity " + f, "sombra: error: unknown command 'visiblity' (did you mean 'visibility'?)");
+    check_line("frobnicate", "sombra: error: unknown command 'frobnicate'");
+    check_line("--verison", "sombra: error: unknown option '--verison' (did you mean '--version'?)");
+    check_line("render " + f + " -o " + out + " --shadow dsm",
+               "sombra: error: unknown option '--shadow' (did you mean '--shadows'?)");
+    // named before the missing -o, also in the --name=value form
+    check_line("render " + f + " --dsm-rse=64", "sombra: error: unknown option '--dsm-rse' (did you mean '--dsm-res'?)");
+    check_line("dsm " + f + " --light 0 -o d.exr --filter 2", "sombra: error: unknown option '--filter'");
+    // scene keys: a misspelt required key is unknown, not missing; an optional one gets the closest key too
+    nlohmann::json volume = {{"generator", {{"type", "sphere"}, {"size", 16}}},
+                             {"transfer_fuction", {{"rgb_points", {0, 1, 1, 1}}, {"opacity_points", {0, 0, 1, 1}}}}};
+    std::string typo = scene_file("suggest_tf.json", {{"volumes", {volume}}});
+    CliRun run = run_cli("render " + typo + " -o " + out);
+    require_clean_failure(run, typo + ": volumes[0]: unknown key 'transfer_fuction' (did you mean 'transfer_function'?)", "", out);
+    CHECK(run.exit_code == 1);
+    typo = scene_file("suggest_fov.json", {{"camera", {{"fov_y_dg", 30}}}});
+    require_clean_failure(run_cli("render " + typo + " -o " + out),
+                          typo + ": camera: unknown key 'fov_y_dg' (did you mean 'fov_y_deg'?)", "", out);
+}
+
+TEST_CASE("sombra render --help shows every option's default, from RenderOptions{}", "[cli]") {
+    CliOutput run = run_cli_output("render --help");
+    REQUIRE(run.exit_code == 0);
+    const auto line_of = [&](const std::string& option) {
+        std::size_t at = run.out.find("  " + option + " ");
+        REQUIRE(at != std::string::npos);
+        return run.out.substr(at, run.out.find('\n', at) - at);
+    };
+    const sombra::RenderOptions defaults;
+    CHECK_THAT(line_of("--dsm-res"), Catch::Contains("=" + std::to_string(defaults.dsm_resolution)));
+    CHECK_THAT(line_of("--eps"), Catch::Contains("=0.02"));
+    CHECK_THAT(line_of("--filter"), Catch::Contains("=3"));
+    CHECK_THAT(line_of("--cone-angle"), Catch::Contains("=10"));
+    CHECK_THAT(line_of("--shadows"), Catch::Contains("=none"));
+    CHECK_THAT(line_of("--storage"), Catch::Contains("=" + defaults.dsm_storage));
+    CHECK_THAT(line_of("--device"), Catch::Contains("=auto"));
+}
+
+TEST_CASE("sombra render and dsm --stats hold the version, the scene, the options and the whole command time", "[cli]") {
+    const std::string dir = sombra::test::temp_dir();
+    std::string scene = scene_file("stats_fields.json", {{"image", {{"width", 8}, {"height", 8}}}});
+    std::string stats = dir + "/stats_fields.stats.json";
+    CliRun run = run_cli("render " + scene + " -o " + dir + "/stats_fields.exr --stats " + stats +
+                         " --shadows dsm --dsm-res 16 --eps 0.05 --lanes 4");
+    INFO(run.stderr_text);
+    REQUIRE(run.exit_code == 0);
+    nlohmann::json j = nlohmann::json::parse(std::ifstream(stats));
+    CHECK(j.at("version") == SOMBRA_VERSION);
+    CHECK(j.at("scene") == scene);
+    CHECK(j.at("total_ms").get<double>() > 0);
+    CHECK(j.at("total_ms").get<double>() >= j.at("stage_ms").at("camera_pass").get<double>());
+    const nlohmann::json& o = j.at("options");
+    CHECK(o.at("shadows") == "dsm");
+    CHECK(o.at("dsm_resolution") == 16);
+    CHECK(o.at("dsm_epsilon").get<double>() == 0.05);  // the float's shortest decimal form
+    CHECK(o.at("lanes") == 4);
+    CHECK(o.at("lowpass_filter_width").get<double>() == Approx(sombra::RenderOptions{}.lowpass_filter_width));
+    CHECK(o.at("storage") == "auto");
+    CHECK(j.at("width") == 8);
+
+    // sombra dsm: the maps' sizes, no camera fields
+    std::string point = scene_file("stats_point.json", {{"lights", {{{"type", "point"}, {"position", {0, 0.5, 0.5}}}}}});
+    run = run_cli("dsm " + point + " --light 0 --dsm-res 8 -o " + dir + "/stats_faces.exr --stats " + stats);
+    INFO(run.stderr_text);
+    REQUIRE(run.exit_code == 0);
+    j = nlohmann::json::parse(std::ifstream(stats));
+    for (const char* camera_only : {"width", "height", "samples", "msamples_per_s"}) CHECK_FALSE(j.contains(camera_only));
+    CHECK(j.at("dsm").at("views") == 6);
+    CHECK(j.at("dsm").at("resolution") == 8);
+    CHECK(j.at("dsm").at("nodes").get<double>() > 0);
+    CHECK(j.at("dsm").at("bytes_used").get<double>() > 0);
+    CHECK(j.at("options").at("dsm_resolution") == 8);
+    CHECK_FALSE(j.at("options").contains("shadows"));  // camera options do not apply
+    CHECK(j.at("scene") == point);
+}
+
+TEST_CASE("EXR is premultiplied (no background where nothing is), PNG has the background composited", "[cli]") {
+    const std::string dir = sombra::test::temp_dir();
+    std::string scene = scene_file("premultiplied.json", {{"background", {0.55, 0.6, 0.7}}});
+    const std::string png = dir + "/premultiplied.png", exr = dir + "/premultiplied.exr";
+    for (const std::string& out : {png, exr}) {
+        CliRun run = run_cli("render " + scene + " -o " + out + " --shadows rays");
+        INFO(run.stderr_text);
+        REQUIRE(run.exit_code == 0);
+    }
+    sombra::Image e = sombra::read_image(exr), p = sombra::read_image(png);
+    REQUIRE(e.width == p.width);
+    REQUIRE(e.height == p.height);
+    for (int c = 0; c < 4; ++c) CHECK(e.rgba[std::size_t(c)] == 0.f);  // the corner: empty, transparent black
+    const float background[3] = {0.55f, 0.6f, 0.7f};
+    const auto to_srgb = [](float v) {
+        v = std::min(std::max(v, 0.f), 1.f);
+        return v <= 0.0031308f ? 12.92f * v : 1.055f * std::pow(v, 1.f / 2.4f) - 0.055f;
+    };
+    double covered = 0, worst = 0;
+    for (std::size_t i = 0; i < e.rgba.size(); i += 4) {
+        covered += e.rgba[i + 3];
+        for (std::size_t c = 0; c < 3; ++c) {  // EXR over the background = the PNG (8-bit sRGB of the same linear value)
+            const float composite = e.rgba[i + c] + (1.f - e.rgba[i + 3]) * background[c];
+            worst = std::max(worst, double(std::fabs(to_srgb(composite) - p.rgba[i + c])));
+        }
+    }
+    CHECK(covered > 1);  // the sphere is in the picture
+    CHECK(worst <= 0.51 / 255);
+}
+
 TEST_CASE("sombra devices lists the PoCL device", "[cli]") {
     CHECK(run_cli("devices").exit_code == 0);
 }
@@ -106,7 +251,7 @@ TEST_CASE("bad scenes fail with one line naming the file and the field", "[cli]"
     }
     SECTION("unknown key") {
         std::string f = scene_file("unknown.json", {{"camera", {{"fov", 30}}}});
-        require_clean_failure(run_cli("render " + f + " -o " + out), f, "camera.fov", out);
+        require_clean_failure(run_cli("render " + f + " -o " + out), f, "camera: unknown key 'fov'", out);
     }
     SECTION("wrong type") {
         std::string f = scene_file("type.json", {{"camera", {{"fov_y_deg", "wide"}}}});

@@ -254,6 +254,15 @@ TEST_CASE("hostile input: outputs are committed together or not at all", "[hosti
         const std::string message =
             error_of([&] { outputs.write((dir / "c.exr").string(), [](const std::string& p) { throw Error(p + ": disk full"); }); });
         CHECK(message == (dir / "c.exr").string() + ": disk full");
+        // ... also where a writer's own temporary (NAME.part.ext) or a library's bare file name is quoted
+        const std::string quoted = error_of([&] {
+            outputs.write((dir / "d.exr").string(), [](const std::string& p) {
+                throw Error(p + ": cannot write image (Could not open \"" + p + ".part.exr\": \"" +
+                            fs::path(p).filename().string() + "\" is read-only)");
+            });
+        });
+        CHECK(quoted == (dir / "d.exr").string() + ": cannot write image (Could not open \"" + (dir / "d.exr").string() +
+                            "\": \"d.exr\" is read-only)");
     }
     {
         host::StagedOutputs outputs;

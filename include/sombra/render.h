@@ -88,6 +88,9 @@ struct RenderOptions {
 struct Image {
     int width = 0, height = 0;
     std::vector<float> rgba;  // row-major, top row first
+    // The background composited into rgba (render() sets the scene's): write_image takes it out
+    // again for EXR, which holds premultiplied radiance over transparent black.
+    Vec3 background{0, 0, 0};
 };
 
 struct RenderStats {

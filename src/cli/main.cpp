@@ -10,27 +10,120 @@
 #include <iostream>
 #include <sstream>
 #include <algorithm>
+#include <charconv>
+#include <chrono>
+#include <cstdlib>
+
+#include <nlohmann/json.hpp>
 
 #include "host/staged_outputs.h"
+#include "scene/suggest.h"
 #include "sombra/sombra.h"
 
 namespace {
+
+// Names of the option values on the command line (and in --stats), each with its value.
+template <typename E>
+using Names = std::vector<std::pair<std::string, E>>;
+const Names<sombra::ShadowTechnique> kShadowNames = {
+    {"none", sombra::ShadowTechnique::None},           {"rays", sombra::ShadowTechnique::Rays},
+    {"dsm", sombra::ShadowTechnique::Dsm},             {"shadowmap", sombra::ShadowTechnique::ShadowMap},
+    {"lowpass", sombra::ShadowTechnique::Lowpass},     {"ao", sombra::ShadowTechnique::Ao},
+    {"cone", sombra::ShadowTechnique::Cone}};
+const Names<sombra::GradientMethod> kGradientNames = {{"central", sombra::GradientMethod::CentralDifferences},
+                                                      {"sobel", sombra::GradientMethod::Sobel}};
+const Names<sombra::ShadingModel> kShadingNames = {{"phong", sombra::ShadingModel::Phong},
+                                                   {"scattering", sombra::ShadingModel::Scattering}};
+const Names<sombra::VolumeStorage> kStorageNames = {{"auto", sombra::VolumeStorage::Auto},
+                                                    {"buffer", sombra::VolumeStorage::Buffer},
+                                                    {"image", sombra::VolumeStorage::Image}};
+
+template <typename E>
+std::string name_of(const Names<E>& names, E value) {
+    for (const auto& [name, v] : names)
+        if (v == value) return name;
+    return "?";
+}
+template <typename E>
+E value_of(const Names<E>& names, const std::string& name) {
+    for (const auto& [n, v] : names)
+        if (n == name) return v;
+    return names.front().second;  // unreachable: CLI::IsMember checked the name
+}
+template <typename E>
+CLI::IsMember member_of(const Names<E>& names) {
+    std::vector<std::string> keys;
+    for (const auto& entry : names) keys.push_back(entry.first);
+    return CLI::IsMember(keys);
+}
+
+const auto kStart = std::chrono::steady_clock::now();  // the whole command's wall clock starts here
 
 void write_text_file(const std::string& path, const std::string& text) {
     std::ofstream out(path);
     if (!(out << text << '\n') || !(out.flush())) throw sombra::Error(path + ": cannot write file");
 }
 
+// A float as the JSON number of its shortest decimal form (0.02f → 0.02, not 0.0199999996).
+double decimal(float value) {
+    char text[32];
+    const auto end = std::to_chars(text, text + sizeof text, value).ptr;
+    return std::strtod(std::string(text, end).c_str(), nullptr);
+}
+
+// The effective options of the command, as --stats writes them.
+nlohmann::json options_json(const sombra::RenderOptions& o) {
+    return {{"width", o.width},
+            {"height", o.height},
+            {"shadows", name_of(kShadowNames, o.shadows)},
+            {"shading", name_of(kShadingNames, o.shading)},
+            {"gradient", name_of(kGradientNames, o.gradient)},
+            {"phase_g", decimal(o.phase_g)},
+            {"dsm_resolution", o.dsm_resolution},
+            {"dsm_epsilon", decimal(o.dsm_epsilon)},
+            {"dsm_storage", o.dsm_storage},
+            {"dsm_precompression", o.dsm_precompression},
+            {"dsm_prefilter", o.dsm_prefilter},
+            {"dsm_prefilter_jitter", o.dsm_prefilter_jitter},
+            {"dsm_prefilter_seed", o.dsm_prefilter_seed},
+            {"lowpass_filter_width", decimal(o.lowpass_filter_width)},
+            {"lowpass_filter_kernel", o.lowpass_filter_kernel},
+            {"lowpass_cache", o.lowpass_cache},
+            {"cone_angle_deg", decimal(o.cone_angle_deg)},
+            {"storage", name_of(kStorageNames, o.storage)},
+            {"empty_space_skipping", o.empty_space_skipping},
+            {"termination_transmittance", decimal(o.termination_transmittance)},
+            {"jitter_seed", o.jitter_seed},
+            {"lanes", o.lanes}};
+}
+
+// What every --stats file holds besides the library's stats: the version, the scene as given, the
+// effective options and the wall clock of the whole command (up to writing the stats).
+struct StatsContext {
+    std::string scene_path;
+    sombra::RenderOptions options;
+};
+
+nlohmann::json command_stats(const sombra::RenderStats& stats, const StatsContext& context) {
+    nlohmann::json j = nlohmann::json::parse(stats.to_json());
+    j["version"] = SOMBRA_VERSION;
+    j["scene"] = context.scene_path;
+    j["options"] = options_json(context.options);
+    j["total_ms"] = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - kStart).count();
+    return j;
+}
+
 // --stats next to the other outputs: staged with them.
-void stage_stats(sombra::host::StagedOutputs& outputs, const std::string& stats_path, const sombra::RenderStats& stats) {
+void stage_stats(sombra::host::StagedOutputs& outputs, const std::string& stats_path, const nlohmann::json& stats) {
     if (!stats_path.empty())
-        outputs.write(stats_path, [&](const std::string& path) { write_text_file(path, stats.to_json()); });
+        outputs.write(stats_path, [&](const std::string& path) { write_text_file(path, stats.dump(2)); });
 }
 
 // sombra dsm: one deep EXR per view of the light (a point light has six cube faces), all written
 // (with the stats) before any takes its name.
-int write_dsm(sombra::Context& context, const sombra::Scene& scene, int light, const sombra::RenderOptions& options,
+int write_dsm(sombra::Context& context, const sombra::Scene& scene, int light, const StatsContext& stats_context,
               const std::string& output, const std::string& stats_path) {
+    const sombra::RenderOptions& options = stats_context.options;
     sombra::RenderStats stats;
     auto maps = sombra::build_deep_shadow_maps(context, scene, light, options, &stats);
     std::filesystem::path out(output);
@@ -46,7 +139,23 @@ int write_dsm(sombra::Context& context, const sombra::Scene& scene, int light, c
         written.push_back(path + " (" + std::to_string(map.width) + "×" + std::to_string(map.height) + ", " +
                           std::to_string(map.nodes.size()) + " nodes)");
     }
-    stage_stats(outputs, stats_path, stats);
+    // no camera here: the stats describe this light's maps, not an image
+    nlohmann::json j = command_stats(stats, stats_context);
+    for (const char* camera_only : {"width", "height", "samples", "msamples_per_s"}) j.erase(camera_only);
+    for (const char* camera_only : {"width", "height", "shadows", "shading", "gradient", "phase_g", "jitter_seed",
+                                    "termination_transmittance", "lowpass_filter_width", "lowpass_filter_kernel",
+                                    "lowpass_cache", "cone_angle_deg"})
+        j["options"].erase(camera_only);
+    unsigned long long nodes = 0;
+    for (const sombra::DeepShadowMap& map : maps) nodes += map.nodes.size();
+    nlohmann::json& dsm_stats = j["dsm"];
+    dsm_stats["light"] = light;
+    dsm_stats["views"] = maps.size();
+    dsm_stats["nodes"] = nodes;
+    dsm_stats["resolution"] = maps.empty() ? 0 : maps.front().width;
+    dsm_stats["mean_nodes_per_texel"] =
+        maps.empty() ? 0.0 : double(nodes) / (double(maps.size()) * maps.front().width * maps.front().height);
+    stage_stats(outputs, stats_path, j);
     outputs.commit();
     for (const std::string& line : written) std::cerr << "sombra: wrote " << line << "\n";
     return 0;
@@ -55,8 +164,9 @@ int write_dsm(sombra::Context& context, const sombra::Scene& scene, int light, c
 // sombra visibility: per point, each technique's transmittance (deep shadow map, shadow ray,
 // binary shadow map, low-pass filtered with --filter W), the brute-force reference, and their
 // differences; then the mean and max error of each.
-int print_visibility(sombra::Context& context, const sombra::Scene& scene, int light,
-                     const sombra::RenderOptions& options, const std::string& points_path, const std::string& stats_path) {
+int print_visibility(sombra::Context& context, const sombra::Scene& scene, int light, const StatsContext& stats_context,
+                     const std::string& points_path, const std::string& stats_path) {
+    const sombra::RenderOptions& options = stats_context.options;
     auto points = sombra::load_points_csv(points_path);
     const std::pair<const char*, sombra::ShadowTechnique> techniques[] = {{"dsm", sombra::ShadowTechnique::Dsm},
                                                                           {"shadow_ray", sombra::ShadowTechnique::Rays},
@@ -91,7 +201,11 @@ int print_visibility(sombra::Context& context, const sombra::Scene& scene, int l
     std::cerr << " (lowpass W " << options.lowpass_filter_width << ")\n";
     sombra::ShadowQuery& dsm = queries.front();
     sombra::host::StagedOutputs outputs;
-    stage_stats(outputs, stats_path, dsm.stats);
+    nlohmann::json j = command_stats(dsm.stats, stats_context);
+    // every technique was asked, at points rather than pixels: no camera options
+    for (const char* camera_only : {"width", "height", "shadows", "shading", "gradient", "phase_g", "jitter_seed"})
+        j["options"].erase(camera_only);
+    stage_stats(outputs, stats_path, j);
     outputs.commit();
     return 0;
 }
@@ -111,14 +225,49 @@ CLI::Validator in_range(T lo, T hi) {
         std::string(std::is_integral_v<T> ? "INT" : "NUMBER") + " in " + range.str());
 }
 
+// The command word: the first argument that is not an option (sombra itself has only --help and
+// --version), "" when there is none.
+std::string command_word(int argc, char** argv) {
+    for (int i = 1; i < argc; ++i)
+        if (argv[i][0] != '-') return argv[i];
+    return "";
+}
+
+// The first argument after the command word that looks like an option `command` does not have
+// ("--shadow", "--shadow=dsm", "-x"; not "-7", not after "--"), "" when there is none. For sombra
+// itself (no command word), every argument is looked at.
+std::string unknown_option(const CLI::App& command, int argc, char** argv, std::vector<std::string>& known) {
+    for (const CLI::Option* option : command.get_options()) {
+        for (const std::string& name : option->get_lnames()) known.push_back("--" + name);
+        for (const std::string& name : option->get_snames()) known.push_back("-" + name);
+    }
+    bool after_command = command.get_parent() == nullptr;
+    for (int i = 1; i < argc; ++i) {
+        const std::string arg = argv[i];
+        if (!after_command) {
+            after_command = arg == command.get_name();
+            continue;
+        }
+        if (arg == "--") break;
+        if (arg.size() < 2 || arg[0] != '-' || std::isdigit((unsigned char)arg[1]) || arg[1] == '.') continue;
+        const std::string name = arg[1] == '-' ? arg.substr(0, arg.find('=')) : arg.substr(0, 2);
+        if (std::find(known.begin(), known.end(), name) == known.end()) return name;
+    }
+    return "";
+}
+
 int run(int argc, char** argv) {
     CLI::App app{"sombra — volumetric shadows for scenes of volumes and translucent geometry"};
     app.require_subcommand(1);
+    app.option_defaults()->always_capture_default();  // --help shows every default (before the subcommands copy it)
+    const sombra::RenderOptions defaults;               // the one source of the defaults
+    app.set_version_flag("--version", std::string("sombra ") + SOMBRA_VERSION, "print the version and exit");
 
-    std::string scene_path, output, device = "auto", stats_path, gradient = "central", storage = "auto", non_finite = "reject";
-    int width = 0, height = 0;
-    unsigned seed = 1;
-    bool no_skip = false;
+    std::string scene_path, output, device = "auto", stats_path, non_finite = "reject";
+    std::string gradient = name_of(kGradientNames, defaults.gradient), storage = name_of(kStorageNames, defaults.storage);
+    int width = defaults.width, height = defaults.height;
+    unsigned seed = defaults.jitter_seed;
+    bool no_skip = !defaults.empty_space_skipping;
     CLI::App* render = app.add_subcommand("render", "render a scene to an image (PNG or EXR)");
     render->add_option("scene", scene_path, "scene file (JSON)")->required();
     render->add_option("-o,--output", output, "output image, .png (sRGB) or .exr (linear float)")->required();
@@ -127,41 +276,43 @@ int run(int argc, char** argv) {
     render->add_option("--height", height, "image height (default: the scene's)")->check(image_side);
     render->add_option("--device", device, "auto, cpu, gpu, or an index from `sombra devices`");
     render->add_option("--stats", stats_path, "write per-stage times and sample counts as JSON");
-    render->add_option("--gradient", gradient, "central or sobel")->check(CLI::IsMember({"central", "sobel"}));
-    std::string shading = "phong";
-    float phase_g = 0.f;
+    render->add_option("--gradient", gradient, "central or sobel")->check(member_of(kGradientNames));
+    std::string shading = name_of(kShadingNames, defaults.shading);
+    float phase_g = defaults.phase_g;
     render->add_option("--shading", shading,
                        "phong (gradient normals) or scattering (single scattering with shadows, Ament 2014 Eq. 1-3)")
-        ->check(CLI::IsMember({"phong", "scattering"}));
+        ->check(member_of(kShadingNames));
     render->add_option("--phase-g", phase_g, "Henyey-Greenstein asymmetry g in (-1, 1) for --shading scattering (0: isotropic)");
-    std::string shadows = "none";
+    std::string shadows = name_of(kShadowNames, defaults.shadows);
     render->add_option("--shadows", shadows,
                        "none, rays (march from every sample to every light), dsm (deep shadow maps), shadowmap "
                        "(binary shadow maps, the baseline) or lowpass (low-pass filtered soft shadows from "
                        "light-aligned summed-area tables, Ament 2014), ao (SAT ambient occlusion) or cone (SAT cone "
                        "shadows, Schlegel 2011)")
-        ->check(CLI::IsMember({"none", "rays", "dsm", "shadowmap", "lowpass", "ao", "cone"}));
-    float filter_width = 3.f;
+        ->check(member_of(kShadowNames));
+    float filter_width = defaults.lowpass_filter_width;
     render->add_option("--filter", filter_width, "lowpass: filter width in voxels (softness of the shadows); ao: cube side")
         ->check(in_range<float>(0, 4096));
-    float cone_angle = 10.f;
-    bool no_shadow_cache = false;
+    float cone_angle = defaults.cone_angle_deg;
+    bool no_shadow_cache = !defaults.lowpass_cache;
     render->add_flag("--no-shadow-cache", no_shadow_cache,
                      "lowpass/ao/cone: evaluate the tables per sample instead of reading the shadow cache (Ament Alg. 1)");
     render->add_option("--cone-angle", cone_angle, "cone: half angle of the shadow cones in degrees")->check(in_range<float>(0.01f, 60));
-    std::string filter_kernel = "box";
+    std::string filter_kernel = defaults.lowpass_filter_kernel;
     render->add_option("--filter-kernel", filter_kernel, "lowpass: box (one SAT box) or gauss (5×5 sub-boxes, Ament Eq. 25)")
         ->check(CLI::IsMember({"box", "gauss"}));
-    int dsm_resolution = 512;
-    float dsm_epsilon = 0.02f;
-    std::string dsm_storage = "atlas";
-    bool precompression = false;
-    std::string prefilter = "none";
+    int dsm_resolution = defaults.dsm_resolution;
+    float dsm_epsilon = defaults.dsm_epsilon;
+    std::string dsm_storage = defaults.dsm_storage;
+    bool precompression = defaults.dsm_precompression;
+    std::string prefilter = defaults.dsm_prefilter;
     render->add_option("--dsm-res", dsm_resolution, "deep shadow map texels per side")->check(in_range<int>(1, 8192));
     render->add_option("--storage", dsm_storage, "deep shadow map storage: atlas, chunked, chunked-ondemand (Knecht) or compact")
         ->check(CLI::IsMember({"atlas", "chunked", "chunked-ondemand", "compact"}));
     render->add_flag("--precompression", precompression, "pre-compressed visibility tables for DSM generation (Hadwiger §3.2)");
-    std::string prefilter_jitter = "on";
+    std::string prefilter_jitter = !defaults.dsm_prefilter_jitter ? "off"
+                                   : defaults.dsm_prefilter_seed == 1 ? "on"
+                                                                      : std::to_string(defaults.dsm_prefilter_seed);
     render->add_option("--prefilter", prefilter,
                        "DSM pre-filtering: none, box (2×2 sub-pixel rays), tent (4×4) or 5tap (centre + 4 corners)")
         ->check(CLI::IsMember({"none", "box", "tent", "5tap"}));
@@ -169,12 +320,12 @@ int run(int argc, char** argv) {
     render->add_option("--eps", dsm_epsilon, "deep shadow map compression error bound ε (Knecht Eq. 3.1)")
         ->check(in_range<float>(0, 1e6f));
     render->add_option("--volume-storage", storage, "auto (buffer on CPUs, image on GPUs), buffer or image")
-        ->check(CLI::IsMember({"auto", "buffer", "image"}));
+        ->check(member_of(kStorageNames));
     render->add_option("--non-finite", non_finite, "NaN/Inf voxels: reject (error) or sanitize (set to 0, warn)")
         ->check(CLI::IsMember({"reject", "sanitize"}));
     render->add_flag("--no-empty-space-skipping", no_skip, "march empty bricks too (for comparisons)");
     render->add_option("--seed", seed, "seed of the per-pixel ray jitter");
-    int lanes = 0;
+    int lanes = defaults.lanes;
     render->add_option("--lanes", lanes, "rays per work-item in vector types (camera pass and DSM generation): 1, 4, 8, 16 (default: 8 on CPUs, 1 on GPUs)")
         ->check(CLI::IsMember({0, 1, 4, 8, 16}));
 
@@ -213,6 +364,22 @@ int run(int argc, char** argv) {
         return app.exit(e);
     } catch (const CLI::ParseError& e) {
         if (e.get_exit_code() == 0) return app.exit(e);
+        // a misspelt command or option is named, with the closest real one, before anything else
+        const std::string command = command_word(argc, argv);
+        std::vector<std::string> known;
+        for (const CLI::App* sub : app.get_subcommands([](CLI::App*) { return true; })) known.push_back(sub->get_name());
+        if (!command.empty() && std::find(known.begin(), known.end(), command) == known.end()) {
+            std::cerr << "sombra: error: unknown command '" << command << "'" << sombra::detail::did_you_mean(command, known) << "\n";
+            return 2;
+        }
+        known.clear();
+        {
+            const std::string option = unknown_option(command.empty() ? app : *app.get_subcommand(command), argc, argv, known);
+            if (!option.empty()) {
+                std::cerr << "sombra: error: unknown option '" << option << "'" << sombra::detail::did_you_mean(option, known) << "\n";
+                return 2;
+            }
+        }
         std::cerr << "sombra: error: " << e.what() << "\n";
         return 2;
     }
@@ -245,22 +412,14 @@ int run(int argc, char** argv) {
     sombra::Context context(device);
     sombra::RenderOptions options;
     options.width = width, options.height = height;
-    options.gradient = gradient == "sobel" ? sombra::GradientMethod::Sobel : sombra::GradientMethod::CentralDifferences;
-    options.shading = shading == "scattering" ? sombra::ShadingModel::Scattering : sombra::ShadingModel::Phong;
+    options.gradient = value_of(kGradientNames, gradient);
+    options.shading = value_of(kShadingNames, shading);
     options.phase_g = phase_g;
-    options.storage = storage == "buffer" ? sombra::VolumeStorage::Buffer
-                      : storage == "image" ? sombra::VolumeStorage::Image
-                                           : sombra::VolumeStorage::Auto;
+    options.storage = value_of(kStorageNames, storage);
     options.empty_space_skipping = !no_skip;
     options.jitter_seed = seed;
     options.lanes = lanes;
-    options.shadows = shadows == "rays"        ? sombra::ShadowTechnique::Rays
-                      : shadows == "dsm"       ? sombra::ShadowTechnique::Dsm
-                      : shadows == "shadowmap" ? sombra::ShadowTechnique::ShadowMap
-                      : shadows == "lowpass"   ? sombra::ShadowTechnique::Lowpass
-                      : shadows == "ao"        ? sombra::ShadowTechnique::Ao
-                      : shadows == "cone"      ? sombra::ShadowTechnique::Cone
-                                               : sombra::ShadowTechnique::None;
+    options.shadows = value_of(kShadowNames, shadows);
     options.lowpass_filter_width = filter_width;
     options.lowpass_filter_kernel = filter_kernel;
     options.cone_angle_deg = cone_angle;
@@ -277,12 +436,13 @@ int run(int argc, char** argv) {
         if (!digits) throw sombra::Error("--prefilter-jitter: expected on, off or a seed (0 … 999999999), got '" + prefilter_jitter + "'");
         options.dsm_prefilter_seed = unsigned(std::stoul(prefilter_jitter));
     }
-    if (dsm->parsed()) return write_dsm(context, scene, light_index, options, output, stats_path);
-    if (visibility->parsed()) return print_visibility(context, scene, light_index, options, points_path, stats_path);
+    const StatsContext stats_context{scene_path, options};
+    if (dsm->parsed()) return write_dsm(context, scene, light_index, stats_context, output, stats_path);
+    if (visibility->parsed()) return print_visibility(context, scene, light_index, stats_context, points_path, stats_path);
     sombra::RenderResult result = sombra::render(context, scene, options);
     sombra::host::StagedOutputs outputs;
     outputs.write(output, [&](const std::string& staged) { sombra::write_image(result.image, staged); });
-    stage_stats(outputs, stats_path, result.stats);
+    stage_stats(outputs, stats_path, command_stats(result.stats, stats_context));
     outputs.commit();
     std::cerr << "sombra: wrote " << output << " (" << result.image.width << "×" << result.image.height << ", "
               << result.stats.device << ", camera pass " << result.stats.stage_ms["camera_pass"] << " ms, "

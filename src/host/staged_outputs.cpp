@@ -1,5 +1,7 @@
 #include "host/staged_outputs.h"
 
+#include <algorithm>
+#include <cctype>
 #include <filesystem>
 
 #include <unistd.h>
@@ -38,9 +40,24 @@ std::string StagedOutputs::stage(const std::string& final_path) {
     return staged;
 }
 
+namespace {
+void replace_all(std::string& text, const std::string& from, const std::string& to) {
+    if (from.empty()) return;
+    for (std::size_t at = text.find(from); at != std::string::npos; at = text.find(from, at + to.size()))
+        text.replace(at, from.size(), to);
+}
+}  // namespace
+
+// No temporary name reaches a message: the writers' own temporaries (write_image and write_deep_exr
+// write STAGED.part.ext, ext lowercase), the staged path, then its bare file name (as libraries
+// quote it) all become the final name.
 void StagedOutputs::throw_renamed(std::string message, const std::string& staged, const std::string& final_path) {
-    for (std::size_t at = message.find(staged); at != std::string::npos; at = message.find(staged, at + final_path.size()))
-        message.replace(at, staged.size(), final_path);
+    std::string ext = fs::path(staged).extension().string();
+    replace_all(message, staged + ".part" + ext, final_path);
+    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+    replace_all(message, staged + ".part" + ext, final_path);
+    replace_all(message, staged, final_path);
+    replace_all(message, fs::path(staged).filename().string(), fs::path(final_path).filename().string());
     throw Error(message);
 }
 

@@ -41,9 +41,14 @@ void write_image(const Image& image, const std::string& path) {
                 rgb[i * 3 + c] = (unsigned char)std::lround(255.f * linear_to_srgb(image.rgba[i * 4 + c]));
         OIIO::ImageSpec spec(image.width, image.height, 3, OIIO::TypeDesc::UINT8);
         ok = out->open(temporary, spec) && out->write_image(OIIO::TypeDesc::UINT8, rgb.data()) && out->close();
-    } else {  // linear float RGBA
+    } else {  // linear float RGBA, premultiplied: the background (transmittance × background) taken out
+        std::vector<float> rgba = image.rgba;
+        for (std::size_t i = 0; i < rgba.size(); i += 4) {
+            const float transmittance = 1.f - rgba[i + 3];
+            for (int c = 0; c < 3; ++c) rgba[i + c] -= transmittance * image.background[std::size_t(c)];
+        }
         OIIO::ImageSpec spec(image.width, image.height, 4, OIIO::TypeDesc::FLOAT);
-        ok = out->open(temporary, spec) && out->write_image(OIIO::TypeDesc::FLOAT, image.rgba.data()) && out->close();
+        ok = out->open(temporary, spec) && out->write_image(OIIO::TypeDesc::FLOAT, rgba.data()) && out->close();
     }
     if (!ok) {
         std::string message = out->geterror();

@@ -561,6 +561,7 @@ RenderResult render(Context& context, const Scene& scene, const RenderOptions& o
     stats.stage_ms["camera_pass"] = kernel_ms;
 
     result.image.width = width, result.image.height = height;
+    result.image.background = scene.background;
     result.image.rgba.resize(pixels * 4);
     std::vector<cl_uint> counts(pixels);
     cl::Event event;

@@ -11,6 +11,7 @@
 #include <set>
 #include <string>
 
+#include "scene/suggest.h"
 #include "sombra/error.h"
 
 namespace sombra::detail {
@@ -49,7 +50,12 @@ public:
         return object_.contains(key);
     }
     const nlohmann::json& at(const std::string& key) {
-        if (!has(key)) fail(key, "is required");
+        if (!has(key)) {
+            // a misspelt required key is reported as the unknown key it is, not as a missing one
+            for (auto it = object_.begin(); it != object_.end(); ++it)
+                if (!used_.count(it.key()) && closest_name(it.key(), {key}) == key) fail_unknown(it.key(), {key});
+            fail(key, "is required");
+        }
         return object_.at(key);
     }
     std::string field(const std::string& key) const { return path_.empty() ? key : path_ + "." + key; }
@@ -83,10 +89,14 @@ public:
         return {number_of(v[0], key), number_of(v[1], key), number_of(v[2], key)};
     }
 
-    // Throws for any key of the object that no accessor asked for.
+    // Throws for any key of the object that no accessor asked for, suggesting the closest one
+    // that was asked for: "scene.json: volumes[0]: unknown key 'opacty' (did you mean 'opacity'?)".
     void finish() const {
         for (auto it = object_.begin(); it != object_.end(); ++it)
-            if (!used_.count(it.key())) fail(it.key(), "unknown key");
+            if (!used_.count(it.key())) fail_unknown(it.key(), std::vector<std::string>(used_.begin(), used_.end()));
+    }
+    [[noreturn]] void fail_unknown(const std::string& key, const std::vector<std::string>& known) const {
+        throw file_error(file_, path_, "unknown key '" + key + "'" + did_you_mean(key, known));
     }
 
     // v (an element of key's value) as a finite float.
