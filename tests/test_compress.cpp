@@ -110,7 +110,7 @@ TEST_CASE("compressor: ε = 0 keeps every sample after the first opaque one, ε 
     }
 }
 
-TEST_CASE("compressor: empty space produces no nodes; a saturating step stays exact", "[compress][numerics]") {
+TEST_CASE("compressor: empty space produces no nodes — a saturating step stays exact", "[compress][numerics]") {
     std::vector<Sample> empty{{1.f, 0.f}, {2.f, 0.f}, {3.f, 0.f}};
     CHECK(compress(empty, 0.01f, 0.f).empty());
     // σΔ ≫ 1: opacity jumps from 0 to 1 in one step, then stays

@@ -166,7 +166,7 @@ TEST_CASE("DSM generation kernel against the CPU reference: |V' − V| ≤ ε at
     }
 }
 
-TEST_CASE("DSM: ε ≥ 1 leaves one segment per texel; empty space leaves no node", "[dsm]") {
+TEST_CASE("DSM: ε ≥ 1 leaves one segment per texel — empty space leaves no node", "[dsm]") {
     Scene s = smoke_scene(LightType::Spot);
     auto maps = build_deep_shadow_maps(test::context(), s, 0, dsm_options(32, 1.f));
     std::size_t empty = 0;
@@ -310,7 +310,7 @@ TEST_CASE("DSM generation in packets of 8 texels stores the nodes of one texel p
     }
 }
 
-TEST_CASE("chunked storage with counted allocation wastes < 10 %; Knecht's on-demand chunks waste more", "[dsm][storage]") {
+TEST_CASE("chunked storage with counted allocation wastes < 10 % — Knecht's on-demand chunks waste more", "[dsm][storage]") {
     Scene s = smoke_scene(LightType::Spot);
     RenderOptions o = dsm_options(64, 0.01f);
     o.dsm_storage = "chunked";
@@ -582,7 +582,7 @@ TEST_CASE("pre-filtering: jittered sub-pixel rays stay in their cells and the ke
     CHECK(worst <= 0.01 + 2e-4);
 }
 
-TEST_CASE("pre-filtering: jitter is deterministic per seed; 5tap renders with every storage backend", "[dsm][prefilter]") {
+TEST_CASE("pre-filtering: jitter is deterministic per seed — 5tap renders with every storage backend", "[dsm][prefilter]") {
     Scene s = smoke_scene(LightType::Spot);
     RenderOptions o = dsm_options(24, 0.02f);
     o.dsm_prefilter = "5tap";

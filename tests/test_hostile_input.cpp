@@ -30,19 +30,7 @@ std::string write_file(const std::string& name, const std::string& bytes) {
     return path;
 }
 
-// The message of the sombra::Error `f` throws; fails when it throws nothing or anything else.
-template <typename F>
-std::string error_of(F&& f) {
-    try {
-        f();
-    } catch (const Error& e) {
-        return e.what();
-    } catch (const std::exception& e) {
-        FAIL("not a sombra::Error: " << e.what());
-    }
-    FAIL("no sombra::Error thrown");
-    return {};
-}
+using test::error_of;
 
 void require_error(const std::string& message, const std::string& file, const std::string& field) {
     INFO(message);

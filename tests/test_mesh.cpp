@@ -21,17 +21,7 @@ std::string write_text(const std::string& name, const std::string& text, std::io
     return path;
 }
 
-// The message of the sombra::Error `f` throws (fails when it throws nothing).
-template <typename F>
-std::string error_of(F&& f) {
-    try {
-        f();
-    } catch (const Error& e) {
-        return e.what();
-    }
-    FAIL("no sombra::Error thrown");
-    return {};
-}
+using test::error_of;
 
 void require_one_line_naming(const std::string& message, const std::string& file, const std::string& what = "") {
     INFO(message);
@@ -82,7 +72,7 @@ TEST_CASE("the real meshes load with the counts of data/README.md", "[mesh]") {
         for (auto k : t) REQUIRE(k < bunny.positions.size());
 }
 
-TEST_CASE("PLY meshes load, ASCII and binary; quads are triangulated", "[mesh]") {
+TEST_CASE("PLY meshes load, ASCII and binary — quads are triangulated", "[mesh]") {
     Mesh cube = load_mesh(write_text("cube.ply", kCubePlyHeader + kCubePlyBody));
     CHECK(cube.positions.size() == 8);
     CHECK(cube.triangles.size() == 12);
@@ -131,7 +121,7 @@ TEST_CASE("missing and malformed mesh files fail with one line naming the file",
     }
 }
 
-TEST_CASE("scene meshes: file, transform, material; bad fields are named", "[mesh][scene]") {
+TEST_CASE("scene meshes: file, transform, material — bad fields are named", "[mesh][scene]") {
     std::string teapot = test::data_path("meshes/teapot.obj");
     nlohmann::json good = {{{"file", teapot},
                             {"name", "pot"},
@@ -153,16 +143,16 @@ TEST_CASE("scene meshes: file, transform, material; bad fields are named", "[mes
         std::string field;
     };
     std::vector<Bad> bad = {
-        {{{"file", teapot}, {"colour", 1}}, "meshes[0].colour"},
+        {{{"file", teapot}, {"colour", 1}}, "meshes[0]: unknown key 'colour'"},
         {{{"name", "no file"}}, "meshes[0].file"},
         {{{"file", 3}}, "meshes[0].file"},
         {{{"file", teapot}, {"material", {{"opacity", 1.5}}}}, "meshes[0].material.opacity"},
         {{{"file", teapot}, {"material", {{"color", {1, 1}}}}}, "meshes[0].material.color"},
         {{{"file", teapot}, {"material", {{"color", {1, 2, 0}}}}}, "meshes[0].material.color"},
         {{{"file", teapot}, {"material", {{"diffuse", -1}}}}, "meshes[0].material.diffuse"},
-        {{{"file", teapot}, {"material", {{"glossy", 1}}}}, "meshes[0].material.glossy"},
+        {{{"file", teapot}, {"material", {{"glossy", 1}}}}, "meshes[0].material: unknown key 'glossy'"},
         {{{"file", teapot}, {"transform", {{"scale", 0}}}}, "meshes[0].transform.scale"},
-        {{{"file", teapot}, {"transform", {{"rotate", {0, 0, 90}}}}}, "meshes[0].transform.rotate"},
+        {{{"file", teapot}, {"transform", {{"rotate", {0, 0, 90}}}}}, "meshes[0].transform: unknown key 'rotate'"},
     };
     for (std::size_t i = 0; i < bad.size(); ++i) {
         std::string f = scene_with_meshes("bad" + std::to_string(i) + ".json", nlohmann::json::array({bad[i].mesh}));

@@ -184,7 +184,7 @@ TEST_CASE("single scattering: the Henyey-Greenstein phase integrates to one, iso
     CHECK(std::fabs(SOMBRA_HG_PHASE(0.f, 0.37f) - 1.f / (4.f * 3.14159265f)) < 1e-7f);
 }
 
-TEST_CASE("single scattering: isotropic equals head-on Phong in a homogeneous medium; forward scattering is brighter towards the light", "[render][scattering]") {
+TEST_CASE("single scattering: isotropic equals head-on Phong in a homogeneous medium — forward scattering is brighter towards the light", "[render][scattering]") {
     Scene s;
     VolumeInstance vi;
     vi.volume = test::constant_volume({8, 8, 8}, 0.5f);

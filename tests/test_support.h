@@ -1,6 +1,7 @@
 // sombra tests — shared helpers: one OpenCL context per process, small scenes, image metrics.
 #pragma once
 #include <array>
+#include <catch2/catch.hpp>
 #include <memory>
 #include <string>
 
@@ -29,6 +30,21 @@ std::shared_ptr<const Volume> constant_volume(std::array<int, 3> dims, float val
 TransferFunction constant_tf(float alpha);  // the same opacity α for every value
 
 std::string temp_dir();  // fresh folder under /tmp for this process
+
+// The message of the sombra::Error `f` throws; a Catch2 failure when it throws nothing or
+// anything else.
+template <typename F>
+std::string error_of(F&& f) {
+    try {
+        f();
+    } catch (const Error& e) {
+        return e.what();
+    } catch (const std::exception& e) {
+        FAIL("not a sombra::Error: " << e.what());
+    }
+    FAIL("no sombra::Error thrown");
+    return {};
+}
 std::string data_path(const std::string& relative);  // data/… of the source tree
 
 }  // namespace sombra::test

@@ -62,7 +62,7 @@ TEST_CASE("surfaces: two quads composite front to back, whatever the mesh order"
         CHECK(centre[k] == Approx(0.4f * k1 * c1[k] + 0.6f * (0.5f * k2 * c2[k] + 0.5f * s.background[k])).margin(1e-6));
 }
 
-TEST_CASE("surfaces: a quad in front of a volume attenuates it by its opacity; an opaque one hides it", "[surfaces][render]") {
+TEST_CASE("surfaces: a quad in front of a volume attenuates it by its opacity — an opaque one hides it", "[surfaces][render]") {
     Scene s = test::sphere_scene();
     s.lights.clear();
     RenderOptions o;

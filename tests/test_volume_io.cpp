@@ -225,7 +225,7 @@ TEST_CASE("real volumes load with the right dims, spacing, range and voxels", "[
     CHECK(report.non_finite_replaced == 0);
 }
 
-TEST_CASE("extensions are matched case-insensitively; unknown or missing files fail cleanly", "[volume_io]") {
+TEST_CASE("extensions are matched case-insensitively — unknown or missing files fail cleanly", "[volume_io]") {
     TempDir tmp;
     const std::string upper = tmp.file("HEART.VTK", read_bytes(data_file("heart.vtk")));
     CHECK(load_volume(upper).dims == std::array<int, 3>{32, 32, 12});
@@ -244,7 +244,7 @@ TEST_CASE("extensions are matched case-insensitively; unknown or missing files f
     }
 }
 
-TEST_CASE("npy: dtypes and byte orders; npz with one stored member", "[volume_io]") {
+TEST_CASE("npy: dtypes and byte orders — npz with one stored member", "[volume_io]") {
     TempDir tmp;
     check_ramp(load_volume(tmp.file("a.npy", npy("<i2", "(4, 3, 2)", encode<std::int16_t>(ramp())))));
     check_ramp(load_volume(tmp.file("b.npy", npy(">f8", "(4, 3, 2)", encode<double>(ramp(), true)))));
