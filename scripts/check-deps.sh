@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Guard against a package installed by hand: every system header and shared library the last
-# build in build/ used must belong to a package of scripts/debian-packages.txt, to one of their
+# build in build/ used must belong to a package of scripts/install-deps.sh's list, to one of their
 # dependencies (recursively), or to a package of Debian priority "required" (on every system).
 # Run after a build; scripts/test.sh runs it. Exit 1 and a list when something is missing.
 set -euo pipefail
@@ -26,7 +26,7 @@ while IFS= read -r line; do
   for p in ${pkgs//,/ }; do owner_of[${p%%:*}]=$f; done
 done < <( { xargs -r dpkg -S <<< "$reals"; sed -n 's|^/usr/lib/|/lib/|p' <<< "$reals" | xargs -r dpkg -S; } 2>/dev/null || true)
 
-mapfile -t declared < <(sed 's/#.*//' scripts/debian-packages.txt | tr -s ' \t' '\n' | grep -v '^$')
+mapfile -t declared < <(scripts/install-deps.sh --list)
 closure=$(apt-cache depends --recurse --installed --no-recommends --no-suggests --no-conflicts \
             --no-breaks --no-replaces --no-enhances "${declared[@]}" |
           sed -nE 's/^([a-z0-9][a-z0-9+.-]+)(:[a-z0-9]+)?$/\1/p; s/^ *\|?(Pre)?Depends: <?([a-z0-9][a-z0-9+.-]+).*/\2/p' |
@@ -36,7 +36,7 @@ missing=0
 for p in "${!owner_of[@]}"; do
   grep -qxF "$p" <<< "$closure" && continue
   [ "$(dpkg-query -W -f='${Priority}' "$p" 2>/dev/null)" = required ] && continue
-  [ $missing -eq 0 ] && echo "check-deps: the build used packages that scripts/debian-packages.txt does not install:"
+  [ $missing -eq 0 ] && echo "check-deps: the build used packages that scripts/install-deps.sh does not install:"
   echo "  $p (e.g. ${owner_of[$p]})"
   missing=1
 done

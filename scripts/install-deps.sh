@@ -1,9 +1,25 @@
 #!/usr/bin/env bash
-# Installs sombra's Debian packages (Debian 12 "bookworm"), listed in scripts/debian-packages.txt.
-# Installs only what is missing. Run as root (or with sudo available).
+# Installs sombra's Debian packages (Debian 12 "bookworm"): the one list, below. Installs only
+# what is missing. Run as root (or with sudo available). `--list` prints the list (one package a
+# line) for scripts/check-deps.sh.
 set -euo pipefail
-cd "$(dirname "$0")/.."
-mapfile -t packages < <(sed 's/#.*//' scripts/debian-packages.txt | tr -s ' \t' '\n' | grep -v '^$')
+packages=(
+  # toolchain
+  build-essential cmake pkg-config binutils
+  # OpenCL: PoCL (CPU device), ICD loader, C and C++ headers
+  pocl-opencl-icd ocl-icd-opencl-dev opencl-clhpp-headers opencl-c-headers clinfo
+  # maths, images, tests, JSON, command line
+  libglm-dev libopenimageio-dev catch2 nlohmann-json3-dev libcli11-dev
+  # volume and mesh formats (OBJ: tinyobjloader's header; nifti1_io.h includes nifti1.h, which is in libnifti2-dev)
+  libniftiio-dev libnifti2-dev libznz-dev libzip-dev zlib1g-dev libtinyobjloader-dev
+  # sanitizer build and fuzzing (scripts/sanitize.sh, scripts/fuzz.sh): clang, libFuzzer and the
+  # sanitizer runtimes, llvm-symbolizer for readable reports
+  clang libclang-rt-dev llvm
+)
+if [ "${1:-}" = "--list" ]; then
+  printf '%s\n' "${packages[@]}"
+  exit 0
+fi
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
