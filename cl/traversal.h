@@ -126,7 +126,6 @@ typedef struct {
     lfloat bounds[2 * SOMBRA_VOLUME_SLOTS];
     uint bound_count;
     lmask alive;     /* lanes whose ray goes on; a pass clears lanes to stop them */
-    lint segment;    /* segments begun − 1 */
     lint next_bound; /* the first box bound not passed yet */
     lfloat t_start, t_end;
     lfloat step;     /* of the current segment: the smallest step of its active volumes */
@@ -177,7 +176,6 @@ inline void segment_cursor_init(SegmentCursor* c, const VolumeRay* ray, uint vol
         }
     c->bound_count = n;
     c->alive = lanes;
-    c->segment = (lint)(-1);
     c->next_bound = (lint)(0);
     c->t_start = c->t_end = (lfloat)(0.0f); /* rays start at t = 0: the first segment ends at the first bound */
     c->step = (lfloat)(1.0f);
@@ -356,7 +354,6 @@ inline lmask segment_cursor_next(SegmentCursor* c, const VolumeRay* ray, __globa
         exhausted &= !surface;
         if (!lany(exhausted)) break;
 #endif
-        c->segment = select(c->segment, c->segment + 1, exhausted);
         lfloat next_box = (lfloat)(INFINITY);
         for (uint s = 0; s < c->bound_count; ++s) next_box = select(next_box, c->bounds[s], exhausted & (c->next_bound == (int)s));
         lfloat next_end = next_box;

@@ -12,12 +12,13 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
-#include <functional>
 #include <limits>
 #include <string>
 #include <vector>
 
 #include <unistd.h>
+
+#include "test_support.h"
 
 namespace fs = std::filesystem;
 using sombra::load_volume;
@@ -82,17 +83,7 @@ struct TempDir {
     std::string path(const std::string& name) const { return (dir / name).string(); }
 };
 
-// Runs f and returns the sombra::Error message (or a marker when nothing or something else is thrown).
-std::string error_of(const std::function<void()>& f) {
-    try {
-        f();
-    } catch (const sombra::Error& e) {
-        return e.what();
-    } catch (const std::exception& e) {
-        return std::string("(not a sombra::Error) ") + e.what();
-    }
-    return "(no error)";
-}
+using sombra::test::error_of;
 
 // The load must fail with one line "FILE: ... FIELD: what" naming the file and the field.
 // named_file: the file the message starts with, when not `path` itself (an archive member).

@@ -146,6 +146,23 @@ double preintegrated_extinction(const TransferFunction& tf, double front, double
     return sum / n;
 }
 
+// The part [t0, t1] ⊂ [t_min, t_max] of origin + t·dir inside the volume's box [−0.5, dims − 0.5]
+// (slab test in voxel space; affine maps keep t); empty when t0 ≥ t1.
+void box_span(const RefVolume& rv, V3 origin, V3 dir, double t_min, double t_max, double& t0, double& t1) {
+    V3 o = rv.world_to_voxel.point(origin), d = rv.world_to_voxel.direction(dir);
+    t0 = t_min, t1 = t_max;
+    for (int a = 0; a < 3; ++a) {
+        double lo = -0.5, hi = rv.instance->volume->dims[a] - 0.5;
+        if (std::fabs(d[a]) < 1e-30) {
+            if (o[a] < lo || o[a] > hi) t0 = INFINITY, t1 = -INFINITY;
+        } else {
+            double ta = (lo - o[a]) / d[a], tb = (hi - o[a]) / d[a];
+            t0 = std::max(t0, std::min(ta, tb));
+            t1 = std::min(t1, std::max(ta, tb));
+        }
+    }
+}
+
 // Calls visit(t, delta, active volumes) for every point of the ray origin + t·dir, t in [0, t_max],
 // over homogeneous segments (sorted box entries/exits; step = smallest of the active volumes): each
 // segment's start (delta 0), its samples start + (k + jitter)·step strictly inside it, and its end;
@@ -153,20 +170,8 @@ double preintegrated_extinction(const TransferFunction& tf, double front, double
 template <typename Visit>
 void march_segments(const std::vector<RefVolume>& volumes, V3 origin, V3 dir, double t_max, double jitter, Visit visit) {
     std::vector<double> enter(volumes.size()), exit(volumes.size()), bounds;
-    for (std::size_t i = 0; i < volumes.size(); ++i) {  // slab test in voxel space; affine maps keep t
-        V3 o = volumes[i].world_to_voxel.point(origin), d = volumes[i].world_to_voxel.direction(dir);
-        double t0 = -INFINITY, t1 = INFINITY;
-        for (int a = 0; a < 3; ++a) {
-            double lo = -0.5, hi = volumes[i].instance->volume->dims[a] - 0.5;
-            if (std::fabs(d[a]) < 1e-30) {
-                if (o[a] < lo || o[a] > hi) t0 = INFINITY, t1 = -INFINITY;
-            } else {
-                double ta = (lo - o[a]) / d[a], tb = (hi - o[a]) / d[a];
-                t0 = std::max(t0, std::min(ta, tb));
-                t1 = std::min(t1, std::max(ta, tb));
-            }
-        }
-        enter[i] = std::max(t0, 0.0), exit[i] = std::min(t1, t_max);
+    for (std::size_t i = 0; i < volumes.size(); ++i) {
+        box_span(volumes[i], origin, dir, 0.0, t_max, enter[i], exit[i]);
         if (enter[i] < exit[i]) bounds.push_back(enter[i]), bounds.push_back(exit[i]);
     }
     std::sort(bounds.begin(), bounds.end());
@@ -292,17 +297,8 @@ double segment_optical_depth(const Scene& scene, const Vec3& a, const Vec3& b) {
     for (const auto& vi : scene.volumes) {
         RefVolume rv = prepare(vi);
         rv.stiff = true;  // cells always split at voxel planes (cl/sat_build.cl)
-        V3 ov = rv.world_to_voxel.point(o), dv = rv.world_to_voxel.direction(d);
-        double t0 = 0, t1 = length;
-        for (int axis = 0; axis < 3; ++axis) {  // slab test against [−0.5, dims − 0.5]
-            double lo = -0.5, hi = vi.volume->dims[axis] - 0.5;
-            if (std::fabs(dv[axis]) < 1e-30) {
-                if (ov[axis] < lo || ov[axis] > hi) t0 = INFINITY;
-                continue;
-            }
-            double ta = (lo - ov[axis]) / dv[axis], tb = (hi - ov[axis]) / dv[axis];
-            t0 = std::max(t0, std::min(ta, tb)), t1 = std::min(t1, std::max(ta, tb));
-        }
+        double t0, t1;
+        box_span(rv, o, d, 0.0, length, t0, t1);
         if (!(t0 < t1)) continue;
         int steps = std::clamp(int(std::ceil((t1 - t0) / rv.step - 1e-3)), 1, 4096);
         IntervalValues values(1);
