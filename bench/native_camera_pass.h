@@ -1,9 +1,9 @@
 // sombra bench — the camera pass of cl/render.cl as native C++ (threads, optionally SIMD), reading
-// exactly the data the kernel reads: pack_scene() and pack_camera() from src/render/scene_upload.h.
+// exactly the data the kernel reads: pack_scene() and pack_camera() from src/geometry/scene_upload.h.
 #pragma once
 #include <vector>
 
-#include "render/scene_upload.h"
+#include "geometry/scene_upload.h"
 #include "sombra/render.h"
 #include "sombra/scene.h"
 

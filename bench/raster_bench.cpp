@@ -8,7 +8,7 @@
 #include <iostream>
 
 #include "bench_util.h"
-#include "render/fragments.h"
+#include "geometry/fragments.h"
 #include "sombra/sombra.h"
 
 using namespace sombra;

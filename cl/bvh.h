@@ -1,5 +1,5 @@
 /* sombra — walking the bounding-volume hierarchy over the world-space mesh triangles
- * (src/render/bvh.h) for a packet of rays o + t·d, t_min ≤ t ≤ t_max: the leaves whose box the ray of
+ * (src/geometry/bvh.h) for a packet of rays o + t·d, t_min ≤ t ≤ t_max: the leaves whose box the ray of
  * any lane crosses, one after the other, near child first. Callers test the leaf's triangles
  * themselves (shadow rays through surfaces, crossings of polyhedral bounds; t_min and t_max may
  * change between calls, e.g. shrink to the nearest crossing found so far):

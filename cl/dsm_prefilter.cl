@@ -37,7 +37,7 @@ inline float prefilter_tap_value(__global const float* fine_nodes, uint next, ui
 
 
 DSM_GENERATION_KERNEL(__global const DsmViewGpu* views, uint view_index, float epsilon, __global const DsmViewGpu* sub_views,
-     uint sub_maps, uint sub_scale, __global const uint* fine_first, __global const float* fine_nodes, DSM_BUILD_STORAGE_PARAMS) {
+     uint sub_maps, uint sub_scale, __global const uint* fine_texel_first, __global const float* fine_nodes, DSM_BUILD_STORAGE_PARAMS) {
     __global const DsmViewGpu* v = &views[view_index];
     uint x = get_global_id(0), y = get_global_id(1);
     if (x >= v->resolution || y >= v->resolution) return;
@@ -52,8 +52,8 @@ DSM_GENERATION_KERNEL(__global const DsmViewGpu* views, uint view_index, float e
         int fx = clamp((int)(sub_scale * x) + prefilter_taps[tap][1], 0, last);
         int fy = clamp((int)(sub_scale * y) + prefilter_taps[tap][2], 0, last);
         uint texel = sub->first_texel + (uint)fy * sub->resolution + (uint)fx;
-        next[tap] = fine_first[texel];
-        end[tap] = fine_first[texel + 1];
+        next[tap] = fine_texel_first[texel];
+        end[tap] = fine_texel_first[texel + 1];
         weight[tap] = (float)prefilter_taps[tap][3];
         z0[tap] = -INFINITY; /* no node passed yet: V = 0 */
         a0[tap] = 0.0f;

@@ -1,5 +1,5 @@
 /* sombra — translucent surfaces in the camera pass (issue 4; Knecht §3.1, docs/architecture.md "Data flow"):
- * each pixel's surface fragments (render/fragments.h: depth along the camera ray, sorted near to
+ * each pixel's surface fragments (geometry/fragments.h: depth along the camera ray, sorted near to
  * far) bound its segments; the segment cursor (traversal.h) hands each one over at its depth, in
  * order with the volume samples, and it is composited front to back. Colour: Phong with the
  * normal interpolated over the triangle (turned to the viewer) and the mesh's material, times each
@@ -58,17 +58,17 @@ inline void composite_surface(VOLUME_DATA_PARAM, CameraState* state, const Segme
         lmask here = LLOAD(take);
         lfloat t = LLOAD(depth);
         lfloat3 p = l3_mad(ray->dir, t, ray->origin);
-        uint light_count = state->camera->light_count;
+        uint light_count = state->scene.camera->light_count;
         lfloat shadow[SOMBRA_LIGHT_SLOTS];
         lfloat3 normal = l3(LLOAD(nx), LLOAD(ny), LLOAD(nz));
         for (uint m = 0; m < light_count; ++m) {
-#if defined(SOMBRA_SHADOW_RAYS) || defined(SOMBRA_SHADOW_DSM) || defined(SOMBRA_SHADOW_LOWPASS)
+#if SHADOW_TERM
             /* looked up a little off the surface on the light's side, so that the surface's own
              * step in the deep shadow map does not shadow it: bias ∝ camera distance, scaled by
              * 1/|cos θ| (θ: incidence; capped at 5×), since at grazing light the neighbouring texels
              * that the bilinear lookup reads hold the surface's step at depths further apart */
             lfloat3 to_light;
-            light_incidence(&state->lights[m], p, &to_light);
+            light_incidence(&state->scene.lights[m], p, &to_light);
             lfloat cos_incidence = l3_dot(normal, to_light);
             lfloat bias = 2e-3f * t / fmax(fabs(cos_incidence), 0.2f) * select((lfloat)(1.0f), (lfloat)(-1.0f), cos_incidence < 0.0f);
             lfloat3 lookup = l3_mad(normal, bias, p);
@@ -77,7 +77,7 @@ inline void composite_surface(VOLUME_DATA_PARAM, CameraState* state, const Segme
             shadow[m] = (lfloat)(1.0f);
 #endif
         }
-        lfloat3 shaded = phong_shade_lanes(state->lights, light_count, state->camera->ambient_intensity, LLOAD(ka),
+        lfloat3 shaded = phong_shade_lanes(state->scene.lights, light_count, state->scene.camera->ambient_intensity, LLOAD(ka),
                                            LLOAD(kd), LLOAD(ks), LLOAD(shininess), l3(LLOAD(cr), LLOAD(cg), LLOAD(cb)), p,
                                            normal, state->to_viewer, shadow);
         lfloat alpha = select((lfloat)(0.0f), LLOAD(opacity), here);

@@ -1,4 +1,4 @@
-// The bounding-volume hierarchy over mesh triangles (src/render/bvh.h): structure invariants, and a
+// The bounding-volume hierarchy over mesh triangles (src/geometry/bvh.h): structure invariants, and a
 // plain C++ walk of it finds exactly the triangles a brute-force test of every triangle finds, on
 // random soups (with degenerate triangles) and the real meshes.
 #include <catch2/catch.hpp>
@@ -7,7 +7,7 @@
 #include <random>
 #include <set>
 
-#include "render/bvh.h"
+#include "geometry/bvh.h"
 #include "sombra/sombra.h"
 #include "test_support.h"
 

@@ -9,7 +9,7 @@
 #include <sstream>
 
 #include "reference/raycaster_ref.h"
-#include "render/scene_upload.h"
+#include "geometry/scene_upload.h"
 #include "shadows/dsm_views.h"
 #include "shared/hash.h"
 #include "shared/prefilter.h"

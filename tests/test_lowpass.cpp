@@ -9,7 +9,7 @@
 #include <random>
 
 #include "reference/sat_ref.h"
-#include "render/scene_upload.h"
+#include "geometry/scene_upload.h"
 #include "shadows/sat_grid.h"
 #include "test_support.h"
 

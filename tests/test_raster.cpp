@@ -11,7 +11,7 @@
 #include <random>
 
 #include "reference/raster_ref.h"
-#include "render/rasterizer.h"
+#include "geometry/rasterizer.h"
 #include "test_support.h"
 
 using namespace sombra;

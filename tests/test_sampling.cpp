@@ -6,7 +6,7 @@
 
 #include "host/runtime.h"
 #include "reference/raycaster_ref.h"
-#include "render/scene_upload.h"
+#include "geometry/scene_upload.h"
 #include "test_support.h"
 
 using namespace sombra;

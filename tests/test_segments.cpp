@@ -7,7 +7,7 @@
 #include <cstdio>
 
 #include "reference/raster_ref.h"
-#include "render/fragments.h"
+#include "geometry/fragments.h"
 #include "test_support.h"
 
 using namespace sombra;

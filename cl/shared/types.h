@@ -176,7 +176,7 @@ typedef struct {
 } SurfaceTriangleGpu;
 
 /* A node of the bounding-volume hierarchy over the world-space mesh triangles that shadow rays
- * cross (src/render/bvh.h, cl/bvh.h). Nodes are stored depth first: an inner node's first child
+ * cross (src/geometry/bvh.h, cl/bvh.h). Nodes are stored depth first: an inner node's first child
  * follows it, `first` indexes its second child; a leaf holds triangles [first, first + count) of
  * the triangle array in BVH order. */
 typedef struct {
@@ -186,7 +186,7 @@ typedef struct {
     sb_uint count;      /* leaf: triangles (≥ 1); inner node: 0 */
     sb_uint pad0, pad1;
 } BvhNodeGpu;
-/* The deepest a hierarchy gets (src/render/bvh.cpp: 32 SAH levels, then median splits of at most
+/* The deepest a hierarchy gets (src/geometry/bvh.cpp: 32 SAH levels, then median splits of at most
  * 2^32 triangles); the kernels' traversal stack holds this many nodes. */
 #define SOMBRA_BVH_MAX_DEPTH 64
 

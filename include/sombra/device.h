@@ -18,6 +18,7 @@ struct DeviceInfo {
 std::vector<DeviceInfo> list_devices();
 
 namespace host { class Runtime; }
+namespace detail { struct KeptScenes; }
 
 // An OpenCL context, device, queue and program cache. Create one per process and share it.
 // selector: "" or "auto" (first GPU, else the first CPU device, i.e. PoCL), "cpu", "gpu", or an
@@ -33,9 +34,11 @@ public:
     // Frees the device data kept between calls (uploaded volumes, deep shadow maps); the next
     // render prepares everything anew. Compiled programs stay.
     void release_prepared_scenes();
+    detail::KeptScenes& kept_scenes();  // the renderer's (src/render/preparation.h)
 
 private:
     std::unique_ptr<host::Runtime> runtime_;
+    std::unique_ptr<detail::KeptScenes> kept_;
 };
 
 }  // namespace sombra

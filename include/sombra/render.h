@@ -29,6 +29,13 @@ enum class VolumeStorage { Auto, Buffer, Image };  // Auto: buffer on CPU device
 // cone_angle_deg towards each light as a series of growing cubes read from that SAT).
 enum class ShadowTechnique { None, Rays, Dsm, ShadowMap, Lowpass, Ao, Cone };
 
+// The techniques' names ("none", "rays", "dsm", "shadowmap", "lowpass", "ao", "cone"), from the
+// registry of technique modules; parse_shadow_technique throws an Error naming --shadows (with a
+// suggestion for a near miss) for any other name.
+std::vector<std::string> shadow_technique_names();
+const char* shadow_technique_name(ShadowTechnique technique);
+ShadowTechnique parse_shadow_technique(const std::string& name);
+
 // Phong: local illumination from gradient normals (course slides; Knecht Eq. 3.9). Scattering:
 // single scattering with shadows (Ament et al. 2014 Eq. 1–3): each sample scatters
 // c·[k_a i_a + Σ_m 4π p(θ_m) i_m f_m T_m] towards the viewer, p the Henyey–Greenstein phase of

@@ -126,7 +126,8 @@ std::string expand_kernel_source(const std::string& path) {
 }
 
 cl::Program& Runtime::program(const std::string& source, const std::vector<std::string>& defines) {
-    std::string options = "-cl-std=CL1.2";
+    // -cl-kernel-arg-info: argument names for the binding contract (kernel_args.h)
+    std::string options = "-cl-std=CL1.2 -cl-kernel-arg-info";
     for (auto& d : defines) options += " -D" + d;
     std::lock_guard<std::mutex> lock(cache_mutex_);
     std::string key = source + "|" + options;
@@ -195,10 +196,5 @@ std::vector<DeviceInfo> list_devices() {
     return out;
 }
 
-Context::Context(const std::string& selector) : runtime_(std::make_unique<host::Runtime>(selector)) {}
-Context::~Context() = default;
-const DeviceInfo& Context::device() const { return runtime_->info(); }
-host::Runtime& Context::runtime() { return *runtime_; }
-void Context::release_prepared_scenes() { runtime_->release_kept_state(); }
 
 }  // namespace sombra

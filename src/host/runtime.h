@@ -30,13 +30,7 @@ public:
     // Milliseconds between an event's start and end (profiling queue).
     static double event_ms(const cl::Event& event);
 
-    // Device state a pass keeps between calls (the renderer's prepared scene and deep shadow
-    // maps), so that what did not change is not rebuilt. One slot per name.
-    std::shared_ptr<void>& kept_state(const std::string& name) { return kept_state_[name]; }
-    void release_kept_state() { kept_state_.clear(); }
-
 private:
-    std::map<std::string, std::shared_ptr<void>> kept_state_;
     DeviceInfo info_;
     cl::Context context_;
     cl::Device device_;

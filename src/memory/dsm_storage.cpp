@@ -29,7 +29,7 @@ std::vector<cl_uint> count_nodes(BuildContext& context, DsmStats& stats, const s
     for (cl_uint v = 0; v < context.views.size(); ++v) {
         if (!context.generates(v)) continue;
         stats.stage_ms["dsm_count"] +=
-            context.run_view(count_defines, "dsm_count", v, [&](cl::Kernel& k, int arg) { k.setArg(arg, counts); });
+            context.run_view(count_defines, "dsm_count", v, [&](host::KernelArgs& args) { args("counts", counts); });
         std::size_t first = v * context.texels_per_view;
         rt.queue().enqueueReadBuffer(counts, CL_TRUE, first * sizeof(cl_uint), context.texels_per_view * sizeof(cl_uint),
                                      host_counts.data() + first);

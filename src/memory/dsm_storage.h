@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "host/kernel_args.h"
 #include "host/runtime.h"
 #include "shared/types.h"
 #include "sombra/shadows.h"
@@ -43,10 +44,11 @@ struct BuildContext {
     // build, or stay empty (no nodes: fully lit) in a storage never built.
     std::vector<bool> regenerate;
     bool generates(std::size_t view) const { return regenerate.empty() || regenerate[view]; }
-    // Builds `kernel` of `program_defines`, sets the common arguments for `view`, lets `bind` add
-    // the backend's, runs it over the view's texels and returns the kernel time in ms.
+    // Builds `kernel` of `program_defines`, binds the common arguments for `view`, lets `bind` add
+    // the backend's (DSM_BUILD_STORAGE_PARAMS), runs it over the view's texels and returns the
+    // kernel time in ms.
     std::function<double(const std::vector<std::string>& program_defines, const char* kernel, cl_uint view,
-                         const std::function<void(cl::Kernel&, int first_free_arg)>& bind)>
+                         const std::function<void(host::KernelArgs&)>& bind)>
         run_view;
 };
 
@@ -61,7 +63,7 @@ public:
     // Share of the allocated node memory held by superseded nodes of regenerated views; the
     // caller rebuilds everything anew when it grows too large.
     virtual double garbage_fraction() const { return 0.0; }
-    virtual int bind_for_reading(cl::Kernel& kernel, int arg) const = 0;  // DSM_READ_PARAMS, in order
+    virtual void bind_for_reading(host::KernelArgs& args) const = 0;  // DSM_READ_PARAMS, in order
     virtual DeepShadowMap read_back(host::Runtime& runtime, const DsmViewGpu& view, cl_uint view_number) const = 0;
 };
 
@@ -84,11 +86,6 @@ struct TileGrid {
           tiles(context.views.size() * view_tiles), texels(context.views.size() * context.texels_per_view) {}
 };
 
-// Sets `buffers` as consecutive kernel arguments from `arg`; returns the next argument index.
-inline int set_buffer_args(cl::Kernel& kernel, int arg, std::initializer_list<const cl::Buffer*> buffers) {
-    for (const cl::Buffer* b : buffers) kernel.setArg(arg++, *b);
-    return arg;
-}
 void summarize_counts(const std::vector<cl_uint>& counts, std::vector<DsmViewGpu>& views, std::size_t texels_per_view,
                       DsmStats& stats);
 

@@ -64,8 +64,9 @@ public:
             for (cl_uint v = 0; v < context.views.size(); ++v) {
                 if (!context.generates(v)) continue;
                 cl_uint capped_before = counters[2];
-                stats.stage_ms["dsm_build"] += context.run_view(context.defines, "dsm_build", v, [&](cl::Kernel& k, int arg) {
-                    k.setArg(set_buffer_args(k, arg, {&layout_, &counts_, &blocks_, &allocator_}), pool);
+                stats.stage_ms["dsm_build"] += context.run_view(context.defines, "dsm_build", v, [&](host::KernelArgs& args) {
+                    args("atlas_layout", layout_)("texel_count", counts_)("atlas_blocks", blocks_)("atlas_allocator", allocator_);
+                    args("atlas_pool_blocks", pool);
                 });
                 rt.queue().enqueueReadBuffer(allocator_, CL_TRUE, 0, sizeof(counters), counters.data());
                 capped_per_view_[v] = counters[2] - capped_before;
@@ -98,11 +99,8 @@ public:
 
     double garbage_fraction() const override { return garbage_fraction_; }
 
-    int bind_for_reading(cl::Kernel& kernel, int arg) const override {
-        kernel.setArg(arg++, layout_);
-        kernel.setArg(arg++, counts_);
-        kernel.setArg(arg++, blocks_);
-        return arg;
+    void bind_for_reading(host::KernelArgs& args) const override {
+        args("atlas_layout", layout_)("texel_count", counts_)("atlas_blocks", blocks_);
     }
 
     DeepShadowMap read_back(host::Runtime& rt, const DsmViewGpu& view, cl_uint view_number) const override {

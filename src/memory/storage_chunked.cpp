@@ -100,8 +100,9 @@ public:
             rt.queue().enqueueWriteBuffer(allocator_, CL_TRUE, 0, sizeof(counters), counters.data());
             for (cl_uint v = 0; v < context.views.size(); ++v) {
                 if (!context.generates(v)) continue;
-                stats.stage_ms["dsm_build"] += context.run_view(context.defines, "dsm_build", v, [&](cl::Kernel& k, int arg) {
-                    k.setArg(set_buffer_args(k, arg, {&fill_, &tile_chunks_, &nodes_, &next_, &head_, &counts_, &allocator_}), pool);
+                stats.stage_ms["dsm_build"] += context.run_view(context.defines, "dsm_build", v, [&](host::KernelArgs& args) {
+                    args("tile_fill", fill_)("tile_chunks", tile_chunks_)("chunk_nodes", nodes_)("chunk_next", next_);
+                    args("texel_head", head_)("texel_count", counts_)("chunk_allocator", allocator_)("chunk_pool", pool);
                 });
             }
             rt.queue().enqueueReadBuffer(allocator_, CL_TRUE, 0, sizeof(counters), counters.data());
@@ -121,9 +122,7 @@ public:
         // rearranged for reading: one float4 per slot
         texture_ = host::make_buffer(rt, CL_MEM_READ_WRITE, slots_ * 4 * sizeof(float), nullptr, "chunk texture");
         cl::Kernel rearrange(rt.program(context.program, context.defines), "dsm_rearrange");
-        rearrange.setArg(0, nodes_);
-        rearrange.setArg(1, next_);
-        rearrange.setArg(2, texture_);
+        host::KernelArgs{rearrange}("chunk_nodes", nodes_)("chunk_next", next_)("chunk_texture", texture_).done();
         cl::Event event;
         rt.queue().enqueueNDRangeKernel(rearrange, cl::NullRange, cl::NDRange(slots_), cl::NullRange, nullptr, &event);
         event.wait();
@@ -156,11 +155,7 @@ public:
 
     double garbage_fraction() const override { return garbage_fraction_; }
 
-    int bind_for_reading(cl::Kernel& kernel, int arg) const override {
-        kernel.setArg(arg++, head_);
-        kernel.setArg(arg++, texture_);
-        return arg;
-    }
+    void bind_for_reading(host::KernelArgs& args) const override { args("texel_head", head_)("chunk_texture", texture_); }
 
     DeepShadowMap read_back(host::Runtime& rt, const DsmViewGpu& view, cl_uint) const override {
         std::vector<float> texture(slots_ * 4);

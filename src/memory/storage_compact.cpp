@@ -47,20 +47,13 @@ public:
                                                 "deep shadow map offsets");
         for (cl_uint v = 0; v < context.views.size(); ++v) {
             if (!context.generates(v)) continue;
-            stats.stage_ms["dsm_build"] += context.run_view(context.defines, "dsm_build", v, [&](cl::Kernel& k, int arg) {
-                k.setArg(arg++, texel_first_buffer_);
-                k.setArg(arg, nodes_);
-            });
+            stats.stage_ms["dsm_build"] += context.run_view(context.defines, "dsm_build", v, [&](host::KernelArgs& args) { args("texel_first", texel_first_buffer_)("nodes", nodes_); });
         }
         stats.bytes_used = stats.nodes * 2 * sizeof(float) + texel_first_.size() * sizeof(cl_uint);
         stats.bytes_wasted = 2 * sizeof(float);  // the spare node
     }
 
-    int bind_for_reading(cl::Kernel& kernel, int arg) const override {
-        kernel.setArg(arg++, texel_first_buffer_);
-        kernel.setArg(arg++, nodes_);
-        return arg;
-    }
+    void bind_for_reading(host::KernelArgs& args) const override { args("texel_first", texel_first_buffer_)("nodes", nodes_); }
 
     DeepShadowMap read_back(host::Runtime& rt, const DsmViewGpu& view, cl_uint) const override {
         std::size_t texels = std::size_t(view.resolution) * view.resolution, first = view.first_texel;

@@ -4,7 +4,7 @@
 #include <chrono>
 #include <cmath>
 
-#include "render/surfaces.h"
+#include "geometry/surfaces.h"
 #include "shadows/precompression.h"
 
 #include "sombra/error.h"
@@ -116,17 +116,14 @@ void generate_prefiltered(host::Runtime& runtime, const Scene& scene, const pack
                                  "dsm_prefilter.cl", regenerate, {}};
     float merge_epsilon = 0.5f * options.epsilon;
     context.run_view = [&](const std::vector<std::string>& program_defines, const char* kernel_name, cl_uint view,
-                           const std::function<void(cl::Kernel&, int)>& bind) {
+                           const std::function<void(host::KernelArgs&)>& bind) {
         cl::Kernel kernel(runtime.program("dsm_prefilter.cl", program_defines), kernel_name);
-        int a = 0;
-        kernel.setArg(a++, dsm.views_buffer);
-        kernel.setArg(a++, view);
-        kernel.setArg(a++, merge_epsilon);
-        kernel.setArg(a++, sub.dsm.views_buffer);
-        kernel.setArg(a++, cl_uint(sub.layout.maps));
-        kernel.setArg(a++, cl_uint(sub.layout.scale));
-        a = sub.dsm.storage->bind_for_reading(kernel, a);  // compact: offsets, nodes
-        bind(kernel, a);
+        host::KernelArgs args(kernel);
+        args("views", dsm.views_buffer)("view_index", view)("epsilon", merge_epsilon)("sub_views", sub.dsm.views_buffer);
+        args("sub_maps", cl_uint(sub.layout.maps))("sub_scale", cl_uint(sub.layout.scale));
+        sub.dsm.storage->bind_for_reading(args.prefix("fine_"));  // compact: offsets, nodes
+        bind(args.prefix(""));
+        args.done();
         return host::run_packets(runtime, kernel, options.resolution, options.resolution, 1);
     };
     finish_dsm(runtime, dsm, context);
@@ -159,24 +156,17 @@ void generate(host::Runtime& runtime, const Scene& scene, const packing::PackedS
     memory::BuildContext context{runtime, views, defines, std::size_t(options.resolution) * std::size_t(options.resolution),
                                  "dsm_build.cl", regenerate, {}};
     context.run_view = [&](const std::vector<std::string>& program_defines, const char* kernel_name, cl_uint view,
-                           const std::function<void(cl::Kernel&, int)>& bind) {
+                           const std::function<void(host::KernelArgs&)>& bind) {
         cl::Kernel kernel(runtime.program("dsm_build.cl", program_defines), kernel_name);
         surfaces::ViewFragments fragments;
-        int a = 0;
-        if (device_scene.uses_images) kernel.setArg(a++, device_scene.voxel_image);
-        else kernel.setArg(a++, device_scene.voxel_buffer);
-        kernel.setArg(a++, device_scene.occupancy);
-        kernel.setArg(a++, device_scene.tf_tables);
-        kernel.setArg(a++, device_scene.volumes);
-        kernel.setArg(a++, cl_uint(scene.volumes.size()));
-        kernel.setArg(a++, dsm.views_buffer);
-        kernel.setArg(a++, view);
-        kernel.setArg(a++, options.epsilon);
+        host::KernelArgs args(kernel);
+        if (device_scene.uses_images) args("volume_data", device_scene.voxel_image);
+        else args("volume_data", device_scene.voxel_buffer);
+        args("occupancy", device_scene.occupancy)("tf_tables", device_scene.tf_tables)("volumes", device_scene.volumes);
+        args("volume_count", cl_uint(scene.volumes.size()))("views", dsm.views_buffer)("view_index", view)("epsilon", options.epsilon);
         if (options.precompression) {
-            kernel.setArg(a++, precompression.params);
-            kernel.setArg(a++, precompression.fraction);
-            kernel.setArg(a++, precompression.opacity);
-            kernel.setArg(a++, precompression.count);
+            args("precompression", precompression.params)("precompressed_fraction", precompression.fraction);
+            args("precompressed_opacity", precompression.opacity)("precompressed_count", precompression.count);
         }
         if (fragment_lists) {
             raster::View raster_view = raster::dsm_view(views[view]);
@@ -184,12 +174,11 @@ void generate(host::Runtime& runtime, const Scene& scene, const packing::PackedS
             // stage clips at view z (≤ ray distance): clip far closer, so that no fitted geometry is lost
             if (raster_view.perspective) raster_view.near_depth = std::max(1e-6, 1e-4 * double(views[view].far_depth));
             fragments = surfaces::view_fragments(runtime, scene, raster_view);
-            kernel.setArg(a++, fragments.fragments.first);
-            kernel.setArg(a++, fragments.fragments.fragments);
-            kernel.setArg(a++, fragments.tiles.triangles);
-            kernel.setArg(a++, surface_data.materials);
+            args("fragment_first", fragments.fragments.first)("fragments", fragments.fragments.fragments);
+            args("screen_triangles", fragments.tiles.triangles)("surface_materials", surface_data.materials);
         }
-        bind(kernel, a);
+        bind(args);
+        args.done();
         return host::run_packets(runtime, kernel, options.resolution, options.resolution, lanes);
     };
     finish_dsm(runtime, dsm, context);

@@ -7,7 +7,7 @@
 #include <vector>
 
 #include "memory/dsm_storage.h"
-#include "render/scene_upload.h"
+#include "geometry/scene_upload.h"
 #include "shadows/dsm_views.h"
 #include "sombra/shadows.h"
 

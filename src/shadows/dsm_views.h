@@ -5,7 +5,7 @@
 #include <string>
 #include <vector>
 
-#include "render/scene_upload.h"
+#include "geometry/scene_upload.h"
 
 namespace sombra::shadows {
 

@@ -1,5 +1,7 @@
 #include "shadows/sat_grid.h"
 
+#include "host/kernel_args.h"
+
 #include <algorithm>
 #include <cmath>
 #include <type_traits>
@@ -209,10 +211,7 @@ double scan_table(host::Runtime& runtime, cl::Kernel& scan, const cl::Buffer& da
     double ms = 0;
     cl::Event event;
     for (cl_uint axis = 0; axis < 2; ++axis) {
-        scan.setArg(0, data);
-        scan.setArg(1, cl_uint(offset));
-        scan.setArg(2, n);
-        scan.setArg(3, axis);
+        host::KernelArgs{scan}("sat", data)("data_offset", cl_uint(offset))("n", n)("axis", axis).done();
         std::size_t other = std::size_t(axis == 0 ? n.s[1] : n.s[0]);
         runtime.queue().enqueueNDRangeKernel(scan, cl::NullRange, cl::NDRange(other, std::size_t(n.s[2])), cl::NullRange,
                                              nullptr, &event);
@@ -222,17 +221,13 @@ double scan_table(host::Runtime& runtime, cl::Kernel& scan, const cl::Buffer& da
     return ms;
 }
 
-// The arguments every resample kernel starts with; returns the next index.
-int set_volume_args(cl::Kernel& kernel, const packing::PackedScene& packed, const packing::DeviceScene& device_scene,
-                    const cl::Buffer& data) {
-    int a = 0;
-    if (device_scene.uses_images) kernel.setArg(a++, device_scene.voxel_image);
-    else kernel.setArg(a++, device_scene.voxel_buffer);
-    kernel.setArg(a++, device_scene.tf_tables);
-    kernel.setArg(a++, device_scene.volumes);
-    kernel.setArg(a++, cl_uint(packed.volumes.size()));
-    kernel.setArg(a++, data);
-    return a;
+// The arguments every resample kernel starts with.
+void bind_volumes(host::KernelArgs& args, const packing::PackedScene& packed, const packing::DeviceScene& device_scene,
+                  const cl::Buffer& data) {
+    if (device_scene.uses_images) args("volume_data", device_scene.voxel_image);
+    else args("volume_data", device_scene.voxel_buffer);
+    args("tf_tables", device_scene.tf_tables)("volumes", device_scene.volumes)("volume_count", cl_uint(packed.volumes.size()));
+    args("sat", data);
 }
 
 double run_2d(host::Runtime& runtime, cl::Kernel& kernel, int nx, int ny) {
@@ -352,16 +347,15 @@ void build_sat_table(host::Runtime& runtime, const Scene& scene, const packing::
         cl::Kernel resample(program, "sat_resample");
         const SatFrame& f = sat.frames[table];
         cl_int4 n = {{f.dims[0], f.dims[1], f.dims[2], 1}};
-        int a = set_volume_args(resample, packed, device_scene, sat.data);
-        resample.setArg(a++, cl_uint(offset));
-        resample.setArg(a++, n);
-        resample.setArg(a++, f4(f.origin));
+        host::KernelArgs args(resample);
+        bind_volumes(args, packed, device_scene, sat.data);
+        args("data_offset", cl_uint(offset))("n", n)("origin", f4(f.origin));
+        const char* cell_names[3] = {"cell_u", "cell_v", "cell_w"};
         for (std::size_t axis = 0; axis < 3; ++axis) {
             const D3& r = f.axes[axis];
-            resample.setArg(a++, f4({r[0] * f.cell_size, r[1] * f.cell_size, r[2] * f.cell_size}));
+            args(cell_names[axis], f4({r[0] * f.cell_size, r[1] * f.cell_size, r[2] * f.cell_size}));
         }
-        resample.setArg(a++, float(f.cell_size));
-        resample.setArg(a++, sat_frame_light_axes(sat, table));
+        args("cell_length", float(f.cell_size))("light_axes", sat_frame_light_axes(sat, table)).done();
         sat.stage_ms["sat_resample"] += run_2d(runtime, resample, f.dims[0], f.dims[1]);
         sat.stage_ms["sat_scan"] += scan_table(runtime, scan, sat.data, offset, n);
         return;
@@ -370,8 +364,9 @@ void build_sat_table(host::Runtime& runtime, const Scene& scene, const packing::
     cl::Kernel resample_sphere(program, "ssat_resample");
     const SsatGridGpu& sphere = sat.spheres[sphere_lights(sat).at(table - sat.frames.size())];
     cl::Buffer grid = host::make_buffer(runtime, CL_MEM_READ_ONLY, sizeof(SsatGridGpu), &sphere, "SSAT grid");
-    int a = set_volume_args(resample_sphere, packed, device_scene, sat.data);
-    resample_sphere.setArg(a++, grid);
+    host::KernelArgs args(resample_sphere);
+    bind_volumes(args, packed, device_scene, sat.data);
+    args("grid", grid).done();
     sat.stage_ms["ssat_resample"] += run_2d(runtime, resample_sphere, sphere.dims.s[0], sphere.dims.s[1]);
     sat.stage_ms["sat_scan"] += scan_table(runtime, scan, sat.data, offset, sphere.dims);
 }

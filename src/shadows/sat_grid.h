@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "render/scene_upload.h"
+#include "geometry/scene_upload.h"
 
 namespace sombra::shadows {
 

@@ -66,17 +66,6 @@ bool sweep_meets(const Box& a, const Box& b, const D3& towards) {
     return t0 <= t1;
 }
 
-// The pool of tables kept on the Context between calls: one buffer, a slot per table.
-struct SatPool {
-    struct Slot {
-        std::string key;
-        std::size_t offset = 0, entries = 0;
-    };
-    cl::Buffer data;
-    std::size_t capacity = 0;  // entries
-    std::vector<Slot> slots;
-};
-
 // First offset in [0, capacity) where `entries` fit between the `taken` ranges, or capacity.
 std::size_t first_fit(std::vector<std::pair<std::size_t, std::size_t>> taken, std::size_t capacity, std::size_t entries) {
     std::sort(taken.begin(), taken.end());
@@ -116,7 +105,7 @@ std::vector<std::string> extinction_keys(const Scene& scene, const packing::Pack
 
 DeviceSat update_sats(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
                       const packing::DeviceScene& device_scene, bool light_aligned, std::size_t max_entries,
-                      SatUpdateCounts& counts) {
+                      SatPool& pool_, SatUpdateCounts& counts) {
     DeviceSat sat = light_aligned ? plan_light_sats(packed, max_entries) : plan_volume_sat(packed, max_entries);
     std::string volumes;  // every table holds every volume
     for (const std::string& k : extinction_keys(scene, packed, device_scene.uses_images)) volumes += k + ';';
@@ -124,9 +113,7 @@ DeviceSat update_sats(host::Runtime& runtime, const Scene& scene, const packing:
     std::vector<std::string> keys(n);
     for (std::size_t t = 0; t < n; ++t) keys[t] = sat_table_geometry_key(sat, t) + " | " + volumes;
 
-    auto& slot = runtime.kept_state("shadows.sat_pool");
-    auto pool = std::static_pointer_cast<SatPool>(slot);
-    if (!pool) slot = pool = std::make_shared<SatPool>();
+    SatPool* pool = &pool_;
     // the tables whose inputs did not change stay where they are
     std::vector<int> kept(n, -1);
     std::vector<bool> claimed(pool->slots.size(), false);
@@ -191,8 +178,6 @@ DeviceSat update_sats(host::Runtime& runtime, const Scene& scene, const packing:
     }
     return sat;
 }
-
-void release_sats(host::Runtime& runtime) { runtime.kept_state("shadows.sat_pool").reset(); }
 
 bool influences(const packing::PackedScene& packed, const DeviceSat& sat, const RenderOptions& options, std::size_t i,
                 std::size_t j, std::size_t m) {

@@ -27,19 +27,30 @@ std::string volume_data_key(const Volume& volume);
 // or image sampling. Colour points change it only when they change the domain.
 std::vector<std::string> extinction_keys(const Scene& scene, const packing::PackedScene& packed, bool use_images);
 
+// The buffer the tables live in and which table sits where, under which key; kept between calls
+// (by the low-pass module, src/techniques/sat_shadows.cpp) so that unchanged tables are reused.
+struct SatPool {
+    struct Slot {
+        std::string key;
+        std::size_t offset = 0, entries = 0;
+    };
+    cl::Buffer data;
+    std::size_t capacity = 0;  // entries
+    std::vector<Slot> slots;
+};
+
 struct SatUpdateCounts {
     int built = 0, reused = 0;
 };
 
 // Ament Alg. 1, lines 2–3 and 8 (recomputeCSAT, recomputeSSAT), per table: plans the tables that
 // the lights need (light_aligned: CSATs and SSATs; else the volume-aligned SAT of the baselines),
-// keeps every table of this Context's previous call whose key is unchanged, where it is, and builds
+// keeps every table of `pool` (the previous call's) whose key is unchanged, where it is, and builds
 // the others into the gaps (or into a new, compact buffer, the kept tables copied, stage
 // "sat_copy"). Returned stage_ms: this call's kernels only.
 DeviceSat update_sats(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
                       const packing::DeviceScene& device_scene, bool light_aligned, std::size_t max_entries,
-                      SatUpdateCounts& counts);
-void release_sats(host::Runtime& runtime);  // frees the kept tables
+                      SatPool& pool, SatUpdateCounts& counts);
 
 // Whether the extinction of volume j can reach the shadow term that `options.shadows` gives volume
 // i's lattice towards light m (conservative: world bounding boxes, the filter patch and two cells

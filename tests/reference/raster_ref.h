@@ -23,7 +23,7 @@ std::vector<int> coverage_counts(const std::vector<ScreenTriangleGpu>& triangles
 
 #include <array>
 
-#include "render/rasterizer.h"
+#include "geometry/rasterizer.h"
 
 namespace sombra::reference {
 

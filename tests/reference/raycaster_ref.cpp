@@ -77,7 +77,7 @@ RefVolume prepare(const VolumeInstance& vi) {
     double unit = vi.opacity_unit > 0 ? vi.opacity_unit : voxel_size;
     const TransferFunction& tf = vi.transfer_function;
     double max_sigma = 0;
-    for (int i = 0; i < 1024; ++i)  // the kernel's table grid (src/render/scene_upload.h kTransferTableSize)
+    for (int i = 0; i < 1024; ++i)  // the kernel's table grid (src/geometry/scene_upload.h kTransferTableSize)
         max_sigma = std::max(max_sigma, extinction(tf, tf.domain_min() + (tf.domain_max() - tf.domain_min()) * i / 1023.0, unit));
     double step = vi.step_voxels * voxel_size;
     return {&vi, voxel_to_world.inverse(), step, unit, float(max_sigma) * float(step) >= 2.f};

@@ -1,4 +1,5 @@
-#include "render/rasterizer.h"
+#include "geometry/rasterizer.h"
+#include "host/kernel_args.h"
 
 #include <algorithm>
 #include <cmath>
@@ -202,7 +203,7 @@ DeviceTiles rasterize(host::Runtime& rt, const std::vector<ScreenTriangleGpu>& t
     cl::Program& program = rt.program("raster.cl", {});
     if (n > 0) {  // pass 1: entries per tile
         cl::Kernel k(program, "raster_count");
-        k.setArg(0, d.triangles), k.setArg(1, n), k.setArg(2, d.screen_buffer), k.setArg(3, d.count);
+        host::KernelArgs{k}("tris", d.triangles)("triangle_count", n)("screen", d.screen_buffer)("counts", d.count).done();
         cl::Event e;
         q.enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(n), cl::NullRange, nullptr, &e);
         q.enqueueReadBuffer(d.count, CL_TRUE, 0, tiles * sizeof(cl_uint), count.data());
@@ -227,8 +228,8 @@ DeviceTiles rasterize(host::Runtime& rt, const std::vector<ScreenTriangleGpu>& t
         cl::Buffer fill = host::make_buffer(rt, CL_MEM_READ_WRITE, tiles * sizeof(cl_uint), zeros.data(), "tile fill");
         cl::Buffer overflow = host::make_buffer(rt, CL_MEM_READ_WRITE, sizeof(cl_uint), zeros.data(), "raster overflow");
         cl::Kernel k(program, "raster_write");
-        k.setArg(0, d.triangles), k.setArg(1, n), k.setArg(2, d.screen_buffer), k.setArg(3, d.count);
-        k.setArg(4, d.first_chunk), k.setArg(5, fill), k.setArg(6, d.masks), k.setArg(7, d.ids), k.setArg(8, overflow);
+        host::KernelArgs{k}("tris", d.triangles)("triangle_count", n)("screen", d.screen_buffer)("counts", d.count)(
+            "first_chunk", d.first_chunk)("fill", fill)("masks", d.masks)("ids", d.ids)("overflow", overflow).done();
         cl::Event e;
         q.enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(n), cl::NullRange, nullptr, &e);
         cl_uint lost = 0;

@@ -1,4 +1,5 @@
-#include "render/fragments.h"
+#include "geometry/fragments.h"
+#include "host/kernel_args.h"
 
 #include <algorithm>
 
@@ -17,8 +18,8 @@ DeviceFragments sort_fragments(host::Runtime& rt, const DeviceTiles& tiles) {
     cl::Buffer counts = host::make_buffer(rt, CL_MEM_READ_WRITE, pixels * sizeof(cl_uint), nullptr, "fragment counts");
     {  // pass 1: fragments per pixel
         cl::Kernel k(program, "segments_count");
-        k.setArg(0, tiles.screen_buffer), k.setArg(1, tiles.count), k.setArg(2, tiles.first_chunk);
-        k.setArg(3, tiles.masks), k.setArg(4, counts);
+        host::KernelArgs{k}("s", tiles.screen_buffer)("count", tiles.count)("first_chunk", tiles.first_chunk)("masks", tiles.masks)(
+            "pixel_count", counts).done();
         cl::Event e;
         q.enqueueNDRangeKernel(k, cl::NullRange, grid, cl::NullRange, nullptr, &e);
         q.enqueueReadBuffer(counts, CL_TRUE, 0, pixels * sizeof(cl_uint), first.data() + 1);
@@ -34,9 +35,8 @@ DeviceFragments sort_fragments(host::Runtime& rt, const DeviceTiles& tiles) {
     d.fragments = host::make_buffer(rt, CL_MEM_READ_WRITE, d.stats.fragments * sizeof(FragmentGpu), nullptr, "fragments");
     if (d.stats.fragments > 0) {  // pass 2: gather and sort
         cl::Kernel k(program, "segments_write");
-        k.setArg(0, tiles.screen_buffer), k.setArg(1, tiles.triangles), k.setArg(2, tiles.count);
-        k.setArg(3, tiles.first_chunk), k.setArg(4, tiles.masks), k.setArg(5, tiles.ids), k.setArg(6, d.first);
-        k.setArg(7, d.fragments);
+        host::KernelArgs{k}("s", tiles.screen_buffer)("tris", tiles.triangles)("count", tiles.count)("first_chunk", tiles.first_chunk)(
+            "masks", tiles.masks)("ids", tiles.ids)("pixel_first", d.first)("fragments", d.fragments).done();
         cl::Event e;
         q.enqueueNDRangeKernel(k, cl::NullRange, grid, cl::NullRange, nullptr, &e);
         e.wait();

@@ -1,4 +1,4 @@
-#include "render/bvh.h"
+#include "geometry/bvh.h"
 
 #include <algorithm>
 #include <array>

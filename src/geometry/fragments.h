@@ -1,10 +1,10 @@
 // sombra — the fragment stage after the raster stage (docs/architecture.md "Data flow"; Knecht §3.1.2): per
 // pixel, the triangles crossing its ray sorted by depth — the boundaries of its homogeneous
-// segments. Runs cl/segments.cl on the tile lists of render/rasterizer.h. Standalone for now.
+// segments. Runs cl/segments.cl on the tile lists of geometry/rasterizer.h. Standalone for now.
 #pragma once
 #include <vector>
 
-#include "render/rasterizer.h"
+#include "geometry/rasterizer.h"
 
 namespace sombra::raster {
 

@@ -1,8 +1,8 @@
-#include "render/surfaces.h"
+#include "geometry/surfaces.h"
 
 #include <cmath>
 
-#include "render/bvh.h"
+#include "geometry/bvh.h"
 
 namespace sombra::surfaces {
 namespace {

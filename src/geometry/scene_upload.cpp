@@ -1,10 +1,10 @@
-#include "render/scene_upload.h"
+#include "geometry/scene_upload.h"
 
 #include <algorithm>
 #include <cmath>
 #include <glm/glm.hpp>
 
-#include "render/surfaces.h"
+#include "geometry/surfaces.h"
 #include "sombra/error.h"
 
 namespace sombra::packing {

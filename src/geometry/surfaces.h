@@ -1,10 +1,10 @@
 // sombra — translucent meshes in the passes (issue 4): the per-triangle shading data and per-mesh
 // materials the kernels read (cl/surfaces.h), and a view's per-pixel fragment lists (raster stage +
-// fragment stage, render/rasterizer.h and render/fragments.h).
+// fragment stage, geometry/rasterizer.h and geometry/fragments.h).
 #pragma once
 #include <vector>
 
-#include "render/fragments.h"
+#include "geometry/fragments.h"
 
 namespace sombra::surfaces {
 
@@ -30,7 +30,7 @@ struct DeviceSurfaces {
 DeviceSurfaces upload_surfaces(host::Runtime& runtime, const PackedSurfaces& packed);
 
 // What shadow rays cross (render.cl: surfaces_transmittance, or the polyhedral bounds' crossings):
-// the triangles in the order of a bounding-volume hierarchy over them (render/bvh.h) and its
+// the triangles in the order of a bounding-volume hierarchy over them (geometry/bvh.h) and its
 // nodes. `what` names them in allocation errors.
 struct ShadowBvh {
     cl::Buffer triangles, nodes;

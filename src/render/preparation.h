@@ -1,0 +1,57 @@
+// sombra — what the renderer keeps on a Context between calls, typed: the prepared scene (packed,
+// on the device), the shadow technique's module with its device data, and the shadow cache. A
+// moved camera rebuilds nothing; moved lights rebuild what depends on them (Knecht §3.2
+// "Deep Shadow Map Re-Generation").
+#pragma once
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "geometry/scene_upload.h"
+#include "geometry/surfaces.h"
+#include "sombra/render.h"
+#include "techniques/technique.h"
+
+namespace sombra {
+namespace pipeline {
+
+struct PreparedScene {
+    std::string key;                      // what it depends on besides the lights (renderer.cpp volumes_key)
+    std::vector<std::string> light_keys;  // where each light is and how it shines
+    packing::PackedScene packed;
+    packing::DeviceScene device;
+    surfaces::DeviceSurfaces surfaces;  // scenes with meshes
+    bool use_images = false;
+};
+
+// Ament Alg. 1, first pass (updateShadowCache): per volume and light a lattice of the shadow term
+// over the volume's voxels, filled by the technique's shadow_probe; an entry (volume × light) is
+// refilled only when its key (the module's shadow_cache_keys) changed.
+struct ShadowCache {
+    std::vector<ShadowCacheGpu> layout;
+    std::vector<std::string> keys;  // per entry; empty: not filled
+    cl::Buffer values, table;
+    std::size_t bytes = 0;
+};
+
+// The scene prepared for `options` and the module of its technique, both kept on the Context.
+struct Prepared {
+    const PreparedScene& scene;
+    techniques::ShadowModule& technique;
+};
+Prepared prepare(Context& context, const Scene& scene, const RenderOptions& options, RenderStats& stats);
+
+int check_light(const Scene& scene, int light_index);
+
+}  // namespace pipeline
+
+namespace detail {
+struct KeptScenes {
+    std::unique_ptr<pipeline::PreparedScene> prepared;
+    std::unique_ptr<techniques::ShadowModule> technique;
+    decltype(techniques::TechniqueEntry::make) technique_family = nullptr;  // the registry's factory
+    std::unique_ptr<pipeline::ShadowCache> shadow_cache;
+};
+}  // namespace detail
+
+}  // namespace sombra

@@ -1,0 +1,45 @@
+// sombra — shadow technique "rays" (cl/techniques/rays.h): in scenes with meshes, the BVH of the
+// world-space triangles the shadow rays cross, and of the polyhedral volume bounds.
+#include <chrono>
+
+#include "geometry/surfaces.h"
+#include "techniques/technique.h"
+
+namespace sombra::techniques {
+namespace {
+
+class ShadowRays final : public ShadowModule {
+public:
+    void add_defines(const Scene& scene, const RenderOptions&, std::vector<std::string>& defines) const override {
+        defines.push_back("SOMBRA_TECHNIQUE_RAYS");
+        // shadow rays cross the bounds (the other passes see their fragments)
+        if (surfaces::has_bounds(scene)) defines.push_back("SOMBRA_HAS_BOUNDS");
+    }
+
+    void prepare(const SceneOnDevice& s, RenderStats& stats) override {
+        if (!surfaces::has_fragments(s.scene)) return;
+        auto start = std::chrono::steady_clock::now();
+        meshes_ = true;
+        shadow_bvh_ = surfaces::upload_shadow_bvh(s.runtime, surfaces::pack_surfaces(s.scene).triangles, "shadow-ray");
+        bounds_ = !s.packed.bound_triangles.empty();
+        if (bounds_) bound_bvh_ = surfaces::upload_shadow_bvh(s.runtime, s.packed.bound_triangles, "volume bound");
+        stats.stage_ms["bvh_build"] = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    }
+
+    // SHADOW_MESH_PARAMS and SHADOW_BOUND_PARAMS of cl/techniques/rays.h
+    void bind(host::KernelArgs& args, host::Runtime&, const RenderOptions&) const override {
+        if (!meshes_) return;
+        args("shadow_triangles", shadow_bvh_.triangles)("shadow_bvh", shadow_bvh_.nodes)("shadow_bvh_nodes", shadow_bvh_.node_count);
+        if (bounds_) args("bound_triangles", bound_bvh_.triangles)("bound_bvh", bound_bvh_.nodes)("bound_bvh_nodes", bound_bvh_.node_count);
+    }
+
+private:
+    bool meshes_ = false, bounds_ = false;
+    surfaces::ShadowBvh shadow_bvh_, bound_bvh_;
+};
+
+}  // namespace
+
+std::unique_ptr<ShadowModule> make_shadow_rays(ShadowTechnique) { return std::make_unique<ShadowRays>(); }
+
+}  // namespace sombra::techniques

@@ -1,0 +1,81 @@
+// sombra — a shadow technique as a module: the host half of cl/techniques/<name>.h. The renderer
+// (src/render/renderer.cpp) drives any module through this interface and names none; the registry
+// (registry.cpp) maps names to modules. Adding a technique: a class here-beside, a kernel header
+// in cl/techniques/, one registry row and one line in cl/techniques/technique.h.
+#pragma once
+#include <iosfwd>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "geometry/scene_upload.h"
+#include "host/kernel_args.h"
+#include "host/runtime.h"
+#include "sombra/render.h"
+
+namespace sombra::techniques {
+
+// What a module's preparation reads: the scene, as packed and on the device, and the options.
+struct SceneOnDevice {
+    host::Runtime& runtime;
+    const Scene& scene;
+    const packing::PackedScene& packed;
+    const packing::DeviceScene& device;
+    const RenderOptions& options;
+    bool use_images;
+};
+
+class ShadowModule {
+public:
+    virtual ~ShadowModule() = default;
+    // The -D defines of the passes that read the shadow term (render.cl): SOMBRA_TECHNIQUE_<NAME>
+    // selects cl/techniques/<name>.h; the rest are the module's own.
+    virtual void add_defines(const Scene& scene, const RenderOptions& options, std::vector<std::string>& defines) const = 0;
+    // Appends what the module's device data depend on among the options (the renderer keys the
+    // scene's preparation by it; the volumes, meshes and light count are keyed already).
+    virtual void add_key(const RenderOptions& options, int lanes, std::ostream& key) const;
+    // Called after the scene's lights are packed, before they are uploaded (a new preparation,
+    // or lights changed): the module may lay out per-light data in them (the deep shadow maps'
+    // views: LightGpu.view_first, view_count).
+    virtual void plan_lights(const Scene& scene, packing::PackedScene& packed, const RenderOptions& options);
+    // Builds the device data for a newly prepared scene.
+    virtual void prepare(const SceneOnDevice& on_device, RenderStats& stats);
+    // Lights marked in `moved` changed their view (position, direction, type, cone): rebuilds what
+    // depends on them. Called on a kept preparation (not after prepare()).
+    virtual void update_lights(const SceneOnDevice& on_device, const std::vector<bool>& moved, RenderStats& stats);
+    // Called on every render with the kept or new preparation: state that depends on the options
+    // a preparation is not keyed by (the low-pass tables keep their own keys).
+    virtual void refresh(const SceneOnDevice& on_device, RenderStats& stats);
+    // Binds SHADOW_PARAMS of its kernel header, in order.
+    virtual void bind(host::KernelArgs& args, host::Runtime& runtime, const RenderOptions& options) const;
+    // Copies its sizes (maps, tables) into the statistics.
+    virtual void add_stats(RenderStats& stats) const;
+    // Whether the camera pass reads the shadow term from the shadow cache (Ament Alg. 1), and the
+    // key of each cache entry (volume-major, entry i · lights + m): an entry is refilled when its
+    // key changes.
+    virtual bool uses_shadow_cache(const RenderOptions& options) const;
+    virtual std::vector<std::string> shadow_cache_keys(const SceneOnDevice& on_device) const;
+};
+
+// One row of the registry: the technique, its name on the command line and in scene files, what
+// it is, and its module.
+struct TechniqueEntry {
+    ShadowTechnique technique;
+    const char* name;
+    const char* summary;
+    std::unique_ptr<ShadowModule> (*make)(ShadowTechnique technique);
+};
+const std::vector<TechniqueEntry>& registry();
+const TechniqueEntry& entry(ShadowTechnique technique);
+
+// The module of `technique` for a scene (None when it has no lights: nothing casts a shadow term).
+std::unique_ptr<ShadowModule> make_module(const Scene& scene, ShadowTechnique technique);
+
+// The modules (each in its own .cpp).
+std::unique_ptr<ShadowModule> make_no_shadows(ShadowTechnique);
+std::unique_ptr<ShadowModule> make_shadow_rays(ShadowTechnique);
+std::unique_ptr<ShadowModule> make_deep_shadow_maps(ShadowTechnique);  // Dsm and ShadowMap
+std::unique_ptr<ShadowModule> make_sat_shadows(ShadowTechnique);       // Lowpass, Ao and Cone
+
+}  // namespace sombra::techniques
