@@ -291,7 +291,7 @@ TEST_CASE("DSM generation in packets of 8 texels stores the nodes of one texel p
     RenderOptions base = dsm_options(37, 0.02f);
     base.storage = VolumeStorage::Buffer;
     base.dsm_precompression = GENERATE(false, true);
-    for (const char* storage : {"atlas", "chunked", "chunked-ondemand", "compact"}) {
+    for (const std::string& storage : sombra::dsm_storage_names()) {
         base.dsm_storage = storage;
         RenderOptions scalar = base, packets = base;
         scalar.lanes = 1;
@@ -360,7 +360,7 @@ TEST_CASE("deep shadow maps are rebuilt only when the light, the scene or the tr
 }
 
 TEST_CASE("a moved light regenerates its own maps only, and the image equals a fresh build's", "[dsm]") {
-    for (const char* storage : {"atlas", "chunked", "chunked-ondemand", "compact"}) {
+    for (const std::string& storage : sombra::dsm_storage_names()) {
         for (const char* prefilter : {"none", "box", "5tap"}) {
             INFO("storage " << storage << ", prefilter " << prefilter);
             Context context("cpu"), fresh_context("cpu");  // their own kept state
@@ -599,7 +599,7 @@ TEST_CASE("pre-filtering: jitter is deterministic per seed — 5tap renders with
     CHECK_FALSE(same_nodes(first, unjittered));
 
     RenderResult reference_image;
-    for (const char* storage : {"compact", "atlas", "chunked", "chunked-ondemand"}) {
+    for (const std::string& storage : sombra::dsm_storage_names()) {
         o.dsm_storage = storage;
         auto map = build_deep_shadow_maps(test::context(), s, 0, o)[0];
         INFO(storage);

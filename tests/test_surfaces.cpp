@@ -236,7 +236,7 @@ TEST_CASE("surfaces in pre-filtered deep shadow maps, every backend: 1 − a ins
     const std::size_t sweep = kQuadShadowPoints.size(), n = xs.size();
     const float a = 0.35f;
     s.meshes.push_back(quad(0.3f, 0.f, a, {1.f, 1.f, 1.f}));
-    for (const char* storage : {"atlas", "chunked", "chunked-ondemand", "compact"})
+    for (const std::string& storage : sombra::dsm_storage_names())
         for (const char* filter : {"none", "box", "tent", "5tap"})
             for (bool jitter : {false, true}) {
                 if (std::string(filter) == "none" && jitter) continue;

@@ -34,6 +34,7 @@ enum class ShadowTechnique { None, Rays, Dsm, ShadowMap, Lowpass, Ao, Cone };
 // suggestion for a near miss) for any other name.
 std::vector<std::string> shadow_technique_names();
 const char* shadow_technique_name(ShadowTechnique technique);
+const char* shadow_technique_summary(ShadowTechnique technique);  // one line: what it is
 ShadowTechnique parse_shadow_technique(const std::string& name);
 
 // Phong: local illumination from gradient normals (course slides; Knecht Eq. 3.9). Scattering:
@@ -41,6 +42,10 @@ ShadowTechnique parse_shadow_technique(const std::string& name);
 // c·[k_a i_a + Σ_m 4π p(θ_m) i_m f_m T_m] towards the viewer, p the Henyey–Greenstein phase of
 // asymmetry phase_g (0 isotropic, > 0 forward), scaled by 4π so isotropic scattering has unit gain.
 enum class ShadingModel { Phong, Scattering };
+
+// The deep-shadow-map storage backends ("atlas", "chunked", "chunked-ondemand", "compact"), from
+// the backend registry (src/memory/dsm_storage.cpp): the values of RenderOptions::dsm_storage.
+std::vector<std::string> dsm_storage_names();
 
 struct RenderOptions {
     int width = 0, height = 0;  // 0: the scene's size

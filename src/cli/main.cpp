@@ -25,11 +25,13 @@ namespace {
 // Names of the option values on the command line (and in --stats), each with its value.
 template <typename E>
 using Names = std::vector<std::pair<std::string, E>>;
-const Names<sombra::ShadowTechnique> kShadowNames = {
-    {"none", sombra::ShadowTechnique::None},           {"rays", sombra::ShadowTechnique::Rays},
-    {"dsm", sombra::ShadowTechnique::Dsm},             {"shadowmap", sombra::ShadowTechnique::ShadowMap},
-    {"lowpass", sombra::ShadowTechnique::Lowpass},     {"ao", sombra::ShadowTechnique::Ao},
-    {"cone", sombra::ShadowTechnique::Cone}};
+// the shadow techniques: the library's registry of technique modules
+Names<sombra::ShadowTechnique> shadow_names() {
+    Names<sombra::ShadowTechnique> names;
+    for (const std::string& name : sombra::shadow_technique_names()) names.emplace_back(name, sombra::parse_shadow_technique(name));
+    return names;
+}
+const Names<sombra::ShadowTechnique> kShadowNames = shadow_names();
 const Names<sombra::GradientMethod> kGradientNames = {{"central", sombra::GradientMethod::CentralDifferences},
                                                       {"sobel", sombra::GradientMethod::Sobel}};
 const Names<sombra::ShadingModel> kShadingNames = {{"phong", sombra::ShadingModel::Phong},
@@ -284,12 +286,10 @@ int run(int argc, char** argv) {
         ->check(member_of(kShadingNames));
     render->add_option("--phase-g", phase_g, "Henyey-Greenstein asymmetry g in (-1, 1) for --shading scattering (0: isotropic)");
     std::string shadows = name_of(kShadowNames, defaults.shadows);
-    render->add_option("--shadows", shadows,
-                       "none, rays (march from every sample to every light), dsm (deep shadow maps), shadowmap "
-                       "(binary shadow maps, the baseline) or lowpass (low-pass filtered soft shadows from "
-                       "light-aligned summed-area tables, Ament 2014), ao (SAT ambient occlusion) or cone (SAT cone "
-                       "shadows, Schlegel 2011)")
-        ->check(member_of(kShadowNames));
+    std::string shadows_help = "the shadow technique:";
+    for (const auto& [name, technique] : kShadowNames)
+        shadows_help += "\n  " + name + ": " + sombra::shadow_technique_summary(technique);
+    render->add_option("--shadows", shadows, shadows_help)->check(member_of(kShadowNames));
     float filter_width = defaults.lowpass_filter_width;
     render->add_option("--filter", filter_width, "lowpass: filter width in voxels (softness of the shadows); ao: cube side")
         ->check(in_range<float>(0, 4096));
@@ -308,7 +308,7 @@ int run(int argc, char** argv) {
     std::string prefilter = defaults.dsm_prefilter;
     render->add_option("--dsm-res", dsm_resolution, "deep shadow map texels per side")->check(in_range<int>(1, 8192));
     render->add_option("--storage", dsm_storage, "deep shadow map storage: atlas, chunked, chunked-ondemand (Knecht) or compact")
-        ->check(CLI::IsMember({"atlas", "chunked", "chunked-ondemand", "compact"}));
+        ->check(CLI::IsMember(sombra::dsm_storage_names()));
     render->add_flag("--precompression", precompression, "pre-compressed visibility tables for DSM generation (Hadwiger §3.2)");
     std::string prefilter_jitter = !defaults.dsm_prefilter_jitter ? "off"
                                    : defaults.dsm_prefilter_seed == 1 ? "on"
@@ -345,7 +345,7 @@ int run(int argc, char** argv) {
         sub->add_option("--device", device, "auto, cpu, gpu, or an index from `sombra devices`");
         sub->add_option("--dsm-res", dsm_resolution, "deep shadow map texels per side")->check(in_range<int>(1, 8192));
         sub->add_option("--storage", dsm_storage, "deep shadow map storage: atlas, chunked, chunked-ondemand (Knecht) or compact")
-            ->check(CLI::IsMember({"atlas", "chunked", "chunked-ondemand", "compact"}));
+            ->check(CLI::IsMember(sombra::dsm_storage_names()));
         sub->add_flag("--precompression", precompression, "pre-compressed visibility tables (Hadwiger §3.2)");
         sub->add_option("--prefilter", prefilter, "DSM pre-filtering: none, box, tent or 5tap")
             ->check(CLI::IsMember({"none", "box", "tent", "5tap"}));

@@ -10,13 +10,43 @@ std::unique_ptr<DsmStorage> make_compact_storage();
 std::unique_ptr<DsmStorage> make_atlas_storage();
 std::unique_ptr<DsmStorage> make_chunked_storage(bool counted);
 
+namespace {
+
+// The backend registry: a name (RenderOptions::dsm_storage, --storage) and its maker.
+struct StorageEntry {
+    const char* name;
+    std::unique_ptr<DsmStorage> (*make)();
+};
+const StorageEntry kStorages[] = {
+    {"atlas", make_atlas_storage},
+    {"chunked", [] { return make_chunked_storage(true); }},
+    {"chunked-ondemand", [] { return make_chunked_storage(false); }},
+    {"compact", make_compact_storage},
+};
+
+}  // namespace
+
 std::unique_ptr<DsmStorage> make_dsm_storage(const std::string& name) {
-    if (name == "compact") return make_compact_storage();
-    if (name == "atlas") return make_atlas_storage();
-    if (name == "chunked") return make_chunked_storage(true);
-    if (name == "chunked-ondemand") return make_chunked_storage(false);
-    throw Error("--storage: unknown deep shadow map storage '" + name + "' (atlas, chunked, chunked-ondemand, compact)");
+    for (const StorageEntry& e : kStorages)
+        if (name == e.name) return e.make();
+    std::string names;
+    for (const StorageEntry& e : kStorages) names += std::string(names.empty() ? "" : ", ") + e.name;
+    throw Error("--storage: unknown deep shadow map storage '" + name + "' (" + names + ")");
 }
+
+}  // namespace sombra::memory
+
+namespace sombra {
+
+std::vector<std::string> dsm_storage_names() {
+    std::vector<std::string> names;
+    for (const memory::StorageEntry& e : memory::kStorages) names.push_back(e.name);
+    return names;
+}
+
+}  // namespace sombra
+
+namespace sombra::memory {
 
 std::vector<cl_uint> count_nodes(BuildContext& context, DsmStats& stats, const std::vector<cl_uint>& kept) {
     host::Runtime& rt = context.runtime;

@@ -152,8 +152,7 @@ Prepared prepare(Context& context, const Scene& scene, const RenderOptions& opti
         technique.update_lights({runtime, scene, p.packed, p.device, options, p.use_images}, moved, stats);
         p.light_keys = light_keys;
     } else {
-        kept.prepared.reset();
-        kept.shadow_cache.reset();
+        kept.prepared.reset();  // the shadow cache stays: its entries have their own keys
         std::unique_ptr<PreparedScene> fresh = prepare_anew(runtime, scene, options, use_images, technique, stats);
         fresh->key = key;
         fresh->light_keys = light_keys;

@@ -28,6 +28,7 @@ void DeepShadowMaps::plan_lights(const Scene& scene, packing::PackedScene& packe
 }
 
 void DeepShadowMaps::prepare(const SceneOnDevice& s, RenderStats& stats) {
+    dsm_ = shadows::DeviceDsm();  // the previous scene's maps go before the new ones are allocated
     dsm_ = shadows::build_deep_shadow_maps(s.runtime, s.scene, s.packed, s.device, views_, dsm_build_options(s.options));
     for (auto& [stage, ms] : dsm_.stats.stage_ms) stats.stage_ms[stage] = ms;
     views_generated_ = dsm_.stats.views_generated;

@@ -17,6 +17,7 @@ public:
     }
 
     void prepare(const SceneOnDevice& s, RenderStats& stats) override {
+        *this = ShadowRays();  // a module outlives preparations: nothing of the previous scene stays
         if (!surfaces::has_fragments(s.scene)) return;
         auto start = std::chrono::steady_clock::now();
         meshes_ = true;

@@ -53,6 +53,7 @@ std::vector<std::string> shadow_technique_names() {
 }
 
 const char* shadow_technique_name(ShadowTechnique technique) { return techniques::entry(technique).name; }
+const char* shadow_technique_summary(ShadowTechnique technique) { return techniques::entry(technique).summary; }
 
 ShadowTechnique parse_shadow_technique(const std::string& name) {
     for (const techniques::TechniqueEntry& e : techniques::registry())
