@@ -1,5 +1,7 @@
 // Deep shadow maps: generation against a CPU reference, transmittance against the brute-force
 // reference for every light type, ε extremes, stiff cases, deep EXR export.
+#include <OpenImageIO/imagebuf.h>
+#include <OpenImageIO/imagebufalgo.h>
 #include <catch2/catch.hpp>
 
 #include <array>
@@ -256,6 +258,22 @@ TEST_CASE("sombra dsm writes a deep EXR that reads back as the built map", "[dsm
     CHECK(mismatches == 0);
     CHECK(read.light_name == "lights[0]");
     CHECK(read.world_to_ndc == built[0].world_to_ndc);
+
+    // OpenImageIO's flatten (oiiotool --flatten) of every texel: the DSM's opacity at the far end
+    OIIO::ImageBuf deep(out);
+    OIIO::ImageBuf flat = OIIO::ImageBufAlgo::flatten(deep);
+    REQUIRE(!flat.has_error());
+    const int a = flat.spec().channelindex("A");
+    double worst = 0;
+    for (int y = 0; y < 32; ++y)
+        for (int x = 0; x < 32; ++x) {
+            const std::size_t t = std::size_t(y * 32 + x);
+            const std::uint32_t end = built[0].first[t + 1];
+            const float far = end == built[0].first[t] ? 0.f : std::clamp(built[0].nodes[end - 1].opacity, 0.f, 1.f);
+            worst = std::max(worst, double(std::fabs(flat.getchannel(x, y, 0, a) - far)));
+        }
+    INFO("max |flatten A − DSM opacity at the far end| " << worst);
+    CHECK(worst < 1e-6);
 }
 
 // What another tool can do with a deep EXR alone: place a world point with the header's
