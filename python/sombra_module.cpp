@@ -327,8 +327,10 @@ PYBIND11_MODULE(sombra, m) {
             std::vector<Vec3> p = points_of(points, "reference_transmittance");
             py::array_t<double> result(py::ssize_t(p.size()));
             double* out = result.mutable_data();
-            py::gil_scoped_release release;
-            for (std::size_t i = 0; i < p.size(); ++i) out[i] = reference_transmittance(scene, light, p[i], step_voxels);
+            {
+                py::gil_scoped_release release;
+                for (std::size_t i = 0; i < p.size(); ++i) out[i] = reference_transmittance(scene, light, p[i], step_voxels);
+            }
             return result;
         },
         py::arg("scene"), py::arg("light"), py::arg("points"), py::arg("step_voxels") = 0.05,
