@@ -12,6 +12,8 @@ packages=(
   libglm-dev libopenimageio-dev catch2 nlohmann-json3-dev libcli11-dev
   # volume and mesh formats (OBJ: tinyobjloader's header; nifti1_io.h includes nifti1.h, which is in libnifti2-dev)
   libniftiio-dev libnifti2-dev libznz-dev libzip-dev zlib1g-dev libtinyobjloader-dev
+  # the Python module (python/): pybind11 for Debian's python3, numpy, pytest for its tests
+  pybind11-dev python3-dev python3-numpy python3-pytest
   # sanitizer build and fuzzing (scripts/sanitize.sh, scripts/fuzz.sh): clang, libFuzzer and the
   # sanitizer runtimes, llvm-symbolizer for readable reports
   clang libclang-rt-dev llvm

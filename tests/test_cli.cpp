@@ -429,3 +429,26 @@ TEST_CASE("hostile volume, scene and points files through the CLI: one line, exi
     }
     require_clean_failure(run_cli("render " + fifo + " -o " + out), fifo, "a FIFO", out);
 }
+
+TEST_CASE("enumerated render options by name: every name round-trips, unknown ones name the accepted", "[cli]") {
+    using namespace sombra;
+    for (const char* option : {"shadows", "gradient", "shading", "storage"}) {
+        const std::vector<std::string> names = render_option_values(option);
+        REQUIRE(names.size() >= 2);
+        for (const std::string& name : names) {
+            RenderOptions o;
+            set_render_option(o, option, name);
+            CHECK(render_option_value(o, option) == name);
+        }
+    }
+    RenderOptions o;
+    set_render_option(o, "shadows", "dsm");
+    CHECK(o.shadows == ShadowTechnique::Dsm);
+    CHECK(render_option_value(RenderOptions{}, "shadows") == "none");  // the defaults have names too
+    CHECK(test::error_of([&] { set_render_option(o, "shadows", "dsmm"); }) ==
+          "shadows: unknown value 'dsmm' (none, rays, dsm, shadowmap, lowpass, ao, cone)");
+    CHECK(test::error_of([] { render_option_values("shadow"); }) ==
+          "unknown enumerated render option 'shadow' (shadows, gradient, shading, storage)");
+    CHECK(parse_light_type("omni") == LightType::Point);
+    CHECK(test::error_of([] { parse_light_type("sun"); }) == "unknown light type 'sun' (directional, spot, point)");
+}

@@ -1,5 +1,7 @@
 // Deep shadow maps: generation against a CPU reference, transmittance against the brute-force
 // reference for every light type, ε extremes, stiff cases, deep EXR export.
+#include <OpenImageIO/imagebuf.h>
+#include <OpenImageIO/imagebufalgo.h>
 #include <catch2/catch.hpp>
 
 #include <array>
@@ -249,11 +251,79 @@ TEST_CASE("sombra dsm writes a deep EXR that reads back as the built map", "[dsm
     REQUIRE(read.width == 32);
     REQUIRE(read.first == built[0].first);
     REQUIRE(read.nodes.size() == built[0].nodes.size());
-    for (std::size_t i = 0; i < read.nodes.size(); ++i) {
-        CHECK(read.nodes[i].depth == built[0].nodes[i].depth);
-        CHECK(read.nodes[i].opacity == built[0].nodes[i].opacity);
-    }
+    std::size_t mismatches = 0;  // opacity through float per-sample alphas, clamped to [0, 1]
+    for (std::size_t i = 0; i < read.nodes.size(); ++i)
+        mismatches += read.nodes[i].depth != built[0].nodes[i].depth ||
+                      std::fabs(read.nodes[i].opacity - std::clamp(built[0].nodes[i].opacity, 0.f, 1.f)) > 1e-6f;
+    CHECK(mismatches == 0);
     CHECK(read.light_name == "lights[0]");
+    CHECK(read.world_to_ndc == built[0].world_to_ndc);
+
+    // OpenImageIO's flatten (oiiotool --flatten) of every texel: the DSM's opacity at the far end
+    OIIO::ImageBuf deep(out);
+    OIIO::ImageBuf flat = OIIO::ImageBufAlgo::flatten(deep);
+    REQUIRE(!flat.has_error());
+    const int a = flat.spec().channelindex("A");
+    double worst = 0;
+    for (int y = 0; y < 32; ++y)
+        for (int x = 0; x < 32; ++x) {
+            const std::size_t t = std::size_t(y * 32 + x);
+            const std::uint32_t end = built[0].first[t + 1];
+            const float far = end == built[0].first[t] ? 0.f : std::clamp(built[0].nodes[end - 1].opacity, 0.f, 1.f);
+            worst = std::max(worst, double(std::fabs(flat.getchannel(x, y, 0, a) - far)));
+        }
+    INFO("max |flatten A − DSM opacity at the far end| " << worst);
+    CHECK(worst < 1e-6);
+}
+
+// What another tool can do with a deep EXR alone: place a world point with the header's
+// worldToNDC / worldToCamera, read the texels' opacity at its depth (bilinear, as the renderer).
+TEST_CASE("deep EXR: the header's matrices place the map: lookups from the file alone match the renderer", "[dsm]") {
+    for (LightType type : {LightType::Directional, LightType::Spot, LightType::Point}) {
+        Scene s = smoke_scene(type);
+        const int res = 32;
+        RenderOptions o = dsm_options(res, 0.02f);
+        std::vector<DeepShadowMap> maps;
+        for (const DeepShadowMap& built : build_deep_shadow_maps(test::context(), s, 0, o)) {
+            const std::string path = test::temp_dir() + "/placed.exr";
+            write_deep_exr(built, path);
+            maps.push_back(read_deep_exr(path));
+        }
+        auto points = random_points(400, 0.5f, 34);
+        auto kernel = shadow_transmittance(test::context(), s, 0, points, o).transmittance;
+        double worst = 0;
+        int placed = 0;
+        for (std::size_t i = 0; i < points.size(); ++i) {
+            for (const DeepShadowMap& map : maps) {
+                auto apply = [&](const std::array<float, 16>& m, int row) {
+                    return double(m[std::size_t(row) * 4]) * points[i][0] + double(m[std::size_t(row) * 4 + 1]) * points[i][1] +
+                           double(m[std::size_t(row) * 4 + 2]) * points[i][2] + double(m[std::size_t(row) * 4 + 3]);
+                };
+                const double w = apply(map.world_to_ndc, 3);
+                if (w <= 0) continue;
+                const double ndc_x = apply(map.world_to_ndc, 0) / w, ndc_y = apply(map.world_to_ndc, 1) / w;
+                if (ndc_x < 0 || ndc_x > 1 || ndc_y < 0 || ndc_y > 1) continue;
+                const double cx = apply(map.world_to_camera, 0), cy = apply(map.world_to_camera, 1), cz = apply(map.world_to_camera, 2);
+                // sombra's depth (docs/deep_exr.md): distance from the light, camera z for directional lights
+                const double depth = type == LightType::Directional ? cz : std::sqrt(cx * cx + cy * cy + cz * cz);
+                const double u = ndc_x * res - 0.5, v = ndc_y * res - 0.5;
+                const int x0 = int(std::floor(u)), y0 = int(std::floor(v));
+                const double fu = u - x0, fv = v - y0;
+                auto at = [&](int x, int y) {
+                    x = std::clamp(x, 0, res - 1), y = std::clamp(y, 0, res - 1);
+                    return texel_opacity(map, std::size_t(y) * res + std::size_t(x), depth);
+                };
+                const double alpha = (1 - fv) * ((1 - fu) * at(x0, y0) + fu * at(x0 + 1, y0)) +
+                                     fv * ((1 - fu) * at(x0, y0 + 1) + fu * at(x0 + 1, y0 + 1));
+                worst = std::max(worst, std::fabs(kernel[i] - (1 - alpha)));
+                ++placed;
+                break;
+            }
+        }
+        INFO("light type " << int(type) << ": " << placed << " points placed, max |kernel − file lookup| " << worst);
+        CHECK(placed > 300);
+        CHECK(worst < 1e-4);
+    }
 }
 
 TEST_CASE("every storage backend stores the same nodes and renders the same image", "[dsm][storage]") {

@@ -1,6 +1,8 @@
 // sombra tests — the ground-truth transmittance (reference_transmittance) against closed forms,
 // and the deep OpenEXR form of deep shadow maps.
 #include <OpenImageIO/deepdata.h>
+#include <OpenImageIO/imagebuf.h>
+#include <OpenImageIO/imagebufalgo.h>
 #include <OpenImageIO/imageio.h>
 
 #include <algorithm>
@@ -404,9 +406,10 @@ bool exists(const std::string& path) { return std::filesystem::exists(path); }
 
 }  // namespace
 
-TEST_CASE("deep EXR: exact round trip, scanline deep file", "[shadow_reference]") {
+TEST_CASE("deep EXR: round trip, scanline deep file", "[shadow_reference]") {
     std::mt19937 rng(11);
-    const DeepShadowMap map = random_map(rng, 13, 7);
+    DeepShadowMap map = random_map(rng, 13, 7);
+    for (std::size_t i = 0; i < 16; ++i) map.world_to_camera[i] = float(i) + 0.5f, map.world_to_ndc[i] = -float(i);
     const std::string path = test::temp_dir() + "/dsm_roundtrip.exr";
     write_deep_exr(map, path);
     REQUIRE(exists(path));
@@ -418,10 +421,13 @@ TEST_CASE("deep EXR: exact round trip, scanline deep file", "[shadow_reference]"
     CHECK(back.light_name == map.light_name);
     CHECK(back.first == map.first);
     REQUIRE(back.nodes.size() == map.nodes.size());
+    // depths exact; opacities through float per-sample alphas (measured max error 6e-8)
     std::size_t mismatches = 0;
     for (std::size_t i = 0; i < map.nodes.size(); ++i)
-        if (back.nodes[i].depth != map.nodes[i].depth || back.nodes[i].opacity != map.nodes[i].opacity) ++mismatches;
+        if (back.nodes[i].depth != map.nodes[i].depth || std::fabs(back.nodes[i].opacity - map.nodes[i].opacity) > 1e-6f) ++mismatches;
     CHECK(mismatches == 0);
+    CHECK(back.world_to_camera == map.world_to_camera);
+    CHECK(back.world_to_ndc == map.world_to_ndc);
     std::size_t empty = 0;
     for (int t = 0; t < map.width * map.height; ++t) empty += map.first[t] == map.first[t + 1];
     CHECK(empty > 0);  // the map does have fully lit texels
@@ -438,6 +444,12 @@ TEST_CASE("deep EXR: exact round trip, scanline deep file", "[shadow_reference]"
     CHECK(spec.channelnames[1] == "Z");
     CHECK(spec.channelnames[2] == "ZBack");
     CHECK(spec.get_string_attribute("sombra:light") == "lights[1].+x");
+    CHECK(spec.get_int_attribute("sombra:format") == 2);
+    // OpenEXR's worldToCamera holds Imath's row-vector matrix: the transpose of the map's
+    const OIIO::ParamValue* camera = spec.find_attribute("worldToCamera", OIIO::TypeMatrix);
+    REQUIRE(camera);
+    CHECK(static_cast<const float*>(camera->data())[1] == map.world_to_camera[4]);
+    CHECK(spec.find_attribute("worldToNDC", OIIO::TypeMatrix));
     OIIO::DeepData dd;
     REQUIRE(in->read_native_deep_image(0, 0, dd));
     bool zback_is_z = true;
@@ -511,4 +523,115 @@ TEST_CASE("deep EXR: reading a file that is not a deep EXR throws", "[shadow_ref
         std::fclose(f);
     }
     REQUIRE_THROWS_AS(read_deep_exr(dir + "/garbage.exr"), Error);
+}
+
+namespace {
+
+// A deep EXR written with OpenImageIO: `samples[texel]` holds (A, Z, ZBack) triples; with `light`,
+// the file carries sombra's light attribute (as sombra's files before format 2 did).
+using Sample = std::array<float, 3>;
+void write_deep_file(const std::string& path, int width, int height, const std::vector<std::vector<Sample>>& samples,
+                     const char* light) {
+    OIIO::ImageSpec spec(width, height, 3, OIIO::TypeDesc::FLOAT);
+    spec.channelnames = {"A", "Z", "ZBack"};
+    spec.alpha_channel = 0, spec.z_channel = 1, spec.deep = true;
+    spec.attribute("compression", "zips");
+    if (light) spec.attribute("sombra:light", light);
+    OIIO::DeepData deep;
+    deep.init(spec);
+    for (std::size_t t = 0; t < samples.size(); ++t) deep.set_samples(int64_t(t), int(samples[t].size()));
+    for (std::size_t t = 0; t < samples.size(); ++t)
+        for (std::size_t s = 0; s < samples[t].size(); ++s)
+            for (int c = 0; c < 3; ++c) deep.set_deep_value(int64_t(t), c, int(s), samples[t][s][std::size_t(c)]);
+    auto out = OIIO::ImageOutput::create("openexr");
+    REQUIRE((out->open(path, spec) && out->write_deep_image(deep) && out->close()));
+}
+
+}  // namespace
+
+TEST_CASE("deep EXR: sombra's old files (A = accumulated opacity, no sombra:format) still read", "[shadow_reference]") {
+    std::mt19937 rng(13);
+    const DeepShadowMap map = random_map(rng, 5, 4);
+    std::vector<std::vector<Sample>> samples(std::size_t(map.width * map.height));
+    for (std::size_t t = 0; t < samples.size(); ++t)
+        for (std::uint32_t n = map.first[t]; n < map.first[t + 1]; ++n)
+            samples[t].push_back({map.nodes[n].opacity, map.nodes[n].depth, map.nodes[n].depth});
+    const std::string path = test::temp_dir() + "/dsm_old_format.exr";
+    write_deep_file(path, map.width, map.height, samples, "lights[1].+x");
+    const DeepShadowMap back = read_deep_exr(path);
+    CHECK(back.first == map.first);
+    REQUIRE(back.nodes.size() == map.nodes.size());
+    std::size_t mismatches = 0;
+    for (std::size_t i = 0; i < map.nodes.size(); ++i)
+        mismatches += back.nodes[i].depth != map.nodes[i].depth || back.nodes[i].opacity != map.nodes[i].opacity;
+    CHECK(mismatches == 0);  // bit for bit: A was stored as it is
+    CHECK(back.world_to_camera == DeepShadowMap().world_to_camera);  // old files do not place the map
+}
+
+TEST_CASE("deep EXR: files of other tools (per-sample alpha, any order, volumetric samples)", "[shadow_reference]") {
+    const std::string path = test::temp_dir() + "/dsm_foreign.exr";
+    // texel 0: two point samples out of order; texel 1: a volumetric sample [2, 3] then a point at 4
+    write_deep_file(path, 2, 1, {{{0.5f, 3.f, 3.f}, {0.2f, 1.f, 1.f}}, {{0.5f, 2.f, 3.f}, {1.f, 4.f, 4.f}}}, nullptr);
+    const DeepShadowMap map = read_deep_exr(path);
+    REQUIRE(map.first == std::vector<std::uint32_t>{0, 2, 5});
+    const std::vector<std::array<float, 2>> expected = {{1.f, 0.2f}, {3.f, 0.6f}, {2.f, 0.f}, {3.f, 0.5f}, {4.f, 1.f}};
+    for (std::size_t i = 0; i < expected.size(); ++i) {
+        INFO("node " << i);
+        CHECK(map.nodes[i].depth == expected[i][0]);
+        CHECK(map.nodes[i].opacity == Approx(expected[i][1]).margin(1e-6));
+    }
+    CHECK(map.light_name.empty());
+
+    write_deep_file(path, 1, 1, {{{1.5f, 1.f, 1.f}}}, nullptr);
+    CHECK(test::error_of([&] { read_deep_exr(path); }) ==
+          path + ": texel (0, 0) sample 0 A: must lie in [0, 1], got 1.500000");
+    write_deep_file(path, 1, 1, {{{0.5f, 1.f, 3.f}, {0.5f, 2.f, 2.f}}}, nullptr);
+    CHECK_THAT(test::error_of([&] { read_deep_exr(path); }),
+               Catch::StartsWith(path + ": texel (0, 0) sample 1 Z: overlaps the sample before it"));
+}
+
+TEST_CASE("deep EXR: OpenImageIO's flatten of every texel gives the map's opacity, A in [0, 1]", "[shadow_reference]") {
+    std::mt19937 rng(14);
+    DeepShadowMap map = random_map(rng, 16, 9);
+    // stiff cases: opacity above 1 (compression overshoot), an opaque node followed by more nodes
+    std::size_t texel = 0;
+    while (map.first[texel + 1] == map.first[texel]) ++texel;
+    map.nodes[map.first[texel + 1] - 1].opacity = 1.02f;  // the texel's last node: opacity stays non-decreasing
+    texel = 0;
+    while (map.first[texel + 1] - map.first[texel] < 3) ++texel;
+    map.nodes[map.first[texel]].opacity = 1.f;
+    for (std::uint32_t n = map.first[texel] + 1; n < map.first[texel + 1]; ++n) map.nodes[n].opacity = 1.f;
+    const std::string path = test::temp_dir() + "/dsm_flatten.exr";
+    write_deep_exr(map, path);
+
+    OIIO::ImageBuf deep(path);
+    REQUIRE(deep.read());
+    const OIIO::DeepData& dd = *deep.deepdata();
+    double worst_node = 0;
+    for (std::size_t t = 0; t < std::size_t(map.width * map.height); ++t) {
+        double transmittance = 1;  // OpenEXR's front-to-back "over" of the samples up to each node
+        for (std::uint32_t n = map.first[t]; n < map.first[t + 1]; ++n) {
+            const float a = dd.deep_value(int64_t(t), 0, int(n - map.first[t]));
+            REQUIRE((a >= 0.f && a <= 1.f));
+            transmittance *= 1 - a;
+            worst_node = std::max(worst_node, std::fabs(1 - transmittance - std::clamp(map.nodes[n].opacity, 0.f, 1.f)));
+        }
+    }
+    CHECK(worst_node < 1e-6);
+
+    OIIO::ImageBuf flat = OIIO::ImageBufAlgo::flatten(deep);
+    REQUIRE(!flat.has_error());
+    const int a_channel = flat.spec().channelindex("A");
+    REQUIRE(a_channel >= 0);
+    double worst_far = 0;
+    for (int y = 0; y < map.height; ++y)
+        for (int x = 0; x < map.width; ++x) {
+            const std::size_t t = std::size_t(y * map.width + x);
+            const double far = map.first[t] == map.first[t + 1] ? 0.0 : std::clamp(map.nodes[map.first[t + 1] - 1].opacity, 0.f, 1.f);
+            worst_far = std::max(worst_far, std::fabs(flat.getchannel(x, y, 0, a_channel) - far));
+        }
+    INFO("max |flatten A − opacity at the far end| " << worst_far);
+    CHECK(worst_far < 1e-6);
+    const DeepShadowMap back = read_deep_exr(path);
+    CHECK(back.nodes[map.first[texel + 1] - 1].opacity == 1.f);  // opaque stays opaque, no NaN
 }

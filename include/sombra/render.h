@@ -96,6 +96,13 @@ struct RenderOptions {
     int lanes = 0;
 };
 
+// The enumerated options by name, as the command line, --stats and the Python module spell them
+// ("dsm", "sobel", …). option: "shadows", "gradient", "shading" or "storage" (volume storage).
+// An unknown option or value throws sombra::Error naming it and the accepted ones.
+std::vector<std::string> render_option_values(const std::string& option);  // the value names, in order
+void set_render_option(RenderOptions& options, const std::string& option, const std::string& value);
+std::string render_option_value(const RenderOptions& options, const std::string& option);
+
 // Linear RGB + alpha (coverage = 1 − t_acc), background already composited into RGB.
 struct Image {
     int width = 0, height = 0;

@@ -57,6 +57,10 @@ struct MeshInstance {
 
 enum class LightType { Directional, Spot, Point };
 
+// A light type by name, as scene files spell it: "directional", "spot", "point" (or "omni");
+// otherwise throws sombra::Error "unknown light type 'NAME' (directional, spot, point)".
+LightType parse_light_type(const std::string& name);
+
 struct Light {
     LightType type = LightType::Directional;
     Vec3 position{0, 0, 0};   // spot, point

@@ -1,6 +1,7 @@
 // sombra — shadow data on the host: deep shadow maps as node lists, their deep OpenEXR form, and
 // the brute-force transmittance every shadow technique is measured against.
 #pragma once
+#include <array>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -26,11 +27,24 @@ struct DeepShadowMap {
     std::vector<std::uint32_t> first;  // width·height + 1 offsets
     std::vector<DsmNode> nodes;
     std::string light_name;  // e.g. "lights[0]", "lights[1].+x"
+    // Where the map lies in the world, in OpenEXR's (and RenderMan's) conventions; row-major,
+    // column vectors (p' = M·p, like VolumeInstance::transform). world_to_camera: to the light's
+    // left-handed camera space (x right, y up in the map, z along the light; origin at the light,
+    // or at the centre of a directional light's near plane). world_to_ndc: to (0, 0) at the map's
+    // top-left corner … (1, 1) at its bottom-right, after division by w. Identity when unknown.
+    std::array<float, 16> world_to_camera{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+    std::array<float, 16> world_to_ndc{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
 };
 
-// Writes a scanline deep OpenEXR (channels A and Z per node; ZBack = Z) through OpenImageIO,
-// under a temporary name renamed at the end (no partial file). Throws sombra::Error.
+// A scanline deep OpenEXR that follows OpenEXR's deep convention, through OpenImageIO: one point
+// sample per node (Z = ZBack = the node's depth) whose A is the node's own alpha
+// 1 − V(z_i)/V(z_i−1), V = 1 − opacity clamped to [0, 1], so compositing a texel's samples front
+// to back (e.g. `oiiotool --flatten`) gives the node's opacity; worldToCamera and worldToNDC in
+// the header. Written under a temporary name renamed at the end (no partial file). Throws
+// sombra::Error. docs/deep_exr.md describes the file.
 void write_deep_exr(const DeepShadowMap& map, const std::string& path);
+// Reads sombra's files, old ones too (before sombra:format 2, A was the accumulated opacity), and
+// deep files of other tools (point samples, or volumetric samples that do not overlap).
 DeepShadowMap read_deep_exr(const std::string& path);
 
 // Ground truth: transmittance from world point p to light `light_index` of the scene, integrated

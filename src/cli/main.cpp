@@ -22,42 +22,8 @@
 
 namespace {
 
-// Names of the option values on the command line (and in --stats), each with its value.
-template <typename E>
-using Names = std::vector<std::pair<std::string, E>>;
-// the shadow techniques: the library's registry of technique modules
-Names<sombra::ShadowTechnique> shadow_names() {
-    Names<sombra::ShadowTechnique> names;
-    for (const std::string& name : sombra::shadow_technique_names()) names.emplace_back(name, sombra::parse_shadow_technique(name));
-    return names;
-}
-const Names<sombra::ShadowTechnique> kShadowNames = shadow_names();
-const Names<sombra::GradientMethod> kGradientNames = {{"central", sombra::GradientMethod::CentralDifferences},
-                                                      {"sobel", sombra::GradientMethod::Sobel}};
-const Names<sombra::ShadingModel> kShadingNames = {{"phong", sombra::ShadingModel::Phong},
-                                                   {"scattering", sombra::ShadingModel::Scattering}};
-const Names<sombra::VolumeStorage> kStorageNames = {{"auto", sombra::VolumeStorage::Auto},
-                                                    {"buffer", sombra::VolumeStorage::Buffer},
-                                                    {"image", sombra::VolumeStorage::Image}};
-
-template <typename E>
-std::string name_of(const Names<E>& names, E value) {
-    for (const auto& [name, v] : names)
-        if (v == value) return name;
-    return "?";
-}
-template <typename E>
-E value_of(const Names<E>& names, const std::string& name) {
-    for (const auto& [n, v] : names)
-        if (n == name) return v;
-    return names.front().second;  // unreachable: CLI::IsMember checked the name
-}
-template <typename E>
-CLI::IsMember member_of(const Names<E>& names) {
-    std::vector<std::string> keys;
-    for (const auto& entry : names) keys.push_back(entry.first);
-    return CLI::IsMember(keys);
-}
+// The enumerated options' names: the library's list (render.h render_option_values).
+CLI::IsMember member_of(const char* option) { return CLI::IsMember(sombra::render_option_values(option)); }
 
 const auto kStart = std::chrono::steady_clock::now();  // the whole command's wall clock starts here
 
@@ -77,9 +43,9 @@ double decimal(float value) {
 nlohmann::json options_json(const sombra::RenderOptions& o) {
     return {{"width", o.width},
             {"height", o.height},
-            {"shadows", name_of(kShadowNames, o.shadows)},
-            {"shading", name_of(kShadingNames, o.shading)},
-            {"gradient", name_of(kGradientNames, o.gradient)},
+            {"shadows", sombra::render_option_value(o, "shadows")},
+            {"shading", sombra::render_option_value(o, "shading")},
+            {"gradient", sombra::render_option_value(o, "gradient")},
             {"phase_g", decimal(o.phase_g)},
             {"dsm_resolution", o.dsm_resolution},
             {"dsm_epsilon", decimal(o.dsm_epsilon)},
@@ -92,7 +58,7 @@ nlohmann::json options_json(const sombra::RenderOptions& o) {
             {"lowpass_filter_kernel", o.lowpass_filter_kernel},
             {"lowpass_cache", o.lowpass_cache},
             {"cone_angle_deg", decimal(o.cone_angle_deg)},
-            {"storage", name_of(kStorageNames, o.storage)},
+            {"storage", sombra::render_option_value(o, "storage")},
             {"empty_space_skipping", o.empty_space_skipping},
             {"termination_transmittance", decimal(o.termination_transmittance)},
             {"jitter_seed", o.jitter_seed},
@@ -266,7 +232,7 @@ int run(int argc, char** argv) {
     app.set_version_flag("--version", std::string("sombra ") + SOMBRA_VERSION, "print the version and exit");
 
     std::string scene_path, output, device = "auto", stats_path, non_finite = "reject";
-    std::string gradient = name_of(kGradientNames, defaults.gradient), storage = name_of(kStorageNames, defaults.storage);
+    std::string gradient = sombra::render_option_value(defaults, "gradient"), storage = sombra::render_option_value(defaults, "storage");
     int width = defaults.width, height = defaults.height;
     unsigned seed = defaults.jitter_seed;
     bool no_skip = !defaults.empty_space_skipping;
@@ -278,18 +244,18 @@ int run(int argc, char** argv) {
     render->add_option("--height", height, "image height (default: the scene's)")->check(image_side);
     render->add_option("--device", device, "auto, cpu, gpu, or an index from `sombra devices`");
     render->add_option("--stats", stats_path, "write per-stage times and sample counts as JSON");
-    render->add_option("--gradient", gradient, "central or sobel")->check(member_of(kGradientNames));
-    std::string shading = name_of(kShadingNames, defaults.shading);
+    render->add_option("--gradient", gradient, "central or sobel")->check(member_of("gradient"));
+    std::string shading = sombra::render_option_value(defaults, "shading");
     float phase_g = defaults.phase_g;
     render->add_option("--shading", shading,
                        "phong (gradient normals) or scattering (single scattering with shadows, Ament 2014 Eq. 1-3)")
-        ->check(member_of(kShadingNames));
+        ->check(member_of("shading"));
     render->add_option("--phase-g", phase_g, "Henyey-Greenstein asymmetry g in (-1, 1) for --shading scattering (0: isotropic)");
-    std::string shadows = name_of(kShadowNames, defaults.shadows);
+    std::string shadows = sombra::render_option_value(defaults, "shadows");
     std::string shadows_help = "the shadow technique:";
-    for (const auto& [name, technique] : kShadowNames)
-        shadows_help += "\n  " + name + ": " + sombra::shadow_technique_summary(technique);
-    render->add_option("--shadows", shadows, shadows_help)->check(member_of(kShadowNames));
+    for (const std::string& name : sombra::render_option_values("shadows"))
+        shadows_help += "\n  " + name + ": " + sombra::shadow_technique_summary(sombra::parse_shadow_technique(name));
+    render->add_option("--shadows", shadows, shadows_help)->check(member_of("shadows"));
     float filter_width = defaults.lowpass_filter_width;
     render->add_option("--filter", filter_width, "lowpass: filter width in voxels (softness of the shadows); ao: cube side")
         ->check(in_range<float>(0, 4096));
@@ -320,7 +286,7 @@ int run(int argc, char** argv) {
     render->add_option("--eps", dsm_epsilon, "deep shadow map compression error bound ε (Knecht Eq. 3.1)")
         ->check(in_range<float>(0, 1e6f));
     render->add_option("--volume-storage", storage, "auto (buffer on CPUs, image on GPUs), buffer or image")
-        ->check(member_of(kStorageNames));
+        ->check(member_of("storage"));
     render->add_option("--non-finite", non_finite, "NaN/Inf voxels: reject (error) or sanitize (set to 0, warn)")
         ->check(CLI::IsMember({"reject", "sanitize"}));
     render->add_flag("--no-empty-space-skipping", no_skip, "march empty bricks too (for comparisons)");
@@ -412,14 +378,14 @@ int run(int argc, char** argv) {
     sombra::Context context(device);
     sombra::RenderOptions options;
     options.width = width, options.height = height;
-    options.gradient = value_of(kGradientNames, gradient);
-    options.shading = value_of(kShadingNames, shading);
+    sombra::set_render_option(options, "gradient", gradient);
+    sombra::set_render_option(options, "shading", shading);
     options.phase_g = phase_g;
-    options.storage = value_of(kStorageNames, storage);
+    sombra::set_render_option(options, "storage", storage);
     options.empty_space_skipping = !no_skip;
     options.jitter_seed = seed;
     options.lanes = lanes;
-    options.shadows = value_of(kShadowNames, shadows);
+    sombra::set_render_option(options, "shadows", shadows);
     options.lowpass_filter_width = filter_width;
     options.lowpass_filter_kernel = filter_kernel;
     options.cone_angle_deg = cone_angle;

@@ -24,6 +24,7 @@ std::vector<DeepShadowMap> build_deep_shadow_maps(Context& context, const Scene&
         const DsmViewGpu& view = dsm.views[light.view_first + v];
         maps.push_back(dsm.storage->read_back(runtime, view, light.view_first + v));
         maps.back().light_name = name;
+        shadows::place_map(view, maps.back());
     }
     if (stats_out) *stats_out = stats;
     return maps;

@@ -185,14 +185,26 @@ MeshInstance read_mesh(const json& j, const std::string& file, const std::string
     return mi;
 }
 
+}  // namespace
+
+LightType parse_light_type(const std::string& name) {
+    if (name == "directional") return LightType::Directional;
+    if (name == "spot") return LightType::Spot;
+    if (name == "point" || name == "omni") return LightType::Point;
+    throw Error("unknown light type '" + name + "' (directional, spot, point)");
+}
+
+namespace {
+
 Light read_light(const json& j, const std::string& file, const std::string& path) {
     JsonFields f(j, file, path);
     Light l;
-    std::string type = f.string("type");
-    if (type == "directional") l.type = LightType::Directional;
-    else if (type == "spot") l.type = LightType::Spot;
-    else if (type == "point" || type == "omni") l.type = LightType::Point;
-    else f.fail("type", "unknown light type '" + type + "' (directional, spot, point)");
+    const std::string type = f.string("type");
+    try {
+        l.type = parse_light_type(type);
+    } catch (const Error& e) {
+        f.fail("type", e.what());
+    }
     if (l.type != LightType::Directional) l.position = f.vec3("position", l.position);
     if (l.type != LightType::Point) {
         l.direction = f.vec3("direction", l.direction);

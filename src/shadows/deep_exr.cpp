@@ -1,12 +1,16 @@
-// sombra — deep shadow maps as scanline deep OpenEXR files (shadows.h: write_deep_exr, read_deep_exr).
+// sombra — deep shadow maps as scanline deep OpenEXR files (shadows.h: write_deep_exr, read_deep_exr;
+// docs/deep_exr.md).
 //
-// One deep sample per DSM node, in depth order, with float channels A (accumulated opacity),
-// Z (depth) and ZBack (= Z: point samples). The light's name travels in the header as the string
-// attribute "sombra:light". Scanline, not tiled: Nuke reads only scanline deep EXR.
+// One point sample per DSM node, in depth order, with float channels A (the node's own alpha, so
+// that OpenEXR's front-to-back compositing gives the accumulated opacity), Z (depth) and ZBack
+// (= Z). Header: the light's name ("sombra:light"), the format version ("sombra:format" = 2; files
+// without it but with "sombra:light" are sombra's older ones, whose A was the accumulated opacity),
+// worldToCamera and worldToNDC. Scanline, not tiled: Nuke reads only scanline deep EXR.
 #include <OpenImageIO/deepdata.h>
 #include <OpenImageIO/imageio.h>
 
 #include <algorithm>
+#include <array>
 #include <cctype>
 #include <cmath>
 #include <cstdint>
@@ -22,6 +26,13 @@ namespace sombra {
 namespace {
 
 constexpr const char* kLightAttribute = "sombra:light";
+constexpr const char* kFormatAttribute = "sombra:format";
+constexpr int kFormat = 2;  // 2: per-sample alpha; sombra's older files (no attribute): accumulated
+constexpr const char* kDepthAttribute = "sombra:depth";
+constexpr const char* kDepthConvention =
+    "Z = ZBack: distance from the light along the texel's ray (directional lights: camera-space z, from the near plane)";
+// OpenImageIO's names of OpenEXR's worldToCamera and worldToNDC (Imath order: row vectors)
+constexpr const char* kMatrixAttributes[2] = {"worldtocamera", "worldtoNDC"};
 
 std::string texel_name(const DeepShadowMap& map, std::size_t texel) {
     return "texel (" + std::to_string(texel % std::size_t(map.width)) + ", " +
@@ -77,6 +88,13 @@ private:
     std::string path_;
 };
 
+std::array<float, 16> transposed(const std::array<float, 16>& m) {
+    std::array<float, 16> t{};
+    for (std::size_t r = 0; r < 4; ++r)
+        for (std::size_t c = 0; c < 4; ++c) t[c * 4 + r] = m[r * 4 + c];
+    return t;
+}
+
 int channel_index(const OIIO::ImageSpec& spec, const std::string& name) {
     for (int c = 0; c < spec.nchannels; ++c)
         if (spec.channelnames[std::size_t(c)] == name) return c;
@@ -98,19 +116,32 @@ void write_deep_exr(const DeepShadowMap& map, const std::string& path) {
     spec.deep = true;
     spec.attribute("compression", "zips");  // deep EXR allows none, rle and zips only
     spec.attribute(kLightAttribute, map.light_name);
+    spec.attribute(kFormatAttribute, kFormat);
+    spec.attribute(kDepthAttribute, kDepthConvention);
+    const std::array<float, 16>* matrices[2] = {&map.world_to_camera, &map.world_to_ndc};
+    for (int m = 0; m < 2; ++m) {
+        const std::array<float, 16> imath = transposed(*matrices[m]);
+        spec.attribute(kMatrixAttributes[m], OIIO::TypeMatrix, imath.data());
+    }
 
     OIIO::DeepData deep;
     deep.init(spec);
     const std::size_t texels = std::size_t(map.width) * std::size_t(map.height);
     for (std::size_t texel = 0; texel < texels; ++texel)
         deep.set_samples(int64_t(texel), int(map.first[texel + 1] - map.first[texel]));
-    for (std::size_t texel = 0; texel < texels; ++texel)
+    for (std::size_t texel = 0; texel < texels; ++texel) {
+        // V of the samples written so far, as front-to-back compositing of the stored alphas gives it
+        double transmittance = 1.0;
         for (std::uint32_t n = map.first[texel]; n < map.first[texel + 1]; ++n) {
             const int s = int(n - map.first[texel]);
-            deep.set_deep_value(int64_t(texel), 0, s, map.nodes[n].opacity);
+            const double visibility = std::clamp(1.0 - double(map.nodes[n].opacity), 0.0, 1.0);
+            const float alpha = transmittance > 0.0 ? float(std::clamp(1.0 - visibility / transmittance, 0.0, 1.0)) : 1.f;
+            transmittance *= 1.0 - double(alpha);
+            deep.set_deep_value(int64_t(texel), 0, s, alpha);
             deep.set_deep_value(int64_t(texel), 1, s, map.nodes[n].depth);
             deep.set_deep_value(int64_t(texel), 2, s, map.nodes[n].depth);  // ZBack = Z: point samples
         }
+    }
 
     // Write under a temporary name next to the target (ending in .exr so OpenImageIO picks the EXR
     // writer), then rename: a failed write leaves no file behind.
@@ -140,6 +171,7 @@ DeepShadowMap read_deep_exr(const std::string& path) {
         throw Error(path + ": not a deep OpenEXR file (format " + std::string(in->format_name()) +
                     (spec.deep ? ", deep" : ", not deep") + ")");
     const int a_channel = channel_index(spec, "A"), z_channel = channel_index(spec, "Z");
+    const int zback_channel = channel_index(spec, "ZBack");
     if (a_channel < 0 || z_channel < 0) throw file_error(path, "channels", "needs channels A and Z");
     if (spec.width < 1 || spec.height < 1)
         throw file_error(path, "size", "empty image (" + std::to_string(spec.width) + "x" + std::to_string(spec.height) + ")");
@@ -151,14 +183,45 @@ DeepShadowMap read_deep_exr(const std::string& path) {
     map.width = spec.width;
     map.height = spec.height;
     map.light_name = spec.get_string_attribute(kLightAttribute);
+    std::array<float, 16>* matrices[2] = {&map.world_to_camera, &map.world_to_ndc};
+    for (int m = 0; m < 2; ++m)
+        if (const OIIO::ParamValue* p = spec.find_attribute(kMatrixAttributes[m], OIIO::TypeMatrix)) {
+            std::array<float, 16> imath{};
+            std::copy_n(static_cast<const float*>(p->data()), 16, imath.begin());
+            *matrices[m] = transposed(imath);
+        }
+    // sombra's files before format 2 hold the accumulated opacity in A
+    const bool accumulated = spec.find_attribute(kLightAttribute) && spec.get_int_attribute(kFormatAttribute, 1) < 2;
     const std::size_t texels = std::size_t(map.width) * std::size_t(map.height);
     if (std::size_t(deep.pixels()) != texels)
         throw file_error(path, "deep data", "has " + std::to_string(deep.pixels()) + " pixels, expected " + std::to_string(texels));
     map.first.assign(texels + 1, 0);
     for (std::size_t texel = 0; texel < texels; ++texel) {
-        const int samples = deep.samples(int64_t(texel));
-        for (int s = 0; s < samples; ++s)
-            map.nodes.push_back({deep.deep_value(int64_t(texel), z_channel, s), deep.deep_value(int64_t(texel), a_channel, s)});
+        const int64_t pixel = int64_t(texel);
+        const int samples = deep.samples(pixel);
+        if (accumulated) {
+            for (int s = 0; s < samples; ++s)
+                map.nodes.push_back({deep.deep_value(pixel, z_channel, s), deep.deep_value(pixel, a_channel, s)});
+        } else {
+            deep.sort(pixel);  // OpenEXR does not require depth order
+            double transmittance = 1.0, previous_back = -INFINITY;
+            for (int s = 0; s < samples; ++s) {
+                const float front = deep.deep_value(pixel, z_channel, s), alpha = deep.deep_value(pixel, a_channel, s);
+                const float back = zback_channel < 0 ? front : deep.deep_value(pixel, zback_channel, s);
+                const std::string field = texel_name(map, texel) + " sample " + std::to_string(s);
+                if (!(alpha >= 0.f && alpha <= 1.f))
+                    throw file_error(path, field + " A", "must lie in [0, 1], got " + std::to_string(alpha));
+                if (!(back >= front)) throw file_error(path, field + " ZBack", "must be >= Z, got " + std::to_string(back));
+                if (front < previous_back)
+                    throw file_error(path, field + " Z", "overlaps the sample before it (ends at " + std::to_string(previous_back) +
+                                                              "): sombra reads point samples or disjoint volumetric ones");
+                // a volumetric sample: opacity goes linearly (as between DSM nodes) from its front to its back
+                if (back > front) map.nodes.push_back({front, float(1.0 - transmittance)});
+                transmittance *= 1.0 - double(alpha);
+                map.nodes.push_back({back, float(1.0 - transmittance)});
+                previous_back = back;
+            }
+        }
         map.first[texel + 1] = std::uint32_t(map.nodes.size());
     }
     validate(map, path);  // a file from elsewhere must still be a valid map (finite, depth-sorted)

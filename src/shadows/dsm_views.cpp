@@ -115,6 +115,37 @@ std::vector<DsmViewGpu> make_dsm_views(const Scene& scene, packing::PackedScene&
     return views;
 }
 
+void place_map(const DsmViewGpu& view, DeepShadowMap& map) {
+    const cl_float4 axes[3] = {view.axis_x, view.axis_y, view.axis_z};
+    const float handedness[3] = {1.f, -1.f, 1.f};  // left-handed, y up: camera y = −axis_y
+    glm::mat4 camera(1.f);                        // glm: column-major, camera[column][row]
+    for (int r = 0; r < 3; ++r) {
+        float offset = 0.f;
+        for (int c = 0; c < 3; ++c) {
+            camera[c][r] = handedness[r] * axes[r].s[c];
+            offset -= camera[c][r] * view.origin.s[c];
+        }
+        camera[3][r] = offset;
+    }
+    // camera → NDC: x/(z·extent) ∈ [−1, 1] (perspective, w = z) or x/extent (orthographic, w = 1)
+    // to [0, 1], y flipped (NDC y goes down the rows)
+    const float w_from_z = view.perspective ? 1.f : 0.f;
+    glm::mat4 projection(0.f);
+    projection[0][0] = 0.5f / view.extent_x;
+    projection[1][1] = -0.5f / view.extent_y;
+    projection[2][0] = projection[2][1] = 0.5f * w_from_z;
+    projection[3][0] = projection[3][1] = 0.5f * (1.f - w_from_z);
+    projection[2][2] = 1.f;
+    projection[2][3] = w_from_z;
+    projection[3][3] = 1.f - w_from_z;
+    const glm::mat4 ndc = projection * camera;
+    for (int r = 0; r < 4; ++r)
+        for (int c = 0; c < 4; ++c) {
+            map.world_to_camera[std::size_t(r * 4 + c)] = camera[c][r];
+            map.world_to_ndc[std::size_t(r * 4 + c)] = ndc[c][r];
+        }
+}
+
 SubPixelMaps sub_pixel_views(const std::vector<DsmViewGpu>& views, const std::string& filter, bool jitter, unsigned seed) {
     if (filter != "box" && filter != "tent" && filter != "5tap")
         throw Error("--prefilter: unknown filter '" + filter + "' (none, box, tent, 5tap)");

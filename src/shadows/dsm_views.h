@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "geometry/scene_upload.h"
+#include "sombra/shadows.h"
 
 namespace sombra::shadows {
 
@@ -15,6 +16,10 @@ std::vector<std::array<float, 3>> scene_box_corners(const packing::PackedScene& 
 // Views for every light, in light order; sets packed.lights[i].view_first / view_count.
 // first_texel of each view is laid out consecutively (resolution² texels per view).
 std::vector<DsmViewGpu> make_dsm_views(const Scene& scene, packing::PackedScene& packed, int resolution);
+
+// Sets map.world_to_camera and map.world_to_ndc from the view (DeepShadowMap's conventions:
+// OpenEXR's camera and NDC spaces; texel rows go along axis_y, which is camera −y).
+void place_map(const DsmViewGpu& view, DeepShadowMap& map);
 
 // The sub-pixel maps a pre-filter merges (Lokovic & Veach 2000 §5.1; taps and sampling positions
 // in cl/shared/prefilter.h): `maps` views of resolution² texels per DSM view, in view order;

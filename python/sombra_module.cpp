@@ -1,0 +1,379 @@
+// sombra — Python bindings (pybind11): `import sombra` (docs/python.md). Thin: numpy arrays in and
+// out, option values as strings through the library's own parsers (render.h set_render_option,
+// scene.h parse_light_type).
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <memory>
+#include <sstream>
+
+#include "sombra/sombra.h"
+
+namespace py = pybind11;
+using namespace sombra;
+
+namespace {
+
+using FloatArray = py::array_t<float, py::array::c_style>;
+using DoubleArray = py::array_t<double, py::array::c_style>;
+
+std::string shape_of(const py::array& a) {
+    std::ostringstream s;
+    s << "(";
+    for (py::ssize_t d = 0; d < a.ndim(); ++d) s << (d ? ", " : "") << a.shape(d);
+    s << (a.ndim() == 1 ? ",)" : ")");
+    return s.str();
+}
+
+// `value` as a C-ordered array of `ndim` dimensions of T, the sizes in `sizes` (−1: any); otherwise
+// a ValueError naming the function and the argument. Python sequences and other real dtypes convert
+// only when `convert`; with it off the array must already be T.
+template <typename T>
+py::array_t<T, py::array::c_style> checked_array(const py::handle& value, const char* where, const char* name,
+                                                   std::vector<py::ssize_t> sizes, bool convert, const char* expected) {
+    auto fail = [&](const std::string& got) {
+        throw py::value_error(std::string(where) + ": " + name + ": expected " + expected + ", got " + got);
+    };
+    py::array array;
+    if (py::isinstance<py::array>(value)) {
+        array = py::reinterpret_borrow<py::array>(value);
+        if (!convert && !array.dtype().is(py::dtype::of<T>()))
+            fail("dtype " + std::string(py::str(array.dtype())) + " " + shape_of(array));
+        if (convert && array.dtype().kind() != 'f' && array.dtype().kind() != 'i' && array.dtype().kind() != 'u')
+            fail("dtype " + std::string(py::str(array.dtype())));
+    } else if (!convert) {
+        fail("a " + std::string(py::str(value.get_type().attr("__name__"))));
+    }
+    py::array_t<T, py::array::c_style> typed;
+    try {
+        typed = py::array_t<T, py::array::c_style | py::array::forcecast>::ensure(value);
+    } catch (const py::error_already_set&) {
+    }
+    if (!typed) fail("a " + std::string(py::str(value.get_type().attr("__name__"))) + " that is not a numeric array");
+    bool ok = typed.ndim() == py::ssize_t(sizes.size());
+    for (std::size_t d = 0; ok && d < sizes.size(); ++d) ok = sizes[d] < 0 || typed.shape(py::ssize_t(d)) == sizes[d];
+    if (!ok) fail("shape " + shape_of(typed));
+    const T* data = typed.data();
+    for (py::ssize_t i = 0; i < typed.size(); ++i)
+        if (!std::isfinite(double(data[i]))) fail("a non-finite value at flat index " + std::to_string(i));
+    return typed;
+}
+
+Vec3 vec3(const py::handle& value, const char* where, const char* name) {
+    auto a = checked_array<float>(value, where, name, {3}, true, "3 numbers");
+    return {a.at(0), a.at(1), a.at(2)};
+}
+
+std::array<float, 16> matrix4(const py::handle& value, const char* where, const char* name) {
+    auto a = checked_array<float>(value, where, name, {4, 4}, true, "a 4×4 matrix");
+    std::array<float, 16> m{};
+    std::copy_n(a.data(), 16, m.begin());
+    return m;
+}
+
+py::array_t<float> matrix_array(const std::array<float, 16>& m) {
+    py::array_t<float> a({4, 4});
+    std::copy(m.begin(), m.end(), a.mutable_data());
+    return a;
+}
+
+py::tuple tuple3(const Vec3& v) { return py::make_tuple(v[0], v[1], v[2]); }
+
+// Keyword options onto RenderOptions: the attributes of the bound RenderOptions class, so the
+// names and types are those of render.h; enumerated ones take their names (render_option_values).
+RenderOptions render_options(const py::object& options, const py::kwargs& kwargs, const char* where) {
+    py::object o = options.is_none() ? py::cast(RenderOptions{}) : options.attr("copy")();
+    if (!py::isinstance<RenderOptions>(o)) throw py::value_error(std::string(where) + ": options: expected a sombra.RenderOptions");
+    for (const auto& [key, value] : kwargs) {
+        const std::string name = py::str(key);
+        if (name.empty() || name[0] == '_' || !py::hasattr(o, key) || name == "copy")
+            throw py::value_error(std::string(where) + ": unknown option '" + name + "' (see sombra.RenderOptions)");
+        try {
+            o.attr(key) = value;
+        } catch (const py::error_already_set& e) {  // a wrong type, or a name the library does not know
+            const std::string why = e.matches(PyExc_TypeError)
+                                        ? "expected " + std::string(py::str(o.attr(key).get_type().attr("__name__"))) + ", got " +
+                                              std::string(py::str(value.get_type().attr("__name__")))
+                                        : std::string(py::str(e.value()));  // the library names the option
+            throw py::value_error(std::string(where) + ": " + (e.matches(PyExc_TypeError) ? name + ": " : "") + why);
+        }
+    }
+    return o.cast<RenderOptions>();
+}
+
+py::dict stats_dict(const RenderStats& stats) { return py::module_::import("json").attr("loads")(stats.to_json()); }
+
+std::vector<Vec3> points_of(const py::handle& points, const char* where) {
+    auto a = checked_array<double>(points, where, "points", {-1, 3}, true, "an (N, 3) array of world points");
+    std::vector<Vec3> result(std::size_t(a.shape(0)));
+    for (std::size_t i = 0; i < result.size(); ++i)
+        for (std::size_t k = 0; k < 3; ++k) result[i][k] = float(a.data()[i * 3 + k]);
+    return result;
+}
+
+// Transfer function points as an (N, columns) array: x first, sorted, at least one row.
+template <typename Point>
+std::vector<Point> tf_points(const py::handle& value, const char* name, py::ssize_t columns, const char* expected) {
+    auto a = checked_array<float>(value, "Scene.add_volume", name, {-1, columns}, true, expected);
+    if (a.shape(0) < 1) throw py::value_error(std::string("Scene.add_volume: ") + name + ": needs at least one point");
+    std::vector<Point> points(std::size_t(a.shape(0)));
+    for (std::size_t i = 0; i < points.size(); ++i) {
+        std::memcpy(&points[i], a.data() + i * std::size_t(columns), sizeof(Point));
+        if (i && !(points[i].x > points[i - 1].x))
+            throw py::value_error(std::string("Scene.add_volume: ") + name + ": x must increase (row " + std::to_string(i) + ")");
+    }
+    return points;
+}
+
+}  // namespace
+
+PYBIND11_MODULE(sombra, m) {
+    m.doc() = "sombra: volumetric shadows (deep shadow maps, shadow rays, low-pass SAT shadows) on OpenCL";
+    py::register_exception<Error>(m, "Error", PyExc_RuntimeError);
+
+    py::class_<Context>(m, "Context", "An OpenCL device with its compiled kernels and kept scene data.")
+        .def(py::init<const std::string&>(), py::arg("device") = "auto",
+             "device: 'auto', 'cpu', 'gpu' or an index of list_devices()")
+        .def_property_readonly("device", [](const Context& c) { return c.device().name; })
+        .def("release_prepared_scenes", &Context::release_prepared_scenes);
+    m.def("list_devices", [] {
+        py::list devices;
+        for (const DeviceInfo& d : list_devices())
+            devices.append(py::dict(py::arg("index") = d.index, py::arg("name") = d.name, py::arg("platform") = d.platform,
+                                    py::arg("is_gpu") = d.is_gpu));
+        return devices;
+    });
+
+    py::class_<RenderOptions> options(m, "RenderOptions", "render.h RenderOptions; enumerated options take names.");
+    options.def(py::init<>())
+        .def("copy", [](const RenderOptions& o) { return RenderOptions(o); })
+        .def_readwrite("width", &RenderOptions::width)
+        .def_readwrite("height", &RenderOptions::height)
+        .def_readwrite("phase_g", &RenderOptions::phase_g)
+        .def_readwrite("dsm_resolution", &RenderOptions::dsm_resolution)
+        .def_readwrite("dsm_epsilon", &RenderOptions::dsm_epsilon)
+        .def_readwrite("dsm_storage", &RenderOptions::dsm_storage)
+        .def_readwrite("dsm_precompression", &RenderOptions::dsm_precompression)
+        .def_readwrite("dsm_prefilter", &RenderOptions::dsm_prefilter)
+        .def_readwrite("dsm_prefilter_jitter", &RenderOptions::dsm_prefilter_jitter)
+        .def_readwrite("dsm_prefilter_seed", &RenderOptions::dsm_prefilter_seed)
+        .def_readwrite("lowpass_filter_width", &RenderOptions::lowpass_filter_width)
+        .def_readwrite("lowpass_filter_kernel", &RenderOptions::lowpass_filter_kernel)
+        .def_readwrite("cone_angle_deg", &RenderOptions::cone_angle_deg)
+        .def_readwrite("lowpass_max_entries", &RenderOptions::lowpass_max_entries)
+        .def_readwrite("lowpass_cache", &RenderOptions::lowpass_cache)
+        .def_readwrite("empty_space_skipping", &RenderOptions::empty_space_skipping)
+        .def_readwrite("termination_transmittance", &RenderOptions::termination_transmittance)
+        .def_readwrite("jitter_seed", &RenderOptions::jitter_seed)
+        .def_readwrite("lanes", &RenderOptions::lanes);
+    // "shadows", "gradient", "shading", "storage": strings, parsed by the library
+    for (const char* name : {"shadows", "gradient", "shading", "storage"})
+        options.def_property(
+            name, [name](const RenderOptions& o) { return render_option_value(o, name); },
+            [name](RenderOptions& o, const std::string& value) { set_render_option(o, name, value); });
+    options.def("__repr__", [](const py::object& self) {
+        std::string text = "sombra.RenderOptions(";
+        bool first = true;
+        for (const py::handle& key : py::module_::import("builtins").attr("dir")(self)) {
+            const std::string name = py::str(key);
+            if (name[0] == '_' || name == "copy") continue;
+            text += (first ? "" : ", ") + name + "=" + std::string(py::repr(self.attr(key)));
+            first = false;
+        }
+        return text + ")";
+    });
+
+    py::class_<Scene>(m, "Scene", "A scene: volumes (numpy arrays), lights, camera, background.")
+        .def(py::init([](int width, int height) {
+                 Scene s;
+                 s.width = width, s.height = height;
+                 return s;
+             }),
+             py::arg("width") = 512, py::arg("height") = 512)
+        .def_readwrite("width", &Scene::width)
+        .def_readwrite("height", &Scene::height)
+        .def_readwrite("ambient_intensity", &Scene::ambient_intensity)
+        .def_property(
+            "background", [](const Scene& s) { return tuple3(s.background); },
+            [](Scene& s, const py::object& v) { s.background = vec3(v, "Scene.background", "background"); })
+        .def_property_readonly("volume_count", [](const Scene& s) { return s.volumes.size(); })
+        .def_property_readonly("light_count", [](const Scene& s) { return s.lights.size(); })
+        .def_property_readonly("source", [](const Scene& s) { return s.source; })
+        .def(
+            "set_camera",
+            [](Scene& s, const py::object& position, const py::object& look_at, const py::object& up, float fov_y_deg) {
+                s.camera.position = vec3(position, "Scene.set_camera", "position");
+                s.camera.look_at = vec3(look_at, "Scene.set_camera", "look_at");
+                s.camera.up = vec3(up, "Scene.set_camera", "up");
+                s.camera.fov_y_deg = fov_y_deg;
+            },
+            py::arg("position"), py::arg("look_at"), py::arg("up") = py::make_tuple(0, 1, 0), py::arg("fov_y_deg") = 40.f)
+        .def(
+            "add_volume",
+            [](Scene& s, const py::object& voxels, const py::object& spacing, const py::object& transform,
+               const py::object& opacity, const py::object& color, float step_voxels, float opacity_unit, const std::string& name) {
+                auto a = checked_array<float>(voxels, "Scene.add_volume", "voxels", {-1, -1, -1}, false,
+                                              "a float32 array of shape (z, y, x)");
+                if (a.size() == 0) throw py::value_error("Scene.add_volume: voxels: empty array " + shape_of(a));
+                auto volume = std::make_shared<Volume>();
+                volume->dims = {int(a.shape(2)), int(a.shape(1)), int(a.shape(0))};  // x fastest: C order (z, y, x)
+                volume->voxels.assign(a.data(), a.data() + a.size());
+                volume->spacing = vec3(spacing, "Scene.add_volume", "spacing");
+                for (float sp : volume->spacing)
+                    if (!(sp > 0.f)) throw py::value_error("Scene.add_volume: spacing: must be > 0");
+                volume->source = name.empty() ? "numpy array" : name;
+                volume->update_range();
+                VolumeInstance vi;
+                vi.volume = volume;
+                vi.spacing = volume->spacing;
+                if (!transform.is_none()) vi.transform = matrix4(transform, "Scene.add_volume", "transform");
+                vi.transfer_function.opacity_points =
+                    tf_points<TransferFunction::OpacityPoint>(opacity, "opacity", 2, "(N, 2) rows of (value, alpha)");
+                vi.transfer_function.color_points =
+                    tf_points<TransferFunction::ColorPoint>(color, "color", 4, "(N, 4) rows of (value, r, g, b)");
+                vi.step_voxels = step_voxels;
+                vi.opacity_unit = opacity_unit;
+                vi.name = name;
+                s.volumes.push_back(vi);
+                return s.volumes.size() - 1;
+            },
+            py::arg("voxels"), py::arg("spacing") = py::make_tuple(1, 1, 1), py::arg("transform") = py::none(),
+            py::arg("opacity") = std::vector<std::array<float, 2>>{{0.f, 0.f}, {1.f, 1.f}},
+            py::arg("color") = std::vector<std::array<float, 4>>{{0.f, 1.f, 1.f, 1.f}}, py::arg("step_voxels") = 0.5f,
+            py::arg("opacity_unit") = 0.f, py::arg("name") = "",
+            "voxels: float32 (z, y, x) in C order, voxel (x, y, z) at ((x − (nx−1)/2)·spacing, …) of the object "
+            "frame, then `transform` (4×4, row-major, column vectors). Returns the volume's index.")
+        .def(
+            "add_light",
+            [](Scene& s, const std::string& type, const py::object& position, const py::object& direction,
+               const py::object& color, float intensity, float cone_angle_deg) {
+                Light l;
+                try {
+                    l.type = parse_light_type(type);
+                } catch (const Error& e) {
+                    throw py::value_error(std::string("Scene.add_light: type: ") + e.what());
+                }
+                l.position = vec3(position, "Scene.add_light", "position");
+                l.direction = vec3(direction, "Scene.add_light", "direction");
+                const double length = std::hypot(double(l.direction[0]), double(l.direction[1]), double(l.direction[2]));
+                if (!(length > 1e-6)) throw py::value_error("Scene.add_light: direction: must be a non-zero vector");
+                for (float& c : l.direction) c = float(c / length);  // as scene files are read
+                l.color = vec3(color, "Scene.add_light", "color");
+                l.intensity = intensity;
+                l.cone_angle_deg = cone_angle_deg;
+                s.lights.push_back(l);
+                return s.lights.size() - 1;
+            },
+            py::arg("type"), py::arg("position") = py::make_tuple(0, 0, 0), py::arg("direction") = py::make_tuple(0, 0, -1),
+            py::arg("color") = py::make_tuple(1, 1, 1), py::arg("intensity") = 1.f, py::arg("cone_angle_deg") = 30.f,
+            "type: 'directional', 'spot' or 'point'. Returns the light's index.")
+        .def("__repr__", [](const Scene& s) {
+            return "sombra.Scene(" + std::to_string(s.volumes.size()) + " volumes, " + std::to_string(s.lights.size()) +
+                   " lights, " + std::to_string(s.width) + "x" + std::to_string(s.height) + ")";
+        });
+
+    m.def(
+        "load_scene",
+        [](const std::string& path, const std::string& non_finite) {
+            VolumeLoadOptions load;
+            if (non_finite != "reject" && non_finite != "sanitize")
+                throw py::value_error("load_scene: non_finite: expected 'reject' or 'sanitize', got '" + non_finite + "'");
+            load.non_finite = non_finite == "sanitize" ? NonFinitePolicy::Sanitize : NonFinitePolicy::Reject;
+            return load_scene(path, load);
+        },
+        py::arg("path"), py::arg("non_finite") = "reject", "A scene file (JSON), as `sombra render` reads it.");
+
+    m.def(
+        "render",
+        [](Context& context, const Scene& scene, const py::object& options, const py::kwargs& kwargs) {
+            RenderOptions o = render_options(options, kwargs, "render");
+            RenderResult result;
+            {
+                py::gil_scoped_release release;
+                result = render(context, scene, o);
+            }
+            py::array_t<float> image({py::ssize_t(result.image.height), py::ssize_t(result.image.width), py::ssize_t(4)});
+            std::copy(result.image.rgba.begin(), result.image.rgba.end(), image.mutable_data());
+            return py::make_tuple(image, stats_dict(result.stats));
+        },
+        py::arg("context"), py::arg("scene"), py::arg("options") = py::none(),
+        "Returns (image, stats): float32 (height, width, 4) linear RGBA, top row first, background composited; "
+        "the stats as `sombra render --stats` writes them. Options: a RenderOptions and/or its attributes as keywords.");
+
+    m.def(
+        "shadow_transmittance",
+        [](Context& context, const Scene& scene, int light, const py::object& points, const py::object& options,
+           const py::kwargs& kwargs) {
+            RenderOptions o = render_options(options, kwargs, "shadow_transmittance");
+            std::vector<Vec3> p = points_of(points, "shadow_transmittance");
+            ShadowQuery query;
+            {
+                py::gil_scoped_release release;
+                query = shadow_transmittance(context, scene, light, p, o);
+            }
+            return py::make_tuple(py::array_t<double>(py::ssize_t(query.transmittance.size()), query.transmittance.data()),
+                                  stats_dict(query.stats));
+        },
+        py::arg("context"), py::arg("scene"), py::arg("light"), py::arg("points"), py::arg("options") = py::none(),
+        "Transmittance to light `light` at (N, 3) world points by options.shadows ('rays' or 'dsm'); returns (T, stats).");
+
+    m.def(
+        "reference_transmittance",
+        [](const Scene& scene, int light, const py::object& points, double step_voxels) {
+            std::vector<Vec3> p = points_of(points, "reference_transmittance");
+            py::array_t<double> result(py::ssize_t(p.size()));
+            double* out = result.mutable_data();
+            {
+                py::gil_scoped_release release;
+                for (std::size_t i = 0; i < p.size(); ++i) out[i] = reference_transmittance(scene, light, p[i], step_voxels);
+            }
+            return result;
+        },
+        py::arg("scene"), py::arg("light"), py::arg("points"), py::arg("step_voxels") = 0.05,
+        "Brute-force ground truth (double precision) at (N, 3) world points.");
+
+    py::class_<DeepShadowMap>(m, "DeepShadowMap", "One view of a light's deep shadow map (shadows.h).")
+        .def_readonly("width", &DeepShadowMap::width)
+        .def_readonly("height", &DeepShadowMap::height)
+        .def_readonly("light_name", &DeepShadowMap::light_name)
+        .def_property_readonly("first", [](const DeepShadowMap& d) { return py::array_t<std::uint32_t>(py::ssize_t(d.first.size()), d.first.data()); },
+                               "width·height + 1 offsets: texel (x, y) owns nodes first[y·width + x] … first[… + 1]")
+        .def_property_readonly("depth", [](const DeepShadowMap& d) {
+            py::array_t<float> a(py::ssize_t(d.nodes.size()));
+            for (std::size_t i = 0; i < d.nodes.size(); ++i) a.mutable_data()[i] = d.nodes[i].depth;
+            return a;
+        })
+        .def_property_readonly("opacity", [](const DeepShadowMap& d) {
+            py::array_t<float> a(py::ssize_t(d.nodes.size()));
+            for (std::size_t i = 0; i < d.nodes.size(); ++i) a.mutable_data()[i] = d.nodes[i].opacity;
+            return a;
+        })
+        .def_property_readonly("world_to_camera", [](const DeepShadowMap& d) { return matrix_array(d.world_to_camera); })
+        .def_property_readonly("world_to_ndc", [](const DeepShadowMap& d) { return matrix_array(d.world_to_ndc); })
+        .def("write_exr", [](const DeepShadowMap& d, const std::string& path) { write_deep_exr(d, path); }, py::arg("path"),
+             "A scanline deep OpenEXR in OpenEXR's deep convention (docs/deep_exr.md).")
+        .def("__repr__", [](const DeepShadowMap& d) {
+            return "sombra.DeepShadowMap('" + d.light_name + "', " + std::to_string(d.width) + "x" + std::to_string(d.height) +
+                   ", " + std::to_string(d.nodes.size()) + " nodes)";
+        });
+    m.def("read_deep_exr", &read_deep_exr, py::arg("path"));
+
+    m.def(
+        "build_deep_shadow_maps",
+        [](Context& context, const Scene& scene, int light, const py::object& options, const py::kwargs& kwargs) {
+            RenderOptions o = render_options(options, kwargs, "build_deep_shadow_maps");
+            RenderStats stats;
+            std::vector<DeepShadowMap> maps;
+            {
+                py::gil_scoped_release release;
+                maps = build_deep_shadow_maps(context, scene, light, o, &stats);
+            }
+            return py::make_tuple(maps, stats_dict(stats));
+        },
+        py::arg("context"), py::arg("scene"), py::arg("light"), py::arg("options") = py::none(),
+        "The deep shadow maps of one light (1 view, or 6 cube faces of a point light); returns (maps, stats).");
+}

@@ -1,0 +1,170 @@
+# sombra's Python module against the library: a numpy scene renders exactly like the same scene read
+# from files, transmittance against the brute-force reference, deep shadow maps, argument errors,
+# and the example of docs/python.md.
+import json
+import re
+
+import numpy as np
+import pytest
+
+import sombra
+from conftest import SOURCE_DIR
+
+
+def lopsided_volume(seed=3):
+    """A smooth random volume with three different sizes, so a swapped axis cannot go unnoticed."""
+    rng = np.random.default_rng(seed)
+    z, y, x = np.meshgrid(np.linspace(-1, 1, 20), np.linspace(-1, 1, 16), np.linspace(-1, 1, 12), indexing="ij")
+    v = np.zeros_like(x)
+    for cx, cy, cz in rng.uniform(-0.6, 0.6, size=(4, 3)):
+        v += np.exp(-8 * ((x - cx) ** 2 + (y - cy) ** 2 + (z - cz) ** 2))
+    v[:, :, :3] += 0.3  # one thick wall on the low-x side
+    return v.astype(np.float32)
+
+
+SPACING = (0.05, 0.06, 0.04)
+TRANSFORM = [[0.8, -0.6, 0, 0.1], [0.6, 0.8, 0, -0.05], [0, 0, 1, 0.02], [0, 0, 0, 1]]
+OPACITY = [(0.0, 0.0), (0.4, 0.1), (1.2, 0.6)]
+COLOR = [(0.0, 0.9, 0.5, 0.2), (1.2, 0.3, 0.6, 1.0)]
+LIGHT = dict(position=(0.4, 1.3, 0.5), direction=(-0.4, -1.3, -0.5), cone_angle_deg=35)
+CAMERA = dict(position=(0.3, -0.4, 2.5), look_at=(0, 0, 0), up=(0, 1, 0), fov_y_deg=35)
+
+
+def numpy_scene(voxels):
+    scene = sombra.Scene(width=40, height=40)
+    scene.add_volume(voxels, spacing=SPACING, transform=np.array(TRANSFORM), opacity=OPACITY, color=COLOR)
+    scene.add_light("spot", **LIGHT)
+    scene.set_camera(**CAMERA)
+    scene.background = (0.1, 0.1, 0.2)
+    return scene
+
+
+def file_scene(voxels, folder):
+    np.save(folder / "v.npy", voxels)  # sombra's .npy reader: C order, shape (z, y, x)
+    description = {
+        "camera": CAMERA,
+        "image": {"width": 40, "height": 40},
+        "background": [0.1, 0.1, 0.2],
+        "volumes": [{"file": "v.npy", "spacing": list(SPACING), "transform": {"matrix": sum(TRANSFORM, [])},
+                     "transfer_function": {"opacity_points": sum(map(list, OPACITY), []),
+                                           "rgb_points": sum(map(list, COLOR), [])}}],
+        "lights": [dict(type="spot", **LIGHT)],
+    }
+    (folder / "scene.json").write_text(json.dumps(description))
+    return sombra.load_scene(str(folder / "scene.json"))
+
+
+def test_numpy_scene_renders_like_the_same_scene_from_files(context, tmp_path):
+    voxels = lopsided_volume()
+    from_numpy, from_files = numpy_scene(voxels), file_scene(voxels, tmp_path)
+    for shadows in ("dsm", "rays"):
+        a, stats = sombra.render(context, from_numpy, shadows=shadows, dsm_resolution=48)
+        b, _ = sombra.render(context, from_files, shadows=shadows, dsm_resolution=48)
+        assert a.shape == (40, 40, 4) and a.dtype == np.float32
+        assert np.isfinite(a).all()
+        assert a[..., 3].max() > 0.3  # the volume is in view
+        assert np.array_equal(a, b), f"{shadows}: max |Δ| {np.abs(a - b).max()}"
+        assert stats["width"] == 40 and stats["samples"] > 0
+    # a swapped axis would render differently: the transposed volume does
+    swapped, _ = sombra.render(context, numpy_scene(np.ascontiguousarray(voxels.transpose(2, 1, 0))), shadows="dsm")
+    assert np.abs(swapped - a).max() > 0.05
+
+
+def test_transmittance_against_the_reference(context):
+    scene = numpy_scene(lopsided_volume())
+    points = np.random.default_rng(5).uniform(-0.35, 0.35, size=(300, 3))
+    reference = sombra.reference_transmittance(scene, 0, points)
+    assert reference.shape == (300,) and reference.dtype == np.float64
+    assert reference.min() < 0.7  # the points do lie in shadow
+    rays, _ = sombra.shadow_transmittance(context, scene, 0, points, shadows="rays")
+    dsm, stats = sombra.shadow_transmittance(context, scene, 0, points.astype(np.float32), shadows="dsm",
+                                             dsm_resolution=128, dsm_epsilon=0.01)
+    # measured: rays mean 0.00034 / max 0.0027, dsm mean 0.0039 / max 0.017
+    assert np.abs(rays - reference).mean() < 0.002
+    assert np.abs(dsm - reference).mean() < 0.01
+    assert np.abs(dsm - reference).max() < 0.05
+    assert stats["dsm"]["views"] == 1
+    lit = sombra.shadow_transmittance(context, scene, 0, [(0, 5, 5)], shadows="rays")[0]  # a plain list works too
+    assert lit[0] == pytest.approx(1.0)
+
+
+def test_deep_shadow_maps(context, tmp_path):
+    scene = numpy_scene(lopsided_volume())
+    scene.add_light("point", position=(0.2, 1.0, 0.3))
+    maps, stats = sombra.build_deep_shadow_maps(context, scene, 1, dsm_resolution=24)
+    assert [m.light_name for m in maps] == [f"lights[1].{f}" for f in ("+x", "-x", "+y", "-y", "+z", "-z")]
+    # the stats count the maps of every light: 1 spot view + 6 cube faces
+    assert stats["dsm"]["views"] == 7
+    assert 0 < sum(len(m.depth) for m in maps) < stats["dsm"]["nodes"]
+    view = max(maps, key=lambda m: len(m.depth))
+    assert view.first.shape == (24 * 24 + 1,) and view.first[-1] == len(view.depth) == len(view.opacity)
+    assert ((view.opacity >= 0) & (view.opacity <= 1 + 0.02 + 1e-6)).all()  # compression may overshoot by ε
+    # the light is the origin of camera space
+    light = np.array([0.2, 1.0, 0.3, 1.0])
+    assert np.allclose(view.world_to_camera @ light, [0, 0, 0, 1], atol=1e-5)
+    view.write_exr(str(tmp_path / "face.exr"))
+    back = sombra.read_deep_exr(str(tmp_path / "face.exr"))
+    assert np.array_equal(back.first, view.first) and np.array_equal(back.depth, view.depth)
+    assert np.abs(back.opacity - np.clip(view.opacity, 0, 1)).max() < 1e-6  # the file clamps to [0, 1]
+    assert np.array_equal(back.world_to_ndc, view.world_to_ndc)
+
+
+def test_load_scene_and_options(context):
+    scene = sombra.load_scene(str(SOURCE_DIR / "data/scenes/default.json"))
+    assert scene.light_count == 2 and scene.volume_count == 1
+    options = sombra.RenderOptions()
+    options.width = options.height = 24
+    options.shadows = "lowpass"
+    image, stats = sombra.render(context, scene, options, lowpass_filter_width=5.0)
+    assert image.shape == (24, 24, 4) and np.isfinite(image).all()
+    assert options.shadows == "lowpass" and options.lowpass_filter_width == 3.0  # keywords change a copy
+    assert stats["sat"]["tables"] > 0
+
+
+def test_bad_arguments_name_the_argument(context, tmp_path):
+    scene = numpy_scene(lopsided_volume())
+    volume = lopsided_volume()
+
+    def error(kind, call):
+        with pytest.raises(kind) as raised:
+            call()
+        return str(raised.value)
+
+    assert error(ValueError, lambda: scene.add_volume(volume.astype(np.float64))) == (
+        "Scene.add_volume: voxels: expected a float32 array of shape (z, y, x), got dtype float64 (20, 16, 12)")
+    assert "voxels: expected a float32 array of shape (z, y, x), got shape (16, 12)" in error(
+        ValueError, lambda: scene.add_volume(volume[0]))
+    assert "got a list" in error(ValueError, lambda: scene.add_volume([[[1.0]]]))
+    bad = volume.copy()
+    bad[1, 2, 3] = np.nan
+    assert "voxels: expected a float32 array of shape (z, y, x), got a non-finite value" in error(
+        ValueError, lambda: scene.add_volume(bad))
+    assert "transform: expected a 4×4 matrix, got shape (3, 3)" in error(
+        ValueError, lambda: scene.add_volume(volume, transform=np.eye(3)))
+    assert "opacity: x must increase" in error(ValueError, lambda: scene.add_volume(volume, opacity=[(1, 0), (0, 1)]))
+    assert error(ValueError, lambda: scene.add_light("sun")) == (
+        "Scene.add_light: type: unknown light type 'sun' (directional, spot, point)")
+    assert error(ValueError, lambda: sombra.render(context, scene, shadows="dsmm")) == (
+        "render: shadows: unknown value 'dsmm' (none, rays, dsm, shadowmap, lowpass, ao, cone)")
+    assert error(ValueError, lambda: sombra.render(context, scene, bogus=1)) == (
+        "render: unknown option 'bogus' (see sombra.RenderOptions)")
+    assert error(ValueError, lambda: sombra.render(context, scene, dsm_resolution="x")) == (
+        "render: dsm_resolution: expected int, got str")
+    assert error(ValueError, lambda: sombra.shadow_transmittance(context, scene, 0, np.zeros((4, 2)), shadows="dsm")) == (
+        "shadow_transmittance: points: expected an (N, 3) array of world points, got shape (4, 2)")
+    assert error(ValueError, lambda: sombra.reference_transmittance(scene, 0, ["a", "b", "c"])).startswith(
+        "reference_transmittance: points: expected an (N, 3) array of world points, got")
+    # the library's own errors: sombra.Error with its one line
+    missing = str(tmp_path / "missing.json")
+    assert error(sombra.Error, lambda: sombra.load_scene(missing)).startswith(missing + ": ")
+    assert "light index" in error(sombra.Error, lambda: sombra.reference_transmittance(scene, 7, np.zeros((1, 3))))
+
+
+def test_docs_example_runs():
+    text = (SOURCE_DIR / "docs/python.md").read_text()
+    example = re.search(r"## Example.*?```python\n(.*?)```", text, re.S).group(1)
+    namespace = {}
+    exec(compile(example, "docs/python.md", "exec"), namespace)
+    assert namespace["image"].shape == (96, 96, 4)
+    assert np.abs(namespace["dsm"] - namespace["reference"]).mean() < 0.02  # measured 0.011
+    assert len(namespace["maps"]) == 1 and len(namespace["view"].depth) > 0

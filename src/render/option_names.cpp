@@ -1,0 +1,82 @@
+// sombra — the enumerated render options by name (render.h: render_option_values and friends): the
+// one list the command line, --stats and the Python module share.
+#include <functional>
+#include <utility>
+
+#include "sombra/error.h"
+#include "sombra/render.h"
+
+namespace sombra {
+namespace {
+
+// One enumerated option: its value names in order, and how to read and write it in RenderOptions.
+struct EnumOption {
+    const char* option;
+    std::vector<std::pair<std::string, int>> values;
+    std::function<int(const RenderOptions&)> get;
+    std::function<void(RenderOptions&, int)> set;
+};
+
+template <typename E, E RenderOptions::*field>
+EnumOption enum_option(const char* option, std::vector<std::pair<std::string, E>> values) {
+    EnumOption o{option, {}, [](const RenderOptions& r) { return int(r.*field); },
+                 [](RenderOptions& r, int v) { r.*field = E(v); }};
+    for (const auto& [name, value] : values) o.values.emplace_back(name, int(value));
+    return o;
+}
+
+// the shadow techniques: the registry of technique modules (src/techniques/registry.cpp)
+std::vector<std::pair<std::string, ShadowTechnique>> technique_values() {
+    std::vector<std::pair<std::string, ShadowTechnique>> values;
+    for (const std::string& name : shadow_technique_names()) values.emplace_back(name, parse_shadow_technique(name));
+    return values;
+}
+
+const std::vector<EnumOption>& enum_options() {
+    static const std::vector<EnumOption> options = {
+        enum_option<ShadowTechnique, &RenderOptions::shadows>("shadows", technique_values()),
+        enum_option<GradientMethod, &RenderOptions::gradient>(
+            "gradient", {{"central", GradientMethod::CentralDifferences}, {"sobel", GradientMethod::Sobel}}),
+        enum_option<ShadingModel, &RenderOptions::shading>(
+            "shading", {{"phong", ShadingModel::Phong}, {"scattering", ShadingModel::Scattering}}),
+        enum_option<VolumeStorage, &RenderOptions::storage>(
+            "storage", {{"auto", VolumeStorage::Auto}, {"buffer", VolumeStorage::Buffer}, {"image", VolumeStorage::Image}}),
+    };
+    return options;
+}
+
+const EnumOption& find_option(const std::string& option) {
+    std::string known;
+    for (const EnumOption& o : enum_options()) {
+        if (o.option == option) return o;
+        known += std::string(known.empty() ? "" : ", ") + o.option;
+    }
+    throw Error("unknown enumerated render option '" + option + "' (" + known + ")");
+}
+
+}  // namespace
+
+std::vector<std::string> render_option_values(const std::string& option) {
+    std::vector<std::string> names;
+    for (const auto& value : find_option(option).values) names.push_back(value.first);
+    return names;
+}
+
+void set_render_option(RenderOptions& options, const std::string& option, const std::string& value) {
+    const EnumOption& o = find_option(option);
+    std::string known;
+    for (const auto& [name, v] : o.values) {
+        if (name == value) return o.set(options, v);
+        known += (known.empty() ? "" : ", ") + name;
+    }
+    throw Error(option + ": unknown value '" + value + "' (" + known + ")");
+}
+
+std::string render_option_value(const RenderOptions& options, const std::string& option) {
+    const EnumOption& o = find_option(option);
+    for (const auto& [name, v] : o.values)
+        if (v == o.get(options)) return name;
+    return "?";
+}
+
+}  // namespace sombra
