@@ -4,6 +4,7 @@
 #include "native_camera_pass.h"
 #include "test_support.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace sombra::bench {
@@ -40,45 +41,84 @@ Scene ct_crop_scene() {
 // evaluation: the kernel (PoCL, clang) and g++ fuse different multiply-adds (ray positions
 // origin + t·dir, trilinear weights), native_camera_pass.cpp is built with -ffast-math
 // (reassociation, glibc's vector expf/powf against PoCL's exp/pow), the kernel normalises with
-// rsqrt. Those are ~1e-7 relative per operation, but positions are computed from the camera
-// (t ≈ 400 world units on the default scene, one float ulp ≈ 3e-5 units) and the CT's density
-// jumps by up to its whole range (2000) between neighbouring voxels at the stent's wires, so a last-bit difference in a position moves a
-// density, and with it σ̄ and the colour, by ~1e-5 relative; compositing carries that into the
-// pixel. Measured (64×64, both variants): max |ΔRGB| 2.3e-5 (default scene), 1.8e-5 (CT crop),
-// 1.1e-6 (overlapping volumes), 1.7e-6 (smoke); mean at most 2.3e-7; built with
-// -ffp-contract=off instead of g++'s default the maxima are 1.9e-5 / 2.4e-5 / 2.1e-6 / 1.7e-6.
-// So 1e-4 for the max and 1e-6 for the mean: about 4× the worst measured. An algorithmic
-// difference is far larger: the whole-step native march this replaced differed by max 0.19 and
-// mean 2.9e-3 (bench/README.md), and a point or an interval's part of a step left out changes a
-// pixel by ~1e-2. Early ray termination is a threshold on t_acc: a point whose t_acc lands within
-// rounding of it would end one ray a point earlier than the other (≤ 1e-3 in that pixel) and fail
-// this test; none of these scenes has one.
+// rsqrt. Those are ~1e-7 relative per operation, but positions are computed from the camera (t ≈
+// 400 world units on the default scene, one float ulp ≈ 3e-5 units) and the CT's density jumps by
+// up to its whole range (2000) between neighbouring voxels at the stent's wires, so a last-bit
+// difference in a position moves a density, and with it σ̄ and the colour, by ~1e-5 relative;
+// compositing carries that into the pixel. Measured (64×64, both variants): max |ΔRGB| 2.3e-5
+// (default scene), 1.8e-5 (CT crop), 1.1e-6 (overlapping volumes), 1.7e-6 (smoke); mean at most
+// 2.3e-7; built with -ffp-contract=off instead of g++'s default the maxima are 1.9e-5 / 2.4e-5 /
+// 2.1e-6 / 1.7e-6. So 1e-4 per pixel and 1e-6 for the mean: about 4× the worst measured. An
+// algorithmic difference is far larger: the whole-step native march this replaced differed by max
+// 0.19 and mean 2.9e-3 (bench/README.md); giving the end points a whole step's Δ fails three of
+// these scenes (91–475 pixels over, max 0.03–0.13; the smoke is empty at its box's faces), and
+// point-sampled σ all four (max 0.03–0.2).
 constexpr double kMaxRgbDifference = 1e-4;
 constexpr double kMeanRgbDifference = 1e-6;
+// Rare pixels where the algorithm takes a discrete decision on a rounded value: Phong turns the
+// normal to face the viewer, so at N·V ≈ 0 rounding picks the side and N·L changes sign (the
+// default scene at 512²: 8 of 262,144 pixels above 1e-4, the worst 0.14 from a sample with
+// N·V = 1.3e-5; none with the lights removed), and early termination or a sample right at a
+// segment's end or a brick's face can fall either way. None in these 64² scenes (expected about
+// 0.1 per image at that rate); one per image is allowed, the rest must meet the tolerances above.
+constexpr int kDecisionFlipPixels = 1;
 // Points that land within rounding of a segment's end or a brick's face may be a sample on one
 // side and not on the other: measured 0 or 1 of 165,000–306,000; the whole-step march took 4 %
 // fewer.
 constexpr double kSampleCountFraction = 1e-4;
 
+struct PixelAgreement {
+    int pixels_over = 0;           // pixels with some |ΔRGB| > kMaxRgbDifference
+    double max_abs = 0;            // over all pixels
+    double max_abs_others = 0;     // over the pixels within the tolerance
+    double mean_abs_others = 0;    // mean |ΔRGB| over those pixels' channels
+    bool finite = true;
+};
+
+PixelAgreement agreement(const std::vector<float>& a, const std::vector<float>& b) {
+    PixelAgreement r;
+    double sum = 0;
+    std::size_t count = 0;
+    for (std::size_t p = 0; p < a.size() / 4; ++p) {
+        double worst = 0, pixel_sum = 0;
+        for (int c = 0; c < 3; ++c) {
+            float x = a[4 * p + c], y = b[4 * p + c];
+            r.finite = r.finite && std::isfinite(x) && std::isfinite(y);
+            double d = std::fabs(double(x) - double(y));
+            worst = std::max(worst, d), pixel_sum += d;
+        }
+        r.max_abs = std::max(r.max_abs, worst);
+        if (worst > kMaxRgbDifference) {
+            ++r.pixels_over;
+            continue;
+        }
+        r.max_abs_others = std::max(r.max_abs_others, worst);
+        sum += pixel_sum, count += 3;
+    }
+    r.mean_abs_others = count ? sum / double(count) : 0;
+    return r;
+}
+
 // Renders the scene at 64×64 with sombra::render (default options: no shadows, central
 // differences, 8-lane packets on CPUs, empty-space skipping) and with both native variants;
-// checks every RGB value, the mean difference and the sample counts.
+// checks every pixel's RGB, the mean difference and the sample counts.
 void check_native_renders_the_kernel_image(const Scene& scene) {
     RenderOptions options;
     options.width = options.height = 64;
     RenderResult kernel = render(test::context(), scene, options);
+    REQUIRE(kernel.image.rgba.size() == 4u * 64u * 64u);
     NativeScene native = make_native_scene(scene, options);
     for (NativeVariant variant : {NativeVariant::Scalar, NativeVariant::Simd}) {
         NativeImage image = render_native(native, variant, 2);
-        Image native_image = kernel.image;
-        native_image.rgba = image.rgba;
-        test::ImageDifference d = test::compare(kernel.image, native_image);
+        REQUIRE(image.rgba.size() == kernel.image.rgba.size());
+        PixelAgreement d = agreement(kernel.image.rgba, image.rgba);
         double sample_difference = std::fabs(double(image.samples) - double(kernel.stats.samples));
-        INFO((variant == NativeVariant::Simd ? "SIMD" : "scalar") << ": max |ΔRGB| " << d.max_abs << ", mean "
-             << d.mean_abs << ", samples " << image.samples << " (kernel " << kernel.stats.samples << ")");
-        CHECK(d.non_finite == 0);
-        CHECK(d.max_abs <= kMaxRgbDifference);
-        CHECK(d.mean_abs <= kMeanRgbDifference);
+        INFO((variant == NativeVariant::Simd ? "SIMD" : "scalar") << ": max |ΔRGB| " << d.max_abs << ", pixels over "
+             << kMaxRgbDifference << ": " << d.pixels_over << ", the others' max " << d.max_abs_others << " and mean "
+             << d.mean_abs_others << "; samples " << image.samples << " (kernel " << kernel.stats.samples << ")");
+        CHECK(d.finite);
+        CHECK(d.pixels_over <= kDecisionFlipPixels);
+        CHECK(d.mean_abs_others <= kMeanRgbDifference);
         CHECK(kernel.stats.samples > 0);
         CHECK(sample_difference <= kSampleCountFraction * double(kernel.stats.samples));
     }

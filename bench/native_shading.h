@@ -2,7 +2,7 @@
 // pre-integrated extinction, central-difference gradient, normal, Phong (cl/volume_sample.h,
 // cl/shading.h). Every function is
 // inline and branch-light so that the SIMD path can call it inside `#pragma omp simd` loops; the
-// scalar path calls the very same functions, so both compute the same thing per sample.
+// scalar path calls the very same functions, so both compute the same thing per point.
 #pragma once
 #include <algorithm>
 #include <cmath>
