@@ -3,6 +3,7 @@
 // traversal lives in native_traversal.cpp, compiled without it.
 #include "native_camera_pass.h"
 
+#include <algorithm>
 #include <atomic>
 #include <memory>
 #include <thread>
@@ -377,6 +378,11 @@ unsigned long long render_simd_thread(const SceneView& s, PixelQueue& queue, flo
 }  // namespace
 
 NativeScene make_native_scene(const Scene& scene, const RenderOptions& options) {
+    bool bounded = std::any_of(scene.volumes.begin(), scene.volumes.end(),
+                               [](const VolumeInstance& vi) { return vi.bound.mesh != nullptr; });
+    if (!scene.meshes.empty() || bounded || options.shadows != ShadowTechnique::None ||
+        options.shading != ShadingModel::Phong || options.gradient != GradientMethod::CentralDifferences)
+        throw Error("native camera pass: only volumes in their boxes, no shadows, Phong with central differences");
     NativeScene n;
     int width = options.width > 0 ? options.width : scene.width;
     int height = options.height > 0 ? options.height : scene.height;
