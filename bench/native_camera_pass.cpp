@@ -3,6 +3,7 @@
 // traversal lives in native_traversal.cpp, compiled without it.
 #include "native_camera_pass.h"
 
+#include <algorithm>
 #include <atomic>
 #include <memory>
 #include <thread>
@@ -32,7 +33,8 @@ SceneView make_view(const NativeScene& scene) {
                    scene.skip_empty};
     for (const VolumeGpu& g : scene.packed.volumes) {
         s.volumes.push_back({scene.voxels.data() + g.data_offset, g.dims.s[0], g.dims.s[1], g.dims.s[2],
-                             scene.tf.data() + 4 * std::size_t(g.tf_offset), int(g.tf_size), g.tf_domain_min,
+                             scene.tf.data() + 4 * std::size_t(g.tf_offset), scene.tf.data() + g.tf_integral_offset,
+                             int(g.tf_size), g.tf_domain_min,
                              g.tf_domain_scale, xyz(g.world_to_voxel[0]), xyz(g.world_to_voxel[1]),
                              xyz(g.world_to_voxel[2]), g.ambient, g.diffuse, g.specular, g.shininess});
     }
@@ -81,15 +83,17 @@ void write_pixel(const SceneView& s, unsigned pixel, V3 radiance, float transmit
     out[0] = c.x, out[1] = c.y, out[2] = c.z, out[3] = 1.0f - transmittance;
 }
 
-// Front-to-back compositing (Knecht Eq. 3.10–3.11): α = 1 − exp(−Σσ·Δ),
-// I_acc += I_p α t_acc with I_p the σ-weighted blend of the volumes' colours, t_acc *= 1 − α.
+// Front-to-back compositing of the interval a point closes (Knecht Eq. 3.10–3.11, shade_sample()
+// of cl/render.cl): α = 1 − exp(−Σσ̄·delta) with σ̄ each volume's pre-integrated extinction,
+// I_acc += I_p α t_acc with I_p the σ̄-weighted blend of the colours shaded at the point,
+// t_acc *= 1 − α.
 struct Composited {
     V3 radiance;
     float transmittance;
 };
-inline Composited composite(float sigma_sum, V3 color_sum, float step, V3 radiance, float transmittance) {
-    bool hit = sigma_sum > 0.0f;  // no sample of any volume had σ > 0: nothing changes
-    float alpha = hit ? 1.0f - std::exp(-sigma_sum * step) : 0.0f;
+inline Composited composite(float sigma_sum, V3 color_sum, float delta, V3 radiance, float transmittance) {
+    bool hit = sigma_sum > 0.0f;  // no volume has σ̄ > 0 on the interval: nothing changes
+    float alpha = hit ? 1.0f - std::exp(-sigma_sum * delta) : 0.0f;
     float weight = hit ? (alpha * transmittance) / sigma_sum : 0.0f;
     return {radiance + weight * color_sum, transmittance * (1.0f - alpha)};
 }
@@ -108,27 +112,31 @@ struct RayAccum {
     V3 radiance{0, 0, 0};
     float transmittance = 1.0f;
     unsigned samples = 0;
+    float front[SOMBRA_MAX_VOLUMES] = {};  // each volume's density at the previous point
 };
 
-// visit_sample() of cl/render.cl. Returns false when the ray terminates (t_acc ≤ threshold).
-bool visit_sample(const SceneView& s, const RayTraversal& ray, float t, RayAccum& acc) {
-    V3 p = ray.origin + t * ray.dir, to_viewer = -ray.dir;
+// shade_sample() of cl/render.cl for the point the traversal is at. Returns false when the ray
+// terminates (t_acc ≤ threshold).
+bool visit_point(const SceneView& s, const RayTraversal& ray, RayAccum& acc) {
+    V3 p = ray.origin + ray.t * ray.dir, to_viewer = -ray.dir;
     float sigma_sum = 0.0f;
     V3 color_sum{0, 0, 0};
     for (unsigned i = 0; i < SOMBRA_MAX_VOLUMES; ++i) {
         if (!(ray.active & (1u << i))) continue;
         const VolumeView& v = s.volumes[i];
-        V3 pv = ray.vox_origin[i] + t * ray.vox_dir[i];
-        Rgbs c = classify(v, sample_density(v, pv));
+        V3 pv = ray.vox_origin[i] + ray.t * ray.vox_dir[i];
+        float density = sample_density(v, pv);
         acc.samples += 1;
-        if (c.sigma <= 0.0f) continue;
+        float sigma = preintegrated_sigma(v, acc.front[i], density);
+        acc.front[i] = density;
+        if (!(sigma > 0.0f) || !ray.closes_medium()) continue;
         V3 normal = s.lights.empty() ? V3{0, 0, 0} : normal_from_gradient(v, gradient_voxel(v, pv));
         V3 shaded = phong_shade(s.lights.data(), unsigned(s.lights.size()), s.camera.ambient_intensity, v,
-                                {c.r, c.g, c.b}, p, normal, to_viewer);
-        sigma_sum += c.sigma;
-        color_sum = color_sum + c.sigma * shaded;
+                                classify_color(v, density), p, normal, to_viewer);
+        sigma_sum += sigma;
+        color_sum = color_sum + sigma * shaded;
     }
-    Composited c = composite(sigma_sum, color_sum, ray.step, acc.radiance, acc.transmittance);
+    Composited c = composite(sigma_sum, color_sum, ray.delta, acc.radiance, acc.transmittance);
     acc.radiance = c.radiance, acc.transmittance = c.transmittance;
     return acc.transmittance > s.camera.termination_transmittance;
 }
@@ -137,9 +145,8 @@ unsigned march_pixel(const SceneView& s, unsigned pixel, float* rgba) {
     RayTraversal ray;
     start_ray(s, pixel, ray);
     RayAccum acc;
-    float t;
-    while (ray.next_sample(s.traversal, t))
-        if (!visit_sample(s, ray, t, acc)) break;
+    while (ray.next_point(s.traversal))
+        if (!visit_point(s, ray, acc)) break;
     write_pixel(s, pixel, acc.radiance, acc.transmittance, rgba);
     return acc.samples;
 }
@@ -154,20 +161,23 @@ unsigned long long render_scalar_thread(const SceneView& s, PixelQueue& queue, f
 
 // ---------------------------------------------------------------------------------------------
 // SIMD: per thread a wavefront of kLanes rays in flight. Each round every ray advances to its next
-// sample (scalar traversal); the samples are then classified and shaded as struct-of-arrays
-// batches in `omp simd` loops (8 lanes per AVX2 instruction, gathers for the voxels). Samples with
-// σ = 0 are compacted away before the gradient and Phong, as the kernel skips them. A ray that
-// terminates or leaves the volumes hands its lane to the next pixel, which keeps the batches full.
+// point (scalar traversal); the points' densities and pre-integrated σ̄ are then computed, and the
+// visible ones classified and shaded, as struct-of-arrays batches in `omp simd` loops (8 lanes per
+// AVX2 instruction, gathers for the voxels and tables). Points whose interval has σ̄ = 0 (or is a
+// start point or a run of empty bricks) are compacted away before the gradient and Phong, as the
+// kernel skips them. A ray that terminates or leaves the volumes hands its lane to the next pixel,
+// which keeps the batches full.
 
 constexpr int kLanes = 128;
 
-// The samples of one volume in this round, one entry per ray whose segment contains the volume.
+// The points of one volume in this round, one entry per ray whose segment contains the volume.
 struct SampleBatch {
     int count = 0;
     int lane[kLanes];
     float vx[kLanes], vy[kLanes], vz[kLanes];  // voxel position
     float wx[kLanes], wy[kLanes], wz[kLanes];  // world position
     float ex[kLanes], ey[kLanes], ez[kLanes];  // unit vector to the viewer
+    float front[kLanes], density[kLanes];      // density at the previous point and at this one
     float r[kLanes], g[kLanes], b[kLanes], sigma[kLanes];
     float nx[kLanes], ny[kLanes], nz[kLanes];  // normal, facing the viewer
     float sr[kLanes], sg[kLanes], sb[kLanes];  // shaded colour I_p
@@ -176,7 +186,8 @@ struct SampleBatch {
 struct Wavefront {
     RayTraversal ray[kLanes];
     int pixel[kLanes];  // -1: idle
-    float t[kLanes], step[kLanes];
+    float delta[kLanes];
+    float front[kLanes][SOMBRA_MAX_VOLUMES];  // each volume's density at the lane's previous point
     float rad_r[kLanes], rad_g[kLanes], rad_b[kLanes], transmittance[kLanes];
     float sigma_sum[kLanes], col_r[kLanes], col_g[kLanes], col_b[kLanes];
     unsigned samples[kLanes];
@@ -190,7 +201,7 @@ void finish_lane(const SceneView& s, Wavefront& w, int l, float* rgba) {
     w.pixel[l] = -1;
 }
 
-// Moves every lane to its next sample, refilling finished lanes from the queue. False: all idle.
+// Moves every lane to its next point, refilling finished lanes from the queue. False: all idle.
 bool advance_lanes(const SceneView& s, PixelQueue& queue, PixelQueue::Cursor& cursor, Wavefront& w, float* rgba) {
     bool any = false;
     for (int l = 0; l < kLanes; ++l) {
@@ -203,9 +214,10 @@ bool advance_lanes(const SceneView& s, PixelQueue& queue, PixelQueue::Cursor& cu
                 w.rad_r[l] = w.rad_g[l] = w.rad_b[l] = 0.0f;
                 w.transmittance[l] = 1.0f;
                 w.samples[l] = 0;
+                std::fill(w.front[l], w.front[l] + SOMBRA_MAX_VOLUMES, 0.0f);
             }
-            if (w.ray[l].next_sample(s.traversal, w.t[l])) {
-                w.step[l] = w.ray[l].step;
+            if (w.ray[l].next_point(s.traversal)) {
+                w.delta[l] = w.ray[l].delta;
                 any = true;
                 break;
             }
@@ -215,47 +227,64 @@ bool advance_lanes(const SceneView& s, PixelQueue& queue, PixelQueue::Cursor& cu
     return any;
 }
 
-// Fills the batch with this round's samples of volume i (positions as in visit_sample()).
+// Fills the batch with this round's points of volume i (positions as in visit_point()).
 void gather_samples(Wavefront& w, unsigned i) {
     SampleBatch& b = w.batch;
     b.count = 0;
     for (int l = 0; l < kLanes; ++l) {
         if (w.pixel[l] < 0 || !(w.ray[l].active & (1u << i))) continue;
         const RayTraversal& ray = w.ray[l];
-        float t = w.t[l];
-        V3 pv = ray.vox_origin[i] + t * ray.vox_dir[i], p = ray.origin + t * ray.dir;
+        V3 pv = ray.vox_origin[i] + ray.t * ray.vox_dir[i], p = ray.origin + ray.t * ray.dir;
         int j = b.count++;
         b.lane[j] = l;
         b.vx[j] = pv.x, b.vy[j] = pv.y, b.vz[j] = pv.z;
         b.wx[j] = p.x, b.wy[j] = p.y, b.wz[j] = p.z;
         b.ex[j] = -ray.dir.x, b.ey[j] = -ray.dir.y, b.ez[j] = -ray.dir.z;
-        w.samples[l] += 1;  // one per volume per visited sample, as the kernel counts
+        b.front[j] = w.front[l][i];
+        w.samples[l] += 1;  // one per volume per point, as the kernel counts
     }
 }
 
-void classify_batch(const VolumeView& volume, SampleBatch& b) {
+// Density at each point and σ̄ over the interval from the previous point; the density becomes
+// the lane's front for its next point.
+void sample_batch(const VolumeView& volume, Wavefront& w, unsigned i) {
     const VolumeView v = volume;
+    SampleBatch& b = w.batch;
     const int n = b.count;
 #pragma omp simd
     for (int j = 0; j < n; ++j) {
-        Rgbs c = classify(v, sample_density(v, {b.vx[j], b.vy[j], b.vz[j]}));
-        b.r[j] = c.r, b.g[j] = c.g, b.b[j] = c.b, b.sigma[j] = c.sigma;
+        float density = sample_density(v, {b.vx[j], b.vy[j], b.vz[j]});
+        b.density[j] = density;
+        b.sigma[j] = preintegrated_sigma(v, b.front[j], density);
     }
+    for (int j = 0; j < n; ++j) w.front[b.lane[j]][i] = b.density[j];
 }
 
-// Keeps the samples with σ > 0 (in order) at the front of the batch; returns their count.
-int keep_visible(SampleBatch& b) {
+// Keeps the points with σ̄ > 0 on an interval of medium (in order) at the front of the batch;
+// returns their count.
+int keep_visible(Wavefront& w) {
+    SampleBatch& b = w.batch;
     int n = 0;
     for (int j = 0; j < b.count; ++j) {
-        if (!(b.sigma[j] > 0.0f)) continue;
+        if (!(b.sigma[j] > 0.0f) || !w.ray[b.lane[j]].closes_medium()) continue;
         b.lane[n] = b.lane[j];
         b.vx[n] = b.vx[j], b.vy[n] = b.vy[j], b.vz[n] = b.vz[j];
         b.wx[n] = b.wx[j], b.wy[n] = b.wy[j], b.wz[n] = b.wz[j];
         b.ex[n] = b.ex[j], b.ey[n] = b.ey[j], b.ez[n] = b.ez[j];
-        b.r[n] = b.r[j], b.g[n] = b.g[j], b.b[n] = b.b[j], b.sigma[n] = b.sigma[j];
+        b.density[n] = b.density[j], b.sigma[n] = b.sigma[j];
         ++n;
     }
     return n;
+}
+
+// The transfer function's colour at each visible point's density.
+void classify_batch(const VolumeView& volume, SampleBatch& b, int n) {
+    const VolumeView v = volume;
+#pragma omp simd
+    for (int j = 0; j < n; ++j) {
+        V3 c = classify_color(v, b.density[j]);
+        b.r[j] = c.x, b.g[j] = c.y, b.b[j] = c.z;
+    }
 }
 
 // The ambient term of Knecht Eq. 3.9, and (with lights) the normal: gradient → Jᵀ, facing the viewer.
@@ -301,7 +330,7 @@ void shade_batch(const SceneView& s, const VolumeView& v, SampleBatch& b, int n)
     }
 }
 
-// visit_sample()'s sums over volumes: Σσ and Σσ·I_p per lane.
+// visit_point()'s sums over volumes: Σσ̄ and Σσ̄·I_p per lane.
 void accumulate(Wavefront& w, int n) {
     const SampleBatch& b = w.batch;
     for (int j = 0; j < n; ++j) {
@@ -314,7 +343,7 @@ void accumulate(Wavefront& w, int n) {
 void composite_lanes(Wavefront& w) {
 #pragma omp simd
     for (int l = 0; l < kLanes; ++l) {
-        Composited c = composite(w.sigma_sum[l], {w.col_r[l], w.col_g[l], w.col_b[l]}, w.step[l],
+        Composited c = composite(w.sigma_sum[l], {w.col_r[l], w.col_g[l], w.col_b[l]}, w.delta[l],
                                  {w.rad_r[l], w.rad_g[l], w.rad_b[l]}, w.transmittance[l]);
         w.rad_r[l] = c.radiance.x, w.rad_g[l] = c.radiance.y, w.rad_b[l] = c.radiance.z;
         w.transmittance[l] = c.transmittance;
@@ -332,8 +361,9 @@ unsigned long long render_simd_thread(const SceneView& s, PixelQueue& queue, flo
         std::fill(w->col_b, w->col_b + kLanes, 0.0f);
         for (unsigned i = 0; i < s.volumes.size(); ++i) {
             gather_samples(*w, i);
-            classify_batch(s.volumes[i], w->batch);
-            int visible = keep_visible(w->batch);
+            sample_batch(s.volumes[i], *w, i);
+            int visible = keep_visible(*w);
+            classify_batch(s.volumes[i], w->batch, visible);
             shade_batch(s, s.volumes[i], w->batch, visible);
             accumulate(*w, visible);
         }
@@ -348,6 +378,11 @@ unsigned long long render_simd_thread(const SceneView& s, PixelQueue& queue, flo
 }  // namespace
 
 NativeScene make_native_scene(const Scene& scene, const RenderOptions& options) {
+    bool bounded = std::any_of(scene.volumes.begin(), scene.volumes.end(),
+                               [](const VolumeInstance& vi) { return vi.bound.mesh != nullptr; });
+    if (!scene.meshes.empty() || bounded || options.shadows != ShadowTechnique::None ||
+        options.shading != ShadingModel::Phong || options.gradient != GradientMethod::CentralDifferences)
+        throw Error("native camera pass: only volumes in their boxes, no shadows, Phong with central differences");
     NativeScene n;
     int width = options.width > 0 ? options.width : scene.width;
     int height = options.height > 0 ? options.height : scene.height;

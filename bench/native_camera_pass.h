@@ -1,5 +1,7 @@
 // sombra bench — the camera pass of cl/render.cl as native C++ (threads, optionally SIMD), reading
 // exactly the data the kernel reads: pack_scene() and pack_camera() from src/geometry/scene_upload.h.
+// The kernel's algorithm for scenes without shadows, meshes or polyhedral bounds (Phong, central
+// differences): exact intervals, brick skipping, pre-integrated extinction, early termination.
 #pragma once
 #include <vector>
 
@@ -24,12 +26,12 @@ NativeScene make_native_scene(const Scene& scene, const RenderOptions& options);
 
 enum class NativeVariant {
     Scalar,  // one ray at a time per thread, as a work-item runs it
-    Simd     // per thread a wavefront of rays in flight; their samples shaded in `omp simd` batches
+    Simd     // per thread a wavefront of rays in flight; their points shaded in `omp simd` batches
 };
 
 struct NativeImage {
     std::vector<float> rgba;  // like sombra::Image::rgba
-    unsigned long long samples = 0;
+    unsigned long long samples = 0;  // one per active volume per point, as the kernel counts
 };
 
 NativeImage render_native(const NativeScene& scene, NativeVariant variant, unsigned threads);

@@ -1,7 +1,8 @@
-// sombra bench — one sample of the camera pass in C++: trilinear density, transfer function,
-// central-difference gradient, normal, Phong (cl/volume_sample.h, cl/shading.h). Every function is
+// sombra bench — one point of the camera pass in C++: trilinear density, transfer function,
+// pre-integrated extinction, central-difference gradient, normal, Phong (cl/volume_sample.h,
+// cl/shading.h). Every function is
 // inline and branch-light so that the SIMD path can call it inside `#pragma omp simd` loops; the
-// scalar path calls the very same functions, so both compute the same thing per sample.
+// scalar path calls the very same functions, so both compute the same thing per point.
 #pragma once
 #include <algorithm>
 #include <cmath>
@@ -18,6 +19,7 @@ struct VolumeView {
     const float* voxels;       // this volume's voxels, x fastest
     int nx, ny, nz;            // dims
     const float* tf;           // r, g, b, σ per table entry
+    const float* sigma_prefix; // ∫σ du up to each entry as (hi, lo) float pairs (VolumeGpu::tf_integral_offset)
     int tf_size;
     float tf_min, tf_scale;
     V3 j0, j1, j2;             // rows of the world → voxel Jacobian J
@@ -28,10 +30,6 @@ struct LightView {
     int type;  // SOMBRA_LIGHT_*
     V3 position, direction, color;
     float cos_outer, cos_inner, att_constant, att_linear, att_quadratic;
-};
-
-struct Rgbs {
-    float r, g, b, sigma;
 };
 
 SOMBRA_BENCH_INLINE float mix(float a, float b, float t) { return a + (b - a) * t; }  // OpenCL mix()
@@ -57,14 +55,48 @@ SOMBRA_BENCH_INLINE float sample_density(const VolumeView& v, V3 p) {
     return mix(mix(c00, c10, fy), mix(c01, c11, fy), fz);
 }
 
-// Transfer function: linear interpolation in the table of (r, g, b, σ).
-SOMBRA_BENCH_INLINE Rgbs classify(const VolumeView& v, float density) {
+// Transfer function colour: linear interpolation in the table of (r, g, b, σ) (classify(); the
+// camera pass takes σ pre-integrated over the interval instead, preintegrated_sigma()).
+SOMBRA_BENCH_INLINE V3 classify_color(const VolumeView& v, float density) {
     float u = clampf((density - v.tf_min) * v.tf_scale, 0.0f, float(v.tf_size - 1));
     int i0 = std::min(int(u), v.tf_size - 2);
     float f = u - float(i0);
     int e = 4 * i0;  // entry i0, then i0 + 1; plain indices so that the loads become gathers
-    return {mix(v.tf[e], v.tf[e + 4], f), mix(v.tf[e + 1], v.tf[e + 5], f), mix(v.tf[e + 2], v.tf[e + 6], f),
-            mix(v.tf[e + 3], v.tf[e + 7], f)};
+    return {mix(v.tf[e], v.tf[e + 4], f), mix(v.tf[e + 1], v.tf[e + 5], f), mix(v.tf[e + 2], v.tf[e + 6], f)};
+}
+
+// σ of the table at entry coordinate u in [0, size − 1] (linear between entries).
+SOMBRA_BENCH_INLINE float table_sigma(const VolumeView& v, float u) {
+    int i0 = std::min(int(u), v.tf_size - 2);
+    int e = 4 * i0;
+    return mix(v.tf[e + 3], v.tf[e + 7], u - float(i0));
+}
+
+// preintegrated_sigma() of cl/volume_sample.h: the mean σ over an interval along which the density
+// runs linearly from d_front to d_back (σ linear between entries, constant beyond both ends): σ at
+// the middle within one entry cell; across cells the partial cells at both ends plus the whole
+// cells between them from the prefix sums, plus the clamped parts. Branch-free (selects) for
+// `omp simd`; equal densities give classify()'s σ.
+SOMBRA_BENCH_INLINE float preintegrated_sigma(const VolumeView& v, float d_front, float d_back) {
+    float last = float(v.tf_size - 1);
+    float ua = (std::fmin(d_front, d_back) - v.tf_min) * v.tf_scale;
+    float ub = (std::fmax(d_front, d_back) - v.tf_min) * v.tf_scale;
+    float a = clampf(ua, 0.0f, last), b = clampf(ub, 0.0f, last);
+    int ia = std::min(int(a), v.tf_size - 2), ib = std::min(int(b), v.tf_size - 2);
+    float mid_sigma = table_sigma(v, 0.5f * (a + b));
+    bool one_cell = ia == ib;
+    bool simple = one_cell && ua == a && ub == b;  // no clamped part either: the mean is mid_sigma
+    float a_end = float(ia + 1), b_start = float(ib);
+    const float* prefix = v.sigma_prefix;
+    float whole = (prefix[2 * ib] - prefix[2 * (ia + 1)]) + (prefix[2 * ib + 1] - prefix[2 * (ia + 1) + 1]);
+    float across = (a_end - a) * table_sigma(v, 0.5f * (a + a_end)) + (b - b_start) * table_sigma(v, 0.5f * (b_start + b)) +
+                   whole;
+    float inside = one_cell ? (b - a) * mid_sigma : across;
+    float below = std::fmax(std::fmin(ub, 0.0f) - ua, 0.0f), above = std::fmax(ub - std::fmax(ua, last), 0.0f);
+    float integral = below * v.tf[3] + above * v.tf[4 * (v.tf_size - 1) + 3] + inside;
+    float width = ub - ua;
+    bool interval = width > 0.0f;
+    return interval && !simple ? integral / (interval ? width : 1.0f) : mid_sigma;
 }
 
 // Central differences in voxel space (the renderer's default GradientMethod).
