@@ -75,3 +75,22 @@ TEST_CASE("every registered technique renders and answers shadow queries with it
         }
     }
 }
+
+TEST_CASE("options with a fixed set of values: one list each, checked before any work", "[modules]") {
+    CHECK(sombra::render_option_values("dsm_storage") == sombra::dsm_storage_names());
+    CHECK(sombra::render_option_values("shadows") == sombra::shadow_technique_names());
+    sombra::RenderOptions o;
+    sombra::set_render_option(o, "dsm_prefilter", "tent");
+    CHECK(o.dsm_prefilter == "tent");
+    CHECK(sombra::render_option_value(o, "dsm_prefilter") == "tent");
+    REQUIRE_THROWS_WITH(sombra::set_render_option(o, "lowpass_filter_kernel", "tent"), Contains("unknown value 'tent'"));
+    o.dsm_storage = "atlass";
+    REQUIRE_THROWS_WITH(sombra::check_render_options(o), Contains("--storage: unknown value 'atlass'") && Contains("chunked-ondemand"));
+    o.dsm_storage = "atlas";
+    o.shadows = sombra::ShadowTechnique(42);
+    REQUIRE_THROWS_WITH(sombra::check_render_options(o), Contains("--shadows: unknown value 42"));
+    o.shadows = sombra::ShadowTechnique::Dsm;
+    REQUIRE_NOTHROW(sombra::check_render_options(o));
+    o.lowpass_filter_kernel = "";
+    REQUIRE_THROWS_WITH(sombra::render(sombra::test::context(), sombra::test::sphere_scene(8), o), Contains("--filter-kernel"));
+}

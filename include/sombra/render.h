@@ -96,12 +96,17 @@ struct RenderOptions {
     int lanes = 0;
 };
 
-// The enumerated options by name, as the command line, --stats and the Python module spell them
-// ("dsm", "sobel", …). option: "shadows", "gradient", "shading" or "storage" (volume storage).
+// The options with a fixed set of values, by name, as the command line, --stats and the Python
+// module spell them ("dsm", "sobel", …): the one list of each (src/render/option_names.cpp; the
+// techniques' and storages' from their registries). option: "shadows", "gradient", "shading",
+// "storage" (volume storage), "dsm_storage", "dsm_prefilter" or "lowpass_filter_kernel".
 // An unknown option or value throws sombra::Error naming it and the accepted ones.
 std::vector<std::string> render_option_values(const std::string& option);  // the value names, in order
 void set_render_option(RenderOptions& options, const std::string& option, const std::string& value);
 std::string render_option_value(const RenderOptions& options, const std::string& option);
+// Throws sombra::Error naming the command-line flag of the first option whose value is not one of
+// its names (render, shadow_transmittance and build_deep_shadow_maps call it first).
+void check_render_options(const RenderOptions& options);
 
 // Linear RGB + alpha (coverage = 1 − t_acc), background already composited into RGB.
 struct Image {

@@ -23,7 +23,19 @@
 namespace {
 
 // The enumerated options' names: the library's list (render.h render_option_values).
-CLI::IsMember member_of(const char* option) { return CLI::IsMember(sombra::render_option_values(option)); }
+// A near miss gets a suggestion ("dms is not one of … (did you mean dsm?)").
+CLI::Validator member_of(const char* option) {
+    std::vector<std::string> names = sombra::render_option_values(option);
+    std::string list;
+    for (const std::string& n : names) list += (list.empty() ? "" : ",") + n;
+    return CLI::Validator(
+        [names, list](std::string& value) -> std::string {
+            if (std::find(names.begin(), names.end(), value) != names.end()) return "";
+            std::string close = sombra::detail::closest_name(value, names);
+            return value + " is not one of {" + list + "}" + (close.empty() ? "" : " (did you mean " + close + "?)");
+        },
+        "{" + list + "}");
+}
 
 const auto kStart = std::chrono::steady_clock::now();  // the whole command's wall clock starts here
 
@@ -266,7 +278,7 @@ int run(int argc, char** argv) {
     render->add_option("--cone-angle", cone_angle, "cone: half angle of the shadow cones in degrees")->check(in_range<float>(0.01f, 60));
     std::string filter_kernel = defaults.lowpass_filter_kernel;
     render->add_option("--filter-kernel", filter_kernel, "lowpass: box (one SAT box) or gauss (5×5 sub-boxes, Ament Eq. 25)")
-        ->check(CLI::IsMember({"box", "gauss"}));
+        ->check(member_of("lowpass_filter_kernel"));
     int dsm_resolution = defaults.dsm_resolution;
     float dsm_epsilon = defaults.dsm_epsilon;
     std::string dsm_storage = defaults.dsm_storage;
@@ -274,14 +286,14 @@ int run(int argc, char** argv) {
     std::string prefilter = defaults.dsm_prefilter;
     render->add_option("--dsm-res", dsm_resolution, "deep shadow map texels per side")->check(in_range<int>(1, 8192));
     render->add_option("--storage", dsm_storage, "deep shadow map storage: atlas, chunked, chunked-ondemand (Knecht) or compact")
-        ->check(CLI::IsMember(sombra::dsm_storage_names()));
+        ->check(member_of("dsm_storage"));
     render->add_flag("--precompression", precompression, "pre-compressed visibility tables for DSM generation (Hadwiger §3.2)");
     std::string prefilter_jitter = !defaults.dsm_prefilter_jitter ? "off"
                                    : defaults.dsm_prefilter_seed == 1 ? "on"
                                                                       : std::to_string(defaults.dsm_prefilter_seed);
     render->add_option("--prefilter", prefilter,
                        "DSM pre-filtering: none, box (2×2 sub-pixel rays), tent (4×4) or 5tap (centre + 4 corners)")
-        ->check(CLI::IsMember({"none", "box", "tent", "5tap"}));
+        ->check(member_of("dsm_prefilter"));
     render->add_option("--prefilter-jitter", prefilter_jitter, "jittered sub-pixel rays: on (seed 1), off, or a seed");
     render->add_option("--eps", dsm_epsilon, "deep shadow map compression error bound ε (Knecht Eq. 3.1)")
         ->check(in_range<float>(0, 1e6f));
@@ -311,10 +323,10 @@ int run(int argc, char** argv) {
         sub->add_option("--device", device, "auto, cpu, gpu, or an index from `sombra devices`");
         sub->add_option("--dsm-res", dsm_resolution, "deep shadow map texels per side")->check(in_range<int>(1, 8192));
         sub->add_option("--storage", dsm_storage, "deep shadow map storage: atlas, chunked, chunked-ondemand (Knecht) or compact")
-            ->check(CLI::IsMember(sombra::dsm_storage_names()));
+            ->check(member_of("dsm_storage"));
         sub->add_flag("--precompression", precompression, "pre-compressed visibility tables (Hadwiger §3.2)");
         sub->add_option("--prefilter", prefilter, "DSM pre-filtering: none, box, tent or 5tap")
-            ->check(CLI::IsMember({"none", "box", "tent", "5tap"}));
+            ->check(member_of("dsm_prefilter"));
         sub->add_option("--prefilter-jitter", prefilter_jitter, "jittered sub-pixel rays: on (seed 1), off, or a seed");
         sub->add_option("--eps", dsm_epsilon, "compression error bound ε")->check(in_range<float>(0, 1e6f));
         sub->add_option("--stats", stats_path, "write build times and DSM sizes as JSON");
@@ -322,7 +334,7 @@ int run(int argc, char** argv) {
     visibility->add_option("--filter", filter_width, "low-pass filter width W in voxels (Ament §4.2.1)")
         ->check(in_range<float>(0, 4096));
     visibility->add_option("--filter-kernel", filter_kernel, "low-pass filter kernel: box or gauss")
-        ->check(CLI::IsMember({"box", "gauss"}));
+        ->check(member_of("lowpass_filter_kernel"));
 
     try {
         app.parse(argc, argv);

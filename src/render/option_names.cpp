@@ -1,5 +1,6 @@
 // sombra — the enumerated render options by name (render.h: render_option_values and friends): the
 // one list the command line, --stats and the Python module share.
+#include <algorithm>
 #include <functional>
 #include <utility>
 
@@ -12,16 +13,33 @@ namespace {
 // One enumerated option: its value names in order, and how to read and write it in RenderOptions.
 struct EnumOption {
     const char* option;
+    const char* flag;  // on the command line, for errors
     std::vector<std::pair<std::string, int>> values;
     std::function<int(const RenderOptions&)> get;
     std::function<void(RenderOptions&, int)> set;
+    std::function<std::string(const RenderOptions&)> shown;  // the value as set, for errors
 };
 
 template <typename E, E RenderOptions::*field>
-EnumOption enum_option(const char* option, std::vector<std::pair<std::string, E>> values) {
-    EnumOption o{option, {}, [](const RenderOptions& r) { return int(r.*field); },
-                 [](RenderOptions& r, int v) { r.*field = E(v); }};
+EnumOption enum_option(const char* option, const char* flag, std::vector<std::pair<std::string, E>> values) {
+    EnumOption o{option, flag, {}, [](const RenderOptions& r) { return int(r.*field); },
+                 [](RenderOptions& r, int v) { r.*field = E(v); }, [](const RenderOptions& r) { return std::to_string(int(r.*field)); }};
     for (const auto& [name, value] : values) o.values.emplace_back(name, int(value));
+    return o;
+}
+
+// An option held as its name in RenderOptions (std::string): value i is names[i]; a name not in
+// the list reads as −1.
+template <std::string RenderOptions::*field>
+EnumOption named_option(const char* option, const char* flag, const std::vector<std::string>& names) {
+    EnumOption o{option, flag, {},
+                 [names](const RenderOptions& r) {
+                     auto it = std::find(names.begin(), names.end(), r.*field);
+                     return it == names.end() ? -1 : int(it - names.begin());
+                 },
+                 [names](RenderOptions& r, int v) { r.*field = names[std::size_t(v)]; },
+                 [](const RenderOptions& r) { return "'" + r.*field + "'"; }};
+    for (std::size_t i = 0; i < names.size(); ++i) o.values.emplace_back(names[i], int(i));
     return o;
 }
 
@@ -34,13 +52,16 @@ std::vector<std::pair<std::string, ShadowTechnique>> technique_values() {
 
 const std::vector<EnumOption>& enum_options() {
     static const std::vector<EnumOption> options = {
-        enum_option<ShadowTechnique, &RenderOptions::shadows>("shadows", technique_values()),
+        enum_option<ShadowTechnique, &RenderOptions::shadows>("shadows", "--shadows", technique_values()),
         enum_option<GradientMethod, &RenderOptions::gradient>(
-            "gradient", {{"central", GradientMethod::CentralDifferences}, {"sobel", GradientMethod::Sobel}}),
+            "gradient", "--gradient", {{"central", GradientMethod::CentralDifferences}, {"sobel", GradientMethod::Sobel}}),
         enum_option<ShadingModel, &RenderOptions::shading>(
-            "shading", {{"phong", ShadingModel::Phong}, {"scattering", ShadingModel::Scattering}}),
+            "shading", "--shading", {{"phong", ShadingModel::Phong}, {"scattering", ShadingModel::Scattering}}),
         enum_option<VolumeStorage, &RenderOptions::storage>(
-            "storage", {{"auto", VolumeStorage::Auto}, {"buffer", VolumeStorage::Buffer}, {"image", VolumeStorage::Image}}),
+            "storage", "--volume-storage", {{"auto", VolumeStorage::Auto}, {"buffer", VolumeStorage::Buffer}, {"image", VolumeStorage::Image}}),
+        named_option<&RenderOptions::dsm_storage>("dsm_storage", "--storage", dsm_storage_names()),
+        named_option<&RenderOptions::dsm_prefilter>("dsm_prefilter", "--prefilter", {"none", "box", "tent", "5tap"}),
+        named_option<&RenderOptions::lowpass_filter_kernel>("lowpass_filter_kernel", "--filter-kernel", {"box", "gauss"}),
     };
     return options;
 }
@@ -77,6 +98,16 @@ std::string render_option_value(const RenderOptions& options, const std::string&
     for (const auto& [name, v] : o.values)
         if (v == o.get(options)) return name;
     return "?";
+}
+
+void check_render_options(const RenderOptions& options) {
+    for (const EnumOption& o : enum_options()) {
+        int value = o.get(options);
+        if (std::any_of(o.values.begin(), o.values.end(), [&](const auto& v) { return v.second == value; })) continue;
+        std::string known;
+        for (const auto& v : o.values) known += (known.empty() ? "" : ", ") + v.first;
+        throw Error(std::string(o.flag) + ": unknown value " + o.shown(options) + " (" + known + ")");
+    }
 }
 
 }  // namespace sombra

@@ -128,6 +128,7 @@ int check_light(const Scene& scene, int light_index) {
 Prepared prepare(Context& context, const Scene& scene, const RenderOptions& options, RenderStats& stats) {
     host::Runtime& runtime = context.runtime();
     detail::KeptScenes& kept = context.kept_scenes();
+    check_render_options(options);
     validate_scene(scene, scene.source);
     bool use_images = options.storage == VolumeStorage::Image ||
                       (options.storage == VolumeStorage::Auto && runtime.info().is_gpu);
