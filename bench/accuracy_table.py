@@ -21,7 +21,7 @@ a = ap.parse_args()
 env = dict(os.environ, PATH='/usr/local/bin:/usr/bin:/bin:' + os.environ.get('PATH', ''))
 rng = random.Random(1)
 
-def rot(deg):  # T·Rz·Ry·Rx as the scene loader builds it (README "Scenes")
+def rot(deg):  # T·Rz·Ry·Rx as the scene loader builds it (docs/scenes.md)
     x, y, z = (math.radians(d) for d in deg)
     rx = [[1, 0, 0], [0, math.cos(x), -math.sin(x)], [0, math.sin(x), math.cos(x)]]
     ry = [[math.cos(y), 0, math.sin(y)], [0, 1, 0], [-math.sin(y), 0, math.cos(y)]]

@@ -53,7 +53,7 @@ inline lfloat sample_density(VOLUME_DATA_PARAM, __global const VolumeGpu* v, lfl
 }
 
 /* Transfer function: linear interpolation in the volume's table of (r, g, b, σ), σ being the
- * extinction per world unit (opacity already converted, see README "opacity convention"). */
+ * extinction per world unit (opacity already converted, see docs/scenes.md "opacity convention"). */
 typedef struct {
     lfloat3 color;
     lfloat sigma;

@@ -1,5 +1,5 @@
 // Scene JSON: the input is the scene file. Generators are held to 32³ voxels so that a run stays in
-// milliseconds (the size check itself is the same code as for the README's limit).
+// milliseconds (the size check itself is the same code as for the limit in docs/hostile-input.md).
 #include "fuzz_support.h"
 #include "sombra/scene.h"
 

@@ -30,7 +30,7 @@ D3 minus(const D3& a, const D3& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[
 using test::constant_tf;
 using test::constant_volume;
 
-// σ = −ln(1 − α)/unit (README, "Opacity convention").
+// σ = −ln(1 − α)/unit (docs/scenes.md, "Opacity convention").
 double sigma_of(float alpha, double unit) { return -std::log(1.0 - double(alpha)) / unit; }
 
 Light directional(const D3& direction) {

@@ -1,4 +1,4 @@
-// sombra — upper bounds on every count and size an input may ask for (README, "Limits").
+// sombra — upper bounds on every count and size an input may ask for (docs/hostile-input.md, the table of limits).
 // Files are checked against them (and against their real size) before anything is allocated.
 #pragma once
 #include <cstdint>

@@ -48,7 +48,7 @@ struct VolumeLoadReport {
 //   .den                 VolPack density file
 //   .inr                 INRIMAGE-4
 //   .vtk                 legacy VTK STRUCTURED_POINTS (ASCII or BINARY)
-//   .json                raw voxels described by a small JSON header (see README: "raw volumes")
+//   .json                raw voxels described by a small JSON header (see data/README.md: "Raw volumes")
 // Throws sombra::Error with "FILE: FIELD: what" on any malformed, truncated or empty input.
 Volume load_volume(const std::string& path, const VolumeLoadOptions& options = {},
                    VolumeLoadReport* report = nullptr);

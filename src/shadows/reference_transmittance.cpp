@@ -7,7 +7,7 @@
 // functions that each do one thing.
 //
 //   T(p → light) = exp(−τ),   τ = Σ_volumes ∫_segment σ_v(x) ds                      (Beer–Lambert)
-//   σ_v(x)       = −ln(1 − α(f_v(x))) / opacity_unit_v                     (README: opacity convention)
+//   σ_v(x)       = −ln(1 − α(f_v(x))) / opacity_unit_v                     (docs/scenes.md: opacity convention)
 //   ∫_a^b σ ds   ≈ h · Σ_{k=0}^{n−1} σ(a + (k + ½)·h),  n = ⌈(b − a)/h₀⌉, h = (b − a)/n  (midpoint rule)
 //
 // with h₀ = step_voxels × the volume's smallest world voxel size, and f_v the trilinear
@@ -174,7 +174,7 @@ double sample_trilinear(const Volume& v, const D3& x) {
     return result;
 }
 
-// σ = −ln(1 − α)/opacity_unit (README, "Opacity convention"), α = TF opacity of the value.
+// σ = −ln(1 − α)/opacity_unit (docs/scenes.md, "Opacity convention"), α = TF opacity of the value.
 // α = 1 would be σ = ∞: it is capped at transmittance 10⁻⁶ per opacity unit, σ_max = −ln(10⁻⁶)/unit,
 // and, as in TransferFunction::table, no σ exceeds that cap.
 double extinction(const TransferFunction& tf, double value, double opacity_unit) {

@@ -51,7 +51,7 @@ struct RefVolume {
     bool stiff;  // σ·step ≥ 2 somewhere on the kernel's table grid: light passes split at voxel planes
 };
 
-// Extinction per world unit: σ = −ln(1 − α) / opacity_unit, α = 1 capped at T = 1e-6 (README).
+// Extinction per world unit: σ = −ln(1 − α) / opacity_unit, α = 1 capped at T = 1e-6 (docs/scenes.md).
 double extinction(const TransferFunction& tf, double value, double unit) {
     double alpha = std::clamp(double(tf.opacity(float(value))), 0.0, 1.0);
     double cap = -std::log(1e-6) / unit;
