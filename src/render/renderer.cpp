@@ -390,7 +390,8 @@ ShadowQuery shadow_transmittance(Context& context, const Scene& scene, int light
                                  const RenderOptions& options) {
     host::Runtime& runtime = context.runtime();
     pipeline::check_light(scene, light_index);
-    if (options.shadows == ShadowTechnique::None) throw Error("--shadows: none has no transmittance to query");
+    if (!techniques::make_module(scene, options.shadows)->has_shadow_term())
+        throw Error(std::string("--shadows: ") + shadow_technique_name(options.shadows) + " has no transmittance to query");
     ShadowQuery query;
     query.stats.device = runtime.info().name;
     pipeline::Prepared prepared = pipeline::prepare(context, scene, options, query.stats);

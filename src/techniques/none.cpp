@@ -7,6 +7,7 @@ namespace {
 class NoShadows final : public ShadowModule {
 public:
     void add_defines(const Scene&, const RenderOptions&, std::vector<std::string>&) const override {}
+    bool has_shadow_term() const override { return false; }
 };
 
 }  // namespace

@@ -32,6 +32,8 @@ public:
     // The -D defines of the passes that read the shadow term (render.cl): SOMBRA_TECHNIQUE_<NAME>
     // selects cl/techniques/<name>.h; the rest are the module's own.
     virtual void add_defines(const Scene& scene, const RenderOptions& options, std::vector<std::string>& defines) const = 0;
+    // Whether the technique attenuates light (SHADOW_TERM of its kernel header; none: false).
+    virtual bool has_shadow_term() const { return true; }
     // Appends what the module's device data depend on among the options (the renderer keys the
     // scene's preparation by it; the volumes, meshes and light count are keyed already).
     virtual void add_key(const RenderOptions& options, int lanes, std::ostream& key) const;
