@@ -12,6 +12,9 @@ packages=(
   libglm-dev libopenimageio-dev catch2 nlohmann-json3-dev libcli11-dev
   # volume and mesh formats (OBJ: tinyobjloader's header; nifti1_io.h includes nifti1.h, which is in libnifti2-dev)
   libniftiio-dev libnifti2-dev libznz-dev libzip-dev zlib1g-dev libtinyobjloader-dev
+  # OpenVDB (.vdb; its headers include Boost's, which libopenvdb-dev does not pull in) and ITK's
+  # ImageIO (NRRD, MetaImage, TIFF, DICOM through GDCM)
+  libopenvdb-dev libboost-dev libtbb-dev libimath-dev libinsighttoolkit5-dev
   # sanitizer build and fuzzing (scripts/sanitize.sh, scripts/fuzz.sh): clang, libFuzzer and the
   # sanitizer runtimes, llvm-symbolizer for readable reports
   clang libclang-rt-dev llvm
