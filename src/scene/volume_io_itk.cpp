@@ -25,8 +25,10 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <iostream>
 #include <mutex>
 #include <sstream>
 
@@ -106,6 +108,26 @@ void check_header(const std::string& path, itk::ImageIOBase& io, std::size_t sli
                                            " bytes of input can hold");
 }
 
+// GDCM (as Debian builds it) asserts, and so aborts the process, on a Part 10 file cut inside its
+// file meta information. Checked first: a file with the "DICM" magic must hold the whole meta group
+// its (0002,0000) group length declares. Files without the magic are left to GDCM.
+void check_dicom_meta(const std::string& path, std::uint64_t size) {
+    std::ifstream in(path, std::ios::binary);
+    unsigned char head[144] = {};
+    in.read(reinterpret_cast<char*>(head), sizeof head);
+    const std::size_t got = std::size_t(in.gcount());
+    if (got < 132 || std::memcmp(head + 128, "DICM", 4) != 0) return;
+    // (0002,0000) UL, explicit VR little endian: 02 00 00 00 'U' 'L' 04 00, then the length
+    const unsigned char tag[8] = {2, 0, 0, 0, 'U', 'L', 4, 0};
+    if (got < 144 || std::memcmp(head + 132, tag, 8) != 0)
+        throw file_error(path, "meta", "truncated or malformed DICOM file meta information (no group length)");
+    const std::uint64_t length = std::uint64_t(head[140]) | std::uint64_t(head[141]) << 8 |
+                                 std::uint64_t(head[142]) << 16 | std::uint64_t(head[143]) << 24;
+    if (size < 144 + length)
+        throw file_error(path, "meta", "truncated: the DICOM file meta information needs " + std::to_string(144 + length) +
+                                           " bytes, the file has " + std::to_string(size));
+}
+
 // The regular files of a series folder; refuses anything else that could block or mislead.
 std::vector<std::string> folder_files(const std::string& dir, std::uint64_t* total_bytes) {
     std::vector<std::string> files;
@@ -121,7 +143,9 @@ std::vector<std::string> folder_files(const std::string& dir, std::uint64_t* tot
         if (files.size() == kMaxSeriesFiles)
             throw file_error(dir, "", "holds more than " + std::to_string(kMaxSeriesFiles) + " files");
         files.push_back(it->path().string());
-        *total_bytes += it->file_size(ec);
+        const std::uint64_t size = it->file_size(ec);
+        *total_bytes += size;
+        if (!ec) check_dicom_meta(files.back(), size);
     }
     if (ec) throw file_error(dir, "", "cannot list the folder: " + ec.message());
     if (files.empty()) throw file_error(dir, "", "an empty folder (expected the files of one DICOM series)");
@@ -197,6 +221,20 @@ Volume read_series(const std::string& dir, const VolumeLoadOptions& options) {
     return to_volume(dir, image, ItkFormat::dicom_series);
 }
 
+// Redirects std::cerr while it lives (readers are not run from several threads at once).
+class CerrCapture {
+public:
+    CerrCapture() : old_(std::cerr.rdbuf(buffer_.rdbuf())) {}
+    ~CerrCapture() { std::cerr.rdbuf(old_); }
+    CerrCapture(const CerrCapture&) = delete;
+    CerrCapture& operator=(const CerrCapture&) = delete;
+    std::string text() const { return buffer_.str(); }
+
+private:
+    std::ostringstream buffer_;
+    std::streambuf* old_;
+};
+
 // Whether the voxels are in the file itself (so its size bounds them): NRRD without a "data file"
 // field, MetaImage with "ElementDataFile = LOCAL", any TIFF or DICOM file. A detached header
 // (.nhdr, .mhd) names a data file whose size ITK does not tell.
@@ -218,6 +256,11 @@ bool attached_data(const std::string& path, ItkFormat format) {
 
 Volume read_file(const std::string& path, ItkFormat format, const VolumeLoadOptions& options) {
     const std::uint64_t file_bytes = detail::regular_file_size(path);
+    // MetaIO prints to std::cerr what it cannot parse (ITK's exception says it again), and reports a
+    // short compressed stream only there, carrying on with a part-filled buffer: caught and made
+    // the error.
+    CerrCapture capture;
+    if (format == ItkFormat::dicom) check_dicom_meta(path, file_bytes);
     itk::ImageIOBase::Pointer io = make_io(format);
     if (!io->CanReadFile(path.c_str()))
         throw file_error(path, "header", std::string("not a readable ") + format_name(format) + " file");
@@ -229,6 +272,9 @@ Volume read_file(const std::string& path, ItkFormat format, const VolumeLoadOpti
     reader->SetImageIO(io);
     reader->SetFileName(path);
     reader->Update();
+    const std::string said = capture.text();
+    if (said.find("not read completely") != std::string::npos)
+        throw file_error(path, "data", "truncated: " + one_line(said));
     return to_volume(path, *reader->GetOutput(), format);
 }
 
