@@ -517,7 +517,7 @@ TEST_CASE("hostile input: truncated .vdb, .nrrd, .mha, .tif and DICOM files give
     }
 }
 
-TEST_CASE("scenes: the file's placement is part of the volume's transform; 'grid' and 'placement' keys",
+TEST_CASE("scenes: the file's placement is part of the volume's transform, with 'grid' and 'placement' keys",
           "[volume_io][vdb][scene]") {
     TempDir tmp;
     volume_io::VdbGridSpec a;

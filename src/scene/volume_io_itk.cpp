@@ -287,9 +287,12 @@ Volume read_itk(const std::string& path, ItkFormat format, const VolumeLoadOptio
     } catch (const Error&) {
         throw;
     } catch (const itk::ExceptionObject& e) {
+        std::string what = one_line(e.GetDescription());
+        // "ITK ERROR: NrrdImageIO(0x55…): Read: …": the class and its address say nothing to a user
+        const std::size_t at = what.find("): ");
+        if (what.rfind("ITK ERROR: ", 0) == 0 && at != std::string::npos) what.erase(0, at + 3);
         throw file_error(path, "", std::string("not a readable ") + format_name(format) +
-                                       (format == ItkFormat::dicom_series ? " series: " : " file: ") +
-                                       one_line(e.GetDescription()));
+                                       (format == ItkFormat::dicom_series ? " series: " : " file: ") + what);
     } catch (const std::exception& e) {  // std::bad_alloc, …
         throw file_error(path, "", std::string("cannot read the ") + format_name(format) + " data: " + one_line(e.what()));
     }
