@@ -9,6 +9,26 @@
 
 #include "scene/input_file.h"
 
+#if defined(__clang__)
+// Debian's ITK 5.2 generated its compiler-detection header for GCC only: under clang (the sanitizer
+// build) it stops with "Unsupported compiler". Read it once as GCC 12 (its feature macros only);
+// its include guard keeps it so for the ITK headers below.
+#pragma clang diagnostic push
+#pragma clang diagnostic ignored "-Wbuiltin-macro-redefined"
+#pragma push_macro("__clang__")
+#pragma push_macro("__GNUC__")
+#pragma push_macro("__GNUC_MINOR__")
+#undef __clang__
+#undef __GNUC__
+#undef __GNUC_MINOR__
+#define __GNUC__ 12  // clang says 4.2, which the header refuses; C++17 clang has every feature it asks
+#define __GNUC_MINOR__ 2
+#include <itk_compiler_detection.h>
+#pragma pop_macro("__GNUC_MINOR__")
+#pragma pop_macro("__GNUC__")
+#pragma pop_macro("__clang__")
+#pragma clang diagnostic pop
+#endif
 #include <gdcmTrace.h>
 #include <itkGDCMImageIO.h>
 #include <itkGDCMSeriesFileNames.h>
