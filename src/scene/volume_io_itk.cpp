@@ -143,9 +143,10 @@ void check_dicom_meta(const std::string& path, std::uint64_t size) {
         throw file_error(path, "meta", "truncated or malformed DICOM file meta information (no group length)");
     const std::uint64_t length = std::uint64_t(head[140]) | std::uint64_t(head[141]) << 8 |
                                  std::uint64_t(head[142]) << 16 | std::uint64_t(head[143]) << 24;
-    if (size < 144 + length)
-        throw file_error(path, "meta", "truncated: the DICOM file meta information needs " + std::to_string(144 + length) +
-                                           " bytes, the file has " + std::to_string(size));
+    // GDCM also asserts when the file ends at (or in the first tag after) the meta group's end
+    if (size < 144 + length + 8)
+        throw file_error(path, "meta", "truncated: the DICOM file meta information and a first data element need " +
+                                           std::to_string(144 + length + 8) + " bytes, the file has " + std::to_string(size));
 }
 
 // The regular files of a series folder; refuses anything else that could block or mislead.
