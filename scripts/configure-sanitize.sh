@@ -10,4 +10,4 @@ flags="$flags -fsanitize=fuzzer-no-link"   # coverage feedback from the library,
 cmake -S . -B build-sanitize -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ \
       -DCMAKE_C_FLAGS="$flags" -DCMAKE_CXX_FLAGS="$flags" -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1" \
       -DSOMBRA_FUZZ=ON -DSOMBRA_BUILD_BENCH=OFF \
-      -DSOMBRA_TEST_ONLY="test_volume_io|test_mesh|test_cli|test_hostile_input" >/dev/null
+      -DSOMBRA_TEST_ONLY="test_volume_io|test_volume_io_libs|test_mesh|test_cli|test_hostile_input" >/dev/null

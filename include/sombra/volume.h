@@ -13,6 +13,16 @@ namespace sombra {
 struct Volume {
     std::array<int, 3> dims{0, 0, 0};
     std::array<float, 3> spacing{1.f, 1.f, 1.f};  // voxel size along x, y, z (file units, e.g. mm)
+    // Where the file puts the volume, spacing aside: a row-major 4×4 affine map from the volume's
+    // object frame (voxel (i, j, k) at ((i − (nx−1)/2)·sx, …), centred at the origin, as in
+    // VolumeInstance) to the file's world frame. Its 3×3 part holds the direction cosines (rotation,
+    // flips; for OpenVDB any shear left after the spacing is taken out), its last column the world
+    // position of the volume's centre. Medical images (NIfTI, DICOM, NRRD, MetaImage) are placed in
+    // RAS+ millimetres (+x towards the patient's right, +y anterior, +z superior: NIfTI's and 3D
+    // Slicer's frame; ITK's LPS is converted); OpenVDB grids in the grid's own world units. Identity for
+    // formats without a placement (npy, den, inr, vtk, raw) and for the generators: centred at the
+    // origin, axes as stored. load_scene folds it into VolumeInstance::transform.
+    std::array<float, 16> placement{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
     std::vector<float> voxels;
     std::string source;  // file path or generator name, for messages
     float value_min = 0.f, value_max = 0.f;
@@ -35,11 +45,18 @@ enum class NonFinitePolicy {
 struct VolumeLoadOptions {
     NonFinitePolicy non_finite = NonFinitePolicy::Reject;
     std::uint64_t max_voxels = std::uint64_t(1) << 30;  // per volume (file or generator); ≤ limits::kMaxVolumeVoxels
+    // .vdb: the grid to read, by name; empty: "density" if the file has that scalar grid, else the
+    // first float or double grid in OpenVDB's listing (by name)
+    std::string grid;
 };
 
 struct VolumeLoadReport {
     std::size_t non_finite_replaced = 0;
-    std::string format;  // "nifti", "npy", "npz", "den", "raw", "inr", "vtk"
+    // "nifti", "npy", "npz", "den", "raw", "inr", "vtk", "vdb", "nrrd", "metaimage", "tiff",
+    // "dicom" (one file) or "dicom-series" (a folder)
+    std::string format;
+    std::string grid;        // .vdb: the grid read
+    float background = 0.f;  // .vdb: the grid's background value (inactive voxels inside the box hold it)
 };
 
 // Reads a volume, choosing the reader by the file name:
@@ -49,6 +66,15 @@ struct VolumeLoadReport {
 //   .inr                 INRIMAGE-4
 //   .vtk                 legacy VTK STRUCTURED_POINTS (ASCII or BINARY)
 //   .json                raw voxels described by a small JSON header (see data/README.md: "Raw volumes")
+//   .vdb                 OpenVDB float/double grid (fog volume, or level set turned into fog), its
+//                        active bounding box made dense; options.grid chooses the grid
+//   .nrrd, .nhdr         NRRD (raw, gzip; attached or detached data) through ITK
+//   .mha, .mhd           MetaImage through ITK
+//   .tif, .tiff          TIFF, a multi-page file read as a stack of z slices, through ITK
+//   .dcm                 one DICOM file (a slice or a multi-frame volume) through ITK/GDCM
+//   a folder             a DICOM series: its slices sorted by position, rescale slope and
+//                        intercept applied, spacing and orientation from the headers (ITK/GDCM)
+// Fills Volume::placement where the file has one (NIfTI, OpenVDB, NRRD, MetaImage, DICOM).
 // Throws sombra::Error with "FILE: FIELD: what" on any malformed, truncated or empty input.
 Volume load_volume(const std::string& path, const VolumeLoadOptions& options = {},
                    VolumeLoadReport* report = nullptr);

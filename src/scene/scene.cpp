@@ -141,14 +141,26 @@ VolumeInstance read_volume(const json& j, const std::string& file, const std::st
     bool has_file = f.has("file"), has_generator = f.has("generator");
     if (has_file == has_generator) f.fail("", "needs exactly one of 'file' and 'generator'");
     if (has_file) {
-        vi.volume = std::make_shared<const Volume>(load_volume(relative_to(file, f.string("file")).string(), options));
+        VolumeLoadOptions with_grid = options;
+        if (f.has("grid")) {
+            with_grid.grid = f.string("grid");
+            if (with_grid.grid.empty()) f.fail("grid", "must be a grid name (leave it out for the first float grid)");
+        }
+        vi.volume = std::make_shared<const Volume>(load_volume(relative_to(file, f.string("file")).string(), with_grid));
     } else {
         vi.volume = read_generator(f.at("generator"), file, f.field("generator"), options);
     }
     vi.spacing = f.vec3("spacing", vi.volume->spacing);
     for (float s : vi.spacing)
         if (!(s >= limits::kMinLength)) f.fail("spacing", "must be ≥ 1e-12 (positive)");
-    if (f.has("transform")) vi.transform = read_transform(f.at("transform"), file, f.field("transform"));
+    // The file's placement (orientation and position), then the scene's transform: one matrix.
+    std::array<float, 16> placement = vi.volume->placement;
+    const std::string where = f.string("placement", "file");
+    if (where == "centered") placement[3] = placement[7] = placement[11] = 0.f;
+    else if (where != "file") f.fail("placement", "must be \"file\" (where the file puts the volume) or \"centered\" "
+                                                  "(its orientation kept, its centre at the origin)");
+    vi.transform = placement;
+    if (f.has("transform")) vi.transform = multiply(read_transform(f.at("transform"), file, f.field("transform")), placement);
     vi.transfer_function = read_transfer_function(f.at("transfer_function"), file, f.field("transfer_function"));
     vi.step_voxels = f.number("step_voxels", vi.step_voxels);
     if (!(vi.step_voxels >= 0.01f && vi.step_voxels <= 16.f)) f.fail("step_voxels", "must lie in [0.01, 16]");

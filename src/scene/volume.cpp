@@ -7,6 +7,9 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
 #include <limits>
 
 namespace sombra {
@@ -32,15 +35,41 @@ bool ends_with(const std::string& s, const std::string& suffix) {
 struct Reader {
     const char* extension;
     const char* format;
-    Volume (*read)(const std::string&);
+    Volume (*read)(const std::string&, const VolumeLoadOptions&, VolumeLoadReport&);
 };
 
+template <Volume (*F)(const std::string&)>
+Volume plain(const std::string& path, const VolumeLoadOptions&, VolumeLoadReport&) { return F(path); }
+template <volume_io::ItkFormat F>
+Volume itk(const std::string& path, const VolumeLoadOptions& options, VolumeLoadReport&) {
+    return volume_io::read_itk(path, F, options);
+}
+
+using volume_io::ItkFormat;
 const Reader kReaders[] = {
-    {".nii.gz", "nifti", volume_io::read_nifti}, {".nii", "nifti", volume_io::read_nifti},
-    {".npy", "npy", volume_io::read_npy},        {".npz", "npz", volume_io::read_npz},
-    {".den", "den", volume_io::read_den},        {".inr", "inr", volume_io::read_inr},
-    {".vtk", "vtk", volume_io::read_vtk},        {".json", "raw", volume_io::read_raw_json},
+    {".nii.gz", "nifti", plain<volume_io::read_nifti>}, {".nii", "nifti", plain<volume_io::read_nifti>},
+    {".npy", "npy", plain<volume_io::read_npy>},         {".npz", "npz", plain<volume_io::read_npz>},
+    {".den", "den", plain<volume_io::read_den>},         {".inr", "inr", plain<volume_io::read_inr>},
+    {".vtk", "vtk", plain<volume_io::read_vtk>},         {".json", "raw", plain<volume_io::read_raw_json>},
+    {".vdb", "vdb", volume_io::read_vdb},
+    {".nrrd", "nrrd", itk<ItkFormat::nrrd>},             {".nhdr", "nrrd", itk<ItkFormat::nrrd>},
+    {".mha", "metaimage", itk<ItkFormat::metaimage>},    {".mhd", "metaimage", itk<ItkFormat::metaimage>},
+    {".tif", "tiff", itk<ItkFormat::tiff>},              {".tiff", "tiff", itk<ItkFormat::tiff>},
+    {".dcm", "dicom", itk<ItkFormat::dicom>},
 };
+const Reader kDicomSeries{"", "dicom-series", itk<ItkFormat::dicom_series>};
+const Reader kDicomFile{"", "dicom", itk<ItkFormat::dicom>};
+
+constexpr const char* kKnown =
+    "expected .nii, .nii.gz, .npy, .npz, .den, .inr, .vtk, .json, .vdb, .nrrd, .nhdr, .mha, .mhd, .tif, .tiff, "
+    ".dcm, or a folder holding one DICOM series";
+
+// A DICOM Part 10 file has "DICM" at byte 128, whatever its name (series files often have none).
+bool has_dicom_magic(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    char magic[132] = {};
+    return in.read(magic, sizeof magic) && std::memcmp(magic + 128, "DICM", 4) == 0;
+}
 
 const Reader& reader_for(const std::string& path) {
     std::string lower = path;
@@ -48,15 +77,25 @@ const Reader& reader_for(const std::string& path) {
                    [](unsigned char c) { return char(std::tolower(c)); });
     for (const Reader& r : kReaders)
         if (ends_with(lower, r.extension)) return r;
-    throw file_error(path, "", "unknown volume format (expected .nii, .nii.gz, .npy, .npz, .den, .inr, .vtk or .json)");
+    std::error_code ec;
+    const auto status = std::filesystem::status(path, ec);
+    if (!ec && std::filesystem::is_directory(status)) return kDicomSeries;
+    if (!ec && std::filesystem::is_regular_file(status) && has_dicom_magic(path)) return kDicomFile;
+    if (ec || !std::filesystem::exists(status))
+        throw file_error(path, "", "no such file or folder (" + std::string(kKnown) + ")");
+    throw file_error(path, "", std::string("unknown volume format (") + kKnown + ")");
 }
 
 }  // namespace
 
 Volume load_volume(const std::string& path, const VolumeLoadOptions& options, VolumeLoadReport* report) {
     const Reader& reader = reader_for(path);
-    detail::regular_file_size(path);  // no directory, FIFO or device, whatever the reader
-    Volume volume = reader.read(path);
+    if (!options.grid.empty() && std::string(reader.format) != "vdb")
+        throw file_error(path, "grid", "only .vdb files have named grids");
+    if (&reader != &kDicomSeries)
+        detail::regular_file_size(path);  // no directory, FIFO or device, whatever the reader
+    VolumeLoadReport local;
+    Volume volume = reader.read(path, options, local);
 
     const std::size_t count = volume_io::checked_voxel_count(
         path, {volume.dims[0], volume.dims[1], volume.dims[2]});
@@ -80,6 +119,7 @@ Volume load_volume(const std::string& path, const VolumeLoadOptions& options, Vo
     volume.source = path;
     volume.update_range();
     if (report) {
+        *report = local;
         report->non_finite_replaced = non_finite;
         report->format = reader.format;
     }

@@ -76,6 +76,50 @@ double parse_number(const std::string& file, const std::string& field, const std
     return v;
 }
 
+void set_geometry(Volume& v, const std::string& file, const std::string& field,
+                  const std::array<std::array<double, 3>, 3>& axes, const std::array<double, 3>& origin) {
+    std::array<std::array<double, 3>, 3> unit{};  // unit[a]: direction of index axis a
+    for (int a = 0; a < 3; ++a) {
+        const double len = std::sqrt(axes[a][0] * axes[a][0] + axes[a][1] * axes[a][1] + axes[a][2] * axes[a][2]);
+        if (!(std::isfinite(len) && len >= double(limits::kMinLength) && len <= 1e18))
+            throw file_error(file, field, "voxel size along axis " + std::to_string(a) + " is " +
+                                              (std::isfinite(len) ? std::to_string(len) : std::string("not finite")) +
+                                              " (must be > 0 and finite)");
+        for (int r = 0; r < 3; ++r) unit[a][r] = axes[a][r] / len;
+        v.spacing[std::size_t(a)] = float(len);
+    }
+    const double det = unit[0][0] * (unit[1][1] * unit[2][2] - unit[1][2] * unit[2][1]) -
+                       unit[1][0] * (unit[0][1] * unit[2][2] - unit[0][2] * unit[2][1]) +
+                       unit[2][0] * (unit[0][1] * unit[1][2] - unit[0][2] * unit[1][1]);
+    if (!(std::fabs(det) > 1e-6))
+        throw file_error(file, field, "the voxel axes are (nearly) parallel: the volume would be flat");
+    std::array<double, 3> centre = origin;  // world position of voxel ((n−1)/2, …)
+    for (int a = 0; a < 3; ++a)
+        for (int r = 0; r < 3; ++r) centre[r] += axes[a][r] * 0.5 * double(v.dims[std::size_t(a)] - 1);
+    for (int r = 0; r < 3; ++r) {
+        if (!(std::fabs(centre[r]) <= double(limits::kMaxCoordinate)))
+            throw file_error(file, field, "places the volume beyond ±1e18");
+        for (int a = 0; a < 3; ++a) v.placement[std::size_t(r * 4 + a)] = float(unit[a][r]);
+        v.placement[std::size_t(r * 4 + 3)] = float(centre[r]);
+    }
+    v.placement[12] = v.placement[13] = v.placement[14] = 0.f;
+    v.placement[15] = 1.f;
+}
+
+std::string one_line(const std::string& text) {
+    std::string out;
+    for (char c : text) {
+        const bool blank = c == '\n' || c == '\r' || c == '\t' || c == ' ';
+        if (blank) {
+            if (!out.empty() && out.back() != ' ') out += ' ';
+        } else {
+            out += c;
+        }
+    }
+    while (!out.empty() && out.back() == ' ') out.pop_back();
+    return out;
+}
+
 namespace {
 template <typename T>
 void convert(const unsigned char* data, std::size_t count, bool swap, float* out) {

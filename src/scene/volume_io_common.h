@@ -42,8 +42,22 @@ double parse_number(const std::string& file, const std::string& field, const std
 std::vector<float> to_float(const unsigned char* data, std::size_t count, ScalarType type,
                             Endian endian);
 
+// Sets v.spacing and v.placement (see Volume::placement) from an index → world affine map:
+// voxel (i, j, k) of v lies at world = origin + i·axes[0] + j·axes[1] + k·axes[2], axes[a] being
+// the world step of one voxel along index axis a. spacing[a] = |axes[a]|. v.dims must be set.
+// Throws "FILE: FIELD: ..." for a zero, non-finite or degenerate (flat) set of axes.
+void set_geometry(Volume& v, const std::string& file, const std::string& field,
+                  const std::array<std::array<double, 3>, 3>& axes, const std::array<double, 3>& origin);
+
+// One line from a library's message: newlines and runs of blanks become one space, trimmed.
+std::string one_line(const std::string& text);
+
 // Per-format readers. Each returns a volume with dims, spacing, voxels and source set; the
 // NaN/Inf policy, the empty-volume check and the value range are applied by load_volume.
+// The library readers (OpenVDB, ITK) also check options.max_voxels before they allocate.
+Volume read_vdb(const std::string& path, const VolumeLoadOptions& options, VolumeLoadReport& report);
+enum class ItkFormat { nrrd, metaimage, tiff, dicom, dicom_series };
+Volume read_itk(const std::string& path, ItkFormat format, const VolumeLoadOptions& options);
 Volume read_nifti(const std::string& path);
 Volume read_npy(const std::string& path);
 Volume read_npz(const std::string& path);
@@ -54,5 +68,37 @@ Volume read_raw_json(const std::string& path);
 
 // Parses an in-memory .npy file; `name` is used in error messages (a path or "archive:member").
 Volume parse_npy(const std::string& name, const unsigned char* data, std::size_t size);
+
+// ---- Test-data writers: files written by the libraries themselves (tests, scripts) ----
+
+// One grid of a .vdb file written by write_vdb.
+struct VdbGridSpec {
+    enum class Kind { Float, Double, Vec3 } kind = Kind::Float;
+    std::string name;
+    bool level_set = false;          // grid class: level set (values are signed distances) or fog
+    std::array<int, 3> dims{0, 0, 0};
+    std::vector<float> values;       // x fastest; a voxel equal to `background` stays inactive
+    std::array<int, 3> index_min{0, 0, 0};  // VDB index of values[0]
+    // Row-major 4×4: the world position of VDB index (i, j, k) is M · (i, j, k, 1).
+    std::array<double, 16> index_to_world{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+    float background = 0.f;
+};
+void write_vdb(const std::string& path, const std::vector<VdbGridSpec>& grids);
+
+// Geometry as ITK holds it (LPS): physical point of index (i, j, k) = origin + D · diag(spacing) · (i, j, k),
+// D row-major (its column a is the direction of index axis a).
+struct ItkGeometry {
+    std::array<double, 3> spacing{1, 1, 1};
+    std::array<double, 3> origin{0, 0, 0};
+    std::array<double, 9> direction{1, 0, 0, 0, 1, 0, 0, 0, 1};
+};
+// .nrrd, .nhdr, .mha, .mhd (float32) or .tif (uint16: values rounded) through ITK's writers.
+void write_itk(const std::string& path, const std::array<int, 3>& dims, const std::vector<float>& values,
+               const ItkGeometry& geometry, bool compress);
+// A DICOM series through GDCM: one CT slice per file, named in no position order, holding the int16
+// `stored` values with Rescale Slope/Intercept tags (the real value is stored · slope + intercept).
+void write_dicom_series(const std::string& folder, const std::array<int, 3>& dims,
+                        const std::vector<std::int16_t>& stored, const ItkGeometry& geometry, double slope,
+                        double intercept);
 
 }  // namespace sombra::volume_io

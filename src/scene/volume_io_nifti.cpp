@@ -113,6 +113,16 @@ Volume read_nifti(const std::string& path) {
     volume.dims = {int(nim->nx), int(nim->ny), int(nim->nz)};
     volume.spacing = {spacing_of(nim->pixdim[1]), spacing_of(nim->pixdim[2]), spacing_of(nim->pixdim[3])};
     volume.voxels = to_float(data.data(), count, type, nim->byteorder == kMsbFirst ? Endian::big : Endian::little);
+    // Orientation and position: the sform when it has a code, else the qform (nibabel's rule);
+    // both map (i, j, k) to RAS+ millimetres, sombra's frame for medical images. Neither: identity.
+    const mat44* xform = nim->sform_code > 0 ? &nim->sto_xyz : nim->qform_code > 0 ? &nim->qto_xyz : nullptr;
+    if (xform) {
+        std::array<std::array<double, 3>, 3> axes{};
+        for (int a = 0; a < 3; ++a)
+            for (int r = 0; r < 3; ++r) axes[std::size_t(a)][std::size_t(r)] = xform->m[r][a];
+        set_geometry(volume, path, nim->sform_code > 0 ? "srow" : "quatern", axes,
+                     {xform->m[0][3], xform->m[1][3], xform->m[2][3]});
+    }
     const float slope = nim->scl_slope, inter = nim->scl_inter;
     if (std::isfinite(slope) && slope != 0.f && !(slope == 1.f && inter == 0.f))
         for (float& v : volume.voxels) v = v * slope + inter;
@@ -135,6 +145,21 @@ void save_volume_nifti(const Volume& volume, const std::string& path) {
     nim->dy = nim->pixdim[2] = volume.spacing[1];
     nim->dz = nim->pixdim[3] = volume.spacing[2];
     nim->xyz_units = NIFTI_UNITS_MM;
+    const std::array<float, 16> identity{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+    if (volume.placement != identity) {  // the sform: voxel (i, j, k) → placement · (S·((i, j, k) − c))
+        nim->sform_code = NIFTI_XFORM_SCANNER_ANAT;
+        for (int r = 0; r < 3; ++r) {
+            double t = volume.placement[std::size_t(r * 4 + 3)];
+            for (int a = 0; a < 3; ++a) {
+                const double step = double(volume.placement[std::size_t(r * 4 + a)]) * volume.spacing[std::size_t(a)];
+                nim->sto_xyz.m[r][a] = float(step);
+                t -= step * 0.5 * double(volume.dims[std::size_t(a)] - 1);
+            }
+            nim->sto_xyz.m[r][3] = float(t);
+        }
+        nim->sto_xyz.m[3][0] = nim->sto_xyz.m[3][1] = nim->sto_xyz.m[3][2] = 0.f;
+        nim->sto_xyz.m[3][3] = 1.f;
+    }
     if (nifti_set_filenames(nim.get(), path.c_str(), 0, 1) != 0)
         throw file_error(path, "", "not a valid NIfTI file name (use .nii or .nii.gz)");
 

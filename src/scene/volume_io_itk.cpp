@@ -1,0 +1,450 @@
+// sombra — medical image formats through ITK's ImageIO: NRRD, MetaImage, TIFF stacks, DICOM
+// (one file, or a folder holding a series, through GDCM). The only file that includes ITK's
+// headers (they take ~20 s of CPU to compile: keep them here), with writers for test data.
+//
+// ITK places images in LPS millimetres (DICOM's patient frame); sombra's world for medical images
+// is RAS (NIfTI's and 3D Slicer's), so x and y change sign. A TIFF has no patient frame: its stack
+// is placed as stored (identity), centred at the origin.
+#include "scene/volume_io_common.h"
+
+#include "scene/input_file.h"
+
+#if defined(__clang__)
+// Debian's ITK 5.2 generated its compiler-detection header for GCC only: under clang (the sanitizer
+// build) it stops with "Unsupported compiler". Read it once as GCC 12 (its feature macros only);
+// its include guard keeps it so for the ITK headers below.
+#pragma clang diagnostic push
+#pragma clang diagnostic ignored "-Wbuiltin-macro-redefined"
+#pragma push_macro("__clang__")
+#pragma push_macro("__GNUC__")
+#pragma push_macro("__GNUC_MINOR__")
+#undef __clang__
+#undef __GNUC__
+#undef __GNUC_MINOR__
+#define __GNUC__ 12  // clang says 4.2, which the header refuses; C++17 clang has every feature it asks
+#define __GNUC_MINOR__ 2
+#include <itk_compiler_detection.h>
+#pragma pop_macro("__GNUC_MINOR__")
+#pragma pop_macro("__GNUC__")
+#pragma pop_macro("__clang__")
+#pragma clang diagnostic pop
+#endif
+#include <gdcmTrace.h>
+#include <itkGDCMImageIO.h>
+#include <itkGDCMSeriesFileNames.h>
+#include <itkImage.h>
+#include <itkImageFileReader.h>
+#include <itkImageFileWriter.h>
+#include <itkImageSeriesReader.h>
+#include <itkMetaDataObject.h>
+#include <itkMetaImageIO.h>
+#include <itkNrrdImageIO.h>
+#include <itkTIFFImageIO.h>
+
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <mutex>
+#include <sstream>
+
+namespace sombra::volume_io {
+namespace {
+
+using Image = itk::Image<float, 3>;
+namespace fs = std::filesystem;
+
+// At most this many DICOM files in a series folder, and this many voxel bytes per byte of input
+// (deflate, the densest codec these formats use, stops near 1032:1): a header that promises more
+// than its file can hold is refused before ITK allocates the buffer.
+constexpr std::size_t kMaxSeriesFiles = 100000;
+constexpr std::uint64_t kMaxInflation = 1100;
+
+void quiet_once() {
+    static std::once_flag flag;
+    // ITK prints warnings (odd DICOM tags, uneven slices) to stderr: sombra reports its own
+    std::call_once(flag, [] {
+        itk::Object::GlobalWarningDisplayOff();
+        gdcm::Trace::SetDebug(false);  // GDCM's own warnings and errors: the exception says enough
+        gdcm::Trace::SetWarning(false);
+        gdcm::Trace::SetError(false);
+    });
+}
+
+itk::ImageIOBase::Pointer make_io(ItkFormat format) {
+    switch (format) {
+        case ItkFormat::nrrd: return itk::NrrdImageIO::New().GetPointer();
+        case ItkFormat::metaimage: return itk::MetaImageIO::New().GetPointer();
+        case ItkFormat::tiff: return itk::TIFFImageIO::New().GetPointer();
+        case ItkFormat::dicom:
+        case ItkFormat::dicom_series: return itk::GDCMImageIO::New().GetPointer();
+    }
+    return nullptr;
+}
+
+const char* format_name(ItkFormat format) {
+    switch (format) {
+        case ItkFormat::nrrd: return "NRRD";
+        case ItkFormat::metaimage: return "MetaImage";
+        case ItkFormat::tiff: return "TIFF";
+        case ItkFormat::dicom:
+        case ItkFormat::dicom_series: return "DICOM";
+    }
+    return "";
+}
+
+// Checks what the header (of the first file) declares, before any voxel is read.
+void check_header(const std::string& path, itk::ImageIOBase& io, std::size_t slices, std::uint64_t input_bytes,
+                  const VolumeLoadOptions& options) {
+    const unsigned n = io.GetNumberOfDimensions();
+    std::array<long long, 3> dims{1, 1, 1};
+    for (unsigned d = 0; d < n; ++d) {
+        const long long size = static_cast<long long>(io.GetDimensions(d));
+        if (d < 3) dims[d] = size;
+        else if (size != 1)
+            throw file_error(path, "dims", "a " + std::to_string(n) + "-D image (dimension " + std::to_string(d) +
+                                               " has " + std::to_string(size) + " samples); expected 3-D");
+    }
+    if (slices > 1) {
+        if (n >= 3 && dims[2] != 1)
+            throw file_error(path, "dims", "a series of 3-D files (" + std::to_string(dims[2]) + " frames each)");
+        dims[2] = static_cast<long long>(slices);
+    }
+    if (io.GetNumberOfComponents() != 1)
+        throw file_error(path, "components", std::to_string(io.GetNumberOfComponents()) +
+                                                 " components per voxel (colour or vector data); expected one (grey)");
+    const std::size_t count = checked_voxel_count(path, dims);
+    if (count > options.max_voxels)
+        throw file_error(path, "dims", std::to_string(count) + " voxels exceed the limit of " +
+                                           std::to_string(options.max_voxels));
+    const std::uint64_t bytes = std::uint64_t(count) * std::uint64_t(io.GetComponentSize());
+    if (input_bytes > 0 && bytes / kMaxInflation > input_bytes)
+        throw file_error(path, "data", "truncated: the header declares " + std::to_string(bytes) +
+                                           " bytes of voxels, more than " + std::to_string(input_bytes) +
+                                           " bytes of input can hold");
+}
+
+// GDCM (as Debian builds it) asserts, and so aborts the process, on a Part 10 file cut inside its
+// file meta information. Checked first: a file with the "DICM" magic must hold the whole meta group
+// its (0002,0000) group length declares. Files without the magic are left to GDCM.
+void check_dicom_meta(const std::string& path, std::uint64_t size) {
+    std::ifstream in(path, std::ios::binary);
+    unsigned char head[144] = {};
+    in.read(reinterpret_cast<char*>(head), sizeof head);
+    const std::size_t got = std::size_t(in.gcount());
+    if (got < 132 || std::memcmp(head + 128, "DICM", 4) != 0) return;
+    // (0002,0000) UL, explicit VR little endian: 02 00 00 00 'U' 'L' 04 00, then the length
+    const unsigned char tag[8] = {2, 0, 0, 0, 'U', 'L', 4, 0};
+    if (got < 144 || std::memcmp(head + 132, tag, 8) != 0)
+        throw file_error(path, "meta", "truncated or malformed DICOM file meta information (no group length)");
+    const std::uint64_t length = std::uint64_t(head[140]) | std::uint64_t(head[141]) << 8 |
+                                 std::uint64_t(head[142]) << 16 | std::uint64_t(head[143]) << 24;
+    // GDCM also asserts when the file ends at (or in the first tag after) the meta group's end
+    if (size < 144 + length + 8)
+        throw file_error(path, "meta", "truncated: the DICOM file meta information and a first data element need " +
+                                           std::to_string(144 + length + 8) + " bytes, the file has " + std::to_string(size));
+}
+
+// The regular files of a series folder; refuses anything else that could block or mislead.
+std::vector<std::string> folder_files(const std::string& dir, std::uint64_t* total_bytes) {
+    std::vector<std::string> files;
+    *total_bytes = 0;
+    std::error_code ec;
+    for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+        const fs::file_status st = it->symlink_status(ec);
+        if (ec) break;
+        if (fs::is_directory(st)) continue;  // not searched: one series per folder
+        if (!fs::is_regular_file(st))
+            throw file_error(dir, "", "holds '" + it->path().filename().string() +
+                                          "', which is not a regular file (a DICOM series folder holds regular files only)");
+        if (files.size() == kMaxSeriesFiles)
+            throw file_error(dir, "", "holds more than " + std::to_string(kMaxSeriesFiles) + " files");
+        files.push_back(it->path().string());
+        const std::uint64_t size = it->file_size(ec);
+        *total_bytes += size;
+        if (!ec) check_dicom_meta(files.back(), size);
+    }
+    if (ec) throw file_error(dir, "", "cannot list the folder: " + ec.message());
+    if (files.empty()) throw file_error(dir, "", "an empty folder (expected the files of one DICOM series)");
+    return files;
+}
+
+// The file names of the one series in `dir`, sorted by slice position along the slice normal.
+std::vector<std::string> series_files(const std::string& dir) {
+    auto names = itk::GDCMSeriesFileNames::New();
+    names->SetUseSeriesDetails(true);  // one orientation, one size, one acquisition per series
+    names->SetDirectory(dir);
+    const std::vector<std::string>& uids = names->GetSeriesUIDs();
+    if (uids.empty()) throw file_error(dir, "", "no DICOM series in this folder");
+    if (uids.size() > 1) {
+        std::string list;
+        for (const std::string& uid : uids)
+            list += (list.empty() ? "" : ", ") + std::to_string(names->GetFileNames(uid).size()) + " files";
+        throw file_error(dir, "", "holds " + std::to_string(uids.size()) + " DICOM series (" + list +
+                                      "); put each series in a folder of its own");
+    }
+    return names->GetFileNames(uids.front());
+}
+
+Volume to_volume(const std::string& path, const Image& image, ItkFormat format) {
+    Volume volume;
+    const Image::SizeType size = image.GetLargestPossibleRegion().GetSize();
+    volume.dims = {int(size[0]), int(size[1]), int(size[2])};
+    const std::size_t count = checked_voxel_count(path, {volume.dims[0], volume.dims[1], volume.dims[2]});
+    volume.voxels.assign(image.GetBufferPointer(), image.GetBufferPointer() + count);  // x fastest, as ITK
+
+    const Image::DirectionType& d = image.GetDirection();
+    const Image::SpacingType& s = image.GetSpacing();
+    const Image::PointType& o = image.GetOrigin();
+    std::array<std::array<double, 3>, 3> axes{};
+    std::array<double, 3> origin{};
+    const bool patient_frame = format != ItkFormat::tiff;
+    for (int r = 0; r < 3; ++r) {
+        const double sign = patient_frame && r < 2 ? -1.0 : 1.0;  // LPS → RAS
+        for (int a = 0; a < 3; ++a)
+            axes[std::size_t(a)][std::size_t(r)] = sign * (patient_frame ? d[r][a] : (r == a ? 1.0 : 0.0)) * s[a];
+        origin[std::size_t(r)] = patient_frame ? sign * o[r] : 0.0;
+    }
+    set_geometry(volume, path, "spacing", axes, origin);
+    if (!patient_frame) {  // centred, axes as stored
+        volume.placement[3] = volume.placement[7] = volume.placement[11] = 0.f;
+    }
+    return volume;
+}
+
+Volume read_series(const std::string& dir, const VolumeLoadOptions& options) {
+    std::uint64_t total_bytes = 0;
+    folder_files(dir, &total_bytes);
+    const std::vector<std::string> files = series_files(dir);
+    auto first = itk::GDCMImageIO::New();
+    first->SetFileName(files.front());
+    first->ReadImageInformation();
+    check_header(dir, *first, files.size(), total_bytes, options);
+
+    auto reader = itk::ImageSeriesReader<Image>::New();
+    reader->SetImageIO(itk::GDCMImageIO::New());
+    reader->SetFileNames(files);
+    reader->Update();
+    const Image& image = *reader->GetOutput();
+    if (files.size() > 2) {
+        double deviation = 0;
+        const double spacing = image.GetSpacing()[2];
+        if (itk::ExposeMetaData<double>(image.GetMetaDataDictionary(), "ITK_non_uniform_sampling_deviation", deviation) &&
+            deviation > 0.1 * spacing)
+            throw file_error(dir, "slices", "unevenly spaced: a gap deviates " + std::to_string(deviation) +
+                                                " mm from the mean spacing " + std::to_string(spacing) +
+                                                " mm (a missing slice?)");
+    }
+    return to_volume(dir, image, ItkFormat::dicom_series);
+}
+
+// Redirects std::cerr while it lives (readers are not run from several threads at once).
+class CerrCapture {
+public:
+    CerrCapture() : old_(std::cerr.rdbuf(buffer_.rdbuf())) {}
+    ~CerrCapture() { std::cerr.rdbuf(old_); }
+    CerrCapture(const CerrCapture&) = delete;
+    CerrCapture& operator=(const CerrCapture&) = delete;
+    std::string text() const { return buffer_.str(); }
+
+private:
+    std::ostringstream buffer_;
+    std::streambuf* old_;
+};
+
+// Whether the voxels are in the file itself (so its size bounds them): NRRD without a "data file"
+// field, MetaImage with "ElementDataFile = LOCAL", any TIFF or DICOM file. A detached header
+// (.nhdr, .mhd) names a data file whose size ITK does not tell.
+bool attached_data(const std::string& path, ItkFormat format) {
+    if (format != ItkFormat::nrrd && format != ItkFormat::metaimage) return true;
+    std::ifstream in(path, std::ios::binary);
+    std::string line;
+    for (int n = 0; n < 200 && std::getline(in, line); ++n) {
+        if (!line.empty() && line.back() == '\r') line.pop_back();
+        if (format == ItkFormat::nrrd) {
+            if (line.empty()) return true;  // the end of a NRRD header
+            if (line.rfind("data file:", 0) == 0 || line.rfind("datafile:", 0) == 0) return false;
+        } else if (line.rfind("ElementDataFile", 0) == 0) {
+            return line.find("LOCAL") != std::string::npos;
+        }
+    }
+    return false;
+}
+
+Volume read_file(const std::string& path, ItkFormat format, const VolumeLoadOptions& options) {
+    const std::uint64_t file_bytes = detail::regular_file_size(path);
+    // MetaIO prints to std::cerr what it cannot parse (ITK's exception says it again), and reports a
+    // short compressed stream only there, carrying on with a part-filled buffer: caught and made
+    // the error.
+    CerrCapture capture;
+    if (format == ItkFormat::dicom) check_dicom_meta(path, file_bytes);
+    itk::ImageIOBase::Pointer io = make_io(format);
+    if (!io->CanReadFile(path.c_str()))
+        throw file_error(path, "header", std::string("not a readable ") + format_name(format) + " file");
+    io->SetFileName(path);
+    io->ReadImageInformation();
+    check_header(path, *io, 1, attached_data(path, format) ? file_bytes : 0, options);
+
+    auto reader = itk::ImageFileReader<Image>::New();
+    reader->SetImageIO(io);
+    reader->SetFileName(path);
+    reader->Update();
+    const std::string said = capture.text();
+    if (said.find("not read completely") != std::string::npos)
+        throw file_error(path, "data", "truncated: " + one_line(said));
+    return to_volume(path, *reader->GetOutput(), format);
+}
+
+}  // namespace
+
+Volume read_itk(const std::string& path, ItkFormat format, const VolumeLoadOptions& options) {
+    quiet_once();
+    try {
+        return format == ItkFormat::dicom_series ? read_series(path, options) : read_file(path, format, options);
+    } catch (const Error&) {
+        throw;
+    } catch (const itk::ExceptionObject& e) {
+        std::string what = one_line(e.GetDescription());
+        // "ITK ERROR: NrrdImageIO(0x55…): Read: …": the class and its address say nothing to a user
+        const std::size_t at = what.find("): ");
+        if (what.rfind("ITK ERROR: ", 0) == 0 && at != std::string::npos) what.erase(0, at + 3);
+        throw file_error(path, "", std::string("not a readable ") + format_name(format) +
+                                       (format == ItkFormat::dicom_series ? " series: " : " file: ") + what);
+    } catch (const std::exception& e) {  // std::bad_alloc, …
+        throw file_error(path, "", std::string("cannot read the ") + format_name(format) + " data: " + one_line(e.what()));
+    }
+}
+
+// ---- test-data writers ----
+namespace {
+
+template <typename Pixel>
+typename itk::Image<Pixel, 3>::Pointer make_image(const std::array<int, 3>& dims, const ItkGeometry& g) {
+    using ImageT = itk::Image<Pixel, 3>;
+    auto image = ImageT::New();
+    typename ImageT::RegionType region;
+    region.SetSize({{itk::SizeValueType(dims[0]), itk::SizeValueType(dims[1]), itk::SizeValueType(dims[2])}});
+    image->SetRegions(region);
+    image->Allocate();
+    typename ImageT::DirectionType direction;
+    for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c) direction[r][c] = g.direction[std::size_t(r * 3 + c)];
+    image->SetDirection(direction);
+    image->SetSpacing(g.spacing.data());
+    image->SetOrigin(g.origin.data());
+    return image;
+}
+
+template <typename ImageT>
+void write_image(const std::string& path, ImageT* image, itk::ImageIOBase* io, bool compress) {
+    auto writer = itk::ImageFileWriter<ImageT>::New();
+    writer->SetInput(image);
+    writer->SetImageIO(io);
+    writer->SetFileName(path);
+    writer->SetUseCompression(compress);
+    writer->Update();
+}
+
+// A UID under 2.25 (UUID-derived), unique per run and per series written.
+std::string uid(unsigned long long series, const std::string& tail) {
+    static const unsigned long long run = static_cast<unsigned long long>(
+        std::chrono::steady_clock::now().time_since_epoch().count() & 0xffffffffffffULL);
+    return "2.25." + std::to_string(run) + "." + std::to_string(series) + tail;
+}
+
+std::string join3(double a, double b, double c) {
+    std::ostringstream s;
+    s.precision(17);
+    s << a << '\\' << b << '\\' << c;
+    return s.str();
+}
+
+}  // namespace
+
+void write_itk(const std::string& path, const std::array<int, 3>& dims, const std::vector<float>& values,
+               const ItkGeometry& geometry, bool compress) {
+    quiet_once();
+    const std::string ext = fs::path(path).extension().string();
+    try {
+        if (ext == ".tif" || ext == ".tiff") {
+            auto image = make_image<std::uint16_t>(dims, geometry);
+            std::uint16_t* out = image->GetBufferPointer();
+            for (std::size_t i = 0; i < values.size(); ++i) out[i] = std::uint16_t(std::lround(values[i]));
+            write_image(path, image.GetPointer(), itk::TIFFImageIO::New().GetPointer(), compress);
+            return;
+        }
+        auto image = make_image<float>(dims, geometry);
+        std::copy(values.begin(), values.end(), image->GetBufferPointer());
+        itk::ImageIOBase::Pointer io;
+        if (ext == ".nrrd" || ext == ".nhdr") io = itk::NrrdImageIO::New().GetPointer();
+        else io = itk::MetaImageIO::New().GetPointer();
+        write_image(path, image.GetPointer(), io.GetPointer(), compress);
+    } catch (const itk::ExceptionObject& e) {
+        throw file_error(path, "", "cannot write: " + one_line(e.GetDescription()));
+    }
+}
+
+void write_dicom_series(const std::string& folder, const std::array<int, 3>& dims,
+                        const std::vector<std::int16_t>& stored, const ItkGeometry& g, double slope,
+                        double intercept) {
+    quiet_once();
+    fs::create_directories(folder);
+    static std::atomic<unsigned long long> count{0};
+    const unsigned long long n = ++count;
+    const std::string study = uid(n, ".1"), series = uid(n, ".2"), frame = uid(n, ".3");
+    const std::size_t slice_size = std::size_t(dims[0]) * std::size_t(dims[1]);
+    const auto& d = g.direction;  // row-major; column a = direction of index axis a
+    std::ostringstream orientation;
+    orientation.precision(17);
+    orientation << d[0] << '\\' << d[3] << '\\' << d[6] << '\\' << d[1] << '\\' << d[4] << '\\' << d[7];
+    std::ostringstream spacing;
+    spacing.precision(17);
+    spacing << g.spacing[1] << '\\' << g.spacing[0];  // PixelSpacing: between rows (y), between columns (x)
+    for (int z = 0; z < dims[2]; ++z) {
+        ItkGeometry slice = g;
+        for (int r = 0; r < 3; ++r) slice.origin[std::size_t(r)] += d[std::size_t(r * 3 + 2)] * g.spacing[2] * z;
+        auto image = make_image<std::int16_t>({dims[0], dims[1], 1}, slice);
+        // GDCM's writer takes real values and stores (value − intercept) / slope: hand it those
+        for (std::size_t i = 0; i < slice_size; ++i) {
+            const double real = stored[slice_size * std::size_t(z) + i] * slope + intercept;
+            if (!(real >= -32768 && real <= 32767))
+                throw file_error(folder, "", "a real value " + std::to_string(real) + " does not fit int16");
+            image->GetBufferPointer()[i] = std::int16_t(std::lround(real));
+        }
+        itk::MetaDataDictionary& dict = image->GetMetaDataDictionary();
+        const auto put = [&](const char* tag, const std::string& value) { itk::EncapsulateMetaData<std::string>(dict, tag, value); };
+        put("0008|0016", "1.2.840.10008.5.1.4.1.1.2");  // CT Image Storage
+        put("0008|0018", uid(n, ".4." + std::to_string(z + 1)));
+        put("0002|0003", uid(n, ".4." + std::to_string(z + 1)));
+        put("0008|0060", "CT");
+        put("0028|0004", "MONOCHROME2");
+        put("0008|0008", "ORIGINAL\\PRIMARY\\AXIAL");
+        put("0010|0010", "SOMBRA^TEST");
+        put("0020|000d", study);
+        put("0020|000e", series);
+        put("0020|0052", frame);
+        put("0020|0011", "1");
+        put("0020|0013", std::to_string(z + 1));
+        put("0020|0032", join3(slice.origin[0], slice.origin[1], slice.origin[2]));
+        put("0020|0037", orientation.str());
+        put("0028|0030", spacing.str());
+        put("0018|0050", std::to_string(g.spacing[2]));
+        put("0028|1052", std::to_string(intercept));
+        put("0028|1053", std::to_string(slope));
+        auto io = itk::GDCMImageIO::New();
+        io->KeepOriginalUIDOn();
+        char name[32];
+        std::snprintf(name, sizeof name, "slice%04d.dcm", (z * 7919) % 10000);  // names in no position order
+        try {
+            write_image((fs::path(folder) / name).string(), image.GetPointer(), io.GetPointer(), false);
+        } catch (const itk::ExceptionObject& e) {
+            throw file_error(folder, "", "cannot write a DICOM slice: " + one_line(e.GetDescription()));
+        }
+    }
+}
+
+}  // namespace sombra::volume_io
