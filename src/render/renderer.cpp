@@ -3,10 +3,13 @@
 #include <chrono>
 #include <cstring>
 #include <cmath>
+#include <functional>
+#include <numeric>
 #include <sstream>
 
 #include <nlohmann/json.hpp>
 
+#include "host/tiled_launch.h"
 #include "render/scene_upload.h"
 #include "render/surfaces.h"
 #include "shadows/dsm_builder.h"
@@ -394,10 +397,7 @@ double run_shadow_probe(host::Runtime& runtime, const Scene& scene, const Prepar
     shadows::SatGridBuffers sat_grids;
     set_shadow_mesh_args(kernel, set_sat_args(runtime, kernel, set_dsm_args(kernel, arg, prepared), prepared, probe_options, sat_grids),
                          prepared);
-    cl::Event event;
-    runtime.queue().enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(count), cl::NullRange, nullptr, &event);
-    event.wait();
-    return host::Runtime::event_ms(event);
+    return host::run_tiled(runtime, kernel, cl::NDRange(count), cl::NullRange);
 }
 
 // Ament Alg. 1, first pass (updateShadowCache): the shadow cache of the SAT techniques
@@ -481,6 +481,8 @@ std::shared_ptr<ShadowCache> shadow_cache(host::Runtime& runtime, const Scene& s
     }
     double ms = 0;
     std::size_t lights = scene.lights.size();
+    host::ProgressStage stage(runtime.progress(), "shadow cache", double(std::inner_product(
+        keys.begin(), keys.end(), cache->keys.begin(), std::size_t(0), std::plus<>(), std::not_equal_to<>())));
     for (std::size_t i = 0; i < scene.volumes.size(); ++i) {
         std::vector<std::size_t> stale;
         for (std::size_t m = 0; m < lights; ++m)
@@ -513,6 +515,7 @@ RenderResult render(Context& context, const Scene& scene, const RenderOptions& o
         throw Error("--width/--height: must lie in [1, 16384]");
     int lanes = host::packet_lanes(runtime, options.lanes);
 
+    host::ProgressScope progress(runtime.progress(), options.progress);
     RenderResult result;
     RenderStats& stats = result.stats;
     stats.device = runtime.info().name;
@@ -557,7 +560,7 @@ RenderResult render(Context& context, const Scene& scene, const RenderOptions& o
             kernel.setArg(arg++, *b);
     }
 
-    double kernel_ms = host::run_packets(runtime, kernel, width, height, lanes);
+    double kernel_ms = host::in_stage(runtime.progress(), "camera pass", 1, [&] { return host::run_packets(runtime, kernel, width, height, lanes); });
     stats.stage_ms["camera_pass"] = kernel_ms;
 
     result.image.width = width, result.image.height = height;
@@ -578,6 +581,7 @@ ShadowQuery shadow_transmittance(Context& context, const Scene& scene, int light
                                  const RenderOptions& options) {
     host::Runtime& runtime = context.runtime();
     check_light(scene, light_index);
+    host::ProgressScope progress(runtime.progress(), options.progress);
     if (options.shadows == ShadowTechnique::None) throw Error("--shadows: none has no transmittance to query");
     ShadowQuery query;
     query.stats.device = runtime.info().name;
@@ -600,6 +604,7 @@ std::vector<DeepShadowMap> build_deep_shadow_maps(Context& context, const Scene&
                                                   const RenderOptions& options, RenderStats* stats_out) {
     host::Runtime& runtime = context.runtime();
     check_light(scene, light_index);
+    host::ProgressScope progress(runtime.progress(), options.progress);
     RenderOptions dsm_options = options;
     dsm_options.shadows = ShadowTechnique::Dsm;
     RenderStats stats;

@@ -1,0 +1,28 @@
+// sombra — long kernels as several launches over bands of their last NDRange dimension (rows of
+// pixels or texels, points), so that a progress stage advances while they run. The kernels read
+// get_global_id only, which includes the band's global offset: every work-item computes what it
+// computes in one launch, and the output does not change.
+#pragma once
+#include <CL/opencl.hpp>
+
+#include <cstddef>
+
+#include "host/runtime.h"
+
+namespace sombra::host {
+
+// Rows of the next band of `rows` from `first` on, a multiple of `quantum` (the work-group's side)
+// except at the end. tiles > 0: `tiles` equal bands. tiles = 0: a first band of 1/64 of the rows,
+// then bands of about kBandMs at the rate measured so far (`ms` for the `first` rows), at most
+// 1/16 of the rows each (rows differ in cost: an empty sky is quick); once a quarter of the rows
+// ran, the rest in one launch when it looks shorter than kShortMs.
+constexpr double kBandMs = 200, kShortMs = 1000;
+std::size_t next_band(std::size_t rows, std::size_t first, std::size_t quantum, double ms, int tiles);
+
+// Runs `kernel` over `global` (1D or 2D) with `local` (or cl::NullRange) band by band, waiting
+// for each and advancing the runtime's progress stage by the band's share of `units`. Bands as
+// runtime.launch_tiles() asks. Returns the summed profiled kernel time in ms.
+double run_tiled(Runtime& runtime, cl::Kernel& kernel, const cl::NDRange& global, const cl::NDRange& local,
+                 double units = 1);
+
+}  // namespace sombra::host
