@@ -48,7 +48,7 @@ TEST_CASE("progress: bands cover the rows once, in multiples of the group side",
         for (std::size_t rows : {1, 4, 33, 36, 512}) {
             std::size_t quantum = rows % 4 == 0 ? 4 : 1, first = 0, launches = 0;
             while (first < rows) {
-                std::size_t band = host::next_band(rows, first, quantum, double(first) * 0.01, tiles);
+                std::size_t band = host::next_band(rows, rows - first, first, double(first) * 0.01, quantum, tiles);
                 REQUIRE(band > 0);
                 CHECK((band % quantum == 0 || first + band == rows));
                 first += band, ++launches;
@@ -58,8 +58,10 @@ TEST_CASE("progress: bands cover the rows once, in multiples of the group side",
             if (tiles == 1) CHECK(launches == 1);
         }
     // time-sized bands: 200 ms at 1 row per ms, at most 1/16 of the rows
-    CHECK(host::next_band(100000, 1000, 1, 1000, 0) == 200);
-    CHECK(host::next_band(1600, 100, 1, 1, 0) == 100);
+    CHECK(host::next_band(100000, 99000, 1000, 1000, 1, 0) == 200);
+    CHECK(host::next_band(1600, 1500, 100, 1, 1, 0) == 100);
+    CHECK(host::next_band(1600, 1200, 400, 1, 1, 0) == 1200);  // a quarter ran, the rest looks short
+    CHECK(host::next_band(1600, 1600, 0, 0, 4, 0) == 28);      // 1/64, rounded up to the group side
 }
 
 TEST_CASE("progress: stages report monotone fractions from 0 to 1, nested and empty stages are silent", "[progress]") {

@@ -31,13 +31,18 @@ private:
     std::chrono::steady_clock::time_point start_;
 };
 
+// The scope guards below act once: not copied.
+struct NotCopied {
+    NotCopied() = default;
+    NotCopied(const NotCopied&) = delete;
+    NotCopied& operator=(const NotCopied&) = delete;
+};
+
 // A stage for the scope of a block: ends it, as failed when an exception leaves the block.
-class ProgressStage {
+class ProgressStage : NotCopied {
 public:
     ProgressStage(Progress& progress, const std::string& stage, double units);
     ~ProgressStage();
-    ProgressStage(const ProgressStage&) = delete;
-    ProgressStage& operator=(const ProgressStage&) = delete;
 
 private:
     Progress& progress_;
@@ -52,12 +57,10 @@ auto in_stage(Progress& progress, const std::string& stage, double units, F&& f)
 }
 
 // Installs a call's callback for the scope of the call; restores the one before.
-class ProgressScope {
+class ProgressScope : NotCopied {
 public:
     ProgressScope(Progress& progress, ProgressCallback callback);
     ~ProgressScope();
-    ProgressScope(const ProgressScope&) = delete;
-    ProgressScope& operator=(const ProgressScope&) = delete;
 
 private:
     Progress& progress_;

@@ -11,17 +11,17 @@
 
 namespace sombra::host {
 
-// Rows of the next band of `rows` from `first` on, a multiple of `quantum` (the work-group's side)
-// except at the end. tiles > 0: `tiles` equal bands. tiles = 0: a first band of 1/64 of the rows,
-// then bands of about kBandMs at the rate measured so far (`ms` for the `first` rows), at most
-// 1/16 of the rows each (rows differ in cost: an empty sky is quick); once a quarter of the rows
-// ran, the rest in one launch when it looks shorter than kShortMs.
+// Rows of the next band, `left` rows of `rows` still to enqueue, a multiple of `quantum` (the
+// work-group's side) except at the end. tiles > 0: `tiles` equal bands. tiles = 0: bands of 1/64
+// of the rows until one finished, then bands of about kBandMs at the rate measured so far (`ms`
+// for the `measured` rows), at most 1/16 of the rows each (rows differ in cost: an empty sky is
+// quick); once a quarter of the rows ran, the rest in one launch when it looks shorter than kShortMs.
 constexpr double kBandMs = 200, kShortMs = 1000;
-std::size_t next_band(std::size_t rows, std::size_t first, std::size_t quantum, double ms, int tiles);
+std::size_t next_band(std::size_t rows, std::size_t left, std::size_t measured, double ms, std::size_t quantum, int tiles);
 
-// Runs `kernel` over `global` (1D or 2D) with `local` (or cl::NullRange) band by band, waiting
-// for each and advancing the runtime's progress stage by the band's share of `units`. Bands as
-// runtime.launch_tiles() asks. Returns the summed profiled kernel time in ms.
+// Runs `kernel` over `global` (1D or 2D) with `local` (or cl::NullRange) band by band, two bands
+// queued at a time, advancing the runtime's progress stage by each band's share of `units` as it
+// finishes. Bands as runtime.launch_tiles() asks. Returns the summed profiled kernel time in ms.
 double run_tiled(Runtime& runtime, cl::Kernel& kernel, const cl::NDRange& global, const cl::NDRange& local,
                  double units = 1);
 
