@@ -66,6 +66,7 @@ void Progress::begin(const std::string& stage, double units) {
     stage_ = stage;
     total_ = std::max(units, 0.0), done_ = 0;
     base_fraction_ = 0, base_done_ = 0, fraction_ = 0;
+    last_launch_ms = -1;
     start_ = clock_type::now();
     report(false, false);
 }

@@ -19,6 +19,8 @@ public:
     void extend(double units);
     void end(bool failed);
     ProgressCallback callback;  // the current call's (empty: silent)
+    // Kernel time of the stage's last launch (host/tiled_launch.h), −1 before the first.
+    double last_launch_ms = -1;
 
 private:
     void report(bool done, bool failed);

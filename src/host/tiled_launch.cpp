@@ -26,10 +26,13 @@ double run_tiled(Runtime& runtime, cl::Kernel& kernel, const cl::NDRange& global
     std::deque<std::pair<cl::Event, std::size_t>> in_flight;  // (event, rows) of the bands enqueued
     std::size_t enqueued = 0, measured = 0;
     double ms = 0;
+    Progress& progress = runtime.progress();
+    int tiles = runtime.launch_tiles();
+    if (tiles == 0 && progress.last_launch_ms >= 0 && progress.last_launch_ms < kShortMs / 2) tiles = 1;
     while (enqueued < rows || !in_flight.empty()) {
         // two bands queued: the device starts the next without waiting for the host
         while (in_flight.size() < 2 && enqueued < rows) {
-            std::size_t band = next_band(rows, rows - enqueued, measured, ms, quantum, runtime.launch_tiles());
+            std::size_t band = next_band(rows, rows - enqueued, measured, ms, quantum, tiles);
             cl::NDRange offset = axis == 0 ? cl::NDRange(enqueued) : cl::NDRange(0, enqueued);
             cl::NDRange size = axis == 0 ? cl::NDRange(band) : cl::NDRange(global.get()[0], band);
             cl::Event event;
@@ -43,8 +46,9 @@ double run_tiled(Runtime& runtime, cl::Kernel& kernel, const cl::NDRange& global
         event.wait();
         ms += Runtime::event_ms(event);
         measured += band;
-        runtime.progress().advance(units * double(band) / double(rows));
+        progress.advance(units * double(band) / double(rows));
     }
+    progress.last_launch_ms = ms;
     return ms;
 }
 

@@ -481,6 +481,7 @@ std::shared_ptr<ShadowCache> shadow_cache(host::Runtime& runtime, const Scene& s
     }
     double ms = 0;
     std::size_t lights = scene.lights.size();
+    // a unit per entry to build: those whose key changed
     host::ProgressStage stage(runtime.progress(), "shadow cache", double(std::inner_product(
         keys.begin(), keys.end(), cache->keys.begin(), std::size_t(0), std::plus<>(), std::not_equal_to<>())));
     for (std::size_t i = 0; i < scene.volumes.size(); ++i) {
