@@ -45,6 +45,8 @@ int main(int argc, char** argv) {
     app.add_option("--scene", scene_path, "scene file");
     app.add_option("--runs", runs, "timed runs per mode (after one warm-up each)");
     app.add_option("--size", size, "image side of the camera-pass case");
+    std::string kernel = "box";  // box: the cheaper lookups make the cache's bands count more
+    app.add_option("--filter-kernel", kernel, "low-pass case: box or gauss")->check(CLI::IsMember({"box", "gauss"}));
     app.add_option("--device", device, "auto, cpu, gpu or an index");
     app.add_option("--out", out, "folder for tiled_launch.md");
     CLI11_PARSE(app, argc, argv);
@@ -64,9 +66,10 @@ int main(int argc, char** argv) {
         o.dsm_resolution = 512;
         cases.push_back({"DSM 512², atlas", {"deep shadow maps"}, o});
         o.shadows = sombra::ShadowTechnique::Lowpass;
-        o.lowpass_filter_width = 7;  // box: the cheaper lookups make the cache's bands count more
+        o.lowpass_filter_width = 7;
+        o.lowpass_filter_kernel = kernel;
         o.lowpass_max_entries = std::size_t(1) << 20;
-        cases.push_back({"lowpass W 7 box, 2^20 entries", {"summed-area tables", "shadow cache"}, o});
+        cases.push_back({"lowpass W 7 " + kernel + ", 2^20 entries", {"summed-area tables", "shadow cache"}, o});
     }
 
     std::ostringstream table;

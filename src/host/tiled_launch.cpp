@@ -22,7 +22,9 @@ std::size_t next_band(std::size_t rows, std::size_t left, std::size_t measured, 
 
 double run_tiled(Runtime& runtime, cl::Kernel& kernel, const cl::NDRange& global, const cl::NDRange& local, double units) {
     const std::size_t axis = global.dimensions() - 1, rows = global.get()[axis];
-    const std::size_t quantum = local.dimensions() > 0 ? local.get()[axis] : 1;
+    // without a group size PoCL picks a divisor of the band's size: bands of any size made small
+    // groups and slowed the shadow cache down (bench/README.md, sombra_bench_tiles)
+    const std::size_t quantum = local.dimensions() > 0 ? local.get()[axis] : axis == 0 ? 4096 : 16;
     std::deque<std::pair<cl::Event, std::size_t>> in_flight;  // (event, rows) of the bands enqueued
     std::size_t enqueued = 0, measured = 0;
     double ms = 0;

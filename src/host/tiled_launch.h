@@ -12,7 +12,7 @@
 namespace sombra::host {
 
 // Rows of the next band, `left` rows of `rows` still to enqueue, a multiple of `quantum` (the
-// work-group's side) except at the end. tiles > 0: `tiles` equal bands. tiles = 0: bands of 1/64
+// work-group's side, or a multiple of a good one) except at the end. tiles > 0: `tiles` equal bands. tiles = 0: bands of 1/64
 // of the rows until one finished, then bands of about kBandMs at the rate measured so far (`ms`
 // for the `measured` rows), at most 1/16 of the rows each (rows differ in cost: an empty sky is
 // quick); once a quarter of the rows ran, the rest in one launch when it looks shorter than kShortMs.
