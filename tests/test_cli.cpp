@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <sstream>
 #include <sys/stat.h>
 #include <sys/wait.h>
@@ -448,7 +449,43 @@ TEST_CASE("enumerated render options by name: every name round-trips, unknown on
     CHECK(test::error_of([&] { set_render_option(o, "shadows", "dsmm"); }) ==
           "shadows: unknown value 'dsmm' (none, rays, dsm, shadowmap, lowpass, ao, cone)");
     CHECK(test::error_of([] { render_option_values("shadow"); }) ==
-          "unknown enumerated render option 'shadow' (shadows, gradient, shading, storage)");
+          "unknown enumerated render option 'shadow' (shadows, gradient, shading, storage, dsm_storage, dsm_prefilter, lowpass_filter_kernel)");
     CHECK(parse_light_type("omni") == LightType::Point);
     CHECK(test::error_of([] { parse_light_type("sun"); }) == "unknown light type 'sun' (directional, spot, point)");
+TEST_CASE("sombra render: one progress line per stage on a non-terminal stderr, the longest named, and --quiet prints nothing", "[cli]") {
+    std::string scene = scene_file("progress.json", nlohmann::json::object());
+    std::string out = sombra::test::temp_dir() + "/progress.png";
+    CliRun run = run_cli("render " + scene + " -o " + out + " --shadows lowpass --filter 5");
+    INFO(run.stderr_text);
+    REQUIRE(run.exit_code == 0);
+    CHECK(run.stderr_text.find('\r') == std::string::npos);  // no bar when stderr is a file
+    std::istringstream lines(run.stderr_text);
+    std::map<std::string, int> stages;
+    std::string line, summary;
+    while (std::getline(lines, line)) {
+        if (line.rfind("sombra: wrote ", 0) == 0) {
+            summary = line;
+            continue;
+        }
+        // "sombra: <stage> <ms> ms"
+        REQUIRE(line.size() > 11);
+        CHECK(line.rfind("sombra: ", 0) == 0);
+        CHECK(line.substr(line.size() - 3) == " ms");
+        std::string stage = line.substr(8, line.rfind(' ', line.size() - 4) - 8);
+        ++stages[stage];
+    }
+    for (const char* stage : {"summed-area tables", "shadow cache", "camera pass"}) CHECK(stages[stage] == 1);
+    for (const auto& [stage, count] : stages) CHECK(count == 1);
+    CHECK_THAT(summary, Catch::Contains("shadow cache ") && Catch::Contains("summed-area tables ") && Catch::Contains("; longest: "));
+
+    std::remove(out.c_str());
+    for (const char* quiet : {"--quiet", "-q"}) {
+        run = run_cli("render " + scene + " -o " + out + " --shadows lowpass " + quiet);
+        CHECK(run.exit_code == 0);
+        CHECK(run.stderr_text.empty());
+        CHECK(std::filesystem::exists(out));
+    }
+    run = run_cli("dsm " + scene + " --light 0 --dsm-res 8 -o " + sombra::test::temp_dir() + "/progress_dsm.exr --quiet");
+    CHECK(run.exit_code == 0);
+    CHECK(run.stderr_text.empty());
 }

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "sombra/device.h"
+#include "sombra/progress.h"
 #include "sombra/scene.h"
 #include "sombra/shadows.h"
 
@@ -94,6 +95,8 @@ struct RenderOptions {
     // pass and in DSM generation (neighbouring pixels / texels of a row); 0 = auto: 8 on CPU
     // devices (PoCL runs them on the SIMD units), 1 on GPUs. The maps do not depend on it.
     int lanes = 0;
+    // Reports of the call's long stages (sombra/progress.h); empty: silent. Must not throw.
+    ProgressCallback progress;
 };
 
 // The options with a fixed set of values, by name, as the command line, --stats and the Python

@@ -3,6 +3,7 @@
 #include "sombra/device.h"
 #include "sombra/error.h"
 #include "sombra/mesh.h"
+#include "sombra/progress.h"
 #include "sombra/render.h"
 #include "sombra/scene.h"
 #include "sombra/shadows.h"

@@ -13,6 +13,7 @@
 #include <charconv>
 #include <chrono>
 #include <cstdlib>
+#include <unistd.h>
 
 #include <nlohmann/json.hpp>
 
@@ -93,6 +94,31 @@ nlohmann::json command_stats(const sombra::RenderStats& stats, const StatsContex
     return j;
 }
 
+// The wall clock of every progress stage the command went through, in order (a stage met again
+// adds to its time), passed on to the stderr reporter unless --quiet.
+struct StageTimes {
+    std::vector<std::pair<std::string, double>> ms;
+    sombra::ProgressCallback callback(bool quiet) {
+        sombra::ProgressCallback print = quiet ? nullptr : sombra::text_progress(std::cerr, isatty(STDERR_FILENO) == 1);
+        return [this, print](const sombra::ProgressReport& r) {
+            if (r.done && !r.failed) {
+                auto it = std::find_if(ms.begin(), ms.end(), [&](const auto& s) { return s.first == r.stage; });
+                if (it == ms.end()) ms.emplace_back(r.stage, r.elapsed_ms);
+                else it->second += r.elapsed_ms;
+            }
+            if (print) print(r);
+        };
+    }
+    // "summed-area tables 9,657 ms, shadow cache 16,967 ms, camera pass 373 ms; longest: shadow cache 16,967 ms"
+    std::string summary() const {
+        std::string text;
+        for (const auto& [stage, t] : ms) text += (text.empty() ? "" : ", ") + stage + " " + sombra::format_ms(t) + " ms";
+        auto longest = std::max_element(ms.begin(), ms.end(), [](const auto& a, const auto& b) { return a.second < b.second; });
+        if (longest != ms.end()) text += "; longest: " + longest->first + " " + sombra::format_ms(longest->second) + " ms";
+        return text;
+    }
+};
+
 // --stats next to the other outputs: staged with them.
 void stage_stats(sombra::host::StagedOutputs& outputs, const std::string& stats_path, const nlohmann::json& stats) {
     if (!stats_path.empty())
@@ -102,7 +128,7 @@ void stage_stats(sombra::host::StagedOutputs& outputs, const std::string& stats_
 // sombra dsm: one deep EXR per view of the light (a point light has six cube faces), all written
 // (with the stats) before any takes its name.
 int write_dsm(sombra::Context& context, const sombra::Scene& scene, int light, const StatsContext& stats_context,
-              const std::string& output, const std::string& stats_path) {
+              const std::string& output, const std::string& stats_path, bool quiet) {
     const sombra::RenderOptions& options = stats_context.options;
     sombra::RenderStats stats;
     auto maps = sombra::build_deep_shadow_maps(context, scene, light, options, &stats);
@@ -137,7 +163,8 @@ int write_dsm(sombra::Context& context, const sombra::Scene& scene, int light, c
         maps.empty() ? 0.0 : double(nodes) / (double(maps.size()) * maps.front().width * maps.front().height);
     stage_stats(outputs, stats_path, j);
     outputs.commit();
-    for (const std::string& line : written) std::cerr << "sombra: wrote " << line << "\n";
+    if (!quiet)
+        for (const std::string& line : written) std::cerr << "sombra: wrote " << line << "\n";
     return 0;
 }
 
@@ -145,7 +172,7 @@ int write_dsm(sombra::Context& context, const sombra::Scene& scene, int light, c
 // binary shadow map, low-pass filtered with --filter W), the brute-force reference, and their
 // differences; then the mean and max error of each.
 int print_visibility(sombra::Context& context, const sombra::Scene& scene, int light, const StatsContext& stats_context,
-                     const std::string& points_path, const std::string& stats_path) {
+                     const std::string& points_path, const std::string& stats_path, bool quiet) {
     const sombra::RenderOptions& options = stats_context.options;
     auto points = sombra::load_points_csv(points_path);
     const std::pair<const char*, sombra::ShadowTechnique> techniques[] = {{"dsm", sombra::ShadowTechnique::Dsm},
@@ -176,9 +203,11 @@ int print_visibility(sombra::Context& context, const sombra::Scene& scene, int l
         std::cout << "\n";
     }
     double n = double(std::max<std::size_t>(points.size(), 1));
-    std::cerr << "sombra: " << points.size() << " points; |T − reference| mean/max:";
-    for (int k = 0; k < count; ++k) std::cerr << (k ? "," : "") << " " << techniques[k].first << " " << sum[k] / n << "/" << worst[k];
-    std::cerr << " (lowpass W " << options.lowpass_filter_width << ")\n";
+    std::ostringstream summary;
+    summary << "sombra: " << points.size() << " points; |T − reference| mean/max:";
+    for (int k = 0; k < count; ++k) summary << (k ? "," : "") << " " << techniques[k].first << " " << sum[k] / n << "/" << worst[k];
+    summary << " (lowpass W " << options.lowpass_filter_width << ")\n";
+    if (!quiet) std::cerr << summary.str();
     sombra::ShadowQuery& dsm = queries.front();
     sombra::host::StagedOutputs outputs;
     nlohmann::json j = command_stats(dsm.stats, stats_context);
@@ -319,6 +348,9 @@ int run(int argc, char** argv) {
     visibility->add_option("scene", scene_path, "scene file (JSON)")->required();
     visibility->add_option("--light", light_index, "light index in the scene")->required();
     visibility->add_option("--points", points_path, "CSV file of x,y,z world points (one per line)")->required();
+    bool quiet = false;
+    for (CLI::App* sub : {render, dsm, visibility})
+        sub->add_flag("-q,--quiet", quiet, "print nothing on stderr but errors (no progress, no summary)");
     for (CLI::App* sub : {dsm, visibility}) {
         sub->add_option("--device", device, "auto, cpu, gpu, or an index from `sombra devices`");
         sub->add_option("--dsm-res", dsm_resolution, "deep shadow map texels per side")->check(in_range<int>(1, 8192));
@@ -414,17 +446,19 @@ int run(int argc, char** argv) {
         if (!digits) throw sombra::Error("--prefilter-jitter: expected on, off or a seed (0 … 999999999), got '" + prefilter_jitter + "'");
         options.dsm_prefilter_seed = unsigned(std::stoul(prefilter_jitter));
     }
+    StageTimes stages;
+    options.progress = stages.callback(quiet);
     const StatsContext stats_context{scene_path, options};
-    if (dsm->parsed()) return write_dsm(context, scene, light_index, stats_context, output, stats_path);
-    if (visibility->parsed()) return print_visibility(context, scene, light_index, stats_context, points_path, stats_path);
+    if (dsm->parsed()) return write_dsm(context, scene, light_index, stats_context, output, stats_path, quiet);
+    if (visibility->parsed()) return print_visibility(context, scene, light_index, stats_context, points_path, stats_path, quiet);
     sombra::RenderResult result = sombra::render(context, scene, options);
     sombra::host::StagedOutputs outputs;
     outputs.write(output, [&](const std::string& staged) { sombra::write_image(result.image, staged); });
     stage_stats(outputs, stats_path, command_stats(result.stats, stats_context));
     outputs.commit();
-    std::cerr << "sombra: wrote " << output << " (" << result.image.width << "×" << result.image.height << ", "
-              << result.stats.device << ", camera pass " << result.stats.stage_ms["camera_pass"] << " ms, "
-              << result.stats.msamples_per_s << " Msamples/s)\n";
+    if (!quiet)
+        std::cerr << "sombra: wrote " << output << " (" << result.image.width << "×" << result.image.height << ", "
+                  << result.stats.device << ", " << result.stats.msamples_per_s << " Msamples/s; " << stages.summary() << ")\n";
     return 0;
 }
 

@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include "host/embedded_kernels.h"
+#include "host/tiled_launch.h"
 #include "sombra/error.h"
 
 namespace sombra::host {
@@ -133,6 +134,7 @@ cl::Program& Runtime::program(const std::string& source, const std::vector<std::
     std::string key = source + "|" + options;
     auto found = programs_.find(key);
     if (found != programs_.end()) return found->second;
+    ProgressStage stage(progress_, "kernel build", 1);
     cl::Program program(context_, expand_kernel_source(source));
     try {
         program.build(std::vector<cl::Device>{device_}, options.c_str());
@@ -156,7 +158,7 @@ int packet_lanes(const Runtime& runtime, int requested) {
     return lanes;
 }
 
-double run_packets(Runtime& runtime, cl::Kernel& kernel, int width, int height, int lanes) {
+double run_packets(Runtime& runtime, cl::Kernel& kernel, int width, int height, int lanes, double units) {
     std::size_t columns = std::size_t((width + lanes - 1) / lanes), rows = std::size_t(height);
     cl::NDRange local = cl::NullRange;
     if (lanes > 1) {
@@ -165,10 +167,7 @@ double run_packets(Runtime& runtime, cl::Kernel& kernel, int width, int height, 
         rows = (rows + group - 1) / group * group;
         local = cl::NDRange(group, group);
     }
-    cl::Event event;
-    runtime.queue().enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(columns, rows), local, nullptr, &event);
-    event.wait();
-    return Runtime::event_ms(event);
+    return run_tiled(runtime, kernel, cl::NDRange(columns, rows), local, units);
 }
 
 cl::Buffer make_buffer(Runtime& runtime, cl_mem_flags flags, std::size_t bytes, const void* host_data,

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "host/progress.h"
 #include "sombra/device.h"
 
 namespace sombra::host {
@@ -30,7 +31,15 @@ public:
     // Milliseconds between an event's start and end (profiling queue).
     static double event_ms(const cl::Event& event);
 
+    // The progress of the current call (host/progress.h), and the bands long kernels run in
+    // (host/tiled_launch.h): 0 sized by time, n > 0 n equal bands (1: one launch; tests, bench).
+    Progress& progress() { return progress_; }
+    int launch_tiles() const { return launch_tiles_; }
+    void set_launch_tiles(int tiles) { launch_tiles_ = tiles; }
+
 private:
+    Progress progress_;
+    int launch_tiles_ = 0;
     DeviceInfo info_;
     cl::Context context_;
     cl::Device device_;
@@ -47,8 +56,9 @@ int packet_lanes(const Runtime& runtime, int requested);
 // work-item: ⌈width / lanes⌉ × height work-items, and with packets 4×4 work-groups over a grid
 // padded to them (PoCL keeps a group's private state on one stack and its default group size
 // overflows it for 8- and 16-lane packets; 4×4 measured fastest). Kernels ignore the padding.
-// Waits for it and returns its profiled time in ms.
-double run_packets(Runtime& runtime, cl::Kernel& kernel, int width, int height, int lanes);
+// Runs it in bands of rows (host/tiled_launch.h, advancing the progress stage by `units`) and
+// returns the profiled time in ms.
+double run_packets(Runtime& runtime, cl::Kernel& kernel, int width, int height, int lanes, double units = 1);
 
 // The source of a cl/ file with every #include "…" replaced by the file's text.
 std::string expand_kernel_source(const std::string& path);

@@ -7,6 +7,7 @@
 #pragma once
 #include <CL/opencl.hpp>
 
+#include <algorithm>
 #include <functional>
 #include <map>
 #include <memory>
@@ -44,6 +45,9 @@ struct BuildContext {
     // build, or stay empty (no nodes: fully lit) in a storage never built.
     std::vector<bool> regenerate;
     bool generates(std::size_t view) const { return regenerate.empty() || regenerate[view]; }
+    std::size_t generated_views() const {
+        return regenerate.empty() ? views.size() : std::size_t(std::count(regenerate.begin(), regenerate.end(), true));
+    }
     // Builds `kernel` of `program_defines`, binds the common arguments for `view`, lets `bind` add
     // the backend's (DSM_BUILD_STORAGE_PARAMS), runs it over the view's texels and returns the
     // kernel time in ms.
@@ -60,6 +64,9 @@ public:
     // Generates context.generates() views; stats cover every view (nodes, bytes) and the work
     // done by this call (stage times).
     virtual void build(BuildContext& context, DsmStats& stats) = 0;
+    // Launches of run_view per generated view when the pools need not grow (a count and a build,
+    // or a build alone): the progress stage's work. A rerun extends the stage.
+    virtual int generation_passes() const { return 1; }
     // Share of the allocated node memory held by superseded nodes of regenerated views; the
     // caller rebuilds everything anew when it grows too large.
     virtual double garbage_fraction() const { return 0.0; }

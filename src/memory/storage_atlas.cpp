@@ -73,6 +73,7 @@ public:
             }
             if (counters[1] == 0) break;
             if (attempt > 2) throw Error("atlas storage: the pool ran out four times (internal error)");
+            rt.progress().extend(double(context.generated_views()));  // the views run again
             // grow by the entries that found no block (each counted once) and the blocks lost in
             // races this time, plus 1/64 for the races of the next run
             pool = cl_uint(std::size_t(counters[0]) + counters[1] + counters[3] + counters[0] / 64 + 1);

@@ -17,6 +17,7 @@ class ChunkedStorage : public DsmStorage {
 public:
     explicit ChunkedStorage(bool counted) : counted_(counted) {}
     std::string name() const override { return counted_ ? "chunked" : "chunked-ondemand"; }
+    int generation_passes() const override { return counted_ ? 2 : 1; }
     std::vector<std::string> defines() const override {
         std::vector<std::string> d{"SOMBRA_DSM_CHUNKED", "SOMBRA_CHUNK_LENGTH=" + std::to_string(kChunkLength),
                                    "SOMBRA_CHUNKS_PER_TILE=" + std::to_string(kChunksPerTile)};
@@ -114,6 +115,7 @@ public:
             // grow by the entries that found no chunk (each counted once: claim_block), the
             // chunks lost in races, and 1/64 for the races of the next run
             pool = cl_uint(std::size_t(counters[0]) + counters[1] + counters[2] + counters[0] / 64 + 1);
+            rt.progress().extend(double(context.generated_views()));  // the views run again
         }
         if (!counted_) {
             pool_ = pool;

@@ -11,6 +11,7 @@ class CompactStorage : public DsmStorage {
 public:
     std::string name() const override { return "compact"; }
     std::vector<std::string> defines() const override { return {}; }
+    int generation_passes() const override { return 2; }
 
     void build(BuildContext& context, DsmStats& stats) override {
         host::Runtime& rt = context.runtime;

@@ -1,5 +1,6 @@
 // sombra — the deep-shadow-map entry points of the API (render.h): one light's maps, built as the
 // renderer builds them (the dsm module, src/techniques/deep_shadow_maps.h), read back to the host.
+#include "host/progress.h"
 #include "render/preparation.h"
 #include "shadows/dsm_views.h"
 #include "techniques/deep_shadow_maps.h"
@@ -10,6 +11,7 @@ std::vector<DeepShadowMap> build_deep_shadow_maps(Context& context, const Scene&
                                                   const RenderOptions& options, RenderStats* stats_out) {
     host::Runtime& runtime = context.runtime();
     pipeline::check_light(scene, light_index);
+    host::ProgressScope progress(runtime.progress(), options.progress);
     RenderOptions dsm_options = options;
     dsm_options.shadows = ShadowTechnique::Dsm;
     RenderStats stats;

@@ -3,11 +3,14 @@
 #include <chrono>
 #include <cstring>
 #include <cmath>
+#include <functional>
+#include <numeric>
 #include <sstream>
 
 #include <nlohmann/json.hpp>
 
 #include "host/kernel_args.h"
+#include "host/tiled_launch.h"
 #include "render/preparation.h"
 #include "shadows/dsm_builder.h"  // volume_pass_defines
 #include "shadows/sat_update.h"  // volume_data_key
@@ -186,10 +189,7 @@ double run_shadow_probe(host::Runtime& runtime, const Scene& scene, const Prepar
     args("light_index", cl_uint(light))("points", points)("transmittance", out);
     prepared.technique.bind(args, runtime, options);
     args.done();
-    cl::Event event;
-    runtime.queue().enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(count), cl::NullRange, nullptr, &event);
-    event.wait();
-    return host::Runtime::event_ms(event);
+    return host::run_tiled(runtime, kernel, cl::NDRange(count), cl::NullRange);
 }
 
 constexpr std::size_t kShadowCachePoints = std::size_t(1) << 21;  // per volume and light
@@ -263,6 +263,9 @@ ShadowCache& shadow_cache(Context& context, const Scene& scene, const Prepared& 
     }
     double ms = 0;
     std::size_t lights = scene.lights.size();
+    // a unit per entry to build: those whose key changed
+    host::ProgressStage stage(runtime.progress(), "shadow cache", double(std::inner_product(
+        keys.begin(), keys.end(), cache->keys.begin(), std::size_t(0), std::plus<>(), std::not_equal_to<>())));
     for (std::size_t i = 0; i < scene.volumes.size(); ++i) {
         std::vector<std::size_t> stale;
         for (std::size_t m = 0; m < lights; ++m)
@@ -325,6 +328,7 @@ RenderResult render(Context& context, const Scene& scene, const RenderOptions& o
     if (!(options.phase_g > -1.f && options.phase_g < 1.f)) throw Error("--phase-g: must lie in (-1, 1)");
     int lanes = host::packet_lanes(runtime, options.lanes);
 
+    host::ProgressScope progress(runtime.progress(), options.progress);
     RenderResult result;
     RenderStats& stats = result.stats;
     stats.device = runtime.info().name;
@@ -369,7 +373,7 @@ RenderResult render(Context& context, const Scene& scene, const RenderOptions& o
     }
     args.done();
 
-    double kernel_ms = host::run_packets(runtime, kernel, width, height, lanes);
+    double kernel_ms = host::in_stage(runtime.progress(), "camera pass", 1, [&] { return host::run_packets(runtime, kernel, width, height, lanes); });
     stats.stage_ms["camera_pass"] = kernel_ms;
 
     result.image.width = width, result.image.height = height;
@@ -392,6 +396,7 @@ ShadowQuery shadow_transmittance(Context& context, const Scene& scene, int light
     pipeline::check_light(scene, light_index);
     if (!techniques::make_module(scene, options.shadows)->has_shadow_term())
         throw Error(std::string("--shadows: ") + shadow_technique_name(options.shadows) + " has no transmittance to query");
+    host::ProgressScope progress(runtime.progress(), options.progress);
     ShadowQuery query;
     query.stats.device = runtime.info().name;
     pipeline::Prepared prepared = pipeline::prepare(context, scene, options, query.stats);

@@ -32,6 +32,13 @@ DeviceDsm start_dsm(host::Runtime& runtime, const std::vector<DsmViewGpu>& views
     return dsm;
 }
 
+// The work of generating the `regenerate` views (empty: all) of `dsm`, for its progress stage:
+// a launch per generation pass of each.
+double generation_launches(const DeviceDsm& dsm, const std::vector<bool>& regenerate) {
+    std::size_t views = regenerate.empty() ? std::size_t(dsm.stats.views) : std::size_t(std::count(regenerate.begin(), regenerate.end(), true));
+    return double(views) * dsm.storage->generation_passes();
+}
+
 // Generates into the backend; the backend sets max_nodes per view (it bounds the lookups' search),
 // so the views go to the device again.
 void finish_dsm(host::Runtime& runtime, DeviceDsm& dsm, memory::BuildContext& context) {
@@ -97,6 +104,7 @@ SubPixelDsm generate_sub_pixel_maps(host::Runtime& runtime, const Scene& scene, 
     std::vector<bool> sub_regenerate;
     for (bool r : regenerate) sub_regenerate.insert(sub_regenerate.end(), std::size_t(sub.layout.maps), r);
     sub.dsm = start_dsm(runtime, sub.layout.views, sub_options);
+    runtime.progress().extend(generation_launches(sub.dsm, sub_regenerate));
     generate(runtime, scene, packed, device_scene, sub.layout.views, sub_options, sub.dsm, sub_regenerate);
     return sub;
 }
@@ -196,6 +204,7 @@ DeviceDsm build_deep_shadow_maps(host::Runtime& runtime, const Scene& scene, con
                                  const packing::DeviceScene& device_scene, std::vector<DsmViewGpu> views,
                                  const DsmBuildOptions& options) {
     DeviceDsm dsm = start_dsm(runtime, views, options);
+    host::ProgressStage stage(runtime.progress(), "deep shadow maps", generation_launches(dsm, {}));
     generate(runtime, scene, packed, device_scene, views, options, dsm, {});
     return dsm;
 }
@@ -206,6 +215,7 @@ void regenerate_deep_shadow_maps(host::Runtime& runtime, const Scene& scene, con
     if (views.size() != dsm.views.size() || regenerate.size() != views.size())
         throw Error("deep shadow maps: the views of a regeneration must match the maps built (internal error)");
     runtime.queue().enqueueWriteBuffer(dsm.views_buffer, CL_TRUE, 0, views.size() * sizeof(DsmViewGpu), views.data());
+    host::ProgressStage stage(runtime.progress(), "deep shadow maps", generation_launches(dsm, regenerate));
     generate(runtime, scene, packed, device_scene, views, options, dsm, regenerate);
 }
 

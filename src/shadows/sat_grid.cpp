@@ -6,6 +6,7 @@
 #include <cmath>
 #include <type_traits>
 
+#include "host/tiled_launch.h"
 #include "shadows/dsm_builder.h"
 #include "sombra/error.h"
 
@@ -230,12 +231,9 @@ void bind_volumes(host::KernelArgs& args, const packing::PackedScene& packed, co
     args("sat", data);
 }
 
+// A resample kernel over nx × ny lines: a table's unit of the progress stage.
 double run_2d(host::Runtime& runtime, cl::Kernel& kernel, int nx, int ny) {
-    cl::Event event;
-    runtime.queue().enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(std::size_t(nx), std::size_t(ny)), cl::NullRange,
-                                         nullptr, &event);
-    event.wait();
-    return host::Runtime::event_ms(event);
+    return host::run_tiled(runtime, kernel, cl::NDRange(std::size_t(nx), std::size_t(ny)), cl::NullRange);
 }
 
 // One light's view of CSAT frame f stored at `offset`, the light along grid axis `axis`.
@@ -285,6 +283,7 @@ void build_all(host::Runtime& runtime, const Scene& scene, const packing::Packed
     if (total > 0xffffffffull) throw Error("--shadows lowpass: summed-area tables exceed 2^32 entries");
     sat.bytes = total * sizeof(cl_ulong);
     sat.data = host::make_buffer(runtime, CL_MEM_READ_WRITE, std::max<std::size_t>(sat.bytes, 8), nullptr, "summed-area tables");
+    host::ProgressStage stage(runtime.progress(), "summed-area tables", double(sat_table_count(sat)));
     for (std::size_t t = 0; t < sat_table_count(sat); ++t) build_sat_table(runtime, scene, packed, device_scene, sat, t);
 }
 

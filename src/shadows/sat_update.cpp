@@ -166,6 +166,7 @@ DeviceSat update_sats(host::Runtime& runtime, const Scene& scene, const packing:
         slots.push_back({keys[t], offsets[t], sat_table_entries(sat, t)});
     }
     pool->slots = slots;  // before building: a failed build leaves no stale key behind it
+    host::ProgressStage stage(runtime.progress(), "summed-area tables", double(std::count(kept.begin(), kept.end(), -1)));
     for (std::size_t t = 0; t < n; ++t) {
         if (kept[t] >= 0) {
             ++counts.reused;
