@@ -452,6 +452,8 @@ TEST_CASE("enumerated render options by name: every name round-trips, unknown on
           "unknown enumerated render option 'shadow' (shadows, gradient, shading, storage, dsm_storage, dsm_prefilter, lowpass_filter_kernel)");
     CHECK(parse_light_type("omni") == LightType::Point);
     CHECK(test::error_of([] { parse_light_type("sun"); }) == "unknown light type 'sun' (directional, spot, point)");
+}
+
 TEST_CASE("sombra render: one progress line per stage on a non-terminal stderr, the longest named, and --quiet prints nothing", "[cli]") {
     std::string scene = scene_file("progress.json", nlohmann::json::object());
     std::string out = sombra::test::temp_dir() + "/progress.png";
