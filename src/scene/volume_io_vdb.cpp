@@ -9,9 +9,11 @@
 #include "scene/input_file.h"
 
 #include <openvdb/io/File.h>
+#include <openvdb/io/Stream.h>
 #include <openvdb/openvdb.h>
 
 #include <algorithm>
+#include <fstream>
 #include <cmath>
 #include <mutex>
 #include <string>
@@ -88,31 +90,36 @@ Volume read_vdb(const std::string& path, const VolumeLoadOptions& options, Volum
     initialize_once();
     detail::regular_file_size(path);
     try {
-        openvdb::io::File file(path);
-        file.open(false);  // no delayed loading: read what is asked, now (no memory map kept open)
-        // OpenVDB lists a file's grids by name. Without a name: "density" (the name Houdini, Blender
+        // The whole file through io::Stream, reading from a stream we own: OpenVDB does not check
+        // its reads for length, so a file cut short would load with the missing voxels made up;
+        // the stream's state after the read tells (failbit: a read came back short).
+        std::ifstream in(path, std::ios::binary);
+        if (!in) throw file_error(path, "", "cannot open the file");
+        openvdb::io::Stream stream(in, false);
+        if (!in) throw file_error(path, "", "truncated OpenVDB file (a read came back short)");
+        openvdb::GridPtrVec grids = *stream.getGrids();
+        std::stable_sort(grids.begin(), grids.end(), [](const auto& a, const auto& b) { return a->getName() < b->getName(); });
+        // Listed by name (as OpenVDB's File lists them). Without a name: "density" (the name Houdini, Blender
         // and EmberGen give smoke) when it is scalar, else the first float or double grid listed.
-        const openvdb::GridPtrVecPtr grids = file.readAllGridMetadata();
-        std::string chosen, listing;
-        for (const openvdb::GridBase::Ptr& g : *grids) {
+        openvdb::GridBase::Ptr base;
+        std::string listing;
+        for (const openvdb::GridBase::Ptr& g : grids) {
             listing += (listing.empty() ? "" : ", ") + describe(*g);
-            if (options.grid.empty() ? is_scalar(*g) && (chosen.empty() || g->getName() == "density")
-                                     : chosen.empty() && g->getName() == options.grid) {
+            if (options.grid.empty() ? is_scalar(*g) && (!base || g->getName() == "density")
+                                     : !base && g->getName() == options.grid) {
                 if (!is_scalar(*g))
                     throw file_error(path, "grid", "grid " + describe(*g) + " is not a float or double grid");
-                chosen = g->getName();
+                base = g;
             }
         }
         if (listing.empty()) throw file_error(path, "grids", "the file holds no grid");
-        if (chosen.empty())
+        if (!base)
             throw file_error(path, "grid", (options.grid.empty() ? std::string("no float or double grid")
                                                                  : "no grid named '" + options.grid + "'") +
                                                " (the file holds " + listing + ")");
-        openvdb::GridBase::Ptr base = file.readGrid(chosen);
-        file.close();
         if (auto g = openvdb::gridPtrCast<openvdb::FloatGrid>(base)) return dense_volume(path, *g, options, report);
         if (auto g = openvdb::gridPtrCast<openvdb::DoubleGrid>(base)) return dense_volume(path, *g, options, report);
-        throw file_error(path, "grid", "grid '" + chosen + "' changed type while it was read");
+        throw file_error(path, "grid", "grid '" + base->getName() + "' changed type while it was read");
     } catch (const Error&) {
         throw;
     } catch (const std::exception& e) {  // openvdb::Exception (IoError, …), std::bad_alloc, …
