@@ -450,6 +450,18 @@ TEST_CASE("the issue's five cases: a 32³ sphere as .vdb, .nrrd, .mha/.mhd, mult
     }
 }
 
+#if defined(__SANITIZE_ADDRESS__)
+constexpr bool kAddressSanitizer = true;
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+constexpr bool kAddressSanitizer = true;
+#else
+constexpr bool kAddressSanitizer = false;
+#endif
+#else
+constexpr bool kAddressSanitizer = false;
+#endif
+
 TEST_CASE("hostile input: truncated .vdb, .nrrd, .mha, .tif and DICOM files give one line, never a crash",
           "[hostile][volume_io]") {
     TempDir tmp;
@@ -473,6 +485,13 @@ TEST_CASE("hostile input: truncated .vdb, .nrrd, .mha, .tif and DICOM files give
         const std::vector<char> bytes = bytes_of(tmp.path(name));
         REQUIRE(!bytes.empty());
         const std::string ext = fs::path(name).extension().string();
+        if (kAddressSanitizer && ext == ".vdb") {
+            // OpenVDB allocates what a garbled chunk header says (terabytes): without ASan operator
+            // new throws bad_alloc, which the reader turns into one line (checked by the normal
+            // build); ASan's operator new aborts instead of throwing
+            WARN("ASan build: the cut and garbled .vdb cases run in the normal build only");
+            continue;
+        }
         // cuts at the start, inside the header and inside the data, and one byte short of the end
         std::vector<std::size_t> cuts = {0, 1, 8, 64, 200, bytes.size() / 3, bytes.size() / 2, bytes.size() - 1};
         const Volume original = load_volume(tmp.path(name));
@@ -491,6 +510,7 @@ TEST_CASE("hostile input: truncated .vdb, .nrrd, .mha, .tif and DICOM files give
                     ++refused;
                     continue;
                 }
+                CHECK(ext != ".vdb");  // a .vdb is read whole: any cut is a short read, refused
                 CHECK(cut + 64 >= bytes.size());
                 CHECK(v.voxels == original.voxels);
             } catch (const Error& e) {
