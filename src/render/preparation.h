@@ -20,7 +20,8 @@ struct PreparedScene {
     std::vector<std::string> light_keys;  // where each light is and how it shines
     packing::PackedScene packed;
     packing::DeviceScene device;
-    surfaces::DeviceSurfaces surfaces;  // scenes with meshes
+    surfaces::PackedSurfaces packed_surfaces;  // scenes with meshes: world-space triangles and materials
+    surfaces::DeviceSurfaces surfaces;         // the same on the device
     bool use_images = false;
 };
 

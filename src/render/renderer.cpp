@@ -104,7 +104,10 @@ std::unique_ptr<PreparedScene> prepare_anew(host::Runtime& runtime, const Scene&
     prepared->use_images = use_images;
     prepared->device = packing::upload_scene(runtime, scene, prepared->packed, use_images);
     stats.stage_ms["upload"] = prepared->device.upload_ms;
-    if (surfaces::has_fragments(scene)) prepared->surfaces = surfaces::upload_surfaces(runtime, surfaces::pack_surfaces(scene));
+    if (surfaces::has_fragments(scene)) {
+        prepared->packed_surfaces = surfaces::pack_surfaces(scene);
+        prepared->surfaces = surfaces::upload_surfaces(runtime, prepared->packed_surfaces);
+    }
     return prepared;
 }
 
@@ -153,7 +156,7 @@ Prepared prepare(Context& context, const Scene& scene, const RenderOptions& opti
         auto start = clock_type::now();
         upload_lights(runtime, scene, options, p, technique);
         stats.stage_ms["host_prepare"] = ms_since(start);
-        technique.update_lights({runtime, scene, p.packed, p.device, options, p.use_images}, moved, stats);
+        technique.update_lights({runtime, scene, p.packed, p.packed_surfaces, p.device, options, p.use_images}, moved, stats);
         p.light_keys = light_keys;
     } else {
         kept.prepared.reset();  // the shadow cache stays: its entries have their own keys
@@ -161,7 +164,7 @@ Prepared prepare(Context& context, const Scene& scene, const RenderOptions& opti
         fresh->key = key;
         fresh->light_keys = light_keys;
         try {
-            technique.prepare({runtime, scene, fresh->packed, fresh->device, options, fresh->use_images}, stats);
+            technique.prepare({runtime, scene, fresh->packed, fresh->packed_surfaces, fresh->device, options, fresh->use_images}, stats);
         } catch (...) {
             kept = detail::KeptScenes();  // nothing half-built stays for the next call
             throw;
@@ -169,7 +172,7 @@ Prepared prepare(Context& context, const Scene& scene, const RenderOptions& opti
         kept.prepared = std::move(fresh);
     }
     const PreparedScene& p = *kept.prepared;
-    technique.refresh({runtime, scene, p.packed, p.device, options, p.use_images}, stats);
+    technique.refresh({runtime, scene, p.packed, p.packed_surfaces, p.device, options, p.use_images}, stats);
     technique.add_stats(stats);
     return {p, technique};
 }
@@ -243,7 +246,7 @@ ShadowCache& shadow_cache(Context& context, const Scene& scene, const Prepared& 
     const PreparedScene& p = prepared.scene;
     std::vector<ShadowCacheGpu> layout = cache_layout(scene);
     std::vector<std::string> keys =
-        prepared.technique.shadow_cache_keys({runtime, scene, p.packed, p.device, options, p.use_images});
+        prepared.technique.shadow_cache_keys({runtime, scene, p.packed, p.packed_surfaces, p.device, options, p.use_images});
     std::unique_ptr<ShadowCache>& cache = context.kept_scenes().shadow_cache;
     bool same_layout = cache && cache->layout.size() == layout.size() &&
                        std::equal(layout.begin(), layout.end(), cache->layout.begin(), [](const ShadowCacheGpu& a, const ShadowCacheGpu& b) {

@@ -105,7 +105,7 @@ std::vector<std::string> extinction_keys(const Scene& scene, const packing::Pack
 
 DeviceSat update_sats(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
                       const packing::DeviceScene& device_scene, bool light_aligned, std::size_t max_entries,
-                      SatPool& pool_, SatUpdateCounts& counts) {
+                      SatPool& pool, SatUpdateCounts& counts) {
     DeviceSat sat = light_aligned ? plan_light_sats(packed, max_entries) : plan_volume_sat(packed, max_entries);
     std::string volumes;  // every table holds every volume
     for (const std::string& k : extinction_keys(scene, packed, device_scene.uses_images)) volumes += k + ';';
@@ -113,44 +113,43 @@ DeviceSat update_sats(host::Runtime& runtime, const Scene& scene, const packing:
     std::vector<std::string> keys(n);
     for (std::size_t t = 0; t < n; ++t) keys[t] = sat_table_geometry_key(sat, t) + " | " + volumes;
 
-    SatPool* pool = &pool_;
     // the tables whose inputs did not change stay where they are
     std::vector<int> kept(n, -1);
-    std::vector<bool> claimed(pool->slots.size(), false);
+    std::vector<bool> claimed(pool.slots.size(), false);
     std::vector<std::pair<std::size_t, std::size_t>> taken;
     for (std::size_t t = 0; t < n; ++t) {
         needed += sat_table_entries(sat, t);
-        for (std::size_t s = 0; s < pool->slots.size() && kept[t] < 0; ++s)
-            if (!claimed[s] && pool->slots[s].key == keys[t]) {
+        for (std::size_t s = 0; s < pool.slots.size() && kept[t] < 0; ++s)
+            if (!claimed[s] && pool.slots[s].key == keys[t]) {
                 kept[t] = int(s), claimed[s] = true;
-                taken.emplace_back(pool->slots[s].offset, pool->slots[s].entries);
+                taken.emplace_back(pool.slots[s].offset, pool.slots[s].entries);
             }
     }
     // the others go into the gaps; when they do not fit (or half the buffer would lie idle), a
     // compact buffer takes every table and the kept ones are copied over
     std::vector<std::size_t> offsets(n);
-    bool fits = 2 * needed >= pool->capacity;
+    bool fits = 2 * needed >= pool.capacity;
     for (std::size_t t = 0; t < n && fits; ++t) {
         if (kept[t] >= 0) {
-            offsets[t] = pool->slots[std::size_t(kept[t])].offset;
+            offsets[t] = pool.slots[std::size_t(kept[t])].offset;
             continue;
         }
-        offsets[t] = first_fit(taken, pool->capacity, sat_table_entries(sat, t));
-        fits = offsets[t] < pool->capacity;
+        offsets[t] = first_fit(taken, pool.capacity, sat_table_entries(sat, t));
+        fits = offsets[t] < pool.capacity;
         taken.emplace_back(offsets[t], sat_table_entries(sat, t));
     }
     if (!fits) {
         if (needed > 0xffffffffull) throw Error("--shadows lowpass: summed-area tables exceed 2^32 entries");
-        cl::Buffer old = pool->data;
-        pool->data = host::make_buffer(runtime, CL_MEM_READ_WRITE, std::max<std::size_t>(needed, 1) * sizeof(cl_ulong), nullptr,
+        cl::Buffer old = pool.data;
+        pool.data = host::make_buffer(runtime, CL_MEM_READ_WRITE, std::max<std::size_t>(needed, 1) * sizeof(cl_ulong), nullptr,
                                        "summed-area tables");
-        pool->capacity = needed;
+        pool.capacity = needed;
         std::size_t at = 0;
         for (std::size_t t = 0; t < n; ++t) {
             offsets[t] = at;
             if (kept[t] >= 0) {
                 cl::Event event;
-                runtime.queue().enqueueCopyBuffer(old, pool->data, pool->slots[std::size_t(kept[t])].offset * sizeof(cl_ulong),
+                runtime.queue().enqueueCopyBuffer(old, pool.data, pool.slots[std::size_t(kept[t])].offset * sizeof(cl_ulong),
                                                   at * sizeof(cl_ulong), sat_table_entries(sat, t) * sizeof(cl_ulong), nullptr, &event);
                 event.wait();
                 sat.stage_ms["sat_copy"] += host::Runtime::event_ms(event);
@@ -158,23 +157,23 @@ DeviceSat update_sats(host::Runtime& runtime, const Scene& scene, const packing:
             at += sat_table_entries(sat, t);
         }
     }
-    sat.data = pool->data;
+    sat.data = pool.data;
     sat.bytes = needed * sizeof(cl_ulong);  // the tables (the buffer may hold up to twice that, see above)
     std::vector<SatPool::Slot> slots;
     for (std::size_t t = 0; t < n; ++t) {
         place_sat_table(sat, t, offsets[t]);
         slots.push_back({keys[t], offsets[t], sat_table_entries(sat, t)});
     }
-    pool->slots = slots;  // before building: a failed build leaves no stale key behind it
+    pool.slots = slots;  // before building: a failed build leaves no stale key behind it
     host::ProgressStage stage(runtime.progress(), "summed-area tables", double(std::count(kept.begin(), kept.end(), -1)));
     for (std::size_t t = 0; t < n; ++t) {
         if (kept[t] >= 0) {
             ++counts.reused;
             continue;
         }
-        pool->slots[t].key.clear();
+        pool.slots[t].key.clear();
         build_sat_table(runtime, scene, packed, device_scene, sat, t);
-        pool->slots[t].key = keys[t];
+        pool.slots[t].key = keys[t];
         ++counts.built;
     }
     return sat;

@@ -21,7 +21,7 @@ public:
         if (!surfaces::has_fragments(s.scene)) return;
         auto start = std::chrono::steady_clock::now();
         meshes_ = true;
-        shadow_bvh_ = surfaces::upload_shadow_bvh(s.runtime, surfaces::pack_surfaces(s.scene).triangles, "shadow-ray");
+        shadow_bvh_ = surfaces::upload_shadow_bvh(s.runtime, s.surfaces.triangles, "shadow-ray");
         bounds_ = !s.packed.bound_triangles.empty();
         if (bounds_) bound_bvh_ = surfaces::upload_shadow_bvh(s.runtime, s.packed.bound_triangles, "volume bound");
         stats.stage_ms["bvh_build"] = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();

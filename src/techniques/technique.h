@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "geometry/scene_upload.h"
+#include "geometry/surfaces.h"
 #include "host/kernel_args.h"
 #include "host/runtime.h"
 #include "sombra/render.h"
@@ -21,6 +22,7 @@ struct SceneOnDevice {
     host::Runtime& runtime;
     const Scene& scene;
     const packing::PackedScene& packed;
+    const surfaces::PackedSurfaces& surfaces;  // the meshes' world-space triangles (none without meshes)
     const packing::DeviceScene& device;
     const RenderOptions& options;
     bool use_images;
