@@ -211,9 +211,39 @@ __kernel void render_camera(SCENE_PARAMS, __global float4* image, __global uint*
     }
 }
 
+#if SHADOW_TERM
+/* The shadow cache's first pass (Ament Alg. 1, updateShadowCache): the shadow term of light
+ * `light_index` at the lattice points of cache entry `entry`, by the program's technique; a
+ * work-item evaluates SOMBRA_LANES neighbouring points of a lattice row (rows: y + dims.y · z). */
+__kernel void shadow_cache_fill(SCENE_PARAMS, uint light_index, uint entry, __global const ShadowCacheGpu* shadow_cache_table,
+                                __global float* shadow_cache SHADOW_PARAMS) {
+    __global const ShadowCacheGpu* c = &shadow_cache_table[entry];
+    uint row = get_global_id(1);
+    if (row >= (uint)(c->dims.y * c->dims.z)) return;
+    lint xs = (int)(get_global_id(0) * SOMBRA_LANES) + LANE_INDEX;
+    lmask lanes = xs < c->dims.x;
+    lfloat3 voxel = l3(LCONVERT_FLOAT(xs) * c->spacing.x, (lfloat)((row % c->dims.y) * c->spacing.y),
+                       (lfloat)((row / c->dims.y) * c->spacing.z));
+    lfloat3 p;
+    p.x = mad(voxel.x, c->voxel_to_world[0].x, mad(voxel.y, c->voxel_to_world[0].y, mad(voxel.z, c->voxel_to_world[0].z, c->voxel_to_world[0].w)));
+    p.y = mad(voxel.x, c->voxel_to_world[1].x, mad(voxel.y, c->voxel_to_world[1].y, mad(voxel.z, c->voxel_to_world[1].z, c->voxel_to_world[1].w)));
+    p.z = mad(voxel.x, c->voxel_to_world[2].x, mad(voxel.y, c->voxel_to_world[2].y, mad(voxel.z, c->voxel_to_world[2].z, c->voxel_to_world[2].w)));
+#define SOMBRA_JITTER_LANE(k) sombra_pixel_jitter((uint)LC(xs, k), row, camera->jitter_seed)
+    SceneRefs scene = scene_refs(camera, lights, volumes, tf_tables, occupancy, LFROM_LANES(SOMBRA_JITTER_LANE));
+#undef SOMBRA_JITTER_LANE
+    ShadowState shadow;
+    SHADOW_STATE_INIT(shadow)
+    float values[SOMBRA_LANES];
+    LSTORE(shadow_transmittance(volume_data, &scene, &shadow, light_index, p, lanes), values);
+    uint x0 = get_global_id(0) * SOMBRA_LANES;
+    for (uint lane = 0; lane < SOMBRA_LANES && x0 + lane < (uint)c->dims.x; ++lane)
+        shadow_cache[c->offset + (size_t)row * c->dims.x + x0 + lane] = values[lane];
+}
+#endif
+
 #if SHADOW_TERM && SOMBRA_LANES == 1
 /* Transmittance to light `light_index` at arbitrary world points, by the program's technique
- * (sombra visibility, the shadow cache's fill, tests). Built with SOMBRA_LANES=1. */
+ * (sombra visibility, the API's shadow queries, tests). Built with SOMBRA_LANES=1. */
 __kernel void shadow_probe(SCENE_PARAMS, uint light_index, __global const float4* points, __global float* transmittance
                            SHADOW_PARAMS) {
     size_t i = get_global_id(0);

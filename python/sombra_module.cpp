@@ -165,13 +165,12 @@ PYBIND11_MODULE(sombra, m) {
         .def_readwrite("lowpass_filter_kernel", &RenderOptions::lowpass_filter_kernel)
         .def_readwrite("cone_angle_deg", &RenderOptions::cone_angle_deg)
         .def_readwrite("lowpass_max_entries", &RenderOptions::lowpass_max_entries)
-        .def_readwrite("lowpass_cache", &RenderOptions::lowpass_cache)
         .def_readwrite("empty_space_skipping", &RenderOptions::empty_space_skipping)
         .def_readwrite("termination_transmittance", &RenderOptions::termination_transmittance)
         .def_readwrite("jitter_seed", &RenderOptions::jitter_seed)
         .def_readwrite("lanes", &RenderOptions::lanes);
-    // "shadows", "gradient", "shading", "storage": strings, parsed by the library
-    for (const char* name : {"shadows", "gradient", "shading", "storage"})
+    // "shadows", "gradient", "shading", "storage", "shadow_cache": strings, parsed by the library
+    for (const char* name : {"shadows", "gradient", "shading", "storage", "shadow_cache"})
         options.def_property(
             name, [name](const RenderOptions& o) { return render_option_value(o, name); },
             [name](RenderOptions& o, const std::string& value) { set_render_option(o, name, value); });

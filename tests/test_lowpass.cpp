@@ -496,9 +496,9 @@ TEST_CASE("shadow cache (Ament Alg. 1): close to per-sample evaluation, kept whi
     o.lowpass_filter_width = 5.f;
     for (ShadowTechnique technique : {ShadowTechnique::Lowpass, ShadowTechnique::Ao}) {
         o.shadows = technique;
-        o.lowpass_cache = false;
+        o.shadow_cache = ShadowCacheMode::Off;
         Image direct = render(context, scene, o).image;
-        o.lowpass_cache = true;
+        o.shadow_cache = ShadowCacheMode::On;
         RenderResult cached = render(context, scene, o);
         CHECK(cached.stats.stage_ms.count("shadow_cache") == 1);
         CHECK(cached.stats.shadow_cache_bytes > 0);

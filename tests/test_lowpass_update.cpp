@@ -54,8 +54,8 @@ void check_step(Context& kept, Context& fresh_context, const Scene& scene, const
     CHECK(d.max_abs <= 1e-6);
     CHECK(r.stats.sat_tables_built == e.tables_built);
     CHECK(r.stats.sat_tables_reused == e.tables_reused);
-    CHECK(r.stats.shadow_cache_entries_built == (o.lowpass_cache ? e.entries_built : 0));
-    CHECK(r.stats.shadow_cache_entries_reused == (o.lowpass_cache ? e.entries_reused : 0));
+    CHECK(r.stats.shadow_cache_entries_built == (o.shadow_cache == ShadowCacheMode::On ? e.entries_built : 0));
+    CHECK(r.stats.shadow_cache_entries_reused == (o.shadow_cache == ShadowCacheMode::On ? e.entries_reused : 0));
     CHECK(fresh.stats.sat_tables_built == r.stats.sat_tables_built + r.stats.sat_tables_reused);
 }
 
@@ -67,7 +67,7 @@ TEST_CASE("Ament Alg. 1 first pass: a changed scene rebuilds only its changed ta
         Scene scene = two_clouds();
         RenderOptions o;
         o.shadows = ShadowTechnique::Lowpass;
-        o.lowpass_cache = cached;
+        o.shadow_cache = cached ? ShadowCacheMode::On : ShadowCacheMode::Off;
         INFO("shadow cache " << cached);
         // one CSAT (both directional lights), one SSAT; 2 volumes × 3 lights
         check_step(context, fresh, scene, o, {2, 0, 6, 0}, "first render");

@@ -246,15 +246,18 @@ typedef struct {
     float tau_per_unit;
 } SsatGridGpu;
 
-/* Ament Alg. 1 shadow cache: for one volume and one light, the shadow term at a lattice of points
- * spanning the volume's voxel coordinates [0, dims − 1] (lattice point k at k · spacing), built
- * once per table, filter and light set-up; camera samples read it trilinearly. Entry (x, y, z)
- * at offset + x + dims.x · (y + dims.y · z). Table index: volume · light count + light. */
+/* The shadow cache (Ament Alg. 1; the EG 2009 course's 3D texture caching): for one volume and one
+ * light, the shadow term at a lattice of points spanning the volume's voxel coordinates
+ * [0, dims − 1] (lattice point k at k · spacing), filled by the shadow technique and kept while
+ * its key holds; camera samples read it trilinearly. Entry (x, y, z) at
+ * offset + x + dims.x · (y + dims.y · z). Table index: volume · light count + light. */
 typedef struct {
     sb_int4 dims;       /* lattice points per axis; w unused */
     sb_float4 spacing;  /* voxel units between lattice points (xyz; 1 where dims is 1) */
     sb_uint offset;     /* first entry in the cache buffer */
     sb_uint pad0, pad1, pad2;
+    /* world = (dot(row.xyz, voxel) + row.w, …): the volume's voxel → world transform (the fill) */
+    sb_float4 voxel_to_world[3];
 } ShadowCacheGpu;
 
 #endif /* SOMBRA_SHARED_TYPES_H */

@@ -44,6 +44,16 @@ ShadowTechnique parse_shadow_technique(const std::string& name);
 // asymmetry phase_g (0 isotropic, > 0 forward), scaled by 4π so isotropic scattering has unit gain.
 enum class ShadingModel { Phong, Scattering };
 
+// The shadow cache (the EG 2009 course's "3D texture caching", Ament et al. 2014 Alg. 1): per
+// volume and light a lattice of the shadow term over the volume's voxels (at most 2^21 points,
+// coarser for larger volumes), filled by the technique itself (DSM lookups, shadow rays, low-pass
+// tables) and kept on the Context until that light, the scene's volumes or meshes, or the
+// technique's options change; camera samples read it trilinearly. Surfaces evaluate the technique
+// per fragment. On: always. Off: every sample evaluates the technique. Auto: on when the entries
+// to fill have fewer lattice points than the volume samples this frame is estimated to take
+// (kept entries cost nothing: a moved camera keeps the cache on).
+enum class ShadowCacheMode { Auto, On, Off };
+
 // The deep-shadow-map storage backends ("atlas", "chunked", "chunked-ondemand", "compact"), from
 // the backend registry (src/memory/dsm_storage.cpp): the values of RenderOptions::dsm_storage.
 std::vector<std::string> dsm_storage_names();
@@ -82,11 +92,7 @@ struct RenderOptions {
     std::string lowpass_filter_kernel = "box";
     float cone_angle_deg = 10.f;  // ShadowTechnique::Cone: half angle of the cones
     std::size_t lowpass_max_entries = std::size_t(1) << 24;
-    // Lowpass, Ao, Cone: Ament Alg. 1 — a first pass evaluates the shadow term of every light on a
-    // lattice over each volume's voxels (at most 2^21 points per volume and light, coarser for
-    // larger volumes), kept until the tables, the filter or the lights change; camera samples read
-    // it trilinearly. false: every sample evaluates the tables (the uncached mode).
-    bool lowpass_cache = true;
+    ShadowCacheMode shadow_cache = ShadowCacheMode::Auto;  // every technique with a shadow term
     VolumeStorage storage = VolumeStorage::Auto;
     bool empty_space_skipping = true;
     float termination_transmittance = 1e-3f;  // early ray termination threshold on t_acc
@@ -102,7 +108,8 @@ struct RenderOptions {
 // The options with a fixed set of values, by name, as the command line, --stats and the Python
 // module spell them ("dsm", "sobel", …): the one list of each (src/render/option_names.cpp; the
 // techniques' and storages' from their registries). option: "shadows", "gradient", "shading",
-// "storage" (volume storage), "dsm_storage", "dsm_prefilter" or "lowpass_filter_kernel".
+// "storage" (volume storage), "dsm_storage", "dsm_prefilter", "lowpass_filter_kernel" or
+// "shadow_cache" (auto, on, off).
 // An unknown option or value throws sombra::Error naming it and the accepted ones.
 std::vector<std::string> render_option_values(const std::string& option);  // the value names, in order
 void set_render_option(RenderOptions& options, const std::string& option, const std::string& value);
@@ -137,9 +144,13 @@ struct RenderStats {
     // low-pass shadows (ShadowTechnique::Lowpass): summed-area tables and their memory
     int sat_tables = 0;
     unsigned long long sat_bytes = 0;
-    unsigned long long shadow_cache_bytes = 0;  // Ament Alg. 1 shadow cache, when used
-    // Ament Alg. 1's first pass on a kept Context: tables (CSAT, SSAT, volume-aligned SAT) and shadow
-    // cache entries (volume × light) built by this call because their inputs changed, and kept
+    // the shadow cache (ShadowCacheMode): whether this frame read it, its size, and for auto the
+    // lattice points it had to fill against the volume samples the frame was estimated to take
+    bool shadow_cache_used = false;
+    unsigned long long shadow_cache_bytes = 0;
+    unsigned long long shadow_cache_points_to_fill = 0, shadow_cache_estimated_samples = 0;
+    // tables (CSAT, SSAT, volume-aligned SAT) and shadow cache entries (volume × light) built by
+    // this call because their inputs changed, and kept from the previous call on the Context
     int sat_tables_built = 0, sat_tables_reused = 0;
     int shadow_cache_entries_built = 0, shadow_cache_entries_reused = 0;
     // true when the scene's device data of the previous call on this Context were reused (only

@@ -69,7 +69,7 @@ nlohmann::json options_json(const sombra::RenderOptions& o) {
             {"dsm_prefilter_seed", o.dsm_prefilter_seed},
             {"lowpass_filter_width", decimal(o.lowpass_filter_width)},
             {"lowpass_filter_kernel", o.lowpass_filter_kernel},
-            {"lowpass_cache", o.lowpass_cache},
+            {"shadow_cache", sombra::render_option_value(o, "shadow_cache")},
             {"cone_angle_deg", decimal(o.cone_angle_deg)},
             {"storage", sombra::render_option_value(o, "storage")},
             {"empty_space_skipping", o.empty_space_skipping},
@@ -150,7 +150,7 @@ int write_dsm(sombra::Context& context, const sombra::Scene& scene, int light, c
     for (const char* camera_only : {"width", "height", "samples", "msamples_per_s"}) j.erase(camera_only);
     for (const char* camera_only : {"width", "height", "shadows", "shading", "gradient", "phase_g", "jitter_seed",
                                     "termination_transmittance", "lowpass_filter_width", "lowpass_filter_kernel",
-                                    "lowpass_cache", "cone_angle_deg"})
+                                    "shadow_cache", "cone_angle_deg"})
         j["options"].erase(camera_only);
     unsigned long long nodes = 0;
     for (const sombra::DeepShadowMap& map : maps) nodes += map.nodes.size();
@@ -301,9 +301,11 @@ int run(int argc, char** argv) {
     render->add_option("--filter", filter_width, "lowpass: filter width in voxels (softness of the shadows); ao: cube side")
         ->check(in_range<float>(0, 4096));
     float cone_angle = defaults.cone_angle_deg;
-    bool no_shadow_cache = !defaults.lowpass_cache;
-    render->add_flag("--no-shadow-cache", no_shadow_cache,
-                     "lowpass/ao/cone: evaluate the tables per sample instead of reading the shadow cache (Ament Alg. 1)");
+    std::string shadow_cache = sombra::render_option_value(defaults, "shadow_cache");
+    render->add_option("--shadow-cache", shadow_cache,
+                       "the shadow term per volume and light on a lattice, filled by the technique, read trilinearly: on, off, "
+                       "or auto (on when filling it costs fewer points than the frame's samples)")
+        ->check(member_of("shadow_cache"));
     render->add_option("--cone-angle", cone_angle, "cone: half angle of the shadow cones in degrees")->check(in_range<float>(0.01f, 60));
     std::string filter_kernel = defaults.lowpass_filter_kernel;
     render->add_option("--filter-kernel", filter_kernel, "lowpass: box (one SAT box) or gauss (5×5 sub-boxes, Ament Eq. 25)")
@@ -433,7 +435,7 @@ int run(int argc, char** argv) {
     options.lowpass_filter_width = filter_width;
     options.lowpass_filter_kernel = filter_kernel;
     options.cone_angle_deg = cone_angle;
-    options.lowpass_cache = !no_shadow_cache;
+    sombra::set_render_option(options, "shadow_cache", shadow_cache);
     options.dsm_resolution = dsm_resolution;
     options.dsm_epsilon = dsm_epsilon;
     options.dsm_storage = dsm_storage;

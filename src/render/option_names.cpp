@@ -62,6 +62,8 @@ const std::vector<EnumOption>& enum_options() {
         named_option<&RenderOptions::dsm_storage>("dsm_storage", "--storage", dsm_storage_names()),
         named_option<&RenderOptions::dsm_prefilter>("dsm_prefilter", "--prefilter", {"none", "box", "tent", "5tap"}),
         named_option<&RenderOptions::lowpass_filter_kernel>("lowpass_filter_kernel", "--filter-kernel", {"box", "gauss"}),
+        enum_option<ShadowCacheMode, &RenderOptions::shadow_cache>(
+            "shadow_cache", "--shadow-cache", {{"auto", ShadowCacheMode::Auto}, {"on", ShadowCacheMode::On}, {"off", ShadowCacheMode::Off}}),
     };
     return options;
 }

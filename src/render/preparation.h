@@ -25,9 +25,9 @@ struct PreparedScene {
     bool use_images = false;
 };
 
-// Ament Alg. 1, first pass (updateShadowCache): per volume and light a lattice of the shadow term
-// over the volume's voxels, filled by the technique's shadow_probe; an entry (volume × light) is
-// refilled only when its key (the module's shadow_cache_keys) changed.
+// The shadow cache (render.h ShadowCacheMode; Ament Alg. 1): per volume and light a lattice of the
+// shadow term over the volume's voxels, filled by the technique (render.cl shadow_cache_fill); an
+// entry (volume × light) is refilled only when its key changed (shadow_cache.cpp).
 struct ShadowCache {
     std::vector<ShadowCacheGpu> layout;
     std::vector<std::string> keys;  // per entry; empty: not filled
@@ -43,6 +43,18 @@ struct Prepared {
 Prepared prepare(Context& context, const Scene& scene, const RenderOptions& options, RenderStats& stats);
 
 int check_light(const Scene& scene, int light_index);
+
+// -D defines of render.cl's kernels for this scene and these options, SOMBRA_LANES = lanes
+// (renderer.cpp), and the arguments they share (SCENE_PARAMS, cl/scene_refs.h).
+std::vector<std::string> camera_pass_defines(const Scene& scene, const RenderOptions& options, const Prepared& p, int lanes,
+                                             bool shadow_cache);
+void bind_scene(host::KernelArgs& args, const PreparedScene& p, const cl::Buffer& camera);
+
+// The shadow cache this frame reads, its stale entries filled, or nullptr when every sample
+// evaluates the technique (options.shadow_cache; Auto weighs the points to fill against the
+// samples the frame is estimated to take) — shadow_cache.cpp.
+const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, const Prepared& prepared,
+                                          const RenderOptions& options, int width, int height, int lanes, RenderStats& stats);
 
 }  // namespace pipeline
 

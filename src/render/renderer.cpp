@@ -26,21 +26,6 @@ double ms_since(clock_type::time_point start) {
     return std::chrono::duration<double, std::milli>(clock_type::now() - start).count();
 }
 
-// -D defines for the camera pass: what this scene and these options need, nothing more.
-std::vector<std::string> camera_pass_defines(const Scene& scene, const RenderOptions& options, const Prepared& p, int lanes,
-                                             bool shadow_cache) {
-    std::vector<std::string> defines = shadows::volume_pass_defines(scene, p.scene.use_images, options.empty_space_skipping);
-    defines.push_back("SOMBRA_LANES=" + std::to_string(lanes));
-    defines.push_back("SOMBRA_LIGHT_SLOTS=" + std::to_string(std::max<std::size_t>(scene.lights.size(), 1)));
-    if (options.gradient == GradientMethod::Sobel) defines.push_back("SOMBRA_SOBEL");
-    if (!scene.lights.empty()) defines.push_back("SOMBRA_HAS_LIGHTS");
-    if (options.shading == ShadingModel::Scattering) defines.push_back("SOMBRA_SCATTERING");
-    if (surfaces::has_fragments(scene)) defines.push_back("SOMBRA_HAS_MESHES");
-    p.technique.add_defines(scene, options, defines);
-    if (shadow_cache) defines.push_back("SOMBRA_SHADOW_CACHE");
-    return defines;
-}
-
 // What a light's shadow data depend on: where it is and how it shines (not its colour,
 // intensity or attenuation, which only shading reads).
 std::string light_view_key(const Light& l) {
@@ -111,6 +96,23 @@ std::unique_ptr<PreparedScene> prepare_anew(host::Runtime& runtime, const Scene&
     return prepared;
 }
 
+}  // namespace
+
+// -D defines for the camera pass: what this scene and these options need, nothing more.
+std::vector<std::string> camera_pass_defines(const Scene& scene, const RenderOptions& options, const Prepared& p, int lanes,
+                                             bool shadow_cache) {
+    std::vector<std::string> defines = shadows::volume_pass_defines(scene, p.scene.use_images, options.empty_space_skipping);
+    defines.push_back("SOMBRA_LANES=" + std::to_string(lanes));
+    defines.push_back("SOMBRA_LIGHT_SLOTS=" + std::to_string(std::max<std::size_t>(scene.lights.size(), 1)));
+    if (options.gradient == GradientMethod::Sobel) defines.push_back("SOMBRA_SOBEL");
+    if (!scene.lights.empty()) defines.push_back("SOMBRA_HAS_LIGHTS");
+    if (options.shading == ShadingModel::Scattering) defines.push_back("SOMBRA_SCATTERING");
+    if (surfaces::has_fragments(scene)) defines.push_back("SOMBRA_HAS_MESHES");
+    p.technique.add_defines(scene, options, defines);
+    if (shadow_cache) defines.push_back("SOMBRA_SHADOW_CACHE");
+    return defines;
+}
+
 // The arguments render.cl's kernels share (SCENE_PARAMS, cl/scene_refs.h).
 void bind_scene(host::KernelArgs& args, const PreparedScene& p, const cl::Buffer& camera) {
     if (p.use_images) args("volume_data", p.device.voxel_image);
@@ -118,8 +120,6 @@ void bind_scene(host::KernelArgs& args, const PreparedScene& p, const cl::Buffer
     args("occupancy", p.device.occupancy)("tf_tables", p.device.tf_tables)("volumes", p.device.volumes)("lights", p.device.lights);
     args("camera", camera);
 }
-
-}  // namespace
 
 int check_light(const Scene& scene, int light_index) {
     if (light_index < 0 || light_index >= int(scene.lights.size()))
@@ -195,102 +195,6 @@ double run_shadow_probe(host::Runtime& runtime, const Scene& scene, const Prepar
     return host::run_tiled(runtime, kernel, cl::NDRange(count), cl::NullRange);
 }
 
-constexpr std::size_t kShadowCachePoints = std::size_t(1) << 21;  // per volume and light
-
-std::array<int, 3> cache_lattice(const std::array<int, 3>& dims) {
-    std::array<int, 3> n = dims;
-    while (std::size_t(n[0]) * std::size_t(n[1]) * std::size_t(n[2]) > kShadowCachePoints)
-        for (int& a : n) a = std::max(1, (a + 1) / 2);
-    return n;
-}
-
-// Entry (volume i, light m) of the cache: its lattice and its place in the values.
-std::vector<ShadowCacheGpu> cache_layout(const Scene& scene) {
-    std::vector<ShadowCacheGpu> table;
-    std::size_t total = 0;
-    for (const VolumeInstance& vi : scene.volumes) {
-        std::array<int, 3> n = cache_lattice(vi.volume->dims);
-        for (std::size_t m = 0; m < scene.lights.size(); ++m) {
-            ShadowCacheGpu c{};
-            for (int a = 0; a < 3; ++a) {
-                c.dims.s[a] = n[std::size_t(a)];
-                c.spacing.s[a] = n[std::size_t(a)] > 1 ? float(vi.volume->dims[std::size_t(a)] - 1) / float(n[std::size_t(a)] - 1) : 1.f;
-            }
-            c.offset = cl_uint(total);
-            total += std::size_t(n[0]) * std::size_t(n[1]) * std::size_t(n[2]);
-            table.push_back(c);
-        }
-    }
-    if (total > 0xffffffffull) throw Error("shadow cache: more than 2^32 entries");
-    return table;
-}
-
-// World positions of a volume's lattice points (c: any of its entries).
-std::vector<cl_float4> lattice_points(const ShadowCacheGpu& c, const std::array<float, 16>& m /* voxel to world, row-major */) {
-    std::vector<cl_float4> points;
-    for (int z = 0; z < c.dims.s[2]; ++z)
-        for (int y = 0; y < c.dims.s[1]; ++y)
-            for (int x = 0; x < c.dims.s[0]; ++x) {
-                float v[3] = {x * c.spacing.s[0], y * c.spacing.s[1], z * c.spacing.s[2]};
-                cl_float4 p{};
-                for (int r = 0; r < 3; ++r) p.s[r] = m[std::size_t(4 * r)] * v[0] + m[std::size_t(4 * r + 1)] * v[1] + m[std::size_t(4 * r + 2)] * v[2] + m[std::size_t(4 * r + 3)];
-                p.s[3] = 1.f;
-                points.push_back(p);
-            }
-    return points;
-}
-
-ShadowCache& shadow_cache(Context& context, const Scene& scene, const Prepared& prepared, const RenderOptions& options,
-                          RenderStats& stats) {
-    host::Runtime& runtime = context.runtime();
-    const PreparedScene& p = prepared.scene;
-    std::vector<ShadowCacheGpu> layout = cache_layout(scene);
-    std::vector<std::string> keys =
-        prepared.technique.shadow_cache_keys({runtime, scene, p.packed, p.packed_surfaces, p.device, options, p.use_images});
-    std::unique_ptr<ShadowCache>& cache = context.kept_scenes().shadow_cache;
-    bool same_layout = cache && cache->layout.size() == layout.size() &&
-                       std::equal(layout.begin(), layout.end(), cache->layout.begin(), [](const ShadowCacheGpu& a, const ShadowCacheGpu& b) {
-                           return std::memcmp(&a, &b, sizeof(ShadowCacheGpu)) == 0;
-                       });
-    if (!same_layout) {  // other volumes or lights: a new cache
-        cache.reset();
-        auto fresh = std::make_unique<ShadowCache>();
-        fresh->layout = layout;
-        fresh->keys.assign(layout.size(), std::string());
-        std::size_t total = layout.empty() ? 0 : layout.back().offset + std::size_t(layout.back().dims.s[0]) * layout.back().dims.s[1] * layout.back().dims.s[2];
-        fresh->values = host::make_buffer(runtime, CL_MEM_READ_WRITE, std::max<std::size_t>(total, 1) * sizeof(float), nullptr, "shadow cache");
-        fresh->table = host::make_buffer(runtime, CL_MEM_READ_ONLY, std::max<std::size_t>(layout.size(), 1) * sizeof(ShadowCacheGpu),
-                                         layout.empty() ? nullptr : layout.data(), "shadow cache table");
-        fresh->bytes = total * sizeof(float);
-        cache = std::move(fresh);
-    }
-    double ms = 0;
-    std::size_t lights = scene.lights.size();
-    // a unit per entry to build: those whose key changed
-    host::ProgressStage stage(runtime.progress(), "shadow cache", double(std::inner_product(
-        keys.begin(), keys.end(), cache->keys.begin(), std::size_t(0), std::plus<>(), std::not_equal_to<>())));
-    for (std::size_t i = 0; i < scene.volumes.size(); ++i) {
-        std::vector<std::size_t> stale;
-        for (std::size_t m = 0; m < lights; ++m)
-            if (cache->keys[i * lights + m] != keys[i * lights + m]) stale.push_back(m);
-        stats.shadow_cache_entries_reused += int(lights - stale.size());
-        if (stale.empty()) continue;
-        std::vector<cl_float4> points = lattice_points(layout[i * lights], p.packed.voxel_to_world[i]);
-        cl::Buffer point_buffer = host::make_buffer(runtime, CL_MEM_READ_ONLY, points.size() * sizeof(cl_float4), points.data(), "shadow cache points");
-        cl::Buffer out = host::make_buffer(runtime, CL_MEM_READ_WRITE, points.size() * sizeof(float), nullptr, "shadow cache entries");
-        for (std::size_t m : stale) {
-            cache->keys[i * lights + m].clear();
-            ms += run_shadow_probe(runtime, scene, prepared, options, int(m), point_buffer, points.size(), out);
-            runtime.queue().enqueueCopyBuffer(out, cache->values, 0, layout[i * lights + m].offset * sizeof(float), points.size() * sizeof(float));
-            runtime.queue().finish();
-            cache->keys[i * lights + m] = keys[i * lights + m];
-            ++stats.shadow_cache_entries_built;
-        }
-    }
-    if (stats.shadow_cache_entries_built > 0) stats.stage_ms["shadow_cache"] = ms;
-    return *cache;
-}
-
 }  // namespace
 }  // namespace pipeline
 
@@ -315,9 +219,14 @@ std::string RenderStats::to_json() const {
                     {"storage", dsm_storage}};
     }
     if (sat_tables > 0)
-        j["sat"] = {{"tables", sat_tables}, {"bytes", sat_bytes}, {"shadow_cache_bytes", shadow_cache_bytes},
-                    {"tables_built", sat_tables_built}, {"tables_reused", sat_tables_reused},
-                    {"cache_entries_built", shadow_cache_entries_built}, {"cache_entries_reused", shadow_cache_entries_reused}};
+        j["sat"] = {{"tables", sat_tables}, {"bytes", sat_bytes}, {"tables_built", sat_tables_built}, {"tables_reused", sat_tables_reused}};
+    if (shadow_cache_points_to_fill > 0 || shadow_cache_used)
+        j["shadow_cache"] = {{"used", shadow_cache_used},
+                             {"bytes", shadow_cache_bytes},
+                             {"entries_built", shadow_cache_entries_built},
+                             {"entries_reused", shadow_cache_entries_reused},
+                             {"points_to_fill", shadow_cache_points_to_fill},
+                             {"estimated_samples", shadow_cache_estimated_samples}};
     return j.dump(2);
 }
 
@@ -339,13 +248,9 @@ RenderResult render(Context& context, const Scene& scene, const RenderOptions& o
     pipeline::Prepared prepared = pipeline::prepare(context, scene, options, stats);
     const pipeline::PreparedScene& p = prepared.scene;
 
-    // the shadow cache is filled first: its probe binds the technique's per-call buffers anew
-    bool cached = prepared.technique.uses_shadow_cache(options);
-    const pipeline::ShadowCache* cache = nullptr;
-    if (cached) {
-        cache = &pipeline::shadow_cache(context, scene, prepared, options, stats);
-        stats.shadow_cache_bytes = cache->bytes;
-    }
+    // the shadow cache is filled first: its fill binds the technique's per-call buffers anew
+    const pipeline::ShadowCache* cache = pipeline::shadow_cache_for_frame(context, scene, prepared, options, width, height, lanes, stats);
+    bool cached = cache != nullptr;
 
     CameraGpu camera = packing::pack_camera(scene, width, height);
     camera.termination_transmittance = options.termination_transmittance;

@@ -15,7 +15,6 @@ void ShadowModule::update_lights(const SceneOnDevice&, const std::vector<bool>&,
 void ShadowModule::refresh(const SceneOnDevice&, RenderStats&) {}
 void ShadowModule::bind(host::KernelArgs&, host::Runtime&, const RenderOptions&) const {}
 void ShadowModule::add_stats(RenderStats&) const {}
-bool ShadowModule::uses_shadow_cache(const RenderOptions&) const { return false; }
 std::vector<std::string> ShadowModule::shadow_cache_keys(const SceneOnDevice&) const { return {}; }
 
 const std::vector<TechniqueEntry>& registry() {

@@ -61,8 +61,7 @@ public:
         stats.sat_bytes = sat_.bytes;
     }
 
-    bool uses_shadow_cache(const RenderOptions& options) const override { return options.lowpass_cache; }
-
+    // finer than the renderer's keys: an entry depends on the tables its lookups read (Ament Alg. 1)
     std::vector<std::string> shadow_cache_keys(const SceneOnDevice& s) const override {
         return shadows::shadow_cache_keys(s.scene, s.packed, sat_, shadows::extinction_keys(s.scene, s.packed, s.use_images),
                                           s.options);

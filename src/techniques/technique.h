@@ -55,10 +55,9 @@ public:
     virtual void bind(host::KernelArgs& args, host::Runtime& runtime, const RenderOptions& options) const;
     // Copies its sizes (maps, tables) into the statistics.
     virtual void add_stats(RenderStats& stats) const;
-    // Whether the camera pass reads the shadow term from the shadow cache (Ament Alg. 1), and the
-    // key of each cache entry (volume-major, entry i · lights + m): an entry is refilled when its
-    // key changes.
-    virtual bool uses_shadow_cache(const RenderOptions& options) const;
+    // The key of each shadow cache entry (src/render/shadow_cache.cpp; volume-major, entry
+    // i · lights + m): an entry is refilled when its key changes. Empty (the default): the
+    // renderer keys every entry by the whole preparation, the technique and the entry's light.
     virtual std::vector<std::string> shadow_cache_keys(const SceneOnDevice& on_device) const;
 };
 

@@ -1,0 +1,192 @@
+// sombra — the shadow cache (render.h ShadowCacheMode): the EG 2009 course's "3D texture caching"
+// and Ament et al. 2014 Alg. 1 for every technique. Per volume and light a lattice of the shadow
+// term over the volume's voxels, filled by the technique itself (render.cl shadow_cache_fill) and
+// kept on the Context; an entry is refilled only when its key changes. The camera pass reads it
+// trilinearly (render.cl cached_shadow).
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstring>
+#include <functional>
+#include <numeric>
+
+#include "host/kernel_args.h"
+#include "host/tiled_launch.h"
+#include "render/preparation.h"
+#include "sombra/error.h"
+
+namespace sombra::pipeline {
+namespace {
+
+constexpr std::size_t kShadowCachePoints = std::size_t(1) << 21;  // per volume and light
+
+// The lattice of a volume: its voxels, halved per axis until at most kShadowCachePoints.
+std::array<int, 3> cache_lattice(const std::array<int, 3>& dims) {
+    std::array<int, 3> n = dims;
+    while (std::size_t(n[0]) * std::size_t(n[1]) * std::size_t(n[2]) > kShadowCachePoints)
+        for (int& a : n) a = std::max(1, (a + 1) / 2);
+    return n;
+}
+
+std::size_t lattice_points(const ShadowCacheGpu& c) { return std::size_t(c.dims.s[0]) * std::size_t(c.dims.s[1]) * std::size_t(c.dims.s[2]); }
+
+// Entry (volume i, light m) of the cache: its lattice, its place in the values, the volume's
+// voxel → world rows.
+std::vector<ShadowCacheGpu> cache_layout(const Scene& scene, const packing::PackedScene& packed) {
+    std::vector<ShadowCacheGpu> table;
+    std::size_t total = 0;
+    for (std::size_t i = 0; i < scene.volumes.size(); ++i) {
+        const std::array<int, 3>& dims = scene.volumes[i].volume->dims;
+        std::array<int, 3> n = cache_lattice(dims);
+        for (std::size_t m = 0; m < scene.lights.size(); ++m) {
+            ShadowCacheGpu c{};
+            for (std::size_t a = 0; a < 3; ++a) {
+                c.dims.s[a] = n[a];
+                c.spacing.s[a] = n[a] > 1 ? float(dims[a] - 1) / float(n[a] - 1) : 1.f;
+            }
+            for (std::size_t r = 0; r < 3; ++r)
+                for (std::size_t k = 0; k < 4; ++k) c.voxel_to_world[r].s[k] = packed.voxel_to_world[i][4 * r + k];
+            c.offset = cl_uint(total);
+            total += lattice_points(c);
+            if (total > 0xffffffffull) throw Error("shadow cache: more than 2^32 entries");
+            table.push_back(c);
+        }
+    }
+    return table;
+}
+
+// What an entry's values depend on when the technique gives no finer keys: the prepared scene
+// (volumes, meshes, the technique's options: renderer.cpp volumes_key), the technique, the light's
+// view and the jitter seed (shadow rays start at jittered points).
+std::vector<std::string> generic_keys(const Scene& scene, const PreparedScene& p, const RenderOptions& options) {
+    std::vector<std::string> keys;
+    for (std::size_t i = 0; i < scene.volumes.size(); ++i)
+        for (std::size_t m = 0; m < scene.lights.size(); ++m)
+            keys.push_back(p.key + " | " + shadow_technique_name(options.shadows) + " | light " + p.light_keys[m] + " | seed " +
+                           std::to_string(options.jitter_seed));
+    return keys;
+}
+
+// The volume samples the camera pass takes in volume i, roughly: over the pixels its box covers,
+// the box's volume over the pixel footprint at its centre times the step (the chords of a convex
+// body integrate to its volume), at most every covered pixel marching the box's diagonal. Empty
+// space skipping and early termination only lower it (the estimate leans towards the cache).
+double estimated_samples(const Scene& scene, const packing::PackedScene& packed, std::size_t i, int width, int height) {
+    CameraGpu camera = packing::pack_camera(scene, width, height);
+    const std::array<float, 16>& m = packed.voxel_to_world[i];
+    const std::array<int, 3>& dims = scene.volumes[i].volume->dims;
+    auto dot3 = [](const cl_float4& a, const std::array<double, 3>& b) { return a.s[0] * b[0] + a.s[1] * b[1] + a.s[2] * b[2]; };
+    double x_min = 1e30, x_max = -1e30, y_min = 1e30, y_max = -1e30;
+    bool behind = false;
+    std::array<double, 3> centre{0, 0, 0};
+    for (int corner = 0; corner < 8; ++corner) {
+        std::array<double, 3> v{corner & 1 ? dims[0] - 1.0 : 0.0, corner & 2 ? dims[1] - 1.0 : 0.0, corner & 4 ? dims[2] - 1.0 : 0.0};
+        std::array<double, 3> rel;
+        for (std::size_t r = 0; r < 3; ++r) {
+            double w = m[4 * r] * v[0] + m[4 * r + 1] * v[1] + m[4 * r + 2] * v[2] + m[4 * r + 3];
+            centre[r] += w / 8;
+            rel[r] = w - camera.position.s[r];
+        }
+        double z = dot3(camera.forward, rel);
+        if (z <= 1e-6) {
+            behind = true;
+            continue;
+        }
+        // NDC: the camera's right and up vectors are scaled by tan(fov/2) (·aspect)
+        double x = dot3(camera.right, rel) / (z * dot3(camera.right, {camera.right.s[0], camera.right.s[1], camera.right.s[2]}));
+        double y = dot3(camera.up, rel) / (z * dot3(camera.up, {camera.up.s[0], camera.up.s[1], camera.up.s[2]}));
+        x_min = std::min(x_min, x), x_max = std::max(x_max, x), y_min = std::min(y_min, y), y_max = std::max(y_max, y);
+    }
+    double pixels = double(width) * height;
+    if (!behind) {
+        double covered_x = std::max(0.0, std::min(x_max, 1.0) - std::max(x_min, -1.0)) / 2;
+        double covered_y = std::max(0.0, std::min(y_max, 1.0) - std::max(y_min, -1.0)) / 2;
+        pixels *= covered_x * covered_y;
+    }
+    // the box in world units: edge vectors are the matrix's columns times the voxel counts
+    std::array<double, 3> edge_length;
+    for (std::size_t a = 0; a < 3; ++a)
+        edge_length[a] = std::max(1.0, dims[a] - 1.0) * std::hypot(m[a], m[4 + a], m[8 + a]);
+    double box_volume = edge_length[0] * edge_length[1] * edge_length[2];
+    double diagonal = std::hypot(edge_length[0], edge_length[1], edge_length[2]);
+    double step = std::max(1e-9f, packed.volumes[i].step);
+    std::array<double, 3> to_centre;
+    for (std::size_t r = 0; r < 3; ++r) to_centre[r] = centre[r] - camera.position.s[r];
+    double distance = std::max(std::hypot(to_centre[0], to_centre[1], to_centre[2]), 0.5 * diagonal);
+    double pixel_side = 2 * distance * std::hypot(camera.up.s[0], camera.up.s[1], camera.up.s[2]) / height;
+    return std::min(box_volume / (pixel_side * pixel_side * step), pixels * diagonal / step);
+}
+
+}  // namespace
+
+const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, const Prepared& prepared,
+                                          const RenderOptions& options, int width, int height, int lanes, RenderStats& stats) {
+    if (options.shadow_cache == ShadowCacheMode::Off || !prepared.technique.has_shadow_term() || scene.volumes.empty() ||
+        scene.lights.empty())
+        return nullptr;
+    host::Runtime& runtime = context.runtime();
+    const PreparedScene& p = prepared.scene;
+    std::vector<ShadowCacheGpu> layout = cache_layout(scene, p.packed);
+    std::vector<std::string> keys =
+        prepared.technique.shadow_cache_keys({runtime, scene, p.packed, p.packed_surfaces, p.device, options, p.use_images});
+    if (keys.empty()) keys = generic_keys(scene, p, options);
+    std::unique_ptr<ShadowCache>& cache = context.kept_scenes().shadow_cache;
+    bool same_layout = cache && cache->layout.size() == layout.size() &&
+                       std::equal(layout.begin(), layout.end(), cache->layout.begin(), [](const ShadowCacheGpu& a, const ShadowCacheGpu& b) {
+                           return std::memcmp(&a, &b, sizeof(ShadowCacheGpu)) == 0;
+                       });
+    std::size_t lights = scene.lights.size();
+    std::vector<bool> stale(layout.size(), true);
+    for (std::size_t e = 0; e < layout.size(); ++e) stale[e] = !same_layout || cache->keys[e] != keys[e];
+
+    unsigned long long to_fill = 0;
+    for (std::size_t e = 0; e < layout.size(); ++e)
+        if (stale[e]) to_fill += lattice_points(layout[e]);
+    double samples = 0;
+    for (std::size_t i = 0; i < scene.volumes.size(); ++i) samples += estimated_samples(scene, p.packed, i, width, height);
+    stats.shadow_cache_points_to_fill = to_fill;
+    stats.shadow_cache_estimated_samples = static_cast<unsigned long long>(std::min(samples * double(lights), 1.8e19));
+    // every sample evaluates the technique once per light, as every lattice point does
+    if (options.shadow_cache == ShadowCacheMode::Auto && double(to_fill) >= samples * double(lights)) return nullptr;
+
+    if (!same_layout) {  // other volumes or lights: a new cache
+        cache.reset();
+        auto fresh = std::make_unique<ShadowCache>();
+        fresh->layout = layout;
+        fresh->keys.assign(layout.size(), std::string());
+        std::size_t total = layout.back().offset + lattice_points(layout.back());
+        fresh->values = host::make_buffer(runtime, CL_MEM_READ_WRITE, total * sizeof(float), nullptr, "shadow cache");
+        fresh->table = host::make_buffer(runtime, CL_MEM_READ_ONLY, layout.size() * sizeof(ShadowCacheGpu), layout.data(), "shadow cache table");
+        fresh->bytes = total * sizeof(float);
+        cache = std::move(fresh);
+    }
+    std::size_t stale_entries = std::size_t(std::count(stale.begin(), stale.end(), true));
+    stats.shadow_cache_entries_reused += int(layout.size() - stale_entries);
+    if (stale_entries > 0) {
+        CameraGpu camera = packing::pack_camera(scene, width, height);
+        camera.jitter_seed = options.jitter_seed;
+        cl::Buffer camera_buffer = host::make_buffer(runtime, CL_MEM_READ_ONLY, sizeof(CameraGpu), &camera, "camera");
+        cl::Kernel kernel(runtime.program("render.cl", camera_pass_defines(scene, options, prepared, lanes, false)), "shadow_cache_fill");
+        host::ProgressStage stage(runtime.progress(), "shadow cache", double(stale_entries));
+        double ms = 0;
+        for (std::size_t e = 0; e < layout.size(); ++e) {
+            if (!stale[e]) continue;
+            cache->keys[e].clear();  // an entry half filled when a launch throws is not kept
+            host::KernelArgs args{kernel};
+            bind_scene(args, p, camera_buffer);
+            args("light_index", cl_uint(e % lights))("entry", cl_uint(e))("shadow_cache_table", cache->table)("shadow_cache", cache->values);
+            prepared.technique.bind(args, runtime, options);
+            args.done();
+            const ShadowCacheGpu& c = layout[e];
+            ms += host::run_packets(runtime, kernel, c.dims.s[0], c.dims.s[1] * c.dims.s[2], lanes);
+            cache->keys[e] = keys[e];
+            ++stats.shadow_cache_entries_built;
+        }
+        stats.stage_ms["shadow_cache"] = ms;
+    }
+    stats.shadow_cache_used = true;
+    stats.shadow_cache_bytes = cache->bytes;
+    return cache.get();
+}
+
+}  // namespace sombra::pipeline
