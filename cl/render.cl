@@ -212,16 +212,44 @@ __kernel void render_camera(SCENE_PARAMS, __global float4* image, __global uint*
 }
 
 #if SHADOW_TERM
+/* Whether a shaded camera sample can read lattice point v (voxel units) of volume `volume`:
+ * samples are shaded only where σ > 0, i.e. in or next to a possibly visible brick (occupancy),
+ * and read the lattice points of their cell. */
+inline bool cache_point_read(__global const uchar* occupancy, __global const VolumeGpu* volume, float3 v, float reach) {
+    int3 lo = clamp(convert_int3(floor((v - reach) / SOMBRA_BRICK_SIZE)), (int3)(0), volume->brick_dims.xyz - 1);
+    int3 hi = clamp(convert_int3(floor((v + reach) / SOMBRA_BRICK_SIZE)), (int3)(0), volume->brick_dims.xyz - 1);
+    for (int z = lo.z; z <= hi.z; ++z)
+        for (int y = lo.y; y <= hi.y; ++y)
+            for (int x = lo.x; x <= hi.x; ++x)
+                if (occupancy[volume->brick_offset + x + volume->brick_dims.x * (y + volume->brick_dims.y * z)]) return true;
+    return false;
+}
+
 /* The shadow cache's first pass (Ament Alg. 1, updateShadowCache): the shadow term of light
  * `light_index` at the lattice points of cache entry `entry`, by the program's technique; a
- * work-item evaluates SOMBRA_LANES neighbouring points of a lattice row (rows: y + dims.y · z). */
+ * work-item evaluates SOMBRA_LANES neighbouring points of a lattice row (rows: y + dims.y · z).
+ * Points no shaded sample reads (cache_point_read) are not evaluated and hold 1. */
 __kernel void shadow_cache_fill(SCENE_PARAMS, uint light_index, uint entry, __global const ShadowCacheGpu* shadow_cache_table,
                                 __global float* shadow_cache SHADOW_PARAMS) {
     __global const ShadowCacheGpu* c = &shadow_cache_table[entry];
     uint row = get_global_id(1);
     if (row >= (uint)(c->dims.y * c->dims.z)) return;
-    lint xs = (int)(get_global_id(0) * SOMBRA_LANES) + LANE_INDEX;
-    lmask lanes = xs < c->dims.x;
+    uint x0 = get_global_id(0) * SOMBRA_LANES;
+    __global const VolumeGpu* volume = &volumes[entry / camera->light_count];
+    int read[SOMBRA_LANES];
+    bool any_read = false;
+    for (uint lane = 0; lane < SOMBRA_LANES; ++lane) {
+        float3 v = (float3)((x0 + lane) * c->spacing.x, (row % c->dims.y) * c->spacing.y, (row / c->dims.y) * c->spacing.z);
+        read[lane] = x0 + lane < (uint)c->dims.x && cache_point_read(occupancy, volume, v, c->reach) ? -1 : 0;
+        any_read = any_read || read[lane];
+    }
+    if (!any_read) {
+        for (uint lane = 0; lane < SOMBRA_LANES && x0 + lane < (uint)c->dims.x; ++lane)
+            shadow_cache[c->offset + (size_t)row * c->dims.x + x0 + lane] = 1.0f;
+        return;
+    }
+    lint xs = (int)x0 + LANE_INDEX;
+    lmask lanes = LLOAD(read) != 0;
     lfloat3 voxel = l3(LCONVERT_FLOAT(xs) * c->spacing.x, (lfloat)((row % c->dims.y) * c->spacing.y),
                        (lfloat)((row / c->dims.y) * c->spacing.z));
     lfloat3 p;
@@ -235,9 +263,8 @@ __kernel void shadow_cache_fill(SCENE_PARAMS, uint light_index, uint entry, __gl
     SHADOW_STATE_INIT(shadow)
     float values[SOMBRA_LANES];
     LSTORE(shadow_transmittance(volume_data, &scene, &shadow, light_index, p, lanes), values);
-    uint x0 = get_global_id(0) * SOMBRA_LANES;
     for (uint lane = 0; lane < SOMBRA_LANES && x0 + lane < (uint)c->dims.x; ++lane)
-        shadow_cache[c->offset + (size_t)row * c->dims.x + x0 + lane] = values[lane];
+        shadow_cache[c->offset + (size_t)row * c->dims.x + x0 + lane] = read[lane] ? values[lane] : 1.0f;
 }
 #endif
 

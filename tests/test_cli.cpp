@@ -433,7 +433,7 @@ TEST_CASE("hostile volume, scene and points files through the CLI: one line, exi
 
 TEST_CASE("enumerated render options by name: every name round-trips, unknown ones name the accepted", "[cli]") {
     using namespace sombra;
-    for (const char* option : {"shadows", "gradient", "shading", "storage"}) {
+    for (const char* option : {"shadows", "gradient", "shading", "storage", "shadow_cache"}) {
         const std::vector<std::string> names = render_option_values(option);
         REQUIRE(names.size() >= 2);
         for (const std::string& name : names) {
@@ -449,7 +449,7 @@ TEST_CASE("enumerated render options by name: every name round-trips, unknown on
     CHECK(test::error_of([&] { set_render_option(o, "shadows", "dsmm"); }) ==
           "shadows: unknown value 'dsmm' (none, rays, dsm, shadowmap, lowpass, ao, cone)");
     CHECK(test::error_of([] { render_option_values("shadow"); }) ==
-          "unknown enumerated render option 'shadow' (shadows, gradient, shading, storage, dsm_storage, dsm_prefilter, lowpass_filter_kernel)");
+          "unknown enumerated render option 'shadow' (shadows, gradient, shading, storage, dsm_storage, dsm_prefilter, lowpass_filter_kernel, shadow_cache)");
     CHECK(parse_light_type("omni") == LightType::Point);
     CHECK(test::error_of([] { parse_light_type("sun"); }) == "unknown light type 'sun' (directional, spot, point)");
 }
@@ -457,7 +457,7 @@ TEST_CASE("enumerated render options by name: every name round-trips, unknown on
 TEST_CASE("sombra render: one progress line per stage on a non-terminal stderr, the longest named, and --quiet prints nothing", "[cli]") {
     std::string scene = scene_file("progress.json", nlohmann::json::object());
     std::string out = sombra::test::temp_dir() + "/progress.png";
-    CliRun run = run_cli("render " + scene + " -o " + out + " --shadows lowpass --filter 5");
+    CliRun run = run_cli("render " + scene + " -o " + out + " --shadows lowpass --filter 5 --shadow-cache on");
     INFO(run.stderr_text);
     REQUIRE(run.exit_code == 0);
     CHECK(run.stderr_text.find('\r') == std::string::npos);  // no bar when stderr is a file

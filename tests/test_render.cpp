@@ -72,6 +72,7 @@ TEST_CASE("shadow-ray baseline matches the CPU reference and darkens what lies b
     s.width = 40, s.height = 30;
     RenderOptions o;
     o.shadows = ShadowTechnique::Rays;
+    o.shadow_cache = ShadowCacheMode::Off;  // every sample marches, as the reference does
     reference::ReferenceOptions r;
     r.shadow_rays = true;
     require_matches_reference(s, o, r);

@@ -255,7 +255,11 @@ typedef struct {
     sb_int4 dims;       /* lattice points per axis; w unused */
     sb_float4 spacing;  /* voxel units between lattice points (xyz; 1 where dims is 1) */
     sb_uint offset;     /* first entry in the cache buffer */
-    sb_uint pad0, pad1, pad2;
+    /* voxel units around a lattice point in which a shaded sample may read it (a lattice cell,
+     * one step of pre-integration, the voxel a sample interpolates): the fill evaluates only points
+     * with a possibly visible brick that near (VolumeGpu.brick_offset) */
+    float reach;
+    sb_uint pad0, pad1;
     /* world = (dot(row.xyz, voxel) + row.w, …): the volume's voxel → world transform (the fill) */
     sb_float4 voxel_to_world[3];
 } ShadowCacheGpu;

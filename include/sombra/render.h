@@ -145,7 +145,8 @@ struct RenderStats {
     int sat_tables = 0;
     unsigned long long sat_bytes = 0;
     // the shadow cache (ShadowCacheMode): whether this frame read it, its size, and for auto the
-    // lattice points it had to fill against the volume samples the frame was estimated to take
+    // lattice points it had to fill against the shaded samples the frame was estimated to take
+    // (both near possibly visible bricks only)
     bool shadow_cache_used = false;
     unsigned long long shadow_cache_bytes = 0;
     unsigned long long shadow_cache_points_to_fill = 0, shadow_cache_estimated_samples = 0;

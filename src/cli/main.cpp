@@ -52,6 +52,23 @@ double decimal(float value) {
     return std::strtod(std::string(text, end).c_str(), nullptr);
 }
 
+// "shadow cache on (auto: 1.2 M points to fill, ≈ 15.7 M samples); " — what the frame did with
+// the shadow cache and, for auto, why; nothing when the frame has no shadow term to cache.
+std::string shadow_cache_note(const sombra::RenderStats& s, const sombra::RenderOptions& o) {
+    if (!s.shadow_cache_used && s.shadow_cache_points_to_fill == 0) return "";
+    std::string note = std::string("shadow cache ") + (s.shadow_cache_used ? "on" : "off");
+    if (o.shadow_cache == sombra::ShadowCacheMode::Auto) {
+        auto millions = [](unsigned long long n) {
+            char text[32];
+            std::snprintf(text, sizeof text, "%.1f", double(n) / 1e6);
+            return std::string(text);
+        };
+        note += " (auto: " + millions(s.shadow_cache_points_to_fill) + " M points to fill, ≈ " +
+                millions(s.shadow_cache_estimated_samples) + " M samples)";
+    }
+    return note + "; ";
+}
+
 // The effective options of the command, as --stats writes them.
 nlohmann::json options_json(const sombra::RenderOptions& o) {
     return {{"width", o.width},
@@ -460,7 +477,8 @@ int run(int argc, char** argv) {
     outputs.commit();
     if (!quiet)
         std::cerr << "sombra: wrote " << output << " (" << result.image.width << "×" << result.image.height << ", "
-                  << result.stats.device << ", " << result.stats.msamples_per_s << " Msamples/s; " << stages.summary() << ")\n";
+                  << result.stats.device << ", " << result.stats.msamples_per_s << " Msamples/s; " << shadow_cache_note(result.stats, options)
+                  << stages.summary() << ")\n";
     return 0;
 }
 

@@ -46,6 +46,9 @@ std::vector<ShadowCacheGpu> cache_layout(const Scene& scene, const packing::Pack
             }
             for (std::size_t r = 0; r < 3; ++r)
                 for (std::size_t k = 0; k < 4; ++k) c.voxel_to_world[r].s[k] = packed.voxel_to_world[i][4 * r + k];
+            // a sample reads the points of its lattice cell; it is shaded after pre-integrating one
+            // step (≤ step_voxels voxels on every axis) and interpolates its voxel's corners
+            c.reach = std::max({c.spacing.s[0], c.spacing.s[1], c.spacing.s[2]}) + scene.volumes[i].step_voxels + 1.f;
             c.offset = cl_uint(total);
             total += lattice_points(c);
             if (total > 0xffffffffull) throw Error("shadow cache: more than 2^32 entries");
@@ -117,6 +120,14 @@ double estimated_samples(const Scene& scene, const packing::PackedScene& packed,
     return std::min(box_volume / (pixel_side * pixel_side * step), pixels * diagonal / step);
 }
 
+// The share of volume i's bricks that may be visible under its transfer function.
+double visible_brick_fraction(const packing::PackedScene& packed, std::size_t i) {
+    const VolumeGpu& v = packed.volumes[i];
+    std::size_t bricks = std::size_t(v.brick_dims.s[0]) * v.brick_dims.s[1] * v.brick_dims.s[2];
+    auto first = packed.occupancy.begin() + std::ptrdiff_t(v.brick_offset);
+    return bricks ? double(std::count(first, first + std::ptrdiff_t(bricks), cl_uchar(1))) / double(bricks) : 0.0;
+}
+
 }  // namespace
 
 const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, const Prepared& prepared,
@@ -139,15 +150,18 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
     std::vector<bool> stale(layout.size(), true);
     for (std::size_t e = 0; e < layout.size(); ++e) stale[e] = !same_layout || cache->keys[e] != keys[e];
 
-    unsigned long long to_fill = 0;
-    for (std::size_t e = 0; e < layout.size(); ++e)
-        if (stale[e]) to_fill += lattice_points(layout[e]);
-    double samples = 0;
-    for (std::size_t i = 0; i < scene.volumes.size(); ++i) samples += estimated_samples(scene, p.packed, i, width, height);
-    stats.shadow_cache_points_to_fill = to_fill;
-    stats.shadow_cache_estimated_samples = static_cast<unsigned long long>(std::min(samples * double(lights), 1.8e19));
-    // every sample evaluates the technique once per light, as every lattice point does
-    if (options.shadow_cache == ShadowCacheMode::Auto && double(to_fill) >= samples * double(lights)) return nullptr;
+    // Auto: a lattice point costs one evaluation of the technique, as a shaded sample does per
+    // light; both happen only near possibly visible bricks (the fill skips the other points)
+    double to_fill = 0, samples = 0;
+    for (std::size_t i = 0; i < scene.volumes.size(); ++i) {
+        double visible = visible_brick_fraction(p.packed, i);
+        for (std::size_t m = 0; m < lights; ++m)
+            if (stale[i * lights + m]) to_fill += visible * double(lattice_points(layout[i * lights + m]));
+        samples += visible * double(lights) * estimated_samples(scene, p.packed, i, width, height);
+    }
+    stats.shadow_cache_points_to_fill = static_cast<unsigned long long>(to_fill);
+    stats.shadow_cache_estimated_samples = static_cast<unsigned long long>(std::min(samples, 1.8e19));
+    if (options.shadow_cache == ShadowCacheMode::Auto && to_fill >= samples) return nullptr;
 
     if (!same_layout) {  // other volumes or lights: a new cache
         cache.reset();

@@ -1,0 +1,160 @@
+// The shadow cache (render.h ShadowCacheMode, src/render/shadow_cache.cpp) for every technique:
+// its lattice holds what the technique gives at those points, its reads stay close to per-sample
+// evaluation, entries are kept while their keys hold and refilled when a light, the scene or the
+// technique's options change, and auto weighs filling against the frame's samples.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+
+#include "render/preparation.h"
+#include "sombra/sombra.h"
+#include "test_support.h"
+
+using namespace sombra;
+
+namespace {
+
+// The techniques with a shadow term, from the registry.
+std::vector<ShadowTechnique> shadowing_techniques() {
+    std::vector<ShadowTechnique> all;
+    for (const std::string& name : shadow_technique_names())
+        if (name != "none") all.push_back(parse_shadow_technique(name));
+    return all;
+}
+
+RenderOptions cache_options(ShadowTechnique technique, ShadowCacheMode mode) {
+    RenderOptions o;
+    o.shadows = technique;
+    o.shadow_cache = mode;
+    o.dsm_resolution = 96;
+    o.width = 40, o.height = 30;
+    return o;
+}
+
+// World position of lattice point (x, y, z) of a cache entry.
+Vec3 lattice_world(const ShadowCacheGpu& c, int x, int y, int z) {
+    float v[3] = {x * c.spacing.s[0], y * c.spacing.s[1], z * c.spacing.s[2]};
+    Vec3 p;
+    for (int r = 0; r < 3; ++r)
+        p[std::size_t(r)] = c.voxel_to_world[r].s[0] * v[0] + c.voxel_to_world[r].s[1] * v[1] + c.voxel_to_world[r].s[2] * v[2] +
+                            c.voxel_to_world[r].s[3];
+    return p;
+}
+
+}  // namespace
+
+TEST_CASE("shadow cache: every lattice point a sample can read holds the technique's own shadow term there", "[shadow_cache]") {
+    Scene scene = test::overlapping_scene();
+    for (ShadowTechnique technique : {ShadowTechnique::Dsm, ShadowTechnique::Rays, ShadowTechnique::Lowpass}) {
+        Context context("cpu");  // its own kept state: the cache read back below
+        RenderOptions o = cache_options(technique, ShadowCacheMode::On);
+        RenderResult r = render(context, scene, o);
+        REQUIRE(r.stats.shadow_cache_used);
+        const pipeline::ShadowCache& cache = *context.kept_scenes().shadow_cache;
+        std::vector<float> values(cache.bytes / sizeof(float));
+        context.runtime().queue().enqueueReadBuffer(cache.values, CL_TRUE, 0, cache.bytes, values.data());
+        // every 7th lattice point of every entry: the technique's query at the same world point
+        std::size_t lights = scene.lights.size(), compared = 0, unlit = 0;
+        for (std::size_t e = 0; e < cache.layout.size(); ++e) {
+            const ShadowCacheGpu& c = cache.layout[e];
+            std::vector<Vec3> points;
+            std::vector<float> cached;
+            for (int z = 0; z < c.dims.s[2]; ++z)
+                for (int y = 0; y < c.dims.s[1]; ++y)
+                    for (int x = 0; x < c.dims.s[0]; ++x) {
+                        std::size_t k = std::size_t(x + c.dims.s[0] * (y + c.dims.s[1] * z));
+                        if (k % 7 != 0) continue;
+                        points.push_back(lattice_world(c, x, y, z));
+                        cached.push_back(values[c.offset + k]);
+                    }
+            ShadowQuery q = shadow_transmittance(context, scene, int(e % lights), points, o);
+            for (std::size_t k = 0; k < points.size(); ++k) {
+                // points no shaded sample reads hold 1; the others the technique's value (the
+                // same code in lanes; shadow rays' jitter differs between the two kernels)
+                if (cached[k] == 1.f && q.transmittance[k] != 1.0) continue;
+                INFO(shadow_technique_name(technique) << " entry " << e << " point " << k);
+                CHECK(cached[k] == Approx(q.transmittance[k]).margin(technique == ShadowTechnique::Rays ? 2e-2 : 1e-5));
+                ++compared;
+                unlit += q.transmittance[k] < 0.99;
+            }
+        }
+        INFO(shadow_technique_name(technique) << ": " << compared << " points compared, " << unlit << " in shadow");
+        CHECK(compared > 500);
+        CHECK(unlit > 50);  // the comparison sees shadows, not only lit points
+    }
+}
+
+TEST_CASE("shadow cache: every technique's cached frame stays close to its per-sample frame", "[shadow_cache]") {
+    Scene scene = test::overlapping_scene();
+    for (ShadowTechnique technique : shadowing_techniques()) {
+        Context context("cpu");
+        Image direct = render(context, scene, cache_options(technique, ShadowCacheMode::Off)).image;
+        RenderResult cached = render(context, scene, cache_options(technique, ShadowCacheMode::On));
+        CHECK(cached.stats.shadow_cache_used);
+        CHECK(cached.stats.shadow_cache_entries_built == 6);  // 2 volumes × 3 lights
+        test::ImageDifference d = test::compare(direct, cached.image);
+        INFO(shadow_technique_name(technique) << ": cached vs per sample, mean " << d.mean_abs << " max " << d.max_abs);
+        // the lattice interpolates the term trilinearly: smooth terms stay within a few 1e-3; the
+        // binary shadow map's step edges blur over one lattice cell
+        CHECK(d.mean_abs < (technique == ShadowTechnique::ShadowMap ? 3e-3 : 1e-3));
+        CHECK(d.max_abs < (technique == ShadowTechnique::ShadowMap ? 0.15 : 0.03));
+    }
+}
+
+TEST_CASE("shadow cache: kept across camera moves, refilled for the light that moved or changed options", "[shadow_cache]") {
+    for (ShadowTechnique technique : {ShadowTechnique::Dsm, ShadowTechnique::Rays, ShadowTechnique::ShadowMap}) {
+        INFO(shadow_technique_name(technique));
+        Scene scene = test::overlapping_scene();
+        Context context("cpu"), fresh("cpu");
+        RenderOptions o = cache_options(technique, ShadowCacheMode::On);
+        render(context, scene, o);
+        scene.camera.position = {0.5f, 0.3f, 2.1f};  // the camera moves: nothing refilled
+        RenderResult moved = render(context, scene, o);
+        CHECK(moved.stats.shadow_cache_entries_built == 0);
+        CHECK(moved.stats.shadow_cache_entries_reused == 6);
+        CHECK(moved.stats.stage_ms.count("shadow_cache") == 0);
+        scene.lights[1].position = {1.4f, 1.1f, 1.5f};  // the spot light moves: its 2 entries only
+        RenderResult lit = render(context, scene, o);
+        CHECK(lit.stats.shadow_cache_entries_built == 2);
+        CHECK(lit.stats.shadow_cache_entries_reused == 4);
+        CHECK(test::compare(lit.image, render(fresh, scene, o).image).max_abs <= 1e-6);  // as if built anew
+        scene.lights[2].color = {0.2f, 0.4f, 1.f};  // colour is shading only
+        CHECK(render(context, scene, o).stats.shadow_cache_entries_built == 0);
+        o.dsm_epsilon = 0.05f, o.jitter_seed = 7;  // the technique's options: every entry
+        CHECK(render(context, scene, o).stats.shadow_cache_entries_built == 6);
+    }
+}
+
+TEST_CASE("shadow cache auto: on when filling costs fewer evaluations than the frame's samples, and once filled", "[shadow_cache]") {
+    Scene scene = test::overlapping_scene();
+    Context context("cpu");
+    RenderOptions o = cache_options(ShadowTechnique::Dsm, ShadowCacheMode::Auto);
+    o.width = o.height = 4;  // 16 pixels: far fewer samples than lattice points
+    RenderResult tiny = render(context, scene, o);
+    CHECK_FALSE(tiny.stats.shadow_cache_used);
+    CHECK(tiny.stats.shadow_cache_points_to_fill > tiny.stats.shadow_cache_estimated_samples);
+    o.width = o.height = 400;
+    RenderResult large = render(context, scene, o);
+    CHECK(large.stats.shadow_cache_used);
+    CHECK(large.stats.shadow_cache_points_to_fill < large.stats.shadow_cache_estimated_samples);
+    // the estimate against what the frame took: the same order (it leans towards the cache)
+    CHECK(double(large.stats.shadow_cache_estimated_samples) > 0.5 * double(large.stats.samples));
+    CHECK(double(large.stats.shadow_cache_estimated_samples) < 20.0 * 3 * double(large.stats.samples));
+    o.width = o.height = 4;  // filled: nothing to fill, on at any size
+    RenderResult again = render(context, scene, o);
+    CHECK(again.stats.shadow_cache_points_to_fill == 0);
+    CHECK(again.stats.shadow_cache_used);
+    o.shadow_cache = ShadowCacheMode::Off;
+    CHECK_FALSE(render(context, scene, o).stats.shadow_cache_used);
+}
+
+TEST_CASE("shadow cache option: names round-trip and a wrong one is refused naming the flag", "[shadow_cache]") {
+    RenderOptions o;
+    CHECK(render_option_values("shadow_cache") == std::vector<std::string>{"auto", "on", "off"});
+    CHECK(render_option_value(o, "shadow_cache") == "auto");
+    set_render_option(o, "shadow_cache", "off");
+    CHECK(o.shadow_cache == ShadowCacheMode::Off);
+    CHECK_THROWS_WITH(set_render_option(o, "shadow_cache", "maybe"), Catch::Contains("auto, on, off"));
+    o.shadow_cache = ShadowCacheMode(7);
+    CHECK_THROWS_WITH(check_render_options(o), Catch::Contains("--shadow-cache"));
+}
