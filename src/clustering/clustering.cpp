@@ -222,7 +222,7 @@ ObjectDistances object_distances(const std::vector<SceneObject>& objects, const 
     for (std::size_t i = 0; i < n; ++i)
         for (std::size_t v = 0; v < spaces.size(); ++v) {
             const Projected& p = projected[v][out.relevant[i]];
-            if (p.present) out.size[i] = std::max(out.size[i], std::sqrt((p.hi.x - p.lo.x) * (p.hi.y - p.lo.y)));
+            if (p.present) out.size[i] = std::max(out.size[i], std::min(p.hi.x - p.lo.x, p.hi.y - p.lo.y));
         }
     // Alg. 4.2 line 5: the largest distance over the views that see both
     for (std::size_t i = 0; i < n; ++i)

@@ -55,7 +55,7 @@ struct Cluster {
 struct ObjectDistances {
     std::vector<std::size_t> relevant;  // objects whose boxes meet B in at least one view
     std::vector<double> d;              // |relevant|², row-major, in the order of `relevant`
-    std::vector<double> size;           // per relevant object: √(area) of its projected box (max over views)
+    std::vector<double> size;           // per relevant object: smaller side of its projected box (max over views)
     double at(std::size_t i, std::size_t j) const { return d[i * relevant.size() + j]; }
 };
 
@@ -91,9 +91,9 @@ ObjectDistances object_distances(const std::vector<SceneObject>& objects, const 
 
 // Automatic d0: twice the median projected object size, so that objects whose projected boxes lie
 // less than about one typical object size apart share a cluster (10⁻⁶ when every size is 0). The
-// size of a projected box is √(its area): the side of the square of as many shadow-map texels.
-// (Not its larger side: LiSPSM scales map x and y separately to B, so in a flat scene every object
-// spans most of one axis, and its larger side says nothing about how far apart objects are.)
+// size of a projected box is its smaller side: LiSPSM stretches B to [−1, 1] in map x and y
+// separately, so where the scene is flat in one map axis every object spans most of that axis,
+// and only the other axis, the one the objects are spread along, tells near from far.
 double automatic_d0(const std::vector<double>& sizes);
 
 // Greedy clustering of Knecht Alg. 4.2 lines 8-35 over objects 0 … n−1 with distances d (n²,
