@@ -524,7 +524,8 @@ TEST_CASE("sombra clusters prints each light's clusters and writes them as JSON"
 
     const std::string unwritten = sombra::test::temp_dir() + "/unwritten.json";
     require_clean_failure(run_cli("clusters " + scene + " --clusters 0 --json " + unwritten), "--clusters", "[1, 64]", unwritten);
-    require_clean_failure(run_cli("clusters " + scene + " --cluster-distance nan --json " + unwritten), "--cluster-distance", "finite", unwritten);
+    require_clean_failure(run_cli("clusters " + scene + " --cluster-distance nan --json " + unwritten), "--cluster-distance", "[0, 10]", unwritten);
     require_clean_failure(run_cli("clusters " + scene + " --clusters many"), "--clusters", "many", unwritten);
+    CHECK(run_cli("clusters " + scene + " --clusters 65").exit_code == 2);  // bad arguments: 2 (docs/command-line.md)
     require_clean_failure(run_cli("clusters " + scene + " --json /no/such/folder/c.json"), "/no/such/folder/c.json", "cannot write", unwritten);
 }

@@ -38,11 +38,6 @@ std::vector<LightView> cube_faces(const Point& position, double near) {
     return faces;
 }
 
-// Depth (along forward) and the tangents across of a point seen from `apex`.
-struct Bearing {
-    double depth, tan_x, tan_y;
-};
-
 FocusedView orthographic_focus(const Point& direction, const std::vector<Point>& points) {
     LightView light{false, Point(0.0), direction};
     Point x, y, z;
@@ -63,44 +58,43 @@ FocusedView orthographic_focus(const Point& direction, const std::vector<Point>&
 }
 
 // Perspective focus from `apex` (§3.4.2 steps 2-4): the axis is turned to the middle of the
-// points' tangent ranges a few times (exact in one axis, converging in two), then the fields of view
-// are the largest tangents in the final frame, so every point is inside whatever the convergence.
-// Nothing when a point lies at or behind the apex plane or a tangent exceeds max_tan.
+// points' tangent ranges a few times (exact in one axis, converging in two); of the axes tried
+// (the first one included) the one with the smallest image (tan_x · tan_y) is kept. The fields of
+// view are the largest tangents in that axis's frame, so every point is inside whatever the
+// convergence. Nothing when a point lies at or behind the apex plane or a tangent exceeds max_tan.
 std::optional<FocusedView> perspective_focus(const Point& apex, const std::vector<Point>& points, const Point& initial_forward,
                                              double max_tan) {
-    if (points.empty()) return std::nullopt;
     double reach = 0;
     for (const Point& p : points) reach = std::max(reach, glm::length(p - apex));
     Point forward = unit_or(initial_forward, Point(0, 0, 0));
-    if (forward == Point(0, 0, 0) || !(reach > 0)) return std::nullopt;
-    Point x, y, z;
-    std::vector<Bearing> bearings;
+    if (points.empty() || forward == Point(0, 0, 0) || !(reach > 0)) return std::nullopt;
+    std::optional<FocusedView> best;
+    double best_image = INFINITY;
     for (int turn = 0; turn < 6; ++turn) {
+        Point x, y, z;
         LightView{true, apex, forward}.frame(x, y, z);
-        bearings.clear();
-        double lo_x = INFINITY, hi_x = -INFINITY, lo_y = INFINITY, hi_y = -INFINITY;
+        double lo_x = INFINITY, hi_x = -INFINITY, lo_y = INFINITY, hi_y = -INFINITY, near = INFINITY, far = 0;
         for (const Point& p : points) {
             const Point d = p - apex;
             const double depth = glm::dot(d, z);
-            if (!(depth > 1e-9 * reach)) return std::nullopt;
-            bearings.push_back({depth, glm::dot(d, x) / depth, glm::dot(d, y) / depth});
-            lo_x = std::min(lo_x, bearings.back().tan_x), hi_x = std::max(hi_x, bearings.back().tan_x);
-            lo_y = std::min(lo_y, bearings.back().tan_y), hi_y = std::max(hi_y, bearings.back().tan_y);
+            if (!(depth > 1e-9 * reach)) return best;
+            const double tan_x = glm::dot(d, x) / depth, tan_y = glm::dot(d, y) / depth;
+            lo_x = std::min(lo_x, tan_x), hi_x = std::max(hi_x, tan_x), lo_y = std::min(lo_y, tan_y), hi_y = std::max(hi_y, tan_y);
+            near = std::min(near, depth), far = std::max(far, depth);
+        }
+        const double tan_x = std::max(-lo_x, hi_x), tan_y = std::max(-lo_y, hi_y);
+        if (tan_x <= max_tan && tan_y <= max_tan && tan_x * tan_y < best_image) {
+            best_image = tan_x * tan_y;
+            FocusedView v;
+            v.eye = apex, v.forward = z, v.up = y;
+            v.fov_x = 2 * std::atan(tan_x * (1 + kFocusMargin) + kFocusMargin);
+            v.fov_y = 2 * std::atan(tan_y * (1 + kFocusMargin) + kFocusMargin);
+            v.near = near * (1 - kFocusMargin), v.far = far * (1 + kFocusMargin);
+            best = v;
         }
         forward = glm::normalize(z + 0.5 * (lo_x + hi_x) * x + 0.5 * (lo_y + hi_y) * y);
     }
-    double tan_x = 0, tan_y = 0, near = INFINITY, far = 0;
-    for (const Bearing& b : bearings) {
-        tan_x = std::max(tan_x, std::fabs(b.tan_x)), tan_y = std::max(tan_y, std::fabs(b.tan_y));
-        near = std::min(near, b.depth), far = std::max(far, b.depth);
-    }
-    if (tan_x > max_tan || tan_y > max_tan) return std::nullopt;
-    FocusedView v;
-    v.eye = apex, v.forward = z, v.up = y;
-    v.fov_x = 2 * std::atan(tan_x * (1 + kFocusMargin) + kFocusMargin);
-    v.fov_y = 2 * std::atan(tan_y * (1 + kFocusMargin) + kFocusMargin);
-    v.near = near * (1 - kFocusMargin), v.far = far * (1 + kFocusMargin);
-    return v;
+    return best;
 }
 
 }  // namespace
@@ -294,17 +288,27 @@ std::vector<std::vector<std::size_t>> greedy_clusters(std::size_t n, const std::
     return clusters;
 }
 
-std::vector<FocusedView> focus_cluster(const Light& light, const ConvexBody& part, double near) {
-    if (part.empty()) return {};
-    const std::vector<Point> corners = part.vertices();
+std::vector<FocusedView> focus_cluster(const Light& light, const std::vector<ConvexBody>& members, double near) {
+    auto corners_of = [](const std::vector<ConvexBody>& bodies) {
+        std::vector<Point> corners;
+        for (const ConvexBody& b : bodies)
+            for (const Point& p : b.vertices()) corners.push_back(p);
+        return corners;
+    };
+    const std::vector<Point> corners = corners_of(members);
+    if (corners.empty()) return {};
     if (light.type == LightType::Directional) return {orthographic_focus(unit_or(to_point(light.direction), Point(0, 0, -1)), corners)};
     const Point apex = to_point(light.position);
-    if (auto view = perspective_focus(apex, corners, part.centroid() - apex, kMaxFocusTan)) return {*view};
-    std::vector<FocusedView> views;  // the part surrounds the light, or is too wide: per cube face
+    Point middle(0.0);
+    for (const Point& p : corners) middle += p / double(corners.size());
+    if (auto view = perspective_focus(apex, corners, middle - apex, kMaxFocusTan)) return {*view};
+    std::vector<FocusedView> views;  // the members surround the light, or are too wide: per cube face
     for (const LightView& face : cube_faces(apex, near)) {
-        const ConvexBody piece = clip(part, face.planes());
-        if (piece.empty()) continue;
-        if (auto view = perspective_focus(apex, piece.vertices(), face.forward, INFINITY)) views.push_back(*view);
+        std::vector<ConvexBody> pieces;
+        for (const ConvexBody& b : members) pieces.push_back(clip(b, face.planes()));
+        const std::vector<Point> piece_corners = corners_of(pieces);
+        if (piece_corners.empty()) continue;
+        if (auto view = perspective_focus(apex, piece_corners, face.forward, INFINITY)) views.push_back(*view);
     }
     return views;
 }
@@ -336,16 +340,14 @@ std::vector<LightClusters> cluster_lights(const Scene& scene, const ClusterOptio
         out.d0 = options.distance > 0 ? options.distance : automatic_d0(distances.size);
         for (const auto& group : greedy_clusters(distances.relevant.size(), distances.d, out.d0, options.max_clusters)) {
             Cluster cluster;
-            Point box_lo(INFINITY), box_hi(-INFINITY);
-            for (std::size_t k : group) {
-                const SceneObject& o = objects[distances.relevant[k]];
-                cluster.members.push_back(distances.relevant[k]);
-                box_lo = glm::min(box_lo, o.lo), box_hi = glm::max(box_hi, o.hi);
-            }
+            for (std::size_t k : group) cluster.members.push_back(distances.relevant[k]);
             std::sort(cluster.members.begin(), cluster.members.end());
-            ConvexBody part = box_body(box_lo, box_hi);
-            if (light.type == LightType::Spot) part = clip(part, views.front().planes());  // §3.4.2 step 1
-            cluster.views = focus_cluster(light, part, views.front().near);
+            std::vector<ConvexBody> boxes;
+            for (std::size_t o : cluster.members) {
+                boxes.push_back(box_body(objects[o].lo, objects[o].hi));
+                if (light.type == LightType::Spot) boxes.back() = clip(boxes.back(), views.front().planes());  // §3.4.2 step 1
+            }
+            cluster.views = focus_cluster(light, boxes, views.front().near);
             out.clusters.push_back(cluster);
         }
     }

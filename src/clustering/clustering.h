@@ -46,8 +46,8 @@ struct FocusedView {
 
 struct Cluster {
     std::vector<std::size_t> members;  // indices into scene_objects(scene)
-    // Usually one view. A point light whose cluster box surrounds it (or needs more than 120° of
-    // field of view) gets the cube faces that see part of the box, each focused on its part.
+    // Usually one view. A perspective light whose cluster surrounds it (or needs more than 120° of
+    // field of view) gets the cube faces that see part of it, each focused on its part.
     std::vector<FocusedView> views;
 };
 
@@ -103,15 +103,16 @@ double automatic_d0(const std::vector<double>& sizes);
 // in exactly one cluster; clusters are listed in the order they were opened.
 std::vector<std::vector<std::size_t>> greedy_clusters(std::size_t n, const std::vector<double>& d, double d0, int m);
 
-// The views of a light focused on a cluster (Knecht §3.4.2). `part`: the cluster's box, clipped
-// by the light frustum for a spot light (§3.4.2 step 1). Directional light: one orthographic view
-// along the light around the part. Spot and point lights: the orientation turned to the part's
-// middle, the narrowest symmetric fields of view in x and y, near and far at the nearest and
-// farthest corner. When the part surrounds the light or would need more than 120°, one such view
-// per cube face that sees some of it (the part clipped by that face's frustum, cut at `near`).
-// Every corner of the part lies in one of the views (in the per-face case, corners nearer than
-// √3·near to the light excepted). An empty part gets no view.
-std::vector<FocusedView> focus_cluster(const Light& light, const ConvexBody& part, double near);
+// The views of a light focused on a cluster (Knecht §3.4.2). `members`: the members' boxes, each
+// clipped by the light frustum for a spot light (§3.4.2 step 1). Focusing on the members' corners
+// rather than on the cluster's one bounding box is tighter and holds the same objects (a frustum
+// is convex). Directional light: one orthographic view along the light around them. Spot and
+// point lights: the orientation turned to their middle, the narrowest symmetric fields of view in
+// x and y, near and far at the nearest and farthest corner. When they surround the light or would
+// need more than 120°, one such view per cube face that sees some of them (each box clipped by
+// that face's frustum, cut at `near`). Every corner lies in one of the views (in the per-face
+// case, corners nearer than √3·near to the light excepted). No corners: no view.
+std::vector<FocusedView> focus_cluster(const Light& light, const std::vector<ConvexBody>& members, double near);
 
 // Clusters for every light of the scene, in light order (Knecht Alg. 4.2 for each light).
 // Throws sombra::Error naming --clusters / --cluster-distance for options out of range.
