@@ -372,3 +372,76 @@ TEST_CASE("clustering: focused views hold every member's box, nothing is NaN (ra
         }
     }
 }
+
+TEST_CASE("clustering: the clusters do not depend on the scene's scale", "[clustering]") {
+    for (const Light& light : {make_light(LightType::Directional, {}, {0.3, -1, -0.2}), make_light(LightType::Point, {0, 30, 5}, {0, -1, 0})}) {
+        const Scene scene = two_groups(light);
+        const auto reference = cluster_lights(scene, {4, 0}).at(0);
+        CHECK(reference.spaces.size() == (light.type == LightType::Point ? 6u : 1u));
+        for (float scale : {1e-3f, 1e3f}) {
+            INFO("scale " << scale << ", light type " << int(light.type));
+            Scene scaled = scene;
+            for (VolumeInstance& v : scaled.volumes) v.spacing = {scale, scale, scale};
+            for (VolumeInstance& v : scaled.volumes)
+                for (int r = 0; r < 3; ++r) v.transform[std::size_t(r * 4 + 3)] *= scale;
+            for (float& c : scaled.camera.position) c *= scale;
+            for (float& c : scaled.lights[0].position) c *= scale;
+            const auto result = cluster_lights(scaled, {4, 0}).at(0);
+            REQUIRE(result.clusters.size() == reference.clusters.size());
+            for (std::size_t c = 0; c < result.clusters.size(); ++c) {
+                CHECK(result.clusters[c].members == reference.clusters[c].members);
+                REQUIRE(result.clusters[c].views.size() == reference.clusters[c].views.size());
+                CHECK(result.clusters[c].views[0].fov_x == Approx(reference.clusters[c].views[0].fov_x).epsilon(1e-4));
+                CHECK(result.clusters[c].views[0].far == Approx(scale * reference.clusters[c].views[0].far).epsilon(1e-4));
+            }
+            CHECK(result.d0 == Approx(reference.d0).epsilon(1e-4));
+        }
+    }
+}
+
+TEST_CASE("clustering: degenerate scenes give finite views", "[clustering]") {
+    auto require_finite = [](const Scene& scene) {
+        for (const LightClusters& lc : cluster_lights(scene, {4, 0})) {
+            CHECK(std::isfinite(lc.d0));
+            for (const ViewSpace& s : lc.spaces)
+                for (const Point& c : s.B.vertices()) CHECK(finite(s.lispsm.apply(c)));
+            for (const Cluster& c : lc.clusters)
+                for (const FocusedView& v : c.views) CHECK(finite(v));
+        }
+    };
+    const Light lights[] = {make_light(LightType::Directional, {}, {0, 0, -1}), make_light(LightType::Spot, {0, 0, 60}, {0, 0, -1}, 90),
+                            make_light(LightType::Point, {0, 10, 60}, {0, -1, 0}), make_light(LightType::Point, {-21, -1, -1}, {0, -1, 0})};
+    Scene scene = two_groups(lights[0]);
+    scene.lights.assign(std::begin(lights), std::end(lights));  // along the view, at the camera, on a box corner
+    SECTION("lights along the view, at the camera and on a box corner") { require_finite(scene); }
+    SECTION("a flat mesh and a point-sized mesh") {
+        auto quad = std::make_shared<Mesh>();
+        quad->positions = {{-5, 0, -5}, {5, 0, -5}, {5, 0, 5}, {-5, 0, 5}};
+        auto dot = std::make_shared<Mesh>();
+        dot->positions = {{3, 3, 3}};
+        MeshInstance a, b;
+        a.mesh = quad, b.mesh = dot;
+        scene.meshes = {a, b};
+        require_finite(scene);
+        const auto objects = scene_objects(scene);
+        for (const SceneObject& o : objects) CHECK(glm::all(glm::lessThan(o.lo, o.hi)));
+    }
+    SECTION("the camera inside an object") {
+        scene.camera.position = {-20, 0, 0};
+        scene.camera.look_at = {20, 0, 0};
+        require_finite(scene);
+    }
+    SECTION("every object at one place") {
+        for (VolumeInstance& v : scene.volumes) v.transform = make_transform({1, 2, 3}, {0, 0, 0}, {1, 1, 1});
+        require_finite(scene);
+        CHECK(cluster_lights(scene, {4, 0})[0].clusters.size() == 1);
+    }
+    SECTION("no objects, no lights") {
+        Scene empty;
+        CHECK(cluster_lights(empty, {4, 0}).empty());
+        empty.lights = {lights[1]};
+        const auto result = cluster_lights(empty, {4, 0});
+        REQUIRE(result.size() == 1);
+        CHECK(result[0].clusters.empty());
+    }
+}

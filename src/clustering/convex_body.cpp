@@ -110,6 +110,15 @@ ConvexBody extrude(const ConvexBody& body, const std::vector<bool>& front, const
     return out;
 }
 
+// A hexahedron from its corners c[i], bits 0, 1, 2 of i choosing the high side in x, y, z (of a
+// box, or of a frustum's across and depth); the faces share the corners exactly.
+ConvexBody hexahedron(const std::array<Point, 8>& c) {
+    ConvexBody body;
+    body.faces = {{c[0], c[2], c[3], c[1]}, {c[4], c[5], c[7], c[6]}, {c[0], c[1], c[5], c[4]},
+                  {c[2], c[6], c[7], c[3]}, {c[0], c[4], c[6], c[2]}, {c[1], c[3], c[7], c[5]}};
+    return body;
+}
+
 }  // namespace
 
 std::vector<Point> ConvexBody::vertices() const {
@@ -150,14 +159,6 @@ double ConvexBody::scale() const {
     for (const Polygon& face : faces)
         for (const Point& p : face) s = std::max({s, std::fabs(p.x), std::fabs(p.y), std::fabs(p.z)});
     return s;
-}
-
-// Corner c of a box, bits 0, 1, 2 choosing hi over lo in x, y, z.
-static ConvexBody hexahedron(const std::array<Point, 8>& c) {
-    ConvexBody body;
-    body.faces = {{c[0], c[2], c[3], c[1]}, {c[4], c[5], c[7], c[6]}, {c[0], c[1], c[5], c[4]},
-                  {c[2], c[6], c[7], c[3]}, {c[0], c[4], c[6], c[2]}, {c[1], c[3], c[7], c[5]}};
-    return body;
 }
 
 ConvexBody box_body(const Point& lo, const Point& hi) {
