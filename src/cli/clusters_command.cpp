@@ -124,7 +124,8 @@ void add_clusters_command(CLI::App& app, ClustersCommand& command) {
     command.app->add_option("scene", command.scene_path, "scene file (JSON)")->required();
     command.app->add_option("--clusters", command.max_clusters, "at most M clusters per light, in [1, 64]");
     command.app->add_option("--cluster-distance", command.distance,
-                            "distance threshold d0 in LiSPSM map units ([-1, 1] across B; 3 or more: one cluster); 0: automatic (twice the median projected object size)");
+                            "distance threshold d0 in LiSPSM map units ([-1, 1] across B; 3 or more: one cluster); "
+                            "0: automatic (twice the median projected object size)");
     command.app->add_option("--json", command.json_path, "also write the clusters as JSON to FILE");
 }
 

@@ -26,7 +26,8 @@ void transformed_box(const std::array<float, 16>& m, const std::vector<Point>& p
     lo = Point(INFINITY), hi = Point(-INFINITY);
     for (const Point& p : points) {
         Point w;
-        for (int r = 0; r < 3; ++r) w[r] = m[std::size_t(r * 4)] * p.x + m[std::size_t(r * 4 + 1)] * p.y + m[std::size_t(r * 4 + 2)] * p.z + m[std::size_t(r * 4 + 3)];
+        for (std::size_t r = 0; r < 3; ++r)
+            w[int(r)] = m[r * 4] * p.x + m[r * 4 + 1] * p.y + m[r * 4 + 2] * p.z + m[r * 4 + 3];
         lo = glm::min(lo, w), hi = glm::max(hi, w);
     }
 }
@@ -100,7 +101,7 @@ std::optional<FocusedView> perspective_focus(const Point& apex, const std::vecto
 }  // namespace
 
 bool FocusedView::contains(const Point& p, double tolerance) const {
-    const Point right = glm::cross(forward, up);
+    const Point right = glm::cross(up, forward);
     const Point d = p - eye;
     const double depth = glm::dot(d, forward), across_x = std::fabs(glm::dot(d, right)), across_y = std::fabs(glm::dot(d, up));
     if (depth < near - tolerance || depth > far + tolerance) return false;
@@ -147,7 +148,8 @@ CameraView camera_view(const Scene& scene, const Point& scene_lo, const Point& s
     c.eye = to_point(scene.camera.position);
     c.forward = unit_or(to_point(scene.camera.look_at) - c.eye, Point(0, 0, -1));
     const Point up = to_point(scene.camera.up);
-    c.up = glm::length(glm::cross(c.forward, up)) > 1e-9 * glm::length(up) ? up : Point(std::fabs(c.forward.y) < 0.9 ? Point(0, 1, 0) : Point(1, 0, 0));
+    const bool up_usable = glm::length(glm::cross(c.forward, up)) > 1e-9 * glm::length(up);  // validate_scene checks it too
+    c.up = up_usable ? up : std::fabs(c.forward.y) < 0.9 ? Point(0, 1, 0) : Point(1, 0, 0);
     c.tan_half_y = std::tan(0.5 * double(scene.camera.fov_y_deg) * kPi / 180.0);
     c.aspect = scene.height > 0 ? double(scene.width) / double(scene.height) : 1.0;
     double far = 0;
@@ -272,7 +274,8 @@ std::vector<std::vector<std::size_t>> greedy_clusters(std::size_t n, const std::
     std::vector<std::pair<std::size_t, std::size_t>> pairs;  // line 8: by descending distance
     for (std::size_t i = 0; i < n; ++i)
         for (std::size_t j = i + 1; j < n; ++j) pairs.emplace_back(i, j);
-    std::stable_sort(pairs.begin(), pairs.end(), [&](const auto& p, const auto& q) { return distance(p.first, p.second) > distance(q.first, q.second); });
+    std::stable_sort(pairs.begin(), pairs.end(),
+                     [&](const auto& p, const auto& q) { return distance(p.first, p.second) > distance(q.first, q.second); });
     for (const auto& [a, b] : pairs) {
         if (!placed[a]) join_fitting(a);
         if (!placed[b]) join_fitting(b);

@@ -34,7 +34,8 @@ CameraView camera_view(const Scene& scene, const Point& scene_lo, const Point& s
 std::vector<LightView> light_views(const Light& light, const Point& scene_lo, const Point& scene_hi);
 
 // A view focused on a cluster (Knecht §3.4.2): perspective from the light, or orthographic for a
-// directional light. near/far are depths along `forward` from `eye`.
+// directional light, symmetric about `forward` (across: up × forward and up). near/far are
+// depths along `forward` from `eye`.
 struct FocusedView {
     bool orthographic = false;
     Point eye{0, 0, 0}, forward{0, 0, -1}, up{0, 1, 0};  // forward, up: unit, perpendicular

@@ -53,7 +53,9 @@ std::vector<Plane> face_planes(const ConvexBody& body);
 
 // Convex hull of the body and a point: M = V ∪ l of Knecht Alg. 4.3 lines 2-8, built from the faces
 // that do not see `apex` and one triangle from each silhouette edge to `apex` (the body itself when
-// `apex` lies inside). Expects a body whose faces share their corners exactly (frustum_body).
+// `apex` lies inside). Alg. 4.3 adds triangles over every edge of every face that sees l and keeps
+// those faces, which leaves them inside the body; here M's faces are its boundary only. Expects a
+// body whose faces share their corners exactly (frustum_body).
 ConvexBody hull_with_point(const ConvexBody& body, const Point& apex);
 
 // The body swept by `offset` (its Minkowski sum with the segment [0, offset]): M for a directional
