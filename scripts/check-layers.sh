@@ -7,7 +7,7 @@ declare -A rank=(
     [sombra]=0 [shared]=0                # include/sombra (the API), cl/shared (host/kernel structs)
     [host]=1 [scene]=1                   # OpenCL runtime; scene files and readers
     [memory]=2 [geometry]=2              # DSM storage backends; rasterizer, fragments, BVH, packing
-    [shadows]=3                          # DSM generation, summed-area tables, reference
+    [shadows]=3 [clustering]=3           # DSM generation, summed-area tables, reference; object clusters
     [techniques]=4                       # shadow techniques as modules
     [render]=5                           # the orchestrator
     [cli]=6                              # the command line

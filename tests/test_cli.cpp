@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <set>
 #include <sstream>
 #include <sys/stat.h>
 #include <sys/wait.h>
@@ -490,4 +491,41 @@ TEST_CASE("sombra render: one progress line per stage on a non-terminal stderr, 
     run = run_cli("dsm " + scene + " --light 0 --dsm-res 8 -o " + sombra::test::temp_dir() + "/progress_dsm.exr --quiet");
     CHECK(run.exit_code == 0);
     CHECK(run.stderr_text.empty());
+}
+
+TEST_CASE("sombra clusters prints each light's clusters and writes them as JSON", "[cli][clustering]") {
+    const nlohmann::json sphere = {{"type", "sphere"}, {"size", 16}};
+    const nlohmann::json tf = {{"rgb_points", {0, 1, 1, 1, 1, 1, 1, 1}}, {"opacity_points", {0, 0, 1, 0.5}}};
+    const std::string scene = scene_file("clusters.json", {
+        {"camera", {{"position", {0, 0, 8}}}},
+        {"volumes", {{{"name", "left"}, {"generator", sphere}, {"transfer_function", tf}, {"transform", {{"translate", {-2, 0, 0}}, {"scale", 0.06}}}},
+                     {{"name", "right"}, {"generator", sphere}, {"transfer_function", tf}, {"transform", {{"translate", {2, 0, 0}}, {"scale", 0.06}}}}}}});
+    const std::string json_path = sombra::test::temp_dir() + "/clusters.out.json";
+    const CliOutput run = run_cli_output("clusters " + scene + " --json " + json_path);
+    INFO("stderr: " << run.err);
+    REQUIRE(run.exit_code == 0);
+    CHECK(run.out.find("light 0 (directional): 2 clusters") != std::string::npos);
+    CHECK(run.out.find("cluster 1:") != std::string::npos);
+    std::ifstream in(json_path);
+    const nlohmann::json j = nlohmann::json::parse(in);
+    REQUIRE(j["lights"].size() == 1);
+    const nlohmann::json& clusters = j["lights"][0]["clusters"];
+    REQUIRE(clusters.size() == 2);
+    std::set<std::string> members;
+    for (const nlohmann::json& c : clusters) {
+        CHECK(c["members"].size() == 1);
+        members.insert(c["members"][0].get<std::string>());
+        REQUIRE(c["views"].size() == 1);
+        CHECK(c["views"][0]["projection"] == "orthographic");
+        CHECK(c["views"][0]["far"].get<double>() > c["views"][0]["near"].get<double>());
+    }
+    CHECK(members == std::set<std::string>{"left", "right"});
+    CHECK(run_cli_output("clusters " + scene + " --clusters 1").out.find("1 cluster,") != std::string::npos);
+
+    const std::string unwritten = sombra::test::temp_dir() + "/unwritten.json";
+    require_clean_failure(run_cli("clusters " + scene + " --clusters 0 --json " + unwritten), "--clusters", "[1, 64]", unwritten);
+    require_clean_failure(run_cli("clusters " + scene + " --cluster-distance nan --json " + unwritten), "--cluster-distance", "[0, 10]", unwritten);
+    require_clean_failure(run_cli("clusters " + scene + " --clusters many"), "--clusters", "many", unwritten);
+    CHECK(run_cli("clusters " + scene + " --clusters 65").exit_code == 2);  // bad arguments: 2 (docs/command-line.md)
+    require_clean_failure(run_cli("clusters " + scene + " --json /no/such/folder/c.json"), "/no/such/folder/c.json", "cannot write", unwritten);
 }

@@ -17,6 +17,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "cli/clusters_command.h"
 #include "host/staged_outputs.h"
 #include "scene/suggest.h"
 #include "sombra/sombra.h"
@@ -382,6 +383,10 @@ int run(int argc, char** argv) {
         sub->add_option("--eps", dsm_epsilon, "compression error bound ε")->check(in_range<float>(0, 1e6f));
         sub->add_option("--stats", stats_path, "write build times and DSM sizes as JSON");
     }
+    sombra::cli::ClustersCommand clusters;
+    sombra::cli::add_clusters_command(app, clusters);
+    clusters.app->get_option("--clusters")->check(in_range<int>(1, 64));
+    clusters.app->get_option("--cluster-distance")->check(in_range<double>(0, 10));
     visibility->add_option("--filter", filter_width, "low-pass filter width W in voxels (Ament §4.2.1)")
         ->check(in_range<float>(0, 4096));
     visibility->add_option("--filter-kernel", filter_kernel, "low-pass filter kernel: box or gauss")
@@ -421,6 +426,8 @@ int run(int argc, char** argv) {
                       << d.opencl_c_version << ", " << (d.global_memory_bytes >> 20) << " MiB\n";
         return 0;
     }
+
+    if (clusters.app->parsed()) return sombra::cli::run_clusters_command(clusters, sombra::load_scene(clusters.scene_path));
 
     // a wrong output name fails before the work, not after it
     const std::string output_extension = [&] {
