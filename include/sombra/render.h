@@ -45,7 +45,7 @@ ShadowTechnique parse_shadow_technique(const std::string& name);
 enum class ShadingModel { Phong, Scattering };
 
 // The shadow cache (the EG 2009 course's "3D texture caching", Ament et al. 2014 Alg. 1): per
-// volume and light a lattice of the shadow term over the volume's voxels (at most 2^21 points,
+// volume and light a lattice of the shadow term over the volume's voxels (at most 2^23 points,
 // coarser for larger volumes), filled by the technique itself (DSM lookups, shadow rays, low-pass
 // tables) and kept on the Context until that light, the scene's volumes or meshes, or the
 // technique's options change; camera samples read it trilinearly. Surfaces evaluate the technique

@@ -18,13 +18,15 @@
 namespace sombra::pipeline {
 namespace {
 
-constexpr std::size_t kShadowCachePoints = std::size_t(1) << 21;  // per volume and light
+constexpr std::size_t kShadowCachePoints = std::size_t(1) << 23;  // per volume and light (32 MiB)
 
-// The lattice of a volume: its voxels, halved per axis until at most kShadowCachePoints.
+// The lattice of a volume: its voxels, the longest axis halved until at most kShadowCachePoints.
 std::array<int, 3> cache_lattice(const std::array<int, 3>& dims) {
     std::array<int, 3> n = dims;
-    while (std::size_t(n[0]) * std::size_t(n[1]) * std::size_t(n[2]) > kShadowCachePoints)
-        for (int& a : n) a = std::max(1, (a + 1) / 2);
+    while (std::size_t(n[0]) * std::size_t(n[1]) * std::size_t(n[2]) > kShadowCachePoints) {
+        int& longest = *std::max_element(n.begin(), n.end());
+        longest = (longest + 1) / 2;
+    }
     return n;
 }
 
