@@ -119,6 +119,9 @@ def test_load_scene_and_options(context):
     assert image.shape == (24, 24, 4) and np.isfinite(image).all()
     assert options.shadows == "lowpass" and options.lowpass_filter_width == 3.0  # keywords change a copy
     assert stats["sat"]["tables"] > 0
+    options.shadow_cache = "on"  # the shadow cache by name, for any technique
+    image, stats = sombra.render(context, scene, options, shadows="dsm", dsm_resolution=64)
+    assert options.shadow_cache == "on" and stats["shadow_cache"]["used"]
 
 
 def test_bad_arguments_name_the_argument(context, tmp_path):
