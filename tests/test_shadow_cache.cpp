@@ -125,6 +125,41 @@ TEST_CASE("shadow cache: kept across camera moves, refilled for the light that m
     }
 }
 
+TEST_CASE("shadow cache: a volume's change refills only the entries it can reach", "[shadow_cache]") {
+    // two blobs side by side, 1.5 apart; a directional light from above and a point light above
+    // the left one: neither volume lies between the left one and a light
+    Scene scene;
+    for (float x : {-1.f, 1.f}) {
+        VolumeInstance v;
+        v.volume = std::make_shared<const Volume>(make_gaussian_blobs(20, 5, 7));
+        v.transfer_function = test::ramp_tf(0.1f, 0.7f, 0.5f);
+        v.transform = make_transform({x, 0.f, 0.f}, {0.f, 0.f, 0.f}, {0.025f, 0.025f, 0.025f});
+        scene.volumes.push_back(v);
+    }
+    Light sun, bulb;
+    sun.direction = {0.f, 0.f, -1.f};
+    bulb.type = LightType::Point;
+    bulb.position = {-1.f, 0.f, 2.f};
+    scene.lights = {sun, bulb};
+    scene.camera.position = {0.f, -4.f, 1.f};
+    for (ShadowTechnique technique : {ShadowTechnique::Dsm, ShadowTechnique::Rays}) {
+        INFO(shadow_technique_name(technique));
+        Context context("cpu"), fresh("cpu");
+        Scene s = scene;
+        RenderOptions o = cache_options(technique, ShadowCacheMode::On);
+        CHECK(render(context, s, o).stats.shadow_cache_entries_built == 4);
+        s.volumes[1].transfer_function = test::ramp_tf(0.2f, 0.6f, 0.8f);  // the right volume's opacity
+        RenderResult r = render(context, s, o);
+        CHECK(r.stats.shadow_cache_entries_built == 2);  // its own entries; the point light's path to it crosses the left one
+        CHECK(r.stats.shadow_cache_entries_reused == 2);
+        CHECK(test::compare(r.image, render(fresh, s, o).image).max_abs <= 1e-6);
+        s.volumes[0].transfer_function = test::ramp_tf(0.2f, 0.6f, 0.8f);  // the left one reaches the right one's bulb entry
+        CHECK(render(context, s, o).stats.shadow_cache_entries_built == 3);
+        s.volumes[0].transform[3] = -0.9f;  // a moved volume moves every light's maps: every entry
+        CHECK(render(context, s, o).stats.shadow_cache_entries_built == 4);
+    }
+}
+
 TEST_CASE("shadow cache auto: on when filling costs fewer evaluations than the frame's samples, and once filled", "[shadow_cache]") {
     Scene scene = test::overlapping_scene();
     Context context("cpu");

@@ -15,8 +15,22 @@
 namespace sombra {
 namespace pipeline {
 
+// What a prepared scene depends on besides the lights (renderer.cpp scene_keys), in the parts the
+// shadow cache's keys take apart: per volume its placement and its content (voxels, transfer
+// function, step), the volumes' shading materials, the meshes, and the options with the technique's.
+struct SceneKeys {
+    std::vector<std::string> volume_placement, volume_content;
+    std::string materials, meshes, options;
+    std::string whole() const {
+        std::string key;
+        for (std::size_t i = 0; i < volume_placement.size(); ++i) key += "V" + volume_placement[i] + " " + volume_content[i];
+        return key + " " + materials + meshes + options;
+    }
+};
+
 struct PreparedScene {
-    std::string key;                      // what it depends on besides the lights (renderer.cpp volumes_key)
+    std::string key;                      // what it depends on besides the lights: keys.whole()
+    SceneKeys keys;
     std::vector<std::string> light_keys;  // where each light is and how it shines
     packing::PackedScene packed;
     packing::DeviceScene device;

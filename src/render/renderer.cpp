@@ -37,36 +37,42 @@ std::string light_view_key(const Light& l) {
     return key.str();
 }
 
-// Everything the prepared scene depends on except the lights: volumes (identity, size, a sample
-// of their voxels, placement, transfer function, step, material), meshes, the number of lights
-// and of their views, and the options that shape the device data (the technique adds its own) —
-// not the camera, the image size or the shading options.
-std::string volumes_key(const Scene& scene, const RenderOptions& o, bool use_images, const techniques::ShadowModule& technique,
-                        int lanes) {
-    std::ostringstream key;
-    key.precision(9);
+// Everything the prepared scene depends on except the lights, in parts (preparation.h SceneKeys):
+// volumes (identity, size, a sample of their voxels, placement, transfer function, step,
+// material), meshes, the number of lights and of their views, and the options that shape the
+// device data (the technique adds its own) — not the camera, the image size or the shading options.
+SceneKeys scene_keys(const Scene& scene, const RenderOptions& o, bool use_images, const techniques::ShadowModule& technique, int lanes) {
+    SceneKeys keys;
+    std::ostringstream materials, meshes, options;
+    for (std::ostringstream* s : {&materials, &meshes, &options}) s->precision(9);
     for (const VolumeInstance& vi : scene.volumes) {
+        std::ostringstream placement, content;
+        placement.precision(9), content.precision(9);
         const Volume& v = *vi.volume;
-        key << "V" << shadows::volume_data_key(v);
-        for (float f : vi.transform) key << ' ' << f;
-        for (float f : vi.spacing) key << ' ' << f;
-        for (auto& c : vi.transfer_function.color_points) key << ' ' << c.x << ' ' << c.r << ' ' << c.g << ' ' << c.b;
-        for (auto& a : vi.transfer_function.opacity_points) key << ' ' << a.x << ' ' << a.alpha;
-        key << ' ' << vi.step_voxels << ' ' << vi.opacity_unit << ' ' << vi.material.ambient << ' ' << vi.material.diffuse
-            << ' ' << vi.material.specular << ' ' << vi.material.shininess;
+        placement << v.dims[0] << ' ' << v.dims[1] << ' ' << v.dims[2];
+        for (float f : vi.transform) placement << ' ' << f;
+        for (float f : vi.spacing) placement << ' ' << f;
+        content << shadows::volume_data_key(v);
+        for (auto& c : vi.transfer_function.color_points) content << ' ' << c.x << ' ' << c.r << ' ' << c.g << ' ' << c.b;
+        for (auto& a : vi.transfer_function.opacity_points) content << ' ' << a.x << ' ' << a.alpha;
+        content << ' ' << vi.step_voxels << ' ' << vi.opacity_unit;
+        materials << ' ' << vi.material.ambient << ' ' << vi.material.diffuse << ' ' << vi.material.specular << ' ' << vi.material.shininess;
+        keys.volume_placement.push_back(placement.str());
+        keys.volume_content.push_back(content.str());
     }
     for (const MeshInstance& mi : scene.meshes) {  // by identity: meshes are immutable once shared
-        key << "M" << static_cast<const void*>(mi.mesh.get());
-        for (float f : mi.transform) key << ' ' << f;
+        meshes << "M" << static_cast<const void*>(mi.mesh.get());
+        for (float f : mi.transform) meshes << ' ' << f;
         const MeshMaterial& m = mi.material;
-        key << ' ' << m.color[0] << ' ' << m.color[1] << ' ' << m.color[2] << ' ' << m.opacity << ' ' << m.phong.ambient << ' '
-            << m.phong.diffuse << ' ' << m.phong.specular << ' ' << m.phong.shininess;
+        meshes << ' ' << m.color[0] << ' ' << m.color[1] << ' ' << m.color[2] << ' ' << m.opacity << ' ' << m.phong.ambient << ' '
+               << m.phong.diffuse << ' ' << m.phong.specular << ' ' << m.phong.shininess;
     }
-    key << " L";
-    for (const Light& l : scene.lights) key << ' ' << (l.type == LightType::Point ? 6 : 1);  // views per light
-    key << " O" << use_images << " T";
-    technique.add_key(o, lanes, key);
-    return key.str();
+    options << " L";
+    for (const Light& l : scene.lights) options << ' ' << (l.type == LightType::Point ? 6 : 1);  // views per light
+    options << " O" << use_images << " T";
+    technique.add_key(o, lanes, options);
+    keys.materials = materials.str(), keys.meshes = meshes.str(), keys.options = options.str();
+    return keys;
 }
 
 // Packs the lights, lets the technique lay out its per-light data in them, uploads them.
@@ -145,7 +151,8 @@ Prepared prepare(Context& context, const Scene& scene, const RenderOptions& opti
         kept.technique_family = family;
     }
     techniques::ShadowModule& technique = *kept.technique;
-    std::string key = volumes_key(scene, options, use_images, technique, host::packet_lanes(runtime, options.lanes));
+    SceneKeys keys = scene_keys(scene, options, use_images, technique, host::packet_lanes(runtime, options.lanes));
+    std::string key = keys.whole();
     std::vector<std::string> light_keys;
     for (const Light& l : scene.lights) light_keys.push_back(light_view_key(l));
     if (kept.prepared && kept.prepared->key == key) {
@@ -162,6 +169,7 @@ Prepared prepare(Context& context, const Scene& scene, const RenderOptions& opti
         kept.prepared.reset();  // the shadow cache stays: its entries have their own keys
         std::unique_ptr<PreparedScene> fresh = prepare_anew(runtime, scene, options, use_images, technique, stats);
         fresh->key = key;
+        fresh->keys = keys;
         fresh->light_keys = light_keys;
         try {
             technique.prepare({runtime, scene, fresh->packed, fresh->packed_surfaces, fresh->device, options, fresh->use_images}, stats);

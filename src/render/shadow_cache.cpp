@@ -13,6 +13,7 @@
 #include "host/kernel_args.h"
 #include "host/tiled_launch.h"
 #include "render/preparation.h"
+#include "shadows/light_reach.h"
 #include "sombra/error.h"
 
 namespace sombra::pipeline {
@@ -60,15 +61,40 @@ std::vector<ShadowCacheGpu> cache_layout(const Scene& scene, const packing::Pack
     return table;
 }
 
-// What an entry's values depend on when the technique gives no finer keys: the prepared scene
-// (volumes, meshes, the technique's options: renderer.cpp volumes_key), the technique, the light's
-// view and the jitter seed (shadow rays start at jittered points).
+// What an entry's values depend on when the technique gives no finer keys: the technique and its
+// options, the placement of every volume and the meshes (a light's deep shadow maps are fitted to
+// them all), the entry's light, the jitter seed (shadow rays start at jittered points), and the
+// content (voxels, transfer function, step) of its volume and of each volume that can reach it —
+// whose box, grown by four texels of a map fitted to the scene (bilinear lookups, pre-filtering)
+// and two steps, lies between the entry's volume and the light.
 std::vector<std::string> generic_keys(const Scene& scene, const PreparedScene& p, const RenderOptions& options) {
+    const SceneKeys& k = p.keys;
+    std::string common = std::string(shadow_technique_name(options.shadows)) + " seed " + std::to_string(options.jitter_seed) +
+                         " | options " + k.options + " | meshes " + k.meshes + " | placement";
+    for (const std::string& placement : k.volume_placement) common += " " + placement;
+    std::vector<shadows::WorldBox> boxes = shadows::volume_boxes(p.packed);
+    shadows::WorldBox all;
+    double step = 0;
+    for (std::size_t j = 0; j < boxes.size(); ++j) all.add(boxes[j].lo), all.add(boxes[j].hi), step = std::max(step, double(p.packed.volumes[j].step));
     std::vector<std::string> keys;
     for (std::size_t i = 0; i < scene.volumes.size(); ++i)
-        for (std::size_t m = 0; m < scene.lights.size(); ++m)
-            keys.push_back(p.key + " | " + shadow_technique_name(options.shadows) + " | light " + p.light_keys[m] + " | seed " +
-                           std::to_string(options.jitter_seed));
+        for (std::size_t m = 0; m < scene.lights.size(); ++m) {
+            const LightGpu& light = p.packed.lights[m];
+            double reach = all.diagonal();  // a positional light's map spans its distance to the farthest corner
+            if (light.type != SOMBRA_LIGHT_DIRECTIONAL)
+                for (int c = 0; c < 8; ++c) {
+                    const shadows::D3 corner{(c & 1 ? all.hi : all.lo)[0], (c & 2 ? all.hi : all.lo)[1], (c & 4 ? all.hi : all.lo)[2]};
+                    reach = std::max(reach, std::hypot(corner[0] - light.position.s[0], corner[1] - light.position.s[1],
+                                                       corner[2] - light.position.s[2]));
+                }
+            // a texel of a view of ≤ 90° fitted to the scene spans ≤ (π/2)·reach / resolution
+            double margin = 4 * 1.6 * reach / std::max(options.dsm_resolution, 1) + 2 * step;
+            std::string key = common + " | light " + p.light_keys[m] + " | volume " + std::to_string(i) + " " + k.volume_content[i];
+            for (std::size_t j = 0; j < scene.volumes.size(); ++j)
+                if (j != i && shadows::between_light_and(boxes[i], boxes[j].grown(margin), light))
+                    key += " | " + std::to_string(j) + " " + k.volume_content[j];
+            keys.push_back(key);
+        }
     return keys;
 }
 

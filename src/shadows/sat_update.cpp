@@ -6,6 +6,7 @@
 #include <memory>
 #include <sstream>
 
+#include "shadows/light_reach.h"
 #include "sombra/error.h"
 
 namespace sombra::shadows {
@@ -23,47 +24,6 @@ std::string hash_bytes(const void* data, std::size_t size, std::uint64_t h = 146
 template <typename T>
 std::string hash_of(const T& value) {
     return hash_bytes(&value, sizeof(T));
-}
-
-struct Box {
-    D3 lo{INFINITY, INFINITY, INFINITY}, hi{-INFINITY, -INFINITY, -INFINITY};
-    void add(const D3& p) {
-        for (std::size_t a = 0; a < 3; ++a) lo[a] = std::min(lo[a], p[a]), hi[a] = std::max(hi[a], p[a]);
-    }
-    Box grown(double r) const {
-        Box b = *this;
-        for (std::size_t a = 0; a < 3; ++a) b.lo[a] -= r, b.hi[a] += r;
-        return b;
-    }
-    bool overlaps(const Box& o) const {
-        for (std::size_t a = 0; a < 3; ++a)
-            if (o.hi[a] < lo[a] || hi[a] < o.lo[a]) return false;
-        return true;
-    }
-};
-
-std::vector<Box> volume_boxes(const packing::PackedScene& packed) {
-    double voxel = 0;
-    std::vector<D3> corners = scene_corners(packed, voxel);
-    std::vector<Box> boxes(packed.volumes.size());
-    for (std::size_t c = 0; c < corners.size(); ++c) boxes[c / 8].add(corners[c]);
-    return boxes;
-}
-
-// Whether box `a` swept to infinity along `towards` meets box `b`: the ray from the origin along
-// `towards` through the Minkowski difference b ⊖ a (slab test).
-bool sweep_meets(const Box& a, const Box& b, const D3& towards) {
-    double t0 = 0, t1 = INFINITY;
-    for (std::size_t k = 0; k < 3; ++k) {
-        double lo = b.lo[k] - a.hi[k], hi = b.hi[k] - a.lo[k];
-        if (towards[k] == 0) {
-            if (lo > 0 || hi < 0) return false;
-            continue;
-        }
-        double ta = lo / towards[k], tb = hi / towards[k];
-        t0 = std::max(t0, std::min(ta, tb)), t1 = std::min(t1, std::max(ta, tb));
-    }
-    return t0 <= t1;
 }
 
 // First offset in [0, capacity) where `entries` fit between the `taken` ranges, or capacity.
@@ -183,7 +143,7 @@ bool influences(const packing::PackedScene& packed, const DeviceSat& sat, const 
                 std::size_t j, std::size_t m) {
     if (i == j) return true;
     if (options.shadows == ShadowTechnique::Cone) return true;  // cones widen towards the light
-    std::vector<Box> boxes = volume_boxes(packed);
+    std::vector<WorldBox> boxes = volume_boxes(packed);
     double width = std::max(double(options.lowpass_filter_width), 1.0) * sat.voxel_size;  // the whole patch (≥ its half diagonal)
     double cell = 0;
     if (options.shadows == ShadowTechnique::Ao || sat.light_frame[m] >= 0) {
@@ -194,14 +154,11 @@ bool influences(const packing::PackedScene& packed, const DeviceSat& sat, const 
         cell = std::max({double(g.cell.s[2]), r_max * double(g.cell.s[0]), r_max * double(g.cell.s[1])});
     }
     // the cells a lookup reads: the cell of each patch corner and its trilinear neighbour
-    Box target = boxes[j].grown(width + 2.0 * std::sqrt(3.0) * cell);
+    WorldBox target = boxes[j].grown(width + 2.0 * std::sqrt(3.0) * cell);
     if (options.shadows == ShadowTechnique::Ao) return boxes[i].overlaps(target);  // a cube around the sample
-    const LightGpu& light = packed.lights[m];
-    if (light.type == SOMBRA_LIGHT_DIRECTIONAL)  // the box from the sample to the grid face towards the light (Ament Eq. 8, 10)
-        return sweep_meets(boxes[i], target, {-light.direction.s[0], -light.direction.s[1], -light.direction.s[2]});
-    Box hull = boxes[i];  // the pyramid from the light to the sample (Eq. 16–24)
-    hull.add({light.position.s[0], light.position.s[1], light.position.s[2]});
-    return hull.overlaps(target);
+    // CSAT: the box from the sample to the grid face towards the light (Ament Eq. 8, 10); SSAT: the
+    // pyramid from the light to the sample (Eq. 16–24)
+    return between_light_and(boxes[i], target, packed.lights[m]);
 }
 
 std::vector<std::string> shadow_cache_keys(const Scene& scene, const packing::PackedScene& packed, const DeviceSat& sat,
