@@ -528,4 +528,24 @@ TEST_CASE("sombra clusters prints each light's clusters and writes them as JSON"
     require_clean_failure(run_cli("clusters " + scene + " --clusters many"), "--clusters", "many", unwritten);
     CHECK(run_cli("clusters " + scene + " --clusters 65").exit_code == 2);  // bad arguments: 2 (docs/command-line.md)
     require_clean_failure(run_cli("clusters " + scene + " --json /no/such/folder/c.json"), "/no/such/folder/c.json", "cannot write", unwritten);
+
+    // --image: each object tinted by its cluster (two clusters: two different hues left and right)
+    const std::string image_path = sombra::test::temp_dir() + "/clusters.png";
+    REQUIRE(run_cli("clusters " + scene + " --image " + image_path + " --width 64 --height 32").exit_code == 0);
+    const sombra::Image image = sombra::read_image(image_path);
+    REQUIRE(image.width == 64);
+    auto brightest = [&](int x0, int x1) {  // the most saturated pixel's RGB in columns [x0, x1)
+        std::array<float, 3> best{0, 0, 0};
+        for (int y = 0; y < image.height; ++y)
+            for (int x = x0; x < x1; ++x) {
+                const float* p = &image.rgba[std::size_t(4 * (y * image.width + x))];
+                if (p[0] + p[1] + p[2] > best[0] + best[1] + best[2]) best = {p[0], p[1], p[2]};
+            }
+        return best;
+    };
+    std::array<float, 3> left = brightest(0, 32), right = brightest(32, 64);
+    INFO("left " << left[0] << " " << left[1] << " " << left[2] << ", right " << right[0] << " " << right[1] << " " << right[2]);
+    CHECK(std::abs(left[0] - right[0]) + std::abs(left[1] - right[1]) + std::abs(left[2] - right[2]) > 0.3f);
+    const std::string unwritten_image = sombra::test::temp_dir() + "/unwritten.png";
+    require_clean_failure(run_cli("clusters " + scene + " --image " + unwritten_image + " --light 3"), "--light", "1 lights", unwritten_image);
 }

@@ -11,6 +11,7 @@
 #include "clustering/clustering.h"
 #include "host/staged_outputs.h"
 #include "sombra/error.h"
+#include "sombra/render.h"
 
 namespace sombra::cli {
 namespace {
@@ -117,6 +118,26 @@ std::string clusters_text(const nlohmann::json& j) {
     return s.str();
 }
 
+// The scene with every object coloured by its cluster of light `light` (Knecht Fig. 5.8): a
+// palette colour per cluster (volumes: every transfer-function colour point; meshes: the
+// material), grey for objects outside B; opacities and shapes as they are.
+Scene tinted_by_cluster(Scene scene, const std::vector<clustering::SceneObject>& objects, const clustering::LightClusters& lc) {
+    static const Vec3 palette[] = {{0.90f, 0.30f, 0.25f}, {0.25f, 0.65f, 0.95f}, {0.35f, 0.85f, 0.35f}, {0.95f, 0.80f, 0.20f},
+                                   {0.75f, 0.40f, 0.90f}, {0.20f, 0.85f, 0.80f}, {0.95f, 0.55f, 0.15f}, {0.95f, 0.45f, 0.70f}};
+    auto paint = [&](std::size_t object, const Vec3& colour) {
+        const clustering::SceneObject& o = objects[object];
+        if (o.is_volume)
+            for (auto& point : scene.volumes[o.scene_index].transfer_function.color_points)
+                point.r = colour[0], point.g = colour[1], point.b = colour[2];
+        else
+            scene.meshes[o.scene_index].material.color = colour;
+    };
+    for (std::size_t object = 0; object < objects.size(); ++object) paint(object, {0.45f, 0.45f, 0.45f});
+    for (std::size_t c = 0; c < lc.clusters.size(); ++c)
+        for (std::size_t object : lc.clusters[c].members) paint(object, palette[c % (sizeof palette / sizeof palette[0])]);
+    return scene;
+}
+
 }  // namespace
 
 void add_clusters_command(CLI::App& app, ClustersCommand& command) {
@@ -127,10 +148,23 @@ void add_clusters_command(CLI::App& app, ClustersCommand& command) {
                             "distance threshold d0 in LiSPSM map units ([-1, 1] across B; 3 or more: one cluster); "
                             "0: automatic (twice the median projected object size)");
     command.app->add_option("--json", command.json_path, "also write the clusters as JSON to FILE");
+    command.app->add_option("--image", command.image_path,
+                            "also render the scene (PNG or EXR, no shadows) with each object tinted by its cluster of --light "
+                            "(grey: outside the light's convex body B)");
+    command.app->add_option("--light", command.light, "the light whose clusters --image shows");
+    command.app->add_option("--width", command.width, "--image width (default: the scene's)");
+    command.app->add_option("--height", command.height, "--image height (default: the scene's)");
+    command.app->add_option("--device", command.device, "OpenCL device for --image: auto, cpu, gpu or an index");
 }
 
 int run_clusters_command(const ClustersCommand& command, const Scene& scene) {
     if (!command.json_path.empty()) host::StagedOutputs::check_target(command.json_path);
+    if (!command.image_path.empty()) {
+        host::StagedOutputs::check_target(command.image_path);
+        if (command.light < 0 || command.light >= int(scene.lights.size()))
+            throw Error("--light: the scene has " + std::to_string(scene.lights.size()) + " lights; " + std::to_string(command.light) +
+                        " is not one of them");
+    }
     const clustering::ClusterOptions options{command.max_clusters, command.distance};
     const auto lights = clustering::cluster_lights(scene, options);
     const nlohmann::json j = clusters_json(scene, clustering::scene_objects(scene), lights, !(command.distance > 0));
@@ -140,6 +174,18 @@ int run_clusters_command(const ClustersCommand& command, const Scene& scene) {
             std::ofstream out(staged);
             if (!(out << j.dump(2) << '\n') || !out.flush()) throw Error(command.json_path + ": cannot write file");
         });
+        outputs.commit();
+    }
+    if (!command.image_path.empty()) {
+        const std::vector<clustering::SceneObject> objects = clustering::scene_objects(scene);
+        const clustering::LightClusters* clusters = nullptr;
+        for (const clustering::LightClusters& lc : lights) clusters = lc.light == std::size_t(command.light) ? &lc : clusters;
+        Context context(command.device);
+        RenderOptions render_options;
+        render_options.width = command.width, render_options.height = command.height;
+        const Image image = render(context, tinted_by_cluster(scene, objects, *clusters), render_options).image;
+        host::StagedOutputs outputs;
+        outputs.write(command.image_path, [&](const std::string& staged) { write_image(image, staged); });
         outputs.commit();
     }
     std::cout << clusters_text(j);

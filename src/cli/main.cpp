@@ -387,6 +387,8 @@ int run(int argc, char** argv) {
     sombra::cli::add_clusters_command(app, clusters);
     clusters.app->get_option("--clusters")->check(in_range<int>(1, 64));
     clusters.app->get_option("--cluster-distance")->check(in_range<double>(0, 10));
+    for (const char* size : {"--width", "--height"}) clusters.app->get_option(size)->check(in_range<int>(1, 16384));
+    clusters.app->get_option("--light")->check(in_range<int>(0, 1 << 20));
     visibility->add_option("--filter", filter_width, "low-pass filter width W in voxels (Ament §4.2.1)")
         ->check(in_range<float>(0, 4096));
     visibility->add_option("--filter-kernel", filter_kernel, "low-pass filter kernel: box or gauss")
