@@ -208,7 +208,8 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
         CameraGpu camera = packing::pack_camera(scene, width, height);
         camera.jitter_seed = options.jitter_seed;
         cl::Buffer camera_buffer = host::make_buffer(runtime, CL_MEM_READ_ONLY, sizeof(CameraGpu), &camera, "camera");
-        cl::Kernel kernel(runtime.program("render.cl", camera_pass_defines(scene, options, prepared, lanes, false)), "shadow_cache_fill");
+        // the camera pass's own program (one build): the fill reads no cache
+        cl::Kernel kernel(runtime.program("render.cl", camera_pass_defines(scene, options, prepared, lanes, true)), "shadow_cache_fill");
         host::ProgressStage stage(runtime.progress(), "shadow cache", double(stale_entries));
         double ms = 0;
         for (std::size_t e = 0; e < layout.size(); ++e) {
