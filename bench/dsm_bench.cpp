@@ -2,7 +2,8 @@
 // per DSM resolution × ε, the generation time (count, prefix sum, write), the camera-pass time,
 // nodes per texel, memory used / wasted, and the transmittance error against the brute-force
 // reference (sombra::reference_transmittance). The analogue on this device of Hadwiger 2006
-// Table 1 and Knecht 2011 Tables 5.1/5.3 and 5.8–5.10. See bench/README.md.
+// Table 1 and Knecht 2011 Tables 5.1/5.3 and 5.8–5.10. Error against time over every technique:
+// sombra_bench_error. See bench/README.md.
 #include <CLI/CLI.hpp>
 #include "host/guarded_main.h"
 #include "bench_util.h"
@@ -10,7 +11,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
@@ -56,7 +56,6 @@ struct BenchOptions {
     int light = 0;
     std::string device = "auto";
     std::string out_dir;
-    std::string python = "python3";
     std::vector<std::string> storages = kDsmStorages;
     int lanes_resolution = -1;  // resolution of the 1-lane vs 8-lane comparison; -1: the largest, 0: none
 };
@@ -276,19 +275,6 @@ std::string csv_table(const std::vector<Row>& rows) {
     return s.str();
 }
 
-// The error-vs-time plot, by bench/plot_error_vs_time.py when python3 with matplotlib is there.
-void plot(const BenchOptions& o, const std::filesystem::path& csv, const std::filesystem::path& png) {
-    std::string check = o.python + " -c 'import matplotlib' >/dev/null 2>&1";
-    if (std::system(check.c_str()) != 0) {
-        std::cout << "note: no plot: `" << o.python << "` cannot import matplotlib (pip install -r bench/requirements.txt); "
-                  << "later: " << o.python << " " << SOMBRA_PLOT_SCRIPT << " " << csv.string() << " " << png.string() << "\n";
-        return;
-    }
-    std::string command = o.python + " '" + SOMBRA_PLOT_SCRIPT + "' '" + csv.string() + "' '" + png.string() + "'";
-    if (std::system(command.c_str()) != 0) std::cout << "note: the plot script failed: " << command << "\n";
-    else std::cout << "wrote " << png.string() << "\n";
-}
-
 int run(int argc, char** argv) {
     BenchOptions o;
     CLI::App app{"sombra deep shadow maps: generation time, render time, nodes, memory and error vs shadow rays"};
@@ -304,8 +290,7 @@ int run(int argc, char** argv) {
     app.add_option("--seed", o.seed, "seed of the random points");
     app.add_option("--light", o.light, "light whose transmittance is compared with the reference")->check(CLI::NonNegativeNumber);
     app.add_option("--device", o.device, "OpenCL device: auto, cpu, gpu, or an index from `sombra devices`");
-    app.add_option("--out", o.out_dir, "write dsm_table.md, dsm_table.csv and dsm_error_vs_time.png into this folder");
-    app.add_option("--python", o.python, "Python with matplotlib, for the plot");
+    app.add_option("--out", o.out_dir, "write dsm_table.md, dsm_table.csv and dsm_regeneration.md into this folder");
     app.add_option("--storages", o.storages, "DSM storage backends (RenderOptions::dsm_storage), comma-separated")
         ->delimiter(',');
     app.add_option("--lanes-resolution", o.lanes_resolution,
@@ -406,7 +391,6 @@ int run(int argc, char** argv) {
         write_file(dir / "dsm_table.csv", csv_table(rows));
         write_file(dir / "dsm_regeneration.md", header + regeneration);
         std::cout << "wrote " << o.out_dir << "/dsm_table.{csv,md}\n";
-        plot(o, dir / "dsm_table.csv", dir / "dsm_error_vs_time.png");
     }
     return 0;
 }
