@@ -30,6 +30,7 @@ using sombra::bench::random_points;
 using sombra::bench::reference_values;
 using sombra::bench::median;
 using sombra::bench::sci;
+using sombra::bench::shortest;
 using sombra::bench::write_file;
 
 // DSM storage backends benchmarked by default, one row set each (--storages overrides).
@@ -77,12 +78,6 @@ struct Row {
     bool is_dsm() const { return shadows == "dsm"; }
     double total_ms() const { return generation_ms + render_ms; }  // what a frame costs (DSM rebuilt per frame)
 };
-
-std::string eps_text(float e) {
-    std::ostringstream s;
-    s << e;
-    return s.str();
-}
 
 void measure_error(sombra::Context& context, const sombra::Scene& scene, int light, const std::vector<sombra::Vec3>& points,
                    const std::vector<double>& reference, const sombra::RenderOptions& options, Row& row) {
@@ -136,7 +131,7 @@ std::string measure_regeneration(sombra::Context& context, sombra::Scene scene, 
             // a move that leaves more than half the pool superseded builds the whole set anew
             std::string moved_ms = partial.empty() ? "–" : fixed(median(partial), 1);
             std::string ratio = partial.empty() ? "–" : fixed(median(partial) / median(all), 2);
-            table << "| " << storage << " | " << resolution << " | " << eps_text(epsilon) << " | " << fixed(median(all), 1) << " | "
+            table << "| " << storage << " | " << resolution << " | " << shortest(epsilon) << " | " << fixed(median(all), 1) << " | "
                   << light << " | " << sequence << " | " << moved_ms << " | " << ratio << " |\n";
         }
     }
@@ -231,7 +226,7 @@ std::string markdown_table(const std::vector<Row>& rows) {
         std::string na = "–";
         s << "| " << (r.is_dsm() ? "DSM" : r.shadows == "rays" ? "shadow rays" : "none") << " | "
           << (r.is_dsm() ? r.storage : na) << " | " << (r.is_dsm() ? std::to_string(r.resolution) : na) << " | "
-          << (r.is_dsm() ? eps_text(r.epsilon) : na) << " | ";
+          << (r.is_dsm() ? shortest(r.epsilon) : na) << " | ";
         for (const std::string& stage : stages)
             s << (r.dsm_stage_ms.count(stage) ? fixed(r.dsm_stage_ms.at(stage), 2) : na) << " | ";
         s << (r.is_dsm() ? fixed(r.generation_ms, 1) : na) << " | " << fixed(r.render_ms, 1) << " | " << (rays ? fixed(r.render_ms / rays->render_ms, 2) : na) << " | "
@@ -258,7 +253,7 @@ std::string csv_table(const std::vector<Row>& rows) {
          "max_abs_error\n";
     for (const Row& r : rows) {
         s << r.shadows << ',' << r.storage << ',' << (r.is_dsm() ? std::to_string(r.resolution) : "") << ','
-          << (r.is_dsm() ? eps_text(r.epsilon) : "") << ',';
+          << (r.is_dsm() ? shortest(r.epsilon) : "") << ',';
         for (const std::string& stage : stages)
             s << (r.dsm_stage_ms.count(stage) ? fixed(r.dsm_stage_ms.at(stage), 3) : "") << ',';
         s << (r.is_dsm() ? fixed(r.generation_ms, 3) : "") << ',';
@@ -349,7 +344,7 @@ int run(int argc, char** argv) {
                 measure_render(context, scene, options, o.runs, r);
                 measure_error(context, scene, o.light, points, reference, options, r);
                 rows.push_back(r);
-                std::cout << "dsm " << storage << " " << resolution << " ε " << eps_text(epsilon) << ": gen "
+                std::cout << "dsm " << storage << " " << resolution << " ε " << shortest(epsilon) << ": gen "
                           << fixed(r.generation_ms, 1) << " ms, render " << fixed(r.render_ms, 1) << " ms, nodes/texel "
                           << fixed(r.mean_nodes, 3) << " (max " << r.max_nodes << "), mean |ΔT| " << sci(r.mean_error)
                           << std::endl;
@@ -363,7 +358,7 @@ int run(int argc, char** argv) {
         std::ostringstream lanes_table;
         float epsilon = std::find(o.epsilons.begin(), o.epsilons.end(), 0.02f) != o.epsilons.end() ? 0.02f : o.epsilons[0];
         lanes_table << "\nDSM generation, texels per work-item (alternating runs, medians of " << o.runs << "; res "
-                    << lanes_resolution << ", ε " << eps_text(epsilon) << "):\n\n"
+                    << lanes_resolution << ", ε " << shortest(epsilon) << "):\n\n"
                     << "| storage | 1 lane ms | 8 lanes ms | speed-up |\n|---|---:|---:|---:|\n";
         for (const std::string& storage : o.storages) {
             sombra::RenderOptions options = base;
@@ -378,7 +373,7 @@ int run(int argc, char** argv) {
     }
     std::cout << "\n" << table;
     std::string regeneration = measure_regeneration(context, scene, base, o.storages, *std::max_element(o.resolutions.begin(), o.resolutions.end()), o.epsilons.front(), o.runs);
-    std::cout << "\nregeneration after a light moves (" << *std::max_element(o.resolutions.begin(), o.resolutions.end()) << "², ε " << eps_text(o.epsilons.front())
+    std::cout << "\nregeneration after a light moves (" << *std::max_element(o.resolutions.begin(), o.resolutions.end()) << "², ε " << shortest(o.epsilons.front())
               << "):\n" << regeneration;
     if (!o.out_dir.empty()) {
         std::filesystem::path dir(o.out_dir);

@@ -24,6 +24,7 @@ using sombra::ShadowTechnique;
 using sombra::bench::fixed;
 using sombra::bench::median;
 using sombra::bench::sci;
+using sombra::bench::shortest;
 
 enum class SweepSize { Quick, Default, Full };
 
@@ -54,12 +55,6 @@ Sweep make_sweep(SweepSize size) {
     return {{128, 256, 512}, {0.01f, 0.1f}, false, all_storages, all_prefilters, {2, 1, 0.5f}, {1, 3, 9}, {3, 9}, {3, 9}, {5, 15}};
 }
 
-std::string number(float v) {
-    std::ostringstream s;
-    s << v;
-    return s.str();
-}
-
 // One technique at one setting of its knobs (the shadow cache is chosen per measurement).
 struct Variant {
     std::string setting;  // e.g. "256² ε=0.02 chunked"
@@ -76,9 +71,9 @@ std::vector<Variant> make_variants(const Sweep& sweep, const RenderOptions& base
     };
     add(ShadowTechnique::None, "–", [](RenderOptions&) {});
     for (float step : sweep.ray_steps)
-        add(ShadowTechnique::Rays, "step ×" + number(step), [&](RenderOptions& o) { o.shadow_ray_step = step; });
+        add(ShadowTechnique::Rays, "step ×" + shortest(step), [&](RenderOptions& o) { o.shadow_ray_step = step; });
     auto add_dsm = [&](int resolution, float epsilon, const std::string& storage, const std::string& prefilter) {
-        std::string setting = std::to_string(resolution) + "² ε=" + number(epsilon);
+        std::string setting = std::to_string(resolution) + "² ε=" + shortest(epsilon);
         if (storage != "atlas") setting += " " + storage;
         if (prefilter != "none") setting += " prefilter " + prefilter;
         add(ShadowTechnique::Dsm, setting, [&](RenderOptions& o) {
@@ -105,13 +100,13 @@ std::vector<Variant> make_variants(const Sweep& sweep, const RenderOptions& base
         add(ShadowTechnique::ShadowMap, std::to_string(resolution) + "²", [&](RenderOptions& o) { o.dsm_resolution = resolution; });
     for (const auto& [kernel, widths] : {std::pair{"box", sweep.box_widths}, std::pair{"gauss", sweep.gauss_widths}})
         for (float width : widths)
-            add(ShadowTechnique::Lowpass, "W=" + number(width) + " " + kernel, [&](RenderOptions& o) {
+            add(ShadowTechnique::Lowpass, "W=" + shortest(width) + " " + kernel, [&](RenderOptions& o) {
                 o.lowpass_filter_width = width, o.lowpass_filter_kernel = kernel;
             });
     for (float width : sweep.ao_widths)
-        add(ShadowTechnique::Ao, "W=" + number(width), [&](RenderOptions& o) { o.lowpass_filter_width = width; });
+        add(ShadowTechnique::Ao, "W=" + shortest(width), [&](RenderOptions& o) { o.lowpass_filter_width = width; });
     for (float angle : sweep.cone_angles)
-        add(ShadowTechnique::Cone, number(angle) + "°", [&](RenderOptions& o) { o.cone_angle_deg = angle; });
+        add(ShadowTechnique::Cone, shortest(angle) + "°", [&](RenderOptions& o) { o.cone_angle_deg = angle; });
     return variants;
 }
 
@@ -242,7 +237,7 @@ sombra::Image reference_image(sombra::Context& context, const sombra::Scene& sce
     options.shadow_cache = sombra::ShadowCacheMode::Off;
     sombra::RenderResult r = sombra::render(context, scene, options);
     sombra::write_image(r.image, path.string());
-    std::cout << "reference: " << path.string() << " (shadow rays, step ×" << number(step) << ", cache off: "
+    std::cout << "reference: " << path.string() << " (shadow rays, step ×" << shortest(step) << ", cache off: "
               << fixed(r.stats.stage_ms["camera_pass"] / 1000, 1) << " s)\n";
     return r.image;
 }
@@ -377,7 +372,7 @@ int run(int argc, char** argv) {
                          std::to_string(height) + " | medians of " + std::to_string(runs) + " renders after a warm-up | " +
                          std::to_string(point_count) + " points per light, seed " + std::to_string(seed) + " -->\n";
     std::string note =
-        "\nImage error: per pixel the largest |ΔR|, |ΔG|, |ΔB| against shadow rays at step ×" + number(reference_step) +
+        "\nImage error: per pixel the largest |ΔR|, |ΔG|, |ΔB| against shadow rays at step ×" + shortest(reference_step) +
         " with the cache off, mean and 95th percentile over all pixels. Point error: |ΔT| against "
         "reference_transmittance at " + std::to_string(point_count) + " random points per light, from shadow_transmittance, "
         "which evaluates the technique itself, never the shadow cache (the same for cache on and off). Times: medians of "
