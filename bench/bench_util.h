@@ -27,6 +27,12 @@ inline std::string fixed(double v, int digits) {
     return s.str();
 }
 
+inline std::string shortest(float v) {  // 0.02f → "0.02", 0.5f → "0.5", 2.f → "2"
+    std::ostringstream s;
+    s << v;
+    return s.str();
+}
+
 inline std::string sci(double v) {
     std::ostringstream s;
     s << std::scientific << std::setprecision(2) << v;

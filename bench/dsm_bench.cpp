@@ -2,7 +2,8 @@
 // per DSM resolution × ε, the generation time (count, prefix sum, write), the camera-pass time,
 // nodes per texel, memory used / wasted, and the transmittance error against the brute-force
 // reference (sombra::reference_transmittance). The analogue on this device of Hadwiger 2006
-// Table 1 and Knecht 2011 Tables 5.1/5.3 and 5.8–5.10. See bench/README.md.
+// Table 1 and Knecht 2011 Tables 5.1/5.3 and 5.8–5.10. Error against time over every technique:
+// sombra_bench_error. See bench/README.md.
 #include <CLI/CLI.hpp>
 #include "host/guarded_main.h"
 #include "bench_util.h"
@@ -10,7 +11,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
@@ -30,6 +30,7 @@ using sombra::bench::random_points;
 using sombra::bench::reference_values;
 using sombra::bench::median;
 using sombra::bench::sci;
+using sombra::bench::shortest;
 using sombra::bench::write_file;
 
 // DSM storage backends benchmarked by default, one row set each (--storages overrides).
@@ -56,7 +57,6 @@ struct BenchOptions {
     int light = 0;
     std::string device = "auto";
     std::string out_dir;
-    std::string python = "python3";
     std::vector<std::string> storages = kDsmStorages;
     int lanes_resolution = -1;  // resolution of the 1-lane vs 8-lane comparison; -1: the largest, 0: none
 };
@@ -78,12 +78,6 @@ struct Row {
     bool is_dsm() const { return shadows == "dsm"; }
     double total_ms() const { return generation_ms + render_ms; }  // what a frame costs (DSM rebuilt per frame)
 };
-
-std::string eps_text(float e) {
-    std::ostringstream s;
-    s << e;
-    return s.str();
-}
 
 void measure_error(sombra::Context& context, const sombra::Scene& scene, int light, const std::vector<sombra::Vec3>& points,
                    const std::vector<double>& reference, const sombra::RenderOptions& options, Row& row) {
@@ -137,7 +131,7 @@ std::string measure_regeneration(sombra::Context& context, sombra::Scene scene, 
             // a move that leaves more than half the pool superseded builds the whole set anew
             std::string moved_ms = partial.empty() ? "–" : fixed(median(partial), 1);
             std::string ratio = partial.empty() ? "–" : fixed(median(partial) / median(all), 2);
-            table << "| " << storage << " | " << resolution << " | " << eps_text(epsilon) << " | " << fixed(median(all), 1) << " | "
+            table << "| " << storage << " | " << resolution << " | " << shortest(epsilon) << " | " << fixed(median(all), 1) << " | "
                   << light << " | " << sequence << " | " << moved_ms << " | " << ratio << " |\n";
         }
     }
@@ -232,7 +226,7 @@ std::string markdown_table(const std::vector<Row>& rows) {
         std::string na = "–";
         s << "| " << (r.is_dsm() ? "DSM" : r.shadows == "rays" ? "shadow rays" : "none") << " | "
           << (r.is_dsm() ? r.storage : na) << " | " << (r.is_dsm() ? std::to_string(r.resolution) : na) << " | "
-          << (r.is_dsm() ? eps_text(r.epsilon) : na) << " | ";
+          << (r.is_dsm() ? shortest(r.epsilon) : na) << " | ";
         for (const std::string& stage : stages)
             s << (r.dsm_stage_ms.count(stage) ? fixed(r.dsm_stage_ms.at(stage), 2) : na) << " | ";
         s << (r.is_dsm() ? fixed(r.generation_ms, 1) : na) << " | " << fixed(r.render_ms, 1) << " | " << (rays ? fixed(r.render_ms / rays->render_ms, 2) : na) << " | "
@@ -259,7 +253,7 @@ std::string csv_table(const std::vector<Row>& rows) {
          "max_abs_error\n";
     for (const Row& r : rows) {
         s << r.shadows << ',' << r.storage << ',' << (r.is_dsm() ? std::to_string(r.resolution) : "") << ','
-          << (r.is_dsm() ? eps_text(r.epsilon) : "") << ',';
+          << (r.is_dsm() ? shortest(r.epsilon) : "") << ',';
         for (const std::string& stage : stages)
             s << (r.dsm_stage_ms.count(stage) ? fixed(r.dsm_stage_ms.at(stage), 3) : "") << ',';
         s << (r.is_dsm() ? fixed(r.generation_ms, 3) : "") << ',';
@@ -274,19 +268,6 @@ std::string csv_table(const std::vector<Row>& rows) {
         s << '\n';
     }
     return s.str();
-}
-
-// The error-vs-time plot, by bench/plot_error_vs_time.py when python3 with matplotlib is there.
-void plot(const BenchOptions& o, const std::filesystem::path& csv, const std::filesystem::path& png) {
-    std::string check = o.python + " -c 'import matplotlib' >/dev/null 2>&1";
-    if (std::system(check.c_str()) != 0) {
-        std::cout << "note: no plot: `" << o.python << "` cannot import matplotlib (pip install -r bench/requirements.txt); "
-                  << "later: " << o.python << " " << SOMBRA_PLOT_SCRIPT << " " << csv.string() << " " << png.string() << "\n";
-        return;
-    }
-    std::string command = o.python + " '" + SOMBRA_PLOT_SCRIPT + "' '" + csv.string() + "' '" + png.string() + "'";
-    if (std::system(command.c_str()) != 0) std::cout << "note: the plot script failed: " << command << "\n";
-    else std::cout << "wrote " << png.string() << "\n";
 }
 
 int run(int argc, char** argv) {
@@ -304,8 +285,7 @@ int run(int argc, char** argv) {
     app.add_option("--seed", o.seed, "seed of the random points");
     app.add_option("--light", o.light, "light whose transmittance is compared with the reference")->check(CLI::NonNegativeNumber);
     app.add_option("--device", o.device, "OpenCL device: auto, cpu, gpu, or an index from `sombra devices`");
-    app.add_option("--out", o.out_dir, "write dsm_table.md, dsm_table.csv and dsm_error_vs_time.png into this folder");
-    app.add_option("--python", o.python, "Python with matplotlib, for the plot");
+    app.add_option("--out", o.out_dir, "write dsm_table.md, dsm_table.csv and dsm_regeneration.md into this folder");
     app.add_option("--storages", o.storages, "DSM storage backends (RenderOptions::dsm_storage), comma-separated")
         ->delimiter(',');
     app.add_option("--lanes-resolution", o.lanes_resolution,
@@ -364,7 +344,7 @@ int run(int argc, char** argv) {
                 measure_render(context, scene, options, o.runs, r);
                 measure_error(context, scene, o.light, points, reference, options, r);
                 rows.push_back(r);
-                std::cout << "dsm " << storage << " " << resolution << " ε " << eps_text(epsilon) << ": gen "
+                std::cout << "dsm " << storage << " " << resolution << " ε " << shortest(epsilon) << ": gen "
                           << fixed(r.generation_ms, 1) << " ms, render " << fixed(r.render_ms, 1) << " ms, nodes/texel "
                           << fixed(r.mean_nodes, 3) << " (max " << r.max_nodes << "), mean |ΔT| " << sci(r.mean_error)
                           << std::endl;
@@ -378,7 +358,7 @@ int run(int argc, char** argv) {
         std::ostringstream lanes_table;
         float epsilon = std::find(o.epsilons.begin(), o.epsilons.end(), 0.02f) != o.epsilons.end() ? 0.02f : o.epsilons[0];
         lanes_table << "\nDSM generation, texels per work-item (alternating runs, medians of " << o.runs << "; res "
-                    << lanes_resolution << ", ε " << eps_text(epsilon) << "):\n\n"
+                    << lanes_resolution << ", ε " << shortest(epsilon) << "):\n\n"
                     << "| storage | 1 lane ms | 8 lanes ms | speed-up |\n|---|---:|---:|---:|\n";
         for (const std::string& storage : o.storages) {
             sombra::RenderOptions options = base;
@@ -393,7 +373,7 @@ int run(int argc, char** argv) {
     }
     std::cout << "\n" << table;
     std::string regeneration = measure_regeneration(context, scene, base, o.storages, *std::max_element(o.resolutions.begin(), o.resolutions.end()), o.epsilons.front(), o.runs);
-    std::cout << "\nregeneration after a light moves (" << *std::max_element(o.resolutions.begin(), o.resolutions.end()) << "², ε " << eps_text(o.epsilons.front())
+    std::cout << "\nregeneration after a light moves (" << *std::max_element(o.resolutions.begin(), o.resolutions.end()) << "², ε " << shortest(o.epsilons.front())
               << "):\n" << regeneration;
     if (!o.out_dir.empty()) {
         std::filesystem::path dir(o.out_dir);
@@ -406,7 +386,6 @@ int run(int argc, char** argv) {
         write_file(dir / "dsm_table.csv", csv_table(rows));
         write_file(dir / "dsm_regeneration.md", header + regeneration);
         std::cout << "wrote " << o.out_dir << "/dsm_table.{csv,md}\n";
-        plot(o, dir / "dsm_table.csv", dir / "dsm_error_vs_time.png");
     }
     return 0;
 }

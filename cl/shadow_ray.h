@@ -3,7 +3,8 @@
  * of its exact length (traversal.h), stopping once it falls below 10⁻⁶. Used by the "rays"
  * technique and as the low-pass technique's fallback for lights without a table.
  * With SOMBRA_SHADOW_RAY_MESHES the rays also cross the world-space mesh triangles, with
- * SOMBRA_HAS_BOUNDS the polyhedral volume bounds (both set by techniques/rays.h). */
+ * SOMBRA_HAS_BOUNDS the polyhedral volume bounds (both set by techniques/rays.h). With
+ * SOMBRA_SHADOW_RAY_STEP (src/techniques/rays.cpp) they march at that factor of the volumes' step. */
 #ifndef SOMBRA_SHADOW_RAY_H
 #define SOMBRA_SHADOW_RAY_H
 #include "scene_refs.h"
@@ -64,6 +65,9 @@ inline lfloat shadow_ray(VOLUME_DATA_PARAM, const SceneRefs* scene, const Shadow
     make_volume_ray(&ray, scene->volumes, volume_count, p, dir, (lfloat)(0.0f), t_max);
     SegmentCursor cursor;
     segment_cursor_init(&cursor, &ray, volume_count, scene->jitter, lanes);
+#ifdef SOMBRA_SHADOW_RAY_STEP /* RenderOptions::shadow_ray_step (techniques/rays.h only) */
+    cursor.step_scale = SOMBRA_SHADOW_RAY_STEP;
+#endif
 #ifdef SOMBRA_HAS_BOUNDS /* polyhedral bounds: their crossings along the ray are segment boundaries */
     segment_cursor_use_bound_triangles(&cursor, &ray, scene->volumes, volume_count, geometry->bound_triangles,
                                        geometry->bound_bvh, geometry->bound_bvh_nodes, t_max, lanes);

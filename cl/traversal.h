@@ -128,7 +128,8 @@ typedef struct {
     lmask alive;     /* lanes whose ray goes on; a pass clears lanes to stop them */
     lint next_bound; /* the first box bound not passed yet */
     lfloat t_start, t_end;
-    lfloat step;     /* of the current segment: the smallest step of its active volumes */
+    lfloat step;     /* of the current segment: the smallest step of its active volumes × step_scale */
+    float step_scale; /* 1, or the shadow rays' RenderOptions::shadow_ray_step (shadow_ray.h) */
     luint active;    /* bit i: volume i is active in the current segment */
     lint phase;      /* 0: the segment's start point comes next; 1: its samples; 2: its end point was the last */
     lint k;          /* index of the last sample in the segment: an integer, so that it never stalls */
@@ -179,6 +180,7 @@ inline void segment_cursor_init(SegmentCursor* c, const VolumeRay* ray, uint vol
     c->next_bound = (lint)(0);
     c->t_start = c->t_end = (lfloat)(0.0f); /* rays start at t = 0: the first segment ends at the first bound */
     c->step = (lfloat)(1.0f);
+    c->step_scale = 1.0f;
     c->active = (luint)(0u);
     c->phase = (lint)(2); /* the first call moves on to the first segment */
     c->k = (lint)(-1);
@@ -386,7 +388,7 @@ inline lmask segment_cursor_next(SegmentCursor* c, const VolumeRay* ray, __globa
             new_step = select(new_step, fmin(new_step, volumes[i].step), inside);
         }
         c->active = select(c->active, new_active, exhausted);
-        c->step = select(c->step, select(new_step, (lfloat)(1.0f), new_active == 0u), exhausted);
+        c->step = select(c->step, select(new_step * c->step_scale, (lfloat)(1.0f), new_active == 0u), exhausted);
         /* the first sample lies strictly after the start point (k = 0, or 1 without jitter) */
         c->k = select(c->k, select((lint)(-1), (lint)(0), c->jitter <= 0.0f), exhausted);
         c->phase = select(c->phase, (lint)(0), exhausted);

@@ -14,6 +14,8 @@ packages=(
   libniftiio-dev libnifti2-dev libznz-dev libzip-dev zlib1g-dev libtinyobjloader-dev
   # the Python module (python/): pybind11 for Debian's python3, numpy, pytest for its tests
   pybind11-dev python3-dev python3-numpy python3-pytest
+  # the benches' plots (bench/plot_error_pareto.py, bench/plot_lowpass.py)
+  python3-matplotlib
   # OpenVDB (.vdb; its headers include Boost's, which libopenvdb-dev does not pull in) and ITK's
   # ImageIO (NRRD, MetaImage, TIFF, DICOM through GDCM)
   libopenvdb-dev libboost-dev libtbb-dev libimath-dev libinsighttoolkit5-dev

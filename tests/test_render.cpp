@@ -2,6 +2,7 @@
 #include <catch2/catch.hpp>
 
 #include <cmath>
+#include <random>
 
 #include "reference/raycaster_ref.h"
 #include "test_support.h"
@@ -85,6 +86,51 @@ TEST_CASE("shadow-ray baseline matches the CPU reference and darkens what lies b
         darker += lit.image.rgba[i] - shadowed.image.rgba[i];
     }
     CHECK(darker > 1.0);  // and some light is blocked
+}
+
+TEST_CASE("shadow ray step: a finer step moves the rays closer to the reference, and refills the shadow cache", "[render][shadows]") {
+    Scene s = test::overlapping_scene();  // a noise cloud and Gaussian blobs: a coarse step misses detail
+    std::mt19937 rng(11);
+    std::uniform_real_distribution<float> u(-0.35f, 0.35f);
+    std::vector<Vec3> points(400);
+    for (auto& p : points) p = {u(rng), u(rng), u(rng)};
+    std::vector<double> reference(points.size());
+    for (std::size_t i = 0; i < points.size(); ++i) reference[i] = reference_transmittance(s, 0, points[i]);
+    RenderOptions o;
+    o.shadows = ShadowTechnique::Rays;
+    auto mean_error = [&](float step) {
+        o.shadow_ray_step = step;
+        std::vector<double> t = shadow_transmittance(test::context(), s, 0, points, o).transmittance;
+        double sum = 0;
+        for (std::size_t i = 0; i < t.size(); ++i) sum += std::fabs(t[i] - reference[i]);
+        return sum / double(t.size());
+    };
+    double coarse = mean_error(8.f), unit = mean_error(1.f), fine = mean_error(0.25f);
+    INFO("mean |T - reference|: step 8 " << coarse << ", step 1 " << unit << ", step 0.25 " << fine);
+    CHECK(unit < coarse);
+    CHECK(fine < unit);
+
+    // the step is part of the preparation's key: the cache is refilled and the image changes
+    s.width = s.height = 24;
+    o.shadow_cache = ShadowCacheMode::On;
+    o.shadow_ray_step = 1.f;
+    Image unit_image = render_with(s, o).image;
+    o.shadow_ray_step = 8.f;
+    RenderResult coarse_render = render_with(s, o);
+    CHECK(coarse_render.stats.shadow_cache_entries_built > 0);
+    CHECK(test::compare(coarse_render.image, unit_image).max_abs > 1e-4);
+}
+
+TEST_CASE("shadow ray step: zero, negative, NaN and steps above 16 are refused", "[render][shadows]") {
+    RenderOptions o;
+    for (float step : {1e-3f, 1.f, 16.f}) {
+        o.shadow_ray_step = step;
+        CHECK_NOTHROW(check_render_options(o));
+    }
+    for (float step : {0.f, -1.f, 16.5f, NAN}) {
+        o.shadow_ray_step = step;
+        CHECK_THAT(test::error_of([&] { check_render_options(o); }), Catch::Contains("--ray-step"));
+    }
 }
 
 TEST_CASE("camera pass without lights shows the transfer function colours only (ambient)", "[render]") {

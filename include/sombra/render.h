@@ -91,6 +91,9 @@ struct RenderOptions {
     // sub-boxes of the same tables (Ament §4.3, Eq. 25; 25 SAT boxes per lookup instead of one).
     std::string lowpass_filter_kernel = "box";
     float cone_angle_deg = 10.f;  // ShadowTechnique::Cone: half angle of the cones
+    // ShadowTechnique::Rays: a factor on each volume's step for the shadow rays only (the camera
+    // rays keep theirs); smaller is finer and slower. In (0, 16].
+    float shadow_ray_step = 1.f;
     std::size_t lowpass_max_entries = std::size_t(1) << 24;
     ShadowCacheMode shadow_cache = ShadowCacheMode::Auto;  // every technique with a shadow term
     VolumeStorage storage = VolumeStorage::Auto;
@@ -115,7 +118,8 @@ std::vector<std::string> render_option_values(const std::string& option);  // th
 void set_render_option(RenderOptions& options, const std::string& option, const std::string& value);
 std::string render_option_value(const RenderOptions& options, const std::string& option);
 // Throws sombra::Error naming the command-line flag of the first option whose value is not one of
-// its names (render, shadow_transmittance and build_deep_shadow_maps call it first).
+// its names, or of shadow_ray_step outside (0, 16] (render, shadow_transmittance and
+// build_deep_shadow_maps call it first).
 void check_render_options(const RenderOptions& options);
 
 // Linear RGB + alpha (coverage = 1 − t_acc), background already composited into RGB.

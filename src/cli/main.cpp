@@ -89,6 +89,7 @@ nlohmann::json options_json(const sombra::RenderOptions& o) {
             {"lowpass_filter_kernel", o.lowpass_filter_kernel},
             {"shadow_cache", sombra::render_option_value(o, "shadow_cache")},
             {"cone_angle_deg", decimal(o.cone_angle_deg)},
+            {"shadow_ray_step", decimal(o.shadow_ray_step)},
             {"storage", sombra::render_option_value(o, "storage")},
             {"empty_space_skipping", o.empty_space_skipping},
             {"termination_transmittance", decimal(o.termination_transmittance)},
@@ -168,7 +169,7 @@ int write_dsm(sombra::Context& context, const sombra::Scene& scene, int light, c
     for (const char* camera_only : {"width", "height", "samples", "msamples_per_s"}) j.erase(camera_only);
     for (const char* camera_only : {"width", "height", "shadows", "shading", "gradient", "phase_g", "jitter_seed",
                                     "termination_transmittance", "lowpass_filter_width", "lowpass_filter_kernel",
-                                    "shadow_cache", "cone_angle_deg"})
+                                    "shadow_cache", "cone_angle_deg", "shadow_ray_step"})
         j["options"].erase(camera_only);
     unsigned long long nodes = 0;
     for (const sombra::DeepShadowMap& map : maps) nodes += map.nodes.size();
@@ -325,6 +326,9 @@ int run(int argc, char** argv) {
                        "or auto (on when filling it costs fewer points than the frame's samples)")
         ->check(member_of("shadow_cache"));
     render->add_option("--cone-angle", cone_angle, "cone: half angle of the shadow cones in degrees")->check(in_range<float>(0.01f, 60));
+    float ray_step = defaults.shadow_ray_step;
+    render->add_option("--ray-step", ray_step, "rays: factor on each volume's step for the shadow rays, in (0, 16] (< 1: finer)")
+        ->check(in_range<float>(1e-6f, 16));
     std::string filter_kernel = defaults.lowpass_filter_kernel;
     render->add_option("--filter-kernel", filter_kernel, "lowpass: box (one SAT box) or gauss (5×5 sub-boxes, Ament Eq. 25)")
         ->check(member_of("lowpass_filter_kernel"));
@@ -461,6 +465,7 @@ int run(int argc, char** argv) {
     options.lowpass_filter_width = filter_width;
     options.lowpass_filter_kernel = filter_kernel;
     options.cone_angle_deg = cone_angle;
+    options.shadow_ray_step = ray_step;
     sombra::set_render_option(options, "shadow_cache", shadow_cache);
     options.dsm_resolution = dsm_resolution;
     options.dsm_epsilon = dsm_epsilon;

@@ -2,6 +2,7 @@
 // one list the command line, --stats and the Python module share.
 #include <algorithm>
 #include <functional>
+#include <sstream>
 #include <utility>
 
 #include "sombra/error.h"
@@ -109,6 +110,11 @@ void check_render_options(const RenderOptions& options) {
         std::string known;
         for (const auto& v : o.values) known += (known.empty() ? "" : ", ") + v.first;
         throw Error(std::string(o.flag) + ": unknown value " + o.shown(options) + " (" + known + ")");
+    }
+    if (!(options.shadow_ray_step > 0.f && options.shadow_ray_step <= 16.f)) {
+        std::ostringstream got;
+        got << options.shadow_ray_step;
+        throw Error("--ray-step: must lie in (0, 16], got " + got.str());
     }
 }
 

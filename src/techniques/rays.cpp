@@ -1,6 +1,10 @@
 // sombra — shadow technique "rays" (cl/techniques/rays.h): in scenes with meshes, the BVH of the
-// world-space triangles the shadow rays cross, and of the polyhedral volume bounds.
+// world-space triangles the shadow rays cross, and of the polyhedral volume bounds; the rays' step
+// factor (RenderOptions::shadow_ray_step) as a define.
+#include <charconv>
 #include <chrono>
+#include <ostream>
+#include <string>
 
 #include "geometry/surfaces.h"
 #include "techniques/technique.h"
@@ -8,13 +12,25 @@
 namespace sombra::techniques {
 namespace {
 
+// The shortest decimal that reads back as `value`, as an OpenCL float literal ("0.25f", "2.0f").
+std::string float_literal(float value) {
+    char text[32];
+    std::string digits(text, std::to_chars(text, text + sizeof text, value).ptr);
+    if (digits.find_first_of(".e") == std::string::npos) digits += ".0";
+    return digits + "f";
+}
+
 class ShadowRays final : public ShadowModule {
 public:
-    void add_defines(const Scene& scene, const RenderOptions&, std::vector<std::string>& defines) const override {
+    void add_defines(const Scene& scene, const RenderOptions& options, std::vector<std::string>& defines) const override {
         defines.push_back("SOMBRA_TECHNIQUE_RAYS");
         // shadow rays cross the bounds (the other passes see their fragments)
         if (surfaces::has_bounds(scene)) defines.push_back("SOMBRA_HAS_BOUNDS");
+        if (options.shadow_ray_step != 1.f) defines.push_back("SOMBRA_SHADOW_RAY_STEP=" + float_literal(options.shadow_ray_step));
     }
+
+    // the shadow cache's entries are keyed by the preparation: a changed step refills them
+    void add_key(const RenderOptions& options, int, std::ostream& key) const override { key << float_literal(options.shadow_ray_step); }
 
     void prepare(const SceneOnDevice& s, RenderStats& stats) override {
         *this = ShadowRays();  // a module outlives preparations: nothing of the previous scene stays
