@@ -96,7 +96,7 @@ typedef struct {
     sb_uint resolution;  /* texels per side */
     sb_uint perspective; /* 1: perspective, 0: orthographic */
     sb_uint first_texel; /* index of texel (0, 0) in the storage's per-texel arrays */
-    sb_uint max_nodes;   /* most nodes in one texel: bounds the binary search of lookups */
+    sb_uint max_nodes;   /* most nodes in one texel (statistics; lookups walk, cl/dsm_storage_common.h) */
     float near_depth, far_depth; /* depth range of the scene's boxes in this view */
     /* Texel (x, y)'s ray passes through (x + ½ + ray_shift + jitter·(h − ½), …) texels of the image
      * plane, h a hash of (x, y, jitter_seed) (shared/hash.h sombra_texel_ray_coord). 0, 0 in maps
