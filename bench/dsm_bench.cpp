@@ -59,6 +59,7 @@ struct BenchOptions {
     std::string out_dir;
     std::vector<std::string> storages = kDsmStorages;
     int lanes_resolution = -1;  // resolution of the 1-lane vs 8-lane comparison; -1: the largest, 0: none
+    std::vector<std::string> speed_scenes;  // --speed: only the lookup and generation speed tables
 };
 
 struct Row {
@@ -190,6 +191,57 @@ std::map<int, double> measure_lanes(sombra::Context& context, const sombra::Scen
     return medians;
 }
 
+// --speed: per scene and storage, the camera pass with DSM lookups against the same pass without
+// shadows (renders alternating none, dsm after one warm-up each, medians of `runs`; every DSM
+// render generates its maps again), and the generation's dsm_* stages of those renders (medians).
+// Ratios of one run are what to compare: the machine may be shared (bench/README.md).
+std::string measure_speed(sombra::Context& context, const BenchOptions& o) {
+    int resolution = *std::max_element(o.resolutions.begin(), o.resolutions.end());
+    float epsilon = o.epsilons.front();
+    std::ostringstream lookup, generation;
+    lookup << "DSM lookup: camera pass with --shadows dsm against --shadows none (" << o.width << "x" << o.height
+           << ", DSM " << resolution << "², ε " << eps_text(epsilon) << "; alternating runs, medians of " << o.runs << "):\n\n"
+           << "| scene | storage | none ms | dsm ms | dsm ÷ none |\n|---|---|---:|---:|---:|\n";
+    generation << "DSM generation per stage (the same DSM renders; " << resolution << "², ε " << eps_text(epsilon) << "):\n\n"
+               << "| scene | storage | stages (ms) | sum ms |\n|---|---|---|---:|\n";
+    for (const std::string& path : o.speed_scenes) {
+        sombra::Scene scene = sombra::load_scene(path);
+        std::string name = std::filesystem::path(path).stem().string();
+        for (const std::string& storage : o.storages) {
+            sombra::RenderOptions none;
+            none.width = o.width, none.height = o.height;
+            none.lowpass_cache = false;
+            sombra::RenderOptions dsm = none;
+            dsm.shadows = sombra::ShadowTechnique::Dsm;
+            dsm.dsm_resolution = resolution, dsm.dsm_epsilon = epsilon;
+            set_dsm_storage(dsm, storage, 0);
+            std::vector<double> none_ms, dsm_ms, sums;
+            std::map<std::string, std::vector<double>> stages;
+            for (int i = -1; i < o.runs; ++i)  // i = −1: warm-up (program builds, PoCL cache)
+                for (const sombra::RenderOptions* options : {&none, &dsm}) {
+                    forget_preparation(context, scene);
+                    sombra::RenderStats stats = sombra::render(context, scene, *options).stats;
+                    if (i < 0) continue;
+                    (options == &none ? none_ms : dsm_ms).push_back(stats.stage_ms.at("camera_pass"));
+                    if (options == &none) continue;
+                    double sum = 0;
+                    for (const auto& [stage, ms] : stats.stage_ms)
+                        if (stage.rfind("dsm_", 0) == 0) stages[stage].push_back(ms), sum += ms;
+                    sums.push_back(sum);
+                }
+            lookup << "| " << name << " | " << storage << " | " << fixed(median(none_ms), 1) << " | " << fixed(median(dsm_ms), 1)
+                   << " | " << fixed(median(dsm_ms) / median(none_ms), 2) << " |\n";
+            generation << "| " << name << " | " << storage << " |";
+            for (const auto& [stage, ms] : stages) generation << " " << stage << " " << fixed(median(ms), 1) << ";";
+            generation << " | " << fixed(median(sums), 1) << " |\n";
+            std::cout << name << " " << storage << ": none " << fixed(median(none_ms), 1) << " ms, dsm " << fixed(median(dsm_ms), 1)
+                      << " ms (" << fixed(median(dsm_ms) / median(none_ms), 2) << "×), generation " << fixed(median(sums), 1)
+                      << " ms" << std::endl;
+        }
+    }
+    return lookup.str() + "\n" + generation.str();
+}
+
 const Row* find_row(const std::vector<Row>& rows, const std::string& shadows) {
     for (const Row& r : rows)
         if (r.shadows == shadows) return &r;
@@ -290,10 +342,29 @@ int run(int argc, char** argv) {
         ->delimiter(',');
     app.add_option("--lanes-resolution", o.lanes_resolution,
                    "resolution of the DSM generation comparison 1 vs 8 lanes (CPU devices; default: the largest; 0: none)");
+    app.add_option("--speed", o.speed_scenes,
+                   "only the speed tables, for these scenes (comma-separated): DSM lookup ÷ no shadows and DSM generation "
+                   "per stage, at the largest --resolutions and the first --eps, per --storages")
+        ->delimiter(',');
     CLI11_PARSE(app, argc, argv);
 
     std::string command;
     for (int i = 0; i < argc; ++i) command += (i ? " " : "") + std::string(argv[i]);
+
+    if (!o.speed_scenes.empty()) {
+        sombra::Context context(o.device);
+        std::cout << "command:  " << command << "\n"
+                  << "device:   " << context.device().name << " [" << context.device().platform << "]\n"
+                  << "cores:    " << std::thread::hardware_concurrency() << "\n\n";
+        std::string tables = measure_speed(context, o);
+        std::cout << "\n" << tables;
+        if (!o.out_dir.empty()) {
+            std::filesystem::create_directories(o.out_dir);
+            write_file(std::filesystem::path(o.out_dir) / "dsm_speed.md", "<!-- " + command + " | " + context.device().name + " -->\n" + tables);
+            std::cout << "wrote " << o.out_dir << "/dsm_speed.md\n";
+        }
+        return 0;
+    }
 
     sombra::Scene scene = sombra::load_scene(o.scene);
     if (o.light >= int(scene.lights.size()))

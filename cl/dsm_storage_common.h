@@ -49,63 +49,48 @@ inline uint claim_block(__global uint* entry, __global uint* counters, uint pool
     return fresh;
 }
 
-#if SOMBRA_LANES == 1
-inline lint gather_uint_as_int(__global const uint* ptr, lint idx) { return (int)ptr[idx]; }
-#else
-inline lint gather_uint_as_int(__global const uint* ptr, lint idx) {
-#define SOMBRA_GATHER_UINT_LANE(c) (int)ptr[LC(idx, c)]
-    return LFROM_LANES_AS(lint, SOMBRA_GATHER_UINT_LANE);
-#undef SOMBRA_GATHER_UINT_LANE
-}
-#endif
+/* Lookups are scalar, one lane at a time (techniques/dsm.h): a lane's search stops as soon as its
+ * own texel is answered, instead of every lane of a packet running the longest search in lockstep
+ * through per-lane gathers. Each bilinear corner keeps a hint per lane (Hadwiger §3.5: the search
+ * starts at the previous sample's node): the node index, or for linked lists the slot, found by
+ * the previous lookup, and the texel it was found in. */
+typedef struct {
+    int texel; /* −1: none yet */
+    int node;
+} DsmSearchHint;
 
-/* For backends with random access to node k of a texel, given as the macros DSM_NODE_DEPTH(k)
- * and DSM_NODE_OPACITY(k) (k a lint, valid in [0, count)):
- *   DSM_BISECT(lo, count, z, max_nodes)   lo = first node deeper than z, by bisection in at most
- *                                         ⌈log2(max_nodes + 1)⌉ steps
- *   DSM_WALK(lo, count, z, max_nodes)     the same by walking from a start index lo (Hadwiger §3.5:
- *                                         the search starts at the previous sample's node)
- *   DSM_INTERPOLATE(lo, count, z)         V'(z) from lo: 0 before the first node, the last node's
- *                                         opacity after the last, linear in between (Knecht Eq. 3.7) */
-#define DSM_BISECT(lo, count, z, max_nodes)                                                             \
-    do {                                                                                                 \
-        lint hi_ = (count);                                                                              \
-        (lo) = (lint)(0);                                                                                \
-        for (uint span_ = (max_nodes); span_ > 0; span_ >>= 1) {                                         \
-            lmask open_ = (lo) < hi_;                                                                    \
-            lint mid_ = ((lo) + hi_) >> 1;                                                               \
-            lmask deeper_ = DSM_NODE_DEPTH(select((lint)(0), mid_, open_)) > (z);                        \
-            hi_ = select(hi_, mid_, open_ & deeper_);                                                    \
-            (lo) = select((lo), mid_ + 1, open_ & !deeper_);                                             \
-        }                                                                                                \
+/* For backends with random access to node k of a texel, given as DSM_NODE(k) (a float2: depth,
+ * opacity; k in [0, count)): V'(z) of a texel of `count` nodes (Knecht Eq. 3.7), 0 before the
+ * first node, the last node's opacity from the last on, linear in between, clamped to [0, 1].
+ * lo, the number of nodes at or before z, is found by walking from the hint's lo (of the previous
+ * lookup of the same corner, in whatever texel: neighbouring texels and successive samples hold
+ * similar functions); the walk ends at the same lo from every start, so hints change the cost,
+ * never the result. The two nodes it tests last, lo − 1 and lo, are the pair interpolated: a good
+ * hint costs two node reads. */
+#define DSM_SCALAR_LOOKUP(result, count, z, hint)                                                     \
+    do {                                                                                               \
+        int lo_ = clamp((hint)->node, 0, (count));                                                    \
+        float2 n0_ = (float2)(0.0f), n1_ = (float2)(0.0f);                                            \
+        if (lo_ < (count)) n1_ = DSM_NODE(lo_);                                                       \
+        if (lo_ < (count) && n1_.x <= (z)) {                                                          \
+            do { /* forward past the nodes at or before z */                                          \
+                n0_ = n1_;                                                                             \
+                ++lo_;                                                                                 \
+                if (lo_ < (count)) n1_ = DSM_NODE(lo_);                                               \
+            } while (lo_ < (count) && n1_.x <= (z));                                                  \
+        } else {                                                                                       \
+            if (lo_ > 0) n0_ = DSM_NODE(lo_ - 1);                                                     \
+            while (lo_ > 0 && n0_.x > (z)) { /* back over the nodes deeper than z */                 \
+                n1_ = n0_;                                                                             \
+                --lo_;                                                                                 \
+                if (lo_ > 0) n0_ = DSM_NODE(lo_ - 1);                                                 \
+            }                                                                                          \
+        }                                                                                              \
+        (hint)->node = lo_;                                                                            \
+        float r_ = mix(n0_.y, n1_.y, clamp(((z) - n0_.x) / fmax(n1_.x - n0_.x, 1e-30f), 0.0f, 1.0f)); \
+        r_ = lo_ == (count) ? n0_.y : r_; /* after the last node (none: 0) */                        \
+        r_ = lo_ == 0 ? 0.0f : r_;        /* before the first */                                      \
+        (result) = clamp(r_, 0.0f, 1.0f);                                                              \
     } while (0)
-
-#define DSM_WALK(lo, count, z, max_nodes)                                                               \
-    do {                                                                                                 \
-        (lo) = clamp((lo), (lint)(0), (count));                                                          \
-        for (uint step_ = 0; step_ < (max_nodes); ++step_) { /* forward past nodes at or before z */     \
-            lmask pass_ = (lo) < (count);                                                                \
-            pass_ &= DSM_NODE_DEPTH(select((lint)(0), (lo), pass_)) <= (z);                              \
-            if (!lany(pass_)) break;                                                                     \
-            (lo) += select((lint)(0), (lint)(1), pass_);                                                 \
-        }                                                                                                \
-        for (uint step_ = 0; step_ < (max_nodes); ++step_) { /* back over nodes deeper than z */         \
-            lmask back_ = (lo) > 0;                                                                      \
-            back_ &= DSM_NODE_DEPTH(select((lint)(0), (lo) - 1, back_)) > (z);                           \
-            if (!lany(back_)) break;                                                                     \
-            (lo) -= select((lint)(0), (lint)(1), back_);                                                 \
-        }                                                                                                \
-    } while (0)
-
-#define DSM_INTERPOLATE(lo, count, z)                                                                   \
-    lmask any_node = (count) > 0;                                                                        \
-    lint i1 = select((lint)(0), clamp((lo), (lint)(0), (count) - 1), any_node);                         \
-    lint i0 = max(i1 - 1, (lint)(0));                                                                    \
-    lfloat z0 = DSM_NODE_DEPTH(i0), a0 = DSM_NODE_OPACITY(i0);                                           \
-    lfloat z1 = DSM_NODE_DEPTH(i1), a1 = DSM_NODE_OPACITY(i1);                                           \
-    lfloat alpha = mix(a0, a1, clamp(((z) - z0) / fmax(z1 - z0, 1e-30f), 0.0f, 1.0f));                   \
-    alpha = select(alpha, a1, (lo) == (count));                                                          \
-    alpha = select(alpha, (lfloat)(0.0f), ((lo) == 0) | !any_node);                                      \
-    return clamp(alpha, 0.0f, 1.0f)
 
 #endif

@@ -77,51 +77,22 @@ inline void dsm_writer_end(DsmWriter* w, DSM_WRITE_PARAMS, __global const DsmVie
 #define DSM_READ_STATE_FIELDS __global const uint* atlas_layout; __global const uint* texel_count; __global const float* atlas_blocks;
 #define DSM_READ_STATE_INIT(s) ((s).atlas_layout = atlas_layout, (s).texel_count = texel_count, (s).atlas_blocks = atlas_blocks)
 #define DSM_READ_ARGS_OF(s) (s)->atlas_layout, (s)->texel_count, (s)->atlas_blocks
-#define DSM_HAS_SEARCH_HINTS /* lookups can start from the previous sample's node */
 
-/* Float index of node k of the lanes' texels (block looked up in the layout table). */
-inline lint atlas_node_index(__global const uint* atlas_layout, lint tile, lint texel_in_tile, lint k) {
-    lint entry = tile * SOMBRA_ATLAS_MAX_BLOCKS + k / SOMBRA_ATLAS_LAYERS;
-    lint block = max(gather_uint_as_int(atlas_layout, entry) - 1, (lint)(0)); /* unallocated: read block 0, unused */
-    return 2 * ((block * SOMBRA_ATLAS_LAYERS + k % SOMBRA_ATLAS_LAYERS) * ATLAS_TILE_TEXELS + texel_in_tile);
-}
-
-/* V'(z) of texels (x, y), one per lane. `hint` (may be 0) carries, per lane, the texel and node
- * index found by the previous lookup of the same caller: when the texel is the same, the search
- * walks from that node (Hadwiger §3.5: successive samples of a ray lie close in depth), else it
- * bisects; the found node is stored back. */
-typedef struct {
-    lint texel, node;
-} DsmSearchHint;
-
-inline lfloat dsm_texel_opacity_hinted(DSM_READ_PARAMS, __global const DsmViewGpu* v, lint x, lint y, lfloat z,
-                                       DsmSearchHint* hint) {
-    int per_row = (int)dsm_tiles_per_row(v);
-    lint tile = (int)(dsm_view_number(v) * per_row * per_row) + (y / DSM_TILE_SIZE) * per_row + x / DSM_TILE_SIZE;
-    lint texel_in_tile = (y % DSM_TILE_SIZE) * DSM_TILE_SIZE + x % DSM_TILE_SIZE;
-    lint texel = (int)v->first_texel + y * (int)v->resolution + x;
-    lint count = gather_uint_as_int(texel_count, texel);
-#define DSM_NODE_DEPTH(k) gather(atlas_blocks, atlas_node_index(atlas_layout, tile, texel_in_tile, (k)))
-#define DSM_NODE_OPACITY(k) gather(atlas_blocks, atlas_node_index(atlas_layout, tile, texel_in_tile, (k)) + 1)
-    lint lo;
-    lmask same = hint ? hint->texel == texel : (lmask)(0);
-    if (hint && !lany(!same)) { /* every lane looks at the texel of its previous lookup */
-        lo = hint->node;
-        DSM_WALK(lo, count, z, v->max_nodes);
-    } else {
-        DSM_BISECT(lo, count, z, v->max_nodes);
-    }
-    if (hint) {
-        hint->texel = texel;
-        hint->node = lo;
-    }
-    DSM_INTERPOLATE(lo, count, z);
-#undef DSM_NODE_DEPTH
-#undef DSM_NODE_OPACITY
-}
-
-inline lfloat dsm_texel_opacity(DSM_READ_PARAMS, __global const DsmViewGpu* v, lint x, lint y, lfloat z) {
-    return dsm_texel_opacity_hinted(DSM_READ_ARGS, v, x, y, z, 0);
+/* V'(z) of texel (x, y) of view v (Knecht Eq. 3.7): the walk of DSM_SCALAR_LOOKUP, node k found
+ * through the tile's layout table (block of layer range k / LAYERS, layer k mod LAYERS; an
+ * unallocated entry, which a finished build never leaves below the count, reads block 0). */
+inline float dsm_texel_opacity(DSM_READ_PARAMS, __global const DsmViewGpu* v, int x, int y, float z, DsmSearchHint* hint) {
+    uint per_row = dsm_tiles_per_row(v);
+    uint tile = dsm_view_number(v) * per_row * per_row + ((uint)y / DSM_TILE_SIZE) * per_row + (uint)x / DSM_TILE_SIZE;
+    uint texel_in_tile = atlas_texel_in_tile((uint)x, (uint)y);
+    int count = (int)texel_count[dsm_texel_index(v, (uint)x, (uint)y)];
+    __global const uint* layout = &atlas_layout[tile * SOMBRA_ATLAS_MAX_BLOCKS];
+#define DSM_NODE(k) \
+    vload2(((max(layout[(uint)(k) / SOMBRA_ATLAS_LAYERS], 1u) - 1) * SOMBRA_ATLAS_LAYERS + (uint)(k) % SOMBRA_ATLAS_LAYERS) * ATLAS_TILE_TEXELS + texel_in_tile, atlas_blocks)
+    float alpha;
+    DSM_SCALAR_LOOKUP(alpha, count, z, hint);
+#undef DSM_NODE
+    return alpha;
 }
 
 #endif

@@ -91,30 +91,40 @@ __kernel void dsm_rearrange(__global const float* chunk_nodes, __global const ui
 #define DSM_READ_STATE_INIT(s) ((s).texel_head = texel_head, (s).chunk_texture = chunk_texture)
 #define DSM_READ_ARGS_OF(s) (s)->texel_head, (s)->chunk_texture
 
-/* V'(z) by walking each lane's list from its head (Knecht: linear search, no bisection). */
-inline lfloat dsm_texel_opacity(DSM_READ_PARAMS, __global const DsmViewGpu* v, lint x, lint y, lfloat z) {
-    lint node = gather_uint_as_int(texel_head, (int)v->first_texel + y * (int)v->resolution + x);
-    lint previous = (lint)(-1);
-    lfloat z0 = (lfloat)(0.0f), a0 = (lfloat)(0.0f), z1 = (lfloat)(0.0f), a1 = (lfloat)(0.0f);
-    lmask walking = node != -1;
-    for (uint step = 0; step < v->max_nodes && lany(walking); ++step) {
-        lint at = 4 * select((lint)(0), node, walking);
-        lfloat depth = gather(chunk_texture, at), opacity = gather(chunk_texture, at + 1);
-        lmask passed = walking & (depth <= z);
-        z1 = select(z1, depth, walking);
-        a1 = select(a1, opacity, walking);
-        z0 = select(z0, depth, passed);
-        a0 = select(a0, opacity, passed);
-        previous = select(previous, node, passed);
-        node = select(node, LAS_INT(gather(chunk_texture, at + 2)), passed); /* the link, stored as bits */
-        walking = passed & (node != -1);
+/* V'(z) of texel (x, y) of view v by walking its list (Knecht: linear search, no bisection), from
+ * the head, or from the hint's slot when the previous lookup of this corner was in the same texel
+ * and found a node at or before z there (Hadwiger §3.5); the hint keeps the last node at or
+ * before z. 0 before the first node, the last node's opacity after the last, linear in between
+ * (Eq. 3.7), clamped to [0, 1]. */
+inline float dsm_texel_opacity(DSM_READ_PARAMS, __global const DsmViewGpu* v, int x, int y, float z, DsmSearchHint* hint) {
+    __global const float4* texture = (__global const float4*)chunk_texture;
+    int texel = (int)dsm_texel_index(v, (uint)x, (uint)y);
+    uint slot = CHUNK_END;
+    float4 node;
+    if (hint->texel == texel) {
+        node = texture[hint->node];
+        if (node.x <= z) slot = (uint)hint->node;
     }
-    /* previous = last node at or before z (−1: none); z1/a1 = the first node deeper, or the last one */
-    lmask none_before = previous == -1;
-    lmask after_last = !none_before & (node == -1);
-    lfloat alpha = mix(a0, a1, clamp((z - z0) / fmax(z1 - z0, 1e-30f), 0.0f, 1.0f));
-    alpha = select(alpha, a0, after_last);
-    alpha = select(alpha, (lfloat)(0.0f), none_before);
+    if (slot == CHUNK_END) {
+        slot = texel_head[texel];
+        if (slot == CHUNK_END) return 0.0f;
+        node = texture[slot];
+        if (!(node.x <= z)) return 0.0f; /* no node at or before z */
+    }
+    /* node (at slot) lies at or before z: walk on while the next one does too */
+    float alpha = node.y;
+    for (uint next = as_uint(node.z); next != CHUNK_END; next = as_uint(node.z)) {
+        float4 after = texture[next];
+        if (after.x > z) {
+            alpha = mix(node.y, after.y, clamp((z - node.x) / fmax(after.x - node.x, 1e-30f), 0.0f, 1.0f));
+            break;
+        }
+        slot = next;
+        node = after;
+        alpha = node.y;
+    }
+    hint->texel = texel;
+    hint->node = (int)slot;
     return clamp(alpha, 0.0f, 1.0f);
 }
 

@@ -34,19 +34,17 @@ inline void dsm_writer_end(DsmWriter* w, DSM_WRITE_PARAMS, __global const DsmVie
 #define DSM_READ_ARGS_OF(s) (s)->texel_first, (s)->nodes
 
 
-/* V'(z) of texels (x, y) of view v, one per lane (Knecht Eq. 3.7): bisection for the first node
- * deeper than z over the texel's run, clamped to [0, 1]. */
-inline lfloat dsm_texel_opacity(DSM_READ_PARAMS, __global const DsmViewGpu* v, lint x, lint y, lfloat z) {
-    lint texel = (int)v->first_texel + y * (int)v->resolution + x;
-    lint begin = gather_uint_as_int(texel_first, texel);
-    lint count = gather_uint_as_int(texel_first, texel + 1) - begin;
-#define DSM_NODE_DEPTH(k) gather(nodes, 2 * (begin + (k)))
-#define DSM_NODE_OPACITY(k) gather(nodes, 2 * (begin + (k)) + 1)
-    lint lo;
-    DSM_BISECT(lo, count, z, v->max_nodes);
-    DSM_INTERPOLATE(lo, count, z);
-#undef DSM_NODE_DEPTH
-#undef DSM_NODE_OPACITY
+/* V'(z) of texel (x, y) of view v (Knecht Eq. 3.7): the walk of DSM_SCALAR_LOOKUP over the texel's
+ * run of nodes. */
+inline float dsm_texel_opacity(DSM_READ_PARAMS, __global const DsmViewGpu* v, int x, int y, float z, DsmSearchHint* hint) {
+    uint texel = v->first_texel + (uint)y * v->resolution + (uint)x;
+    uint begin = texel_first[texel];
+    int count = (int)(texel_first[texel + 1] - begin);
+#define DSM_NODE(k) vload2(begin + (uint)(k), nodes)
+    float alpha;
+    DSM_SCALAR_LOOKUP(alpha, count, z, hint);
+#undef DSM_NODE
+    return alpha;
 }
 
 #endif

@@ -171,14 +171,15 @@ TEST_CASE("a vanishing gradient gives a zero normal, never NaN", "[sampling][gra
 TEST_CASE("brick ranges cover every voxel a trilinear sample in the brick reads", "[sampling]") {
     Volume v = make_cloud_noise(19, 4);  // not a multiple of the brick size
     packing::BrickRanges r = packing::compute_brick_ranges(v);
-    REQUIRE(r.brick_dims == std::array<int, 3>{3, 3, 3});
+    const int n = (19 + SOMBRA_BRICK_SIZE - 1) / SOMBRA_BRICK_SIZE;
+    REQUIRE(r.brick_dims == std::array<int, 3>{n, n, n});
     std::mt19937 rng(1);
     std::uniform_real_distribution<float> u(0.f, 18.f);
     for (int i = 0; i < 5000; ++i) {
         float p[3] = {u(rng), u(rng), u(rng)};
         int b[3];
         for (int k = 0; k < 3; ++k) b[k] = std::min(int(p[k]) / SOMBRA_BRICK_SIZE, r.brick_dims[k] - 1);
-        std::size_t brick = std::size_t(b[0]) + 3 * (std::size_t(b[1]) + 3 * b[2]);
+        std::size_t brick = std::size_t(b[0]) + std::size_t(n) * (std::size_t(b[1]) + std::size_t(n) * std::size_t(b[2]));
         double value = reference::sample_trilinear(v, p[0], p[1], p[2]);
         REQUIRE(value >= r.min[brick] - 1e-6);
         REQUIRE(value <= r.max[brick] + 1e-6);

@@ -14,34 +14,23 @@
 typedef struct {
     __global const DsmViewGpu* views;
     DSM_READ_STATE_FIELDS
-#ifdef DSM_HAS_SEARCH_HINTS
-    DsmSearchHint hints[SOMBRA_LIGHT_SLOTS * 4]; /* per light and bilinear corner: the last node found */
-#endif
+    /* per light, bilinear corner and lane: where the previous lookup found its node */
+    DsmSearchHint hints[SOMBRA_LIGHT_SLOTS * 4][SOMBRA_LANES];
 } ShadowState;
 
 inline void dsm_state_init(ShadowState* s) {
-#ifdef DSM_HAS_SEARCH_HINTS
-    for (int i = 0; i < SOMBRA_LIGHT_SLOTS * 4; ++i) s->hints[i].texel = (lint)(-1);
-#endif
+    for (int i = 0; i < SOMBRA_LIGHT_SLOTS * 4; ++i)
+        for (int lane = 0; lane < SOMBRA_LANES; ++lane) s->hints[i][lane].texel = -1, s->hints[i][lane].node = 0;
 }
 #define SHADOW_STATE_INIT(s) (s).views = views; DSM_READ_STATE_INIT(s); dsm_state_init(&(s));
 
 /* α of one texel at depth z: V'(z) (Knecht Eq. 3.7), or with DSM_BINARY_LOOKUP the binary
  * shadow-map baseline: fully shadowed behind the depth where the texel's opacity reaches 1/2
  * (the depth a classic shadow map stores), lit before it. */
-#ifdef DSM_HAS_SEARCH_HINTS
-#define DSM_HINT_PARAM , DsmSearchHint* hint
-#define DSM_HINT_ARG(h) , (h)
-#define DSM_TEXEL_OPACITY(v, x, y, z) dsm_texel_opacity_hinted(DSM_READ_ARGS, v, x, y, z, hint)
-#else
-#define DSM_HINT_PARAM
-#define DSM_HINT_ARG(h)
-#define DSM_TEXEL_OPACITY(v, x, y, z) dsm_texel_opacity(DSM_READ_ARGS, v, x, y, z)
-#endif
-inline lfloat texel_attenuation(DSM_READ_PARAMS, __global const DsmViewGpu* v, lint x, lint y, lfloat z DSM_HINT_PARAM) {
-    lfloat alpha = DSM_TEXEL_OPACITY(v, x, y, z);
+inline float texel_attenuation(DSM_READ_PARAMS, __global const DsmViewGpu* v, int x, int y, float z, DsmSearchHint* hint) {
+    float alpha = dsm_texel_opacity(DSM_READ_ARGS, v, x, y, z, hint);
 #ifdef DSM_BINARY_LOOKUP
-    alpha = select((lfloat)(0.0f), (lfloat)(1.0f), alpha >= 0.5f);
+    alpha = alpha >= 0.5f ? 1.0f : 0.0f;
 #endif
     return alpha;
 }
@@ -49,12 +38,10 @@ inline lfloat texel_attenuation(DSM_READ_PARAMS, __global const DsmViewGpu* v, l
 inline lfloat shadow_transmittance(VOLUME_DATA_PARAM, const SceneRefs* scene, ShadowState* s, uint light_index, lfloat3 p,
                                    lmask lanes) {
     __global const LightGpu* light = &scene->lights[light_index];
-#ifdef DSM_HAS_SEARCH_HINTS
-    DsmSearchHint* hints = &s->hints[4 * light_index];
-#endif
+    DsmSearchHint (*hints)[SOMBRA_LANES] = &s->hints[4 * light_index];
     lfloat alpha = (lfloat)(0.0f);
     lmask done = !lanes;
-    for (uint i = 0; i < light->view_count; ++i) {
+    for (uint i = 0; i < light->view_count && lany(!done); ++i) {
         __global const DsmViewGpu* v = &s->views[light->view_first + i];
         lfloat u, w, depth;
         lmask covered = dsm_view_project(v, p, &u, &w, &depth) & !done;
@@ -65,11 +52,25 @@ inline lfloat shadow_transmittance(VOLUME_DATA_PARAM, const SceneRefs* scene, Sh
         int last = (int)v->resolution - 1;
         lint x0 = clamp(LCONVERT_INT(u0), 0, last), x1 = clamp(LCONVERT_INT(u0) + 1, 0, last);
         lint y0 = clamp(LCONVERT_INT(w0), 0, last), y1 = clamp(LCONVERT_INT(w0) + 1, 0, last);
-        lfloat a00 = texel_attenuation(DSM_READ_ARGS_OF(s), v, x0, y0, depth DSM_HINT_ARG(&hints[0]));
-        lfloat a10 = texel_attenuation(DSM_READ_ARGS_OF(s), v, x1, y0, depth DSM_HINT_ARG(&hints[1]));
-        lfloat a01 = texel_attenuation(DSM_READ_ARGS_OF(s), v, x0, y1, depth DSM_HINT_ARG(&hints[2]));
-        lfloat a11 = texel_attenuation(DSM_READ_ARGS_OF(s), v, x1, y1, depth DSM_HINT_ARG(&hints[3]));
-        alpha = select(alpha, mix(mix(a00, a10, fu), mix(a01, a11, fu), fw), covered);
+        /* the four texels of each covered lane, one lane at a time (dsm_storage_common.h) */
+        int cover_lane[SOMBRA_LANES], x0_lane[SOMBRA_LANES], x1_lane[SOMBRA_LANES], y0_lane[SOMBRA_LANES], y1_lane[SOMBRA_LANES];
+        float z_lane[SOMBRA_LANES], a00[SOMBRA_LANES], a10[SOMBRA_LANES], a01[SOMBRA_LANES], a11[SOMBRA_LANES];
+        LSTORE(covered, cover_lane);
+        LSTORE(x0, x0_lane);
+        LSTORE(x1, x1_lane);
+        LSTORE(y0, y0_lane);
+        LSTORE(y1, y1_lane);
+        LSTORE(depth, z_lane);
+        for (int lane = 0; lane < SOMBRA_LANES; ++lane) {
+            a00[lane] = a10[lane] = a01[lane] = a11[lane] = 0.0f;
+            if (!cover_lane[lane]) continue;
+            float z = z_lane[lane];
+            a00[lane] = texel_attenuation(DSM_READ_ARGS_OF(s), v, x0_lane[lane], y0_lane[lane], z, &hints[0][lane]);
+            a10[lane] = texel_attenuation(DSM_READ_ARGS_OF(s), v, x1_lane[lane], y0_lane[lane], z, &hints[1][lane]);
+            a01[lane] = texel_attenuation(DSM_READ_ARGS_OF(s), v, x0_lane[lane], y1_lane[lane], z, &hints[2][lane]);
+            a11[lane] = texel_attenuation(DSM_READ_ARGS_OF(s), v, x1_lane[lane], y1_lane[lane], z, &hints[3][lane]);
+        }
+        alpha = select(alpha, mix(mix(LLOAD(a00), LLOAD(a10), fu), mix(LLOAD(a01), LLOAD(a11), fu), fw), covered);
         done |= covered;
     }
     return 1.0f - alpha;
