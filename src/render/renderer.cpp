@@ -1,10 +1,7 @@
 // sombra — the camera pass on the host, and the shadow queries that share its preparation. The
 // shadow technique is a module (src/techniques/technique.h): this file names none.
 #include <chrono>
-#include <cstring>
 #include <cmath>
-#include <functional>
-#include <numeric>
 #include <sstream>
 
 #include <nlohmann/json.hpp>

@@ -7,8 +7,6 @@
 #include <array>
 #include <cmath>
 #include <cstring>
-#include <functional>
-#include <numeric>
 
 #include "host/kernel_args.h"
 #include "host/tiled_launch.h"
@@ -102,50 +100,45 @@ std::vector<std::string> generic_keys(const Scene& scene, const PreparedScene& p
 // the box's volume over the pixel footprint at its centre times the step (the chords of a convex
 // body integrate to its volume), at most every covered pixel marching the box's diagonal. Empty
 // space skipping and early termination only lower it (the estimate leans towards the cache).
-double estimated_samples(const Scene& scene, const packing::PackedScene& packed, std::size_t i, int width, int height) {
-    CameraGpu camera = packing::pack_camera(scene, width, height);
-    const std::array<float, 16>& m = packed.voxel_to_world[i];
-    const std::array<int, 3>& dims = scene.volumes[i].volume->dims;
-    auto dot3 = [](const cl_float4& a, const std::array<double, 3>& b) { return a.s[0] * b[0] + a.s[1] * b[1] + a.s[2] * b[2]; };
+// corners: the volume's 8 world corners (shadows::scene_corners).
+double estimated_samples(const CameraGpu& camera, const shadows::D3* corners, float step) {
+    using shadows::D3;
+    auto dot3 = [](const cl_float4& a, const D3& b) { return a.s[0] * b[0] + a.s[1] * b[1] + a.s[2] * b[2]; };
+    auto norm2 = [](const cl_float4& a) { return double(a.s[0]) * a.s[0] + double(a.s[1]) * a.s[1] + double(a.s[2]) * a.s[2]; };
     double x_min = 1e30, x_max = -1e30, y_min = 1e30, y_max = -1e30;
     bool behind = false;
-    std::array<double, 3> centre{0, 0, 0};
+    D3 centre{0, 0, 0};
     for (int corner = 0; corner < 8; ++corner) {
-        std::array<double, 3> v{corner & 1 ? dims[0] - 1.0 : 0.0, corner & 2 ? dims[1] - 1.0 : 0.0, corner & 4 ? dims[2] - 1.0 : 0.0};
-        std::array<double, 3> rel;
-        for (std::size_t r = 0; r < 3; ++r) {
-            double w = m[4 * r] * v[0] + m[4 * r + 1] * v[1] + m[4 * r + 2] * v[2] + m[4 * r + 3];
-            centre[r] += w / 8;
-            rel[r] = w - camera.position.s[r];
-        }
+        D3 rel;
+        for (std::size_t r = 0; r < 3; ++r) centre[r] += corners[corner][r] / 8, rel[r] = corners[corner][r] - camera.position.s[r];
         double z = dot3(camera.forward, rel);
         if (z <= 1e-6) {
             behind = true;
             continue;
         }
         // NDC: the camera's right and up vectors are scaled by tan(fov/2) (·aspect)
-        double x = dot3(camera.right, rel) / (z * dot3(camera.right, {camera.right.s[0], camera.right.s[1], camera.right.s[2]}));
-        double y = dot3(camera.up, rel) / (z * dot3(camera.up, {camera.up.s[0], camera.up.s[1], camera.up.s[2]}));
+        double x = dot3(camera.right, rel) / (z * norm2(camera.right)), y = dot3(camera.up, rel) / (z * norm2(camera.up));
         x_min = std::min(x_min, x), x_max = std::max(x_max, x), y_min = std::min(y_min, y), y_max = std::max(y_max, y);
     }
-    double pixels = double(width) * height;
+    double pixels = double(camera.width) * camera.height;
     if (!behind) {
         double covered_x = std::max(0.0, std::min(x_max, 1.0) - std::max(x_min, -1.0)) / 2;
         double covered_y = std::max(0.0, std::min(y_max, 1.0) - std::max(y_min, -1.0)) / 2;
         pixels *= covered_x * covered_y;
     }
-    // the box in world units: edge vectors are the matrix's columns times the voxel counts
-    std::array<double, 3> edge_length;
-    for (std::size_t a = 0; a < 3; ++a)
-        edge_length[a] = std::max(1.0, dims[a] - 1.0) * std::hypot(m[a], m[4 + a], m[8 + a]);
+    // the box's edges: corner 0 to corners 1, 2, 4 (scene_corners: x, y, z bits)
+    D3 edge_length;
+    for (std::size_t a = 0; a < 3; ++a) {
+        const D3& end = corners[1 << a];
+        edge_length[a] = std::hypot(end[0] - corners[0][0], end[1] - corners[0][1], end[2] - corners[0][2]);
+    }
     double box_volume = edge_length[0] * edge_length[1] * edge_length[2];
     double diagonal = std::hypot(edge_length[0], edge_length[1], edge_length[2]);
-    double step = std::max(1e-9f, packed.volumes[i].step);
-    std::array<double, 3> to_centre;
-    for (std::size_t r = 0; r < 3; ++r) to_centre[r] = centre[r] - camera.position.s[r];
-    double distance = std::max(std::hypot(to_centre[0], to_centre[1], to_centre[2]), 0.5 * diagonal);
-    double pixel_side = 2 * distance * std::hypot(camera.up.s[0], camera.up.s[1], camera.up.s[2]) / height;
-    return std::min(box_volume / (pixel_side * pixel_side * step), pixels * diagonal / step);
+    double world_step = std::max(1e-9, double(step));
+    double distance = std::max(std::hypot(centre[0] - camera.position.s[0], centre[1] - camera.position.s[1], centre[2] - camera.position.s[2]),
+                               0.5 * diagonal);
+    double pixel_side = 2 * distance * std::sqrt(norm2(camera.up)) / camera.height;
+    return std::min(box_volume / (pixel_side * pixel_side * world_step), pixels * diagonal / world_step);
 }
 
 // The share of volume i's bricks that may be visible under its transfer function.
@@ -181,11 +174,14 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
     // Auto: a lattice point costs one evaluation of the technique, as a shaded sample does per
     // light; both happen only near possibly visible bricks (the fill skips the other points)
     double to_fill = 0, samples = 0;
+    CameraGpu camera = packing::pack_camera(scene, width, height);
+    double voxel_size = 0;
+    std::vector<shadows::D3> corners = shadows::scene_corners(p.packed, voxel_size);
     for (std::size_t i = 0; i < scene.volumes.size(); ++i) {
         double visible = visible_brick_fraction(p.packed, i);
         for (std::size_t m = 0; m < lights; ++m)
             if (stale[i * lights + m]) to_fill += visible * double(lattice_points(layout[i * lights + m]));
-        samples += visible * double(lights) * estimated_samples(scene, p.packed, i, width, height);
+        samples += visible * double(lights) * estimated_samples(camera, &corners[8 * i], p.packed.volumes[i].step);
     }
     stats.shadow_cache_points_to_fill = static_cast<unsigned long long>(to_fill);
     stats.shadow_cache_estimated_samples = static_cast<unsigned long long>(std::min(samples, 1.8e19));
@@ -205,8 +201,7 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
     std::size_t stale_entries = std::size_t(std::count(stale.begin(), stale.end(), true));
     stats.shadow_cache_entries_reused += int(layout.size() - stale_entries);
     if (stale_entries > 0) {
-        CameraGpu camera = packing::pack_camera(scene, width, height);
-        camera.jitter_seed = options.jitter_seed;
+        camera.jitter_seed = options.jitter_seed;  // the fill's shadow rays start where the camera pass's would
         cl::Buffer camera_buffer = host::make_buffer(runtime, CL_MEM_READ_ONLY, sizeof(CameraGpu), &camera, "camera");
         // the camera pass's own program (one build): the fill reads no cache
         cl::Kernel kernel(runtime.program("render.cl", camera_pass_defines(scene, options, prepared, lanes, true)), "shadow_cache_fill");

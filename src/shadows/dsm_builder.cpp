@@ -39,8 +39,8 @@ double generation_launches(const DeviceDsm& dsm, const std::vector<bool>& regene
     return double(views) * dsm.storage->generation_passes();
 }
 
-// Generates into the backend; the backend sets max_nodes per view (it bounds the lookups' search),
-// so the views go to the device again.
+// Generates into the backend; the backend sets max_nodes per view (statistics), so the views go to
+// the device again.
 void finish_dsm(host::Runtime& runtime, DeviceDsm& dsm, memory::BuildContext& context) {
     dsm.stats.stage_ms.clear();
     dsm.stats.views_generated = 0;
