@@ -72,6 +72,7 @@ DSM_GENERATION_KERNEL(VOLUME_DATA_PARAM, __global const uchar* occupancy, __glob
     VolumeRay ray;
     make_volume_ray(&ray, volumes, volume_count, l3(LLOAD(ox), LLOAD(oy), LLOAD(oz)), l3(LLOAD(dx), LLOAD(dy), LLOAD(dz)),
                     (lfloat)(0.0f), (lfloat)(INFINITY));
+    volume_ray_only(&ray, volume_count, v->volume_mask);
     SegmentCursor cursor;
     segment_cursor_init(&cursor, &ray, volume_count, LLOAD(jitter), texels);
 #ifdef SOMBRA_HAS_MESHES /* the texel's fragments: surfaces and volume bounds are segment boundaries */

@@ -77,6 +77,13 @@ inline void make_volume_ray(VolumeRay* ray, __global const VolumeGpu* volumes, u
     }
 }
 
+/* The ray misses every volume whose bit in `mask` is clear (a cluster's map holds its member
+ * volumes only, Knecht §3.4.3). */
+inline void volume_ray_only(VolumeRay* ray, uint volume_count, uint mask) {
+    for (uint i = 0; i < volume_count; ++i)
+        if (!(mask & (1u << i))) ray->t_enter[i] = ray->t_exit[i] = (lfloat)(INFINITY);
+}
+
 inline lfloat3 ray_voxel_point(const VolumeRay* ray, uint i, lfloat t) { return l3_mad(ray->vox_dir[i], t, ray->vox_origin[i]); }
 
 #ifdef SOMBRA_SKIP_EMPTY

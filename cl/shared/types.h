@@ -104,7 +104,13 @@ typedef struct {
     float ray_shift;
     float jitter;        /* stratified jitter: the extent of the ray's range in texels (≤ 1) */
     sb_uint jitter_seed;
-    sb_uint pad0;
+    /* Clustered maps (Knecht §3.4): the volumes this view's map holds (bit i: volume i; all bits
+     * when unclustered; its meshes are chosen on the host), and the cluster of its light it
+     * belongs to. A light's views are consecutive and grouped by cluster; the lookup takes one
+     * covering view per cluster and multiplies the clusters' transmittances (Eq. 3.12). */
+    sb_uint volume_mask;
+    sb_uint cluster;
+    sb_uint pad0, pad1;
 } DsmViewGpu;
 
 typedef struct {

@@ -1,7 +1,8 @@
 /* sombra — shadow technique "dsm": deep shadow maps (Knecht Eq. 3.7, 4.18–4.19). The transmittance
  * to a light is 1 − V'(depth) of the view that covers the point (a point light's cube face, found
  * by projection), filtered bilinearly over the four nearest texels; points no view covers are
- * lit. The storage backend (dsm_storage.h) provides DSM_READ_PARAMS and the texel lookup; with
+ * lit. Clustered maps (Knecht §3.4.4): a light's views come in clusters, each cluster's map holds
+ * only its objects, and the transmittance is the product over the clusters (Eq. 3.12). The storage backend (dsm_storage.h) provides DSM_READ_PARAMS and the texel lookup; with
  * DSM_BINARY_LOOKUP (techniques/shadowmap.h) each texel is the binary shadow-map baseline.
  * Interface: techniques/technique.h. */
 #ifndef SOMBRA_TECHNIQUE_DSM_H
@@ -39,10 +40,18 @@ inline lfloat shadow_transmittance(VOLUME_DATA_PARAM, const SceneRefs* scene, Sh
                                    lmask lanes) {
     __global const LightGpu* light = &scene->lights[light_index];
     DsmSearchHint (*hints)[SOMBRA_LANES] = &s->hints[4 * light_index];
-    lfloat alpha = (lfloat)(0.0f);
-    lmask done = !lanes;
-    for (uint i = 0; i < light->view_count && lany(!done); ++i) {
+    lfloat transmittance = (lfloat)(1.0f), alpha = (lfloat)(0.0f); /* alpha: of the current cluster */
+    lmask done = !lanes;                                                 /* lanes the cluster's views covered */
+    uint cluster = light->view_count > 0 ? s->views[light->view_first].cluster : 0u;
+    for (uint i = 0; i < light->view_count; ++i) {
         __global const DsmViewGpu* v = &s->views[light->view_first + i];
+        if (v->cluster != cluster) { /* the next cluster: Eq. 3.12, T = Π (1 − α_cluster) */
+            transmittance *= 1.0f - alpha;
+            alpha = (lfloat)(0.0f);
+            done = !lanes;
+            cluster = v->cluster;
+        }
+        if (!lany(!done)) continue;
         lfloat u, w, depth;
         lmask covered = dsm_view_project(v, p, &u, &w, &depth) & !done;
         if (!lany(covered)) continue;
@@ -73,6 +82,6 @@ inline lfloat shadow_transmittance(VOLUME_DATA_PARAM, const SceneRefs* scene, Sh
         alpha = select(alpha, mix(mix(LLOAD(a00), LLOAD(a10), fu), mix(LLOAD(a01), LLOAD(a11), fu), fw), covered);
         done |= covered;
     }
-    return 1.0f - alpha;
+    return transmittance * (1.0f - alpha);
 }
 #endif

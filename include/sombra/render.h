@@ -83,6 +83,14 @@ struct RenderOptions {
     std::string dsm_prefilter = "none";
     bool dsm_prefilter_jitter = true;
     unsigned dsm_prefilter_seed = 1;
+    // Clustered deep shadow maps (Knecht §3.4; dsm and shadowmap): per light at most dsm_clusters
+    // clusters of objects near one another in light space (LiSPSM, Alg. 4.2), each with its own
+    // dsm_resolution² map focused on its members and holding only them; a lookup multiplies the
+    // clusters' transmittances (Eq. 3.12). Objects that cannot shadow what the camera sees are
+    // left out, so the maps follow the camera. 0: off (one map per light view, fitted to the
+    // scene), else [1, 64]. dsm_cluster_distance: the threshold d0 in [0, 10] (0: automatic).
+    int dsm_clusters = 0;
+    float dsm_cluster_distance = 0.f;
     // Lowpass: filter width W in voxels of the scene's finest volume (Ament §4.2.1: U = V = W/2);
     // changing it rebuilds no table. The tables hold at most lowpass_max_entries 64-bit entries
     // (cells coarsen beyond that; the default keeps them ≤ 128 MiB).
@@ -118,7 +126,8 @@ std::vector<std::string> render_option_values(const std::string& option);  // th
 void set_render_option(RenderOptions& options, const std::string& option, const std::string& value);
 std::string render_option_value(const RenderOptions& options, const std::string& option);
 // Throws sombra::Error naming the command-line flag of the first option whose value is not one of
-// its names, or of shadow_ray_step outside (0, 16] (render, shadow_transmittance and
+// its names, of shadow_ray_step outside (0, 16], or of dsm_clusters / dsm_cluster_distance out of
+// range (render, shadow_transmittance and
 // build_deep_shadow_maps call it first).
 void check_render_options(const RenderOptions& options);
 
@@ -145,6 +154,21 @@ struct RenderStats {
     unsigned long long dsm_capped_texels = 0;  // texels that hit the atlas layer cap
     int dsm_views_generated = 0;  // by this call: all views, those of the lights that moved, or none
     std::string dsm_storage;
+    // clustered deep shadow maps (RenderOptions::dsm_clusters > 0): every light's clusters, their
+    // members (object names as `sombra clusters` prints them) and focused views
+    struct ClusterView {
+        bool orthographic = false;
+        double fov_x_deg = 0, fov_y_deg = 0;      // perspective
+        double half_width = 0, half_height = 0;   // orthographic
+        double near = 0, far = 0;                 // depths along the view from the light (its near plane)
+    };
+    struct Cluster {
+        int light = 0;
+        std::vector<std::string> members;
+        std::vector<ClusterView> views;
+    };
+    std::vector<Cluster> dsm_clusters;
+    std::vector<std::vector<std::string>> dsm_ignored_objects;  // per light: objects that miss B (shadow nothing seen)
     // low-pass shadows (ShadowTechnique::Lowpass): summed-area tables and their memory
     int sat_tables = 0;
     unsigned long long sat_bytes = 0;
@@ -183,7 +207,8 @@ ShadowQuery shadow_transmittance(Context& context, const Scene& scene, int light
                                  const RenderOptions& options);
 
 // The deep shadow maps of one light (1 view, or 6 cube faces +x −x +y −y +z −z of a point
-// light), built with options.dsm_resolution / dsm_epsilon and read back to the host.
+// light; with options.dsm_clusters, the views of each cluster, named lights[i].cluster<k>.<j>),
+// built with options.dsm_resolution / dsm_epsilon and read back to the host.
 std::vector<DeepShadowMap> build_deep_shadow_maps(Context& context, const Scene& scene, int light_index,
                                                   const RenderOptions& options, RenderStats* stats = nullptr);
 

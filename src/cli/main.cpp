@@ -350,6 +350,13 @@ int run(int argc, char** argv) {
     render->add_option("--prefilter-jitter", prefilter_jitter, "jittered sub-pixel rays: on (seed 1), off, or a seed");
     render->add_option("--eps", dsm_epsilon, "deep shadow map compression error bound ε (Knecht Eq. 3.1)")
         ->check(in_range<float>(0, 1e6f));
+    int dsm_clusters = defaults.dsm_clusters;
+    float cluster_distance = defaults.dsm_cluster_distance;
+    const char* clusters_help = "clustered deep shadow maps (Knecht §3.4): at most M object clusters per light, each with its "
+                                "own --dsm-res map focused on it (0: off)";
+    const char* distance_help = "clustering threshold d0 in light space, [0, 10] (0: automatic, from the projected object sizes)";
+    render->add_option("--clusters", dsm_clusters, clusters_help)->check(in_range<int>(0, 64));
+    render->add_option("--cluster-distance", cluster_distance, distance_help)->check(in_range<float>(0, 10));
     render->add_option("--volume-storage", storage, "auto (buffer on CPUs, image on GPUs), buffer or image")
         ->check(member_of("storage"));
     render->add_option("--non-finite", non_finite, "NaN/Inf voxels: reject (error) or sanitize (set to 0, warn)")
@@ -385,6 +392,8 @@ int run(int argc, char** argv) {
             ->check(member_of("dsm_prefilter"));
         sub->add_option("--prefilter-jitter", prefilter_jitter, "jittered sub-pixel rays: on (seed 1), off, or a seed");
         sub->add_option("--eps", dsm_epsilon, "compression error bound ε")->check(in_range<float>(0, 1e6f));
+        sub->add_option("--clusters", dsm_clusters, clusters_help)->check(in_range<int>(0, 64));
+        sub->add_option("--cluster-distance", cluster_distance, distance_help)->check(in_range<float>(0, 10));
         sub->add_option("--stats", stats_path, "write build times and DSM sizes as JSON");
     }
     sombra::cli::ClustersCommand clusters;
@@ -472,6 +481,8 @@ int run(int argc, char** argv) {
     options.dsm_storage = dsm_storage;
     options.dsm_precompression = precompression;
     options.dsm_prefilter = prefilter;
+    options.dsm_clusters = dsm_clusters;
+    options.dsm_cluster_distance = cluster_distance;
     options.dsm_prefilter_jitter = prefilter_jitter != "off";
     if (prefilter_jitter != "on" && prefilter_jitter != "off") {
         bool digits = !prefilter_jitter.empty() && prefilter_jitter.size() <= 9 &&

@@ -1,5 +1,6 @@
 #include "geometry/surfaces.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "geometry/bvh.h"
@@ -112,7 +113,8 @@ ShadowBvh upload_shadow_bvh(host::Runtime& rt, const std::vector<SurfaceTriangle
     return d;
 }
 
-ViewFragments view_fragments(host::Runtime& rt, const Scene& scene, const raster::View& view) {
+ViewFragments view_fragments(host::Runtime& rt, const Scene& scene, const raster::View& view, const std::vector<bool>& meshes_held,
+                             cl_uint volume_mask) {
     // surfaces first, then every volume's bound mesh: one fragment list (Knecht §3.1.2)
     std::vector<MeshInstance> meshes = scene.meshes;
     std::vector<cl_uint> bound_volume;
@@ -129,6 +131,14 @@ ViewFragments view_fragments(host::Runtime& rt, const Scene& scene, const raster
     raster::Projection projection = raster::project_meshes(meshes, view);
     for (ScreenTriangleGpu& t : projection.triangles)
         if (t.mesh >= scene.meshes.size()) t.flags |= SOMBRA_TRI_BOUND, t.mesh = bound_volume[t.mesh - scene.meshes.size()];
+    auto held = [&](const ScreenTriangleGpu& t) {
+        if (t.flags & SOMBRA_TRI_BOUND) return (volume_mask >> t.mesh & 1u) != 0;  // volumes: < SOMBRA_MAX_VOLUMES = 32
+        return meshes_held.empty() || meshes_held[t.mesh];
+    };
+    if (!meshes_held.empty() || volume_mask != ~0u)
+        projection.triangles.erase(std::remove_if(projection.triangles.begin(), projection.triangles.end(),
+                                                  [&](const ScreenTriangleGpu& t) { return !held(t); }),
+                                   projection.triangles.end());
     v.tiles = raster::rasterize(rt, projection.triangles, raster::make_screen(view));
     v.fragments = raster::sort_fragments(rt, v.tiles);
     return v;

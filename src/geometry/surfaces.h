@@ -46,6 +46,10 @@ struct ViewFragments {
     raster::DeviceTiles tiles;
     raster::DeviceFragments fragments;
 };
-ViewFragments view_fragments(host::Runtime& runtime, const Scene& scene, const raster::View& view);
+// `meshes` (empty: all) and `volume_mask` (bit i: volume i's bound mesh) choose what the view
+// holds: a cluster's deep shadow map holds its members only (Knecht §3.4.3). Triangles keep their
+// ids (ScreenTriangleGpu.source) either way.
+ViewFragments view_fragments(host::Runtime& runtime, const Scene& scene, const raster::View& view,
+                             const std::vector<bool>& meshes = {}, cl_uint volume_mask = ~0u);
 
 }  // namespace sombra::surfaces

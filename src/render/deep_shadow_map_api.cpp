@@ -21,9 +21,16 @@ std::vector<DeepShadowMap> build_deep_shadow_maps(Context& context, const Scene&
     const LightGpu& light = prepared.scene.packed.lights[std::size_t(light_index)];
     static const char* faces[6] = {"+x", "-x", "+y", "-y", "+z", "-z"};
     std::vector<DeepShadowMap> maps;
+    cl_uint in_cluster = 0;  // clustered maps: the view's index within its cluster
     for (cl_uint v = 0; v < light.view_count; ++v) {
-        std::string name = "lights[" + std::to_string(light_index) + "]" + (light.view_count == 6 ? std::string(".") + faces[v] : "");
         const DsmViewGpu& view = dsm.views[light.view_first + v];
+        std::string name = "lights[" + std::to_string(light_index) + "]";
+        if (options.dsm_clusters > 0) {
+            in_cluster = v > 0 && dsm.views[light.view_first + v - 1].cluster == view.cluster ? in_cluster + 1 : 0;
+            name += ".cluster" + std::to_string(view.cluster) + "." + std::to_string(in_cluster);
+        } else if (light.view_count == 6) {
+            name += std::string(".") + faces[v];
+        }
         maps.push_back(dsm.storage->read_back(runtime, view, light.view_first + v));
         maps.back().light_name = name;
         shadows::place_map(view, maps.back());

@@ -222,6 +222,21 @@ std::string RenderStats::to_json() const {
                     {"capped_texels", dsm_capped_texels},
                     {"views_generated", dsm_views_generated},
                     {"storage", dsm_storage}};
+        if (!dsm_clusters.empty() || !dsm_ignored_objects.empty()) {
+            nlohmann::json lights = nlohmann::json::array();
+            for (const auto& ignored : dsm_ignored_objects) lights.push_back({{"ignored", ignored}, {"clusters", nlohmann::json::array()}});
+            for (const Cluster& c : dsm_clusters) {
+                nlohmann::json views = nlohmann::json::array();
+                for (const ClusterView& v : c.views) {
+                    nlohmann::json view = {{"projection", v.orthographic ? "orthographic" : "perspective"}, {"near", v.near}, {"far", v.far}};
+                    if (v.orthographic) view["half_width"] = v.half_width, view["half_height"] = v.half_height;
+                    else view["fov_x_deg"] = v.fov_x_deg, view["fov_y_deg"] = v.fov_y_deg;
+                    views.push_back(view);
+                }
+                lights[std::size_t(c.light)]["clusters"].push_back({{"members", c.members}, {"views", views}});
+            }
+            j["dsm"]["lights"] = lights;
+        }
     }
     if (sat_tables > 0)
         j["sat"] = {{"tables", sat_tables}, {"bytes", sat_bytes}, {"tables_built", sat_tables_built}, {"tables_reused", sat_tables_reused}};

@@ -61,11 +61,12 @@ std::vector<ShadowCacheGpu> cache_layout(const Scene& scene, const packing::Pack
 
 // What an entry's values depend on when the technique gives no finer keys: the technique and its
 // options, the placement of every volume and the meshes (a light's deep shadow maps are fitted to
-// them all), the entry's light, the jitter seed (shadow rays start at jittered points), and the
+// them all), the entry's light and the technique's data for it (light_data_key), the jitter seed (shadow rays start at jittered points), and the
 // content (voxels, transfer function, step) of its volume and of each volume that can reach it —
 // whose box, grown by four texels of a map fitted to the scene (bilinear lookups, pre-filtering)
 // and two steps, lies between the entry's volume and the light.
-std::vector<std::string> generic_keys(const Scene& scene, const PreparedScene& p, const RenderOptions& options) {
+std::vector<std::string> generic_keys(const Scene& scene, const PreparedScene& p, const techniques::ShadowModule& technique,
+                                      const RenderOptions& options) {
     const SceneKeys& k = p.keys;
     std::string common = std::string(shadow_technique_name(options.shadows)) + " seed " + std::to_string(options.jitter_seed) +
                          " | options " + k.options + " | meshes " + k.meshes + " | placement";
@@ -87,7 +88,7 @@ std::vector<std::string> generic_keys(const Scene& scene, const PreparedScene& p
                 }
             // a texel of a view of ≤ 90° fitted to the scene spans ≤ (π/2)·reach / resolution
             double margin = 4 * 1.6 * reach / std::max(options.dsm_resolution, 1) + 2 * step;
-            std::string key = common + " | light " + p.light_keys[m] + " | volume " + std::to_string(i) + " " + k.volume_content[i];
+            std::string key = common + " | light " + p.light_keys[m] + " " + technique.light_data_key(m) + " | volume " + std::to_string(i) + " " + k.volume_content[i];
             for (std::size_t j = 0; j < scene.volumes.size(); ++j)
                 if (j != i && shadows::between_light_and(boxes[i], boxes[j].grown(margin), light))
                     key += " | " + std::to_string(j) + " " + k.volume_content[j];
@@ -161,7 +162,7 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
     std::vector<ShadowCacheGpu> layout = cache_layout(scene, p.packed);
     std::vector<std::string> keys =
         prepared.technique.shadow_cache_keys({runtime, scene, p.packed, p.packed_surfaces, p.device, options, p.use_images});
-    if (keys.empty()) keys = generic_keys(scene, p, options);
+    if (keys.empty()) keys = generic_keys(scene, p, prepared.technique, options);
     std::unique_ptr<ShadowCache>& cache = context.kept_scenes().shadow_cache;
     bool same_layout = cache && cache->layout.size() == layout.size() &&
                        std::equal(layout.begin(), layout.end(), cache->layout.begin(), [](const ShadowCacheGpu& a, const ShadowCacheGpu& b) {

@@ -89,12 +89,12 @@ DevicePrecompression upload_precompression(host::Runtime& runtime, const Scene& 
 
 void generate(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
               const packing::DeviceScene& device_scene, std::vector<DsmViewGpu> views, const DsmBuildOptions& options,
-              DeviceDsm& dsm, const std::vector<bool>& regenerate);
+              DeviceDsm& dsm, const std::vector<bool>& regenerate, const ViewMeshes& meshes);
 
 // The sub-pixel maps of the `regenerate` views (empty: all); the others' stay empty.
 SubPixelDsm generate_sub_pixel_maps(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
                                     const packing::DeviceScene& device_scene, const std::vector<DsmViewGpu>& views,
-                                    const DsmBuildOptions& options, const std::vector<bool>& regenerate) {
+                                    const DsmBuildOptions& options, const std::vector<bool>& regenerate, const ViewMeshes& meshes) {
     SubPixelDsm sub{sub_pixel_views(views, options.prefilter, options.prefilter_jitter, options.prefilter_seed), {}};
     DsmBuildOptions sub_options = options;
     sub_options.resolution = sub.layout.resolution;
@@ -103,9 +103,11 @@ SubPixelDsm generate_sub_pixel_maps(host::Runtime& runtime, const Scene& scene, 
     sub_options.prefilter = "none";
     std::vector<bool> sub_regenerate;
     for (bool r : regenerate) sub_regenerate.insert(sub_regenerate.end(), std::size_t(sub.layout.maps), r);
+    ViewMeshes sub_meshes;  // each sub-pixel map holds what its view holds
+    for (const auto& m : meshes) sub_meshes.insert(sub_meshes.end(), std::size_t(sub.layout.maps), m);
     sub.dsm = start_dsm(runtime, sub.layout.views, sub_options);
     runtime.progress().extend(generation_launches(sub.dsm, sub_regenerate));
-    generate(runtime, scene, packed, device_scene, sub.layout.views, sub_options, sub.dsm, sub_regenerate);
+    generate(runtime, scene, packed, device_scene, sub.layout.views, sub_options, sub.dsm, sub_regenerate, sub_meshes);
     return sub;
 }
 
@@ -114,8 +116,8 @@ SubPixelDsm generate_sub_pixel_maps(host::Runtime& runtime, const Scene& scene, 
 // backend.
 void generate_prefiltered(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
                           const packing::DeviceScene& device_scene, std::vector<DsmViewGpu> views, const DsmBuildOptions& options,
-                          DeviceDsm& dsm, const std::vector<bool>& regenerate) {
-    SubPixelDsm sub = generate_sub_pixel_maps(runtime, scene, packed, device_scene, views, options, regenerate);
+                          DeviceDsm& dsm, const std::vector<bool>& regenerate, const ViewMeshes& meshes) {
+    SubPixelDsm sub = generate_sub_pixel_maps(runtime, scene, packed, device_scene, views, options, regenerate, meshes);
     std::vector<std::string> defines{"SOMBRA_LANES=1"};
     if (options.prefilter == "tent") defines.push_back("SOMBRA_PREFILTER_TENT");
     if (options.prefilter == "5tap") defines.push_back("SOMBRA_PREFILTER_5TAP");
@@ -141,10 +143,10 @@ void generate_prefiltered(host::Runtime& runtime, const Scene& scene, const pack
 // Generates the `regenerate` views (empty: all) of `dsm` into its storage.
 void generate(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
               const packing::DeviceScene& device_scene, std::vector<DsmViewGpu> views, const DsmBuildOptions& options,
-              DeviceDsm& dsm, const std::vector<bool>& regenerate) {
+              DeviceDsm& dsm, const std::vector<bool>& regenerate, const ViewMeshes& meshes) {
     if (!(options.epsilon >= 0.f) || !std::isfinite(options.epsilon)) throw Error("--eps: must be ≥ 0");
     if (options.prefilter != "none")
-        return generate_prefiltered(runtime, scene, packed, device_scene, views, options, dsm, regenerate);
+        return generate_prefiltered(runtime, scene, packed, device_scene, views, options, dsm, regenerate, meshes);
 
     auto defines = volume_pass_defines(scene, device_scene.uses_images, true);
     int lanes = host::packet_lanes(runtime, options.lanes);  // packets of texels of a row
@@ -181,7 +183,8 @@ void generate(host::Runtime& runtime, const Scene& scene, const packing::PackedS
             // the view's near_depth is a ray distance fitted to the nearest corner, but the raster
             // stage clips at view z (≤ ray distance): clip far closer, so that no fitted geometry is lost
             if (raster_view.perspective) raster_view.near_depth = std::max(1e-6, 1e-4 * double(views[view].far_depth));
-            fragments = surfaces::view_fragments(runtime, scene, raster_view);
+            fragments = surfaces::view_fragments(runtime, scene, raster_view, view < meshes.size() ? meshes[view] : std::vector<bool>{},
+                                                 views[view].volume_mask);
             args("fragment_first", fragments.fragments.first)("fragments", fragments.fragments.fragments);
             args("screen_triangles", fragments.tiles.triangles)("surface_materials", surface_data.materials);
         }
@@ -196,27 +199,28 @@ void generate(host::Runtime& runtime, const Scene& scene, const packing::PackedS
 
 SubPixelDsm build_sub_pixel_maps(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
                                  const packing::DeviceScene& device_scene, const std::vector<DsmViewGpu>& views,
-                                 const DsmBuildOptions& options) {
-    return generate_sub_pixel_maps(runtime, scene, packed, device_scene, views, options, {});
+                                 const DsmBuildOptions& options, const ViewMeshes& meshes) {
+    return generate_sub_pixel_maps(runtime, scene, packed, device_scene, views, options, {}, meshes);
 }
 
 DeviceDsm build_deep_shadow_maps(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
                                  const packing::DeviceScene& device_scene, std::vector<DsmViewGpu> views,
-                                 const DsmBuildOptions& options) {
+                                 const DsmBuildOptions& options, const ViewMeshes& meshes) {
     DeviceDsm dsm = start_dsm(runtime, views, options);
     host::ProgressStage stage(runtime.progress(), "deep shadow maps", generation_launches(dsm, {}));
-    generate(runtime, scene, packed, device_scene, views, options, dsm, {});
+    generate(runtime, scene, packed, device_scene, views, options, dsm, {}, meshes);
     return dsm;
 }
 
 void regenerate_deep_shadow_maps(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
                                  const packing::DeviceScene& device_scene, std::vector<DsmViewGpu> views,
-                                 const DsmBuildOptions& options, DeviceDsm& dsm, const std::vector<bool>& regenerate) {
+                                 const DsmBuildOptions& options, DeviceDsm& dsm, const std::vector<bool>& regenerate,
+                                 const ViewMeshes& meshes) {
     if (views.size() != dsm.views.size() || regenerate.size() != views.size())
         throw Error("deep shadow maps: the views of a regeneration must match the maps built (internal error)");
     runtime.queue().enqueueWriteBuffer(dsm.views_buffer, CL_TRUE, 0, views.size() * sizeof(DsmViewGpu), views.data());
     host::ProgressStage stage(runtime.progress(), "deep shadow maps", generation_launches(dsm, regenerate));
-    generate(runtime, scene, packed, device_scene, views, options, dsm, regenerate);
+    generate(runtime, scene, packed, device_scene, views, options, dsm, regenerate, meshes);
 }
 
 }  // namespace sombra::shadows

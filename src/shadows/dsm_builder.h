@@ -33,13 +33,14 @@ struct DeviceDsm {
 
 DeviceDsm build_deep_shadow_maps(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
                                  const packing::DeviceScene& device_scene, std::vector<DsmViewGpu> views,
-                                 const DsmBuildOptions& options);
+                                 const DsmBuildOptions& options, const ViewMeshes& meshes = {});
 
 // Regenerates the views marked in `regenerate` (those of changed lights) in `dsm`, built before
 // by build_deep_shadow_maps with the same options and as many views; the others keep their nodes.
 void regenerate_deep_shadow_maps(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
                                  const packing::DeviceScene& device_scene, std::vector<DsmViewGpu> views,
-                                 const DsmBuildOptions& options, DeviceDsm& dsm, const std::vector<bool>& regenerate);
+                                 const DsmBuildOptions& options, DeviceDsm& dsm, const std::vector<bool>& regenerate,
+                                 const ViewMeshes& meshes = {});
 
 // The sub-pixel maps of a pre-filtered build (options.prefilter ≠ "none"): each ray generated with
 // ε/2 into compact storage, the input of dsm_prefilter.cl.
@@ -49,7 +50,7 @@ struct SubPixelDsm {
 };
 SubPixelDsm build_sub_pixel_maps(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
                                  const packing::DeviceScene& device_scene, const std::vector<DsmViewGpu>& views,
-                                 const DsmBuildOptions& options);
+                                 const DsmBuildOptions& options, const ViewMeshes& meshes = {});
 
 // -D defines of every pass over the scene's volumes.
 std::vector<std::string> volume_pass_defines(const Scene& scene, bool use_images, bool skip_empty);

@@ -109,7 +109,10 @@ std::vector<DsmViewGpu> make_dsm_views(const Scene& scene, packing::PackedScene&
         }
         gpu.view_count = cl_uint(views.size()) - gpu.view_first;
     }
-    for (std::size_t i = 0; i < views.size(); ++i) views[i].first_texel = cl_uint(i * std::size_t(resolution) * resolution);
+    for (std::size_t i = 0; i < views.size(); ++i) {
+        views[i].first_texel = cl_uint(i * std::size_t(resolution) * resolution);
+        views[i].volume_mask = ~0u;
+    }
     if (views.size() * std::size_t(resolution) * resolution >= 0xffffffffull)
         throw Error("--dsm-res: too many texels for 32-bit indices");
     return views;

@@ -13,8 +13,13 @@ namespace sombra::shadows {
 // World-space corners of every volume's box (8 per volume).
 std::vector<std::array<float, 3>> scene_box_corners(const packing::PackedScene& packed, const Scene& scene);
 
+// The meshes each view's map holds, per view (a cluster's map holds its members only, Knecht
+// §3.4.3; its volumes are DsmViewGpu.volume_mask). No entry, or an empty one: every mesh.
+using ViewMeshes = std::vector<std::vector<bool>>;
+
 // Views for every light, in light order; sets packed.lights[i].view_first / view_count.
-// first_texel of each view is laid out consecutively (resolution² texels per view).
+// first_texel of each view is laid out consecutively (resolution² texels per view). Every view
+// holds every object (one cluster per light).
 std::vector<DsmViewGpu> make_dsm_views(const Scene& scene, packing::PackedScene& packed, int resolution);
 
 // Sets map.world_to_camera and map.world_to_ndc from the view (DeepShadowMap's conventions:

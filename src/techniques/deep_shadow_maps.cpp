@@ -1,6 +1,8 @@
 // sombra — the deep-shadow-map module (deep_shadow_maps.h).
 #include "techniques/deep_shadow_maps.h"
 
+#include <chrono>
+#include <cstring>
 #include <ostream>
 
 #include "shadows/dsm_views.h"
@@ -18,41 +20,94 @@ void DeepShadowMaps::add_defines(const Scene&, const RenderOptions& options, std
 }
 
 // dsm and shadowmap read the same maps: the technique is not part of the key
+// dsm and shadowmap read the same maps: the technique is not part of the key
 void DeepShadowMaps::add_key(const RenderOptions& o, int lanes, std::ostream& key) const {
     key << o.dsm_resolution << ' ' << o.dsm_epsilon << ' ' << o.dsm_storage << ' ' << o.dsm_precompression << ' ' << o.dsm_prefilter
-        << ' ' << o.dsm_prefilter_jitter << ' ' << o.dsm_prefilter_seed << ' ' << lanes;  // other packets build other maps
+        << ' ' << o.dsm_prefilter_jitter << ' ' << o.dsm_prefilter_seed << ' ' << lanes  // other packets build other maps
+        << " clusters " << o.dsm_clusters << ' ' << o.dsm_cluster_distance;
 }
 
 void DeepShadowMaps::plan_lights(const Scene& scene, packing::PackedScene& packed, const RenderOptions& options) {
-    views_ = shadows::make_dsm_views(scene, packed, options.dsm_resolution);
+    if (options.dsm_clusters > 0) {
+        auto start = std::chrono::steady_clock::now();
+        clusters_ = make_clustered_views(scene, packed, options.dsm_resolution, {options.dsm_clusters, options.dsm_cluster_distance});
+        clustering_ms_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+        views_ = clusters_->views;
+        meshes_ = clusters_->meshes;
+    } else {
+        clusters_.reset();
+        views_ = shadows::make_dsm_views(scene, packed, options.dsm_resolution);
+        meshes_.clear();
+    }
+    light_views_.clear();
+    for (const LightGpu& l : packed.lights) light_views_.emplace_back(l.view_first, l.view_count);
 }
 
 void DeepShadowMaps::prepare(const SceneOnDevice& s, RenderStats& stats) {
     dsm_ = shadows::DeviceDsm();  // the previous scene's maps go before the new ones are allocated
-    dsm_ = shadows::build_deep_shadow_maps(s.runtime, s.scene, s.packed, s.device, views_, dsm_build_options(s.options));
+    dsm_ = shadows::build_deep_shadow_maps(s.runtime, s.scene, s.packed, s.device, views_, dsm_build_options(s.options), meshes_);
+    built_views_ = views_, built_meshes_ = meshes_;
     for (auto& [stage, ms] : dsm_.stats.stage_ms) stats.stage_ms[stage] = ms;
     views_generated_ = dsm_.stats.views_generated;
 }
 
-// Knecht §3.2 "Deep Shadow Map Re-Generation": only the views of lights that moved.
+namespace {
+
+// Whether a map generated for view `a` holding `a_meshes` serves view `b` holding `b_meshes`
+// (the backend's statistics in max_nodes aside).
+bool same_map(DsmViewGpu a, DsmViewGpu b, const std::vector<bool>& a_meshes, const std::vector<bool>& b_meshes) {
+    a.max_nodes = b.max_nodes = 0;
+    return std::memcmp(&a, &b, sizeof a) == 0 && a_meshes == b_meshes;
+}
+
+const std::vector<bool>& meshes_of(const shadows::ViewMeshes& meshes, std::size_t view) {
+    static const std::vector<bool> all;
+    return view < meshes.size() ? meshes[view] : all;
+}
+
+}  // namespace
+
+// Knecht §3.2 "Deep Shadow Map Re-Generation": only the views of lights that moved; clustered
+// (§3.4.3), also the views whose cluster's members or focus changed — a camera move that keeps
+// the clusters regenerates nothing. A different number of views builds the set anew.
 void DeepShadowMaps::update_lights(const SceneOnDevice& s, const std::vector<bool>& moved, RenderStats& stats) {
     views_generated_ = 0;
     std::vector<bool> regenerate(views_.size(), false);
     bool any = false;
     for (std::size_t i = 0; i < moved.size(); ++i) {
         const LightGpu& l = s.packed.lights[i];
-        for (cl_uint v = l.view_first; v < l.view_first + l.view_count; ++v) regenerate[v] = moved[i];
-        any = any || moved[i];
+        for (cl_uint v = l.view_first; v < l.view_first + l.view_count; ++v) {
+            regenerate[v] = moved[i] || v >= built_views_.size() ||
+                            !same_map(views_[v], built_views_[v], meshes_of(meshes_, v), meshes_of(built_meshes_, v));
+            any = any || regenerate[v];
+        }
     }
-    if (!any) return;
+    const bool anew = views_.size() != built_views_.size();
+    if (!any && !anew) return;
     // superseded nodes stay in the pools of the on-demand backends until the set is built anew
-    if (dsm_.storage->garbage_fraction() > 0.5)
-        dsm_ = shadows::build_deep_shadow_maps(s.runtime, s.scene, s.packed, s.device, views_, dsm_build_options(s.options));
-    else
+    if (anew || dsm_.storage->garbage_fraction() > 0.5) {
+        dsm_ = shadows::DeviceDsm();
+        dsm_ = shadows::build_deep_shadow_maps(s.runtime, s.scene, s.packed, s.device, views_, dsm_build_options(s.options), meshes_);
+    } else {
         shadows::regenerate_deep_shadow_maps(s.runtime, s.scene, s.packed, s.device, views_, dsm_build_options(s.options), dsm_,
-                                             regenerate);
+                                             regenerate, meshes_);
+    }
+    built_views_ = views_, built_meshes_ = meshes_;
     for (auto& [stage, ms] : dsm_.stats.stage_ms) stats.stage_ms[stage] = ms;
     views_generated_ = dsm_.stats.views_generated;
+}
+
+std::string DeepShadowMaps::light_data_key(std::size_t light) const {
+    if (!clusters_ || light >= light_views_.size()) return {};
+    std::string key = "views";
+    const auto [first, count] = light_views_[light];
+    for (cl_uint v = first; v < first + count; ++v) {
+        DsmViewGpu view = views_[v];
+        view.max_nodes = 0, view.first_texel = 0;
+        key.append(reinterpret_cast<const char*>(&view), sizeof view);
+        for (bool held : meshes_of(meshes_, v)) key += held ? '1' : '0';
+    }
+    return key;
 }
 
 // SHADOW_PARAMS of cl/techniques/dsm.h: the views, then the backend's DSM_READ_PARAMS
@@ -72,6 +127,10 @@ void DeepShadowMaps::add_stats(RenderStats& stats) const {
     stats.dsm_bytes_used = d.bytes_used;
     stats.dsm_bytes_wasted = d.bytes_wasted;
     stats.dsm_capped_texels = d.capped_texels;
+    if (clusters_) {
+        add_cluster_stats(*clusters_, stats);
+        stats.stage_ms["dsm_clustering"] = clustering_ms_;
+    }
 }
 
 std::unique_ptr<ShadowModule> make_deep_shadow_maps(ShadowTechnique) { return std::make_unique<DeepShadowMaps>(); }

@@ -16,6 +16,7 @@ void ShadowModule::refresh(const SceneOnDevice&, RenderStats&) {}
 void ShadowModule::bind(host::KernelArgs&, host::Runtime&, const RenderOptions&) const {}
 void ShadowModule::add_stats(RenderStats&) const {}
 std::vector<std::string> ShadowModule::shadow_cache_keys(const SceneOnDevice&) const { return {}; }
+std::string ShadowModule::light_data_key(std::size_t) const { return {}; }
 
 const std::vector<TechniqueEntry>& registry() {
     static const std::vector<TechniqueEntry> entries = {

@@ -59,6 +59,10 @@ public:
     // i · lights + m): an entry is refilled when its key changes. Empty (the default): the
     // renderer keys every entry by the whole preparation, the technique and the entry's light.
     virtual std::vector<std::string> shadow_cache_keys(const SceneOnDevice& on_device) const;
+    // What the module's data for `light` depend on beyond the scene, the options and the light's
+    // view (the generic shadow cache keys add it): the clustered deep shadow maps' views, which
+    // follow the camera. Empty by default.
+    virtual std::string light_data_key(std::size_t light) const;
 };
 
 // One row of the registry: the technique, its name on the command line and in scene files, what
