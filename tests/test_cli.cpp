@@ -493,6 +493,30 @@ TEST_CASE("sombra render: one progress line per stage on a non-terminal stderr, 
     CHECK(run.stderr_text.empty());
 }
 
+TEST_CASE("sombra render --clusters renders clustered deep shadow maps and lists the clusters in --stats", "[cli][clustered_dsm]") {
+    const nlohmann::json sphere = {{"type", "sphere"}, {"size", 16}};
+    const nlohmann::json tf = {{"rgb_points", {0, 1, 1, 1, 1, 1, 1, 1}}, {"opacity_points", {0, 0, 1, 0.5}}};
+    const std::string scene = scene_file("render_clusters.json", {
+        {"camera", {{"position", {0, 0, 8}}}},
+        {"volumes", {{{"name", "left"}, {"generator", sphere}, {"transfer_function", tf}, {"transform", {{"translate", {-2, 0, 0}}, {"scale", 0.06}}}},
+                     {{"name", "right"}, {"generator", sphere}, {"transfer_function", tf}, {"transform", {{"translate", {2, 0, 0}}, {"scale", 0.06}}}}}}});
+    const std::string dir = sombra::test::temp_dir(), out = dir + "/clusters.png", stats = dir + "/clusters_stats.json";
+    CliRun run = run_cli("render " + scene + " -o " + out + " --stats " + stats + " --shadows dsm --dsm-res 32 --clusters 4");
+    INFO(run.stderr_text);
+    REQUIRE(run.exit_code == 0);
+    CHECK(std::filesystem::exists(out));
+    std::ifstream in(stats);
+    const nlohmann::json j = nlohmann::json::parse(in);
+    REQUIRE(j["dsm"]["lights"].size() == 1);
+    const nlohmann::json& clusters = j["dsm"]["lights"][0]["clusters"];
+    REQUIRE(clusters.size() == 2);
+    CHECK(j["dsm"]["views"] == 2);
+    CHECK(clusters[0]["views"][0]["projection"] == "orthographic");
+    CHECK(j["stage_ms"].contains("dsm_clustering"));
+    const std::string unwritten = dir + "/unwritten.png";
+    require_clean_failure(run_cli("render " + scene + " -o " + unwritten + " --shadows dsm --clusters 65"), "--clusters", "[0, 64]", unwritten);
+}
+
 TEST_CASE("sombra clusters prints each light's clusters and writes them as JSON", "[cli][clustering]") {
     const nlohmann::json sphere = {{"type", "sphere"}, {"size", 16}};
     const nlohmann::json tf = {{"rgb_points", {0, 1, 1, 1, 1, 1, 1, 1}}, {"opacity_points", {0, 0, 1, 0.5}}};
