@@ -85,6 +85,8 @@ nlohmann::json options_json(const sombra::RenderOptions& o) {
             {"dsm_prefilter", o.dsm_prefilter},
             {"dsm_prefilter_jitter", o.dsm_prefilter_jitter},
             {"dsm_prefilter_seed", o.dsm_prefilter_seed},
+            {"dsm_clusters", o.dsm_clusters},
+            {"dsm_cluster_distance", decimal(o.dsm_cluster_distance)},
             {"lowpass_filter_width", decimal(o.lowpass_filter_width)},
             {"lowpass_filter_kernel", o.lowpass_filter_kernel},
             {"shadow_cache", sombra::render_option_value(o, "shadow_cache")},
@@ -156,8 +158,8 @@ int write_dsm(sombra::Context& context, const sombra::Scene& scene, int light, c
     std::vector<std::string> written;
     for (const sombra::DeepShadowMap& map : maps) {
         std::string path = output;
-        if (maps.size() > 1) {  // NAME.exr → NAME.+x.exr …
-            std::string face = map.light_name.substr(map.light_name.rfind('.') + 1);
+        if (maps.size() > 1) {  // NAME.exr → NAME.+x.exr …, or NAME.cluster0.0.exr … (lights[i].<view>)
+            std::string face = map.light_name.substr(map.light_name.find("].") + 2);
             path = (out.parent_path() / (out.stem().string() + "." + face + out.extension().string())).string();
         }
         outputs.write(path, [&](const std::string& staged) { sombra::write_deep_exr(map, staged); });
@@ -374,7 +376,7 @@ int run(int argc, char** argv) {
     CLI::App* dsm = app.add_subcommand("dsm", "write one light's deep shadow map as a scanline deep OpenEXR");
     dsm->add_option("scene", scene_path, "scene file (JSON)")->required();
     dsm->add_option("--light", light_index, "light index in the scene")->required();
-    dsm->add_option("-o,--output", output, "output .exr (a point light writes NAME.+x.exr … NAME.-z.exr)")->required();
+    dsm->add_option("-o,--output", output, "output .exr (a point light writes NAME.+x.exr … NAME.-z.exr; clustered maps NAME.cluster<k>.<j>.exr)")->required();
     CLI::App* visibility = app.add_subcommand("visibility", "transmittance to a light at points: technique vs reference");
     visibility->add_option("scene", scene_path, "scene file (JSON)")->required();
     visibility->add_option("--light", light_index, "light index in the scene")->required();
