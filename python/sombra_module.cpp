@@ -163,6 +163,7 @@ PYBIND11_MODULE(sombra, m) {
         .def_readwrite("dsm_prefilter_seed", &RenderOptions::dsm_prefilter_seed)
         .def_readwrite("dsm_clusters", &RenderOptions::dsm_clusters)
         .def_readwrite("dsm_cluster_distance", &RenderOptions::dsm_cluster_distance)
+        .def_readwrite("dsm_cluster_hysteresis", &RenderOptions::dsm_cluster_hysteresis)
         .def_readwrite("lowpass_filter_width", &RenderOptions::lowpass_filter_width)
         .def_readwrite("lowpass_filter_kernel", &RenderOptions::lowpass_filter_kernel)
         .def_readwrite("cone_angle_deg", &RenderOptions::cone_angle_deg)

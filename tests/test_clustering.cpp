@@ -445,3 +445,28 @@ TEST_CASE("clustering: degenerate scenes give finite views", "[clustering]") {
         CHECK(result[0].clusters.empty());
     }
 }
+
+TEST_CASE("clustering: hysteresis keeps the previous clusters only while they are nearly as tight", "[clustering]") {
+    const Scene scene = two_groups(make_light(LightType::Directional, {}, {0, -1, 0}));
+    const auto fresh = cluster_lights(scene, {4, 0});
+    REQUIRE(fresh[0].clusters.size() == 2);
+    // the previous frame split the groups differently: g0_2 with the other group
+    const std::vector<std::vector<std::vector<std::size_t>>> odd = {{{0, 1}, {2, 3, 4, 5}}};
+    ClusterOptions options{4, 0, &odd, 0.25};
+    CHECK(cluster_lights(scene, options)[0].clusters.size() == 2);
+    CHECK(cluster_lights(scene, options)[0].clusters[0].members == fresh[0].clusters[0].members);  // far worse: found anew
+    options.hysteresis = 1e6;  // any spread is close enough: kept
+    const auto kept = cluster_lights(scene, options);
+    REQUIRE(kept[0].clusters.size() == 2);
+    CHECK(kept[0].clusters[1].members == std::vector<std::size_t>{2, 3, 4, 5});
+    CHECK(kept[0].clusters[1].views.size() == 1);  // focused on its members as now
+    // a previous clustering that misses an object, or has more clusters than m, is never kept
+    const std::vector<std::vector<std::vector<std::size_t>>> missing = {{{0, 1, 2}, {3, 4}}};
+    options.previous = &missing;
+    CHECK(cluster_lights(scene, options)[0].clusters[1].members.size() == 3);
+    const std::vector<std::vector<std::vector<std::size_t>>> many = {{{0}, {1}, {2}, {3}, {4}, {5}}};
+    options.previous = &many;
+    CHECK(cluster_lights(scene, options)[0].clusters.size() == 2);
+    options.hysteresis = -1;
+    CHECK_THROWS_WITH(cluster_lights(scene, options), Catch::Contains("--cluster-hysteresis"));
+}

@@ -91,6 +91,11 @@ struct RenderOptions {
     // scene), else [1, 64]. dsm_cluster_distance: the threshold d0 in [0, 10] (0: automatic).
     int dsm_clusters = 0;
     float dsm_cluster_distance = 0.f;
+    // Against popping when the clusters follow a moving camera (on a kept Context): the previous
+    // frame's clusters stay while they hold the same objects and their largest member distance is
+    // at most (1 + dsm_cluster_hysteresis) times that of the clusters found anew. In [0, 10]; 0:
+    // the clusters of each frame, from scratch.
+    float dsm_cluster_hysteresis = 0.25f;
     // Lowpass: filter width W in voxels of the scene's finest volume (Ament §4.2.1: U = V = W/2);
     // changing it rebuilds no table. The tables hold at most lowpass_max_entries 64-bit entries
     // (cells coarsen beyond that; the default keeps them ≤ 128 MiB).

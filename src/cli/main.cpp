@@ -87,6 +87,7 @@ nlohmann::json options_json(const sombra::RenderOptions& o) {
             {"dsm_prefilter_seed", o.dsm_prefilter_seed},
             {"dsm_clusters", o.dsm_clusters},
             {"dsm_cluster_distance", decimal(o.dsm_cluster_distance)},
+            {"dsm_cluster_hysteresis", decimal(o.dsm_cluster_hysteresis)},
             {"lowpass_filter_width", decimal(o.lowpass_filter_width)},
             {"lowpass_filter_kernel", o.lowpass_filter_kernel},
             {"shadow_cache", sombra::render_option_value(o, "shadow_cache")},
@@ -359,6 +360,10 @@ int run(int argc, char** argv) {
     const char* distance_help = "clustering threshold d0 in light space, [0, 10] (0: automatic, from the projected object sizes)";
     render->add_option("--clusters", dsm_clusters, clusters_help)->check(in_range<int>(0, 64));
     render->add_option("--cluster-distance", cluster_distance, distance_help)->check(in_range<float>(0, 10));
+    float cluster_hysteresis = defaults.dsm_cluster_hysteresis;
+    render->add_option("--cluster-hysteresis", cluster_hysteresis,
+                       "keep the previous frame's clusters while their spread is within 1 + H of new ones (API re-renders; 0: off)")
+        ->check(in_range<float>(0, 10));
     render->add_option("--volume-storage", storage, "auto (buffer on CPUs, image on GPUs), buffer or image")
         ->check(member_of("storage"));
     render->add_option("--non-finite", non_finite, "NaN/Inf voxels: reject (error) or sanitize (set to 0, warn)")
@@ -485,6 +490,7 @@ int run(int argc, char** argv) {
     options.dsm_prefilter = prefilter;
     options.dsm_clusters = dsm_clusters;
     options.dsm_cluster_distance = cluster_distance;
+    options.dsm_cluster_hysteresis = cluster_hysteresis;
     options.dsm_prefilter_jitter = prefilter_jitter != "off";
     if (prefilter_jitter != "on" && prefilter_jitter != "off") {
         bool digits = !prefilter_jitter.empty() && prefilter_jitter.size() <= 9 &&

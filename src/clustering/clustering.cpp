@@ -316,10 +316,22 @@ std::vector<FocusedView> focus_cluster(const Light& light, const std::vector<Con
     return views;
 }
 
+double cluster_spread(const std::vector<std::vector<std::size_t>>& clusters, const ObjectDistances& distances) {
+    auto index = [&](std::size_t object) {
+        return std::size_t(std::find(distances.relevant.begin(), distances.relevant.end(), object) - distances.relevant.begin());
+    };
+    double spread = 0;
+    for (const auto& members : clusters)
+        for (std::size_t a = 0; a < members.size(); ++a)
+            for (std::size_t b = a + 1; b < members.size(); ++b) spread = std::max(spread, distances.at(index(members[a]), index(members[b])));
+    return spread;
+}
+
 std::vector<LightClusters> cluster_lights(const Scene& scene, const ClusterOptions& options) {
     if (options.max_clusters < 1 || options.max_clusters > 64)
         throw Error("--clusters: must lie in [1, 64], got " + std::to_string(options.max_clusters));
     if (!std::isfinite(options.distance)) throw Error("--cluster-distance: must be a finite number");
+    if (!(options.hysteresis >= 0) || !std::isfinite(options.hysteresis)) throw Error("--cluster-hysteresis: must be a finite number ≥ 0");
     const std::vector<SceneObject> objects = scene_objects(scene);
     std::vector<LightClusters> result(scene.lights.size());
     for (std::size_t l = 0; l < scene.lights.size(); ++l) result[l].light = l;
@@ -341,10 +353,25 @@ std::vector<LightClusters> cluster_lights(const Scene& scene, const ClusterOptio
         for (std::size_t o = 0; o < objects.size(); ++o)
             if (std::find(distances.relevant.begin(), distances.relevant.end(), o) == distances.relevant.end()) out.ignored.push_back(o);
         out.d0 = options.distance > 0 ? options.distance : automatic_d0(distances.size);
+        std::vector<std::vector<std::size_t>> groups;
         for (const auto& group : greedy_clusters(distances.relevant.size(), distances.d, out.d0, options.max_clusters)) {
+            groups.emplace_back();
+            for (std::size_t k : group) groups.back().push_back(distances.relevant[k]);
+            std::sort(groups.back().begin(), groups.back().end());
+        }
+        if (options.previous && l < options.previous->size()) {  // hysteresis: keep last frame's clusters?
+            const auto& kept = (*options.previous)[l];
+            std::vector<std::size_t> kept_objects, relevant = distances.relevant;
+            for (const auto& members : kept) kept_objects.insert(kept_objects.end(), members.begin(), members.end());
+            std::sort(kept_objects.begin(), kept_objects.end());
+            std::sort(relevant.begin(), relevant.end());
+            if (kept_objects == relevant && kept.size() <= std::size_t(options.max_clusters) &&
+                cluster_spread(kept, distances) <= (1 + options.hysteresis) * cluster_spread(groups, distances))
+                groups = kept;
+        }
+        for (const auto& group : groups) {
             Cluster cluster;
-            for (std::size_t k : group) cluster.members.push_back(distances.relevant[k]);
-            std::sort(cluster.members.begin(), cluster.members.end());
+            cluster.members = group;
             std::vector<ConvexBody> boxes;
             for (std::size_t o : cluster.members) {
                 boxes.push_back(box_body(objects[o].lo, objects[o].hi));

@@ -78,7 +78,17 @@ struct LightClusters {
 struct ClusterOptions {
     int max_clusters = 4;   // m, per light, in [1, 64]
     double distance = 0;    // d0; ≤ 0: automatic_d0
+    // Against popping (beyond Knecht, whose §6 names it future work): the previous frame's
+    // clusters of each light (light order; none: cluster from scratch) are kept while they hold
+    // the same objects, are at most m, and their spread (the largest distance between two members
+    // of a cluster, now) is at most (1 + hysteresis) times the spread of the clusters found anew.
+    const std::vector<std::vector<std::vector<std::size_t>>>* previous = nullptr;  // [light][cluster] → members
+    double hysteresis = 0;  // ≥ 0
 };
+
+// The largest distance between two members of one cluster (0 for singletons); `relevant` and
+// `distances` as in ObjectDistances, members as scene object indices.
+double cluster_spread(const std::vector<std::vector<std::size_t>>& clusters, const ObjectDistances& distances);
 
 // The extreme-point distance of two projected boxes (Knecht §3.4.1): the larger of the distances
 // between their (min x, min y) corners and between their (max x, max y) corners.

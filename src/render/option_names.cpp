@@ -123,6 +123,11 @@ void check_render_options(const RenderOptions& options) {
         got << options.dsm_cluster_distance;
         throw Error("--cluster-distance: must lie in [0, 10] (0: automatic), got " + got.str());
     }
+    if (!(options.dsm_cluster_hysteresis >= 0.f && options.dsm_cluster_hysteresis <= 10.f)) {
+        std::ostringstream got;
+        got << options.dsm_cluster_hysteresis;
+        throw Error("--cluster-hysteresis: must lie in [0, 10], got " + got.str());
+    }
 }
 
 }  // namespace sombra

@@ -50,6 +50,8 @@ ClusteredViews make_clustered_views(const Scene& scene, packing::PackedScene& pa
     ClusteredViews out;
     out.objects = clustering::scene_objects(scene);
     out.lights = clustering::cluster_lights(scene, options);
+    out.options = options;
+    out.options.previous = nullptr;
     for (std::size_t li = 0; li < out.lights.size(); ++li) {
         LightGpu& gpu = packed.lights[li];
         gpu.view_first = cl_uint(out.views.size());

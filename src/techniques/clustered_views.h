@@ -17,6 +17,7 @@ struct ClusteredViews {
     shadows::ViewMeshes meshes;     // per view: the meshes its map holds
     std::vector<clustering::SceneObject> objects;
     std::vector<clustering::LightClusters> lights;
+    clustering::ClusterOptions options;  // as clustered (previous: none)
 };
 
 // The clustered views of the scene's lights at `resolution` texels per side; sets

@@ -30,7 +30,18 @@ void DeepShadowMaps::add_key(const RenderOptions& o, int lanes, std::ostream& ke
 void DeepShadowMaps::plan_lights(const Scene& scene, packing::PackedScene& packed, const RenderOptions& options) {
     if (options.dsm_clusters > 0) {
         auto start = std::chrono::steady_clock::now();
-        clusters_ = make_clustered_views(scene, packed, options.dsm_resolution, {options.dsm_clusters, options.dsm_cluster_distance});
+        clustering::ClusterOptions cluster_options{options.dsm_clusters, options.dsm_cluster_distance, nullptr,
+                                                   options.dsm_cluster_hysteresis};
+        std::vector<std::vector<std::vector<std::size_t>>> previous;  // last frame's members, same m and d0
+        if (clusters_ && clusters_->options.max_clusters == cluster_options.max_clusters &&
+            clusters_->options.distance == cluster_options.distance) {
+            for (const clustering::LightClusters& light : clusters_->lights) {
+                previous.emplace_back();
+                for (const clustering::Cluster& c : light.clusters) previous.back().push_back(c.members);
+            }
+            cluster_options.previous = &previous;
+        }
+        clusters_ = make_clustered_views(scene, packed, options.dsm_resolution, cluster_options);
         clustering_ms_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
         views_ = clusters_->views;
         meshes_ = clusters_->meshes;
