@@ -171,3 +171,19 @@ def test_docs_example_runs():
     assert namespace["image"].shape == (96, 96, 4)
     assert np.abs(namespace["dsm"] - namespace["reference"]).mean() < 0.02  # measured 0.011
     assert len(namespace["maps"]) == 1 and len(namespace["view"].depth) > 0
+
+
+def test_clustered_deep_shadow_maps(context):
+    scene = sombra.load_scene(str(SOURCE_DIR / "data/scenes/cup_array.json"))
+    options = sombra.RenderOptions()
+    options.width, options.height = 48, 32
+    options.shadows = "dsm"
+    options.dsm_clusters = 4
+    image, stats = sombra.render(context, scene, options, dsm_resolution=64)
+    assert np.isfinite(image).all()
+    lights = stats["dsm"]["lights"]
+    assert len(lights) == 2 and all(1 <= len(light["clusters"]) <= 4 for light in lights)
+    members = [name for light in lights[:1] for c in light["clusters"] for name in c["members"]]
+    assert len(members) == len(set(members)) and "table" in members  # each object in one cluster of a light
+    maps, _ = sombra.build_deep_shadow_maps(context, scene, 0, dsm_resolution=32, dsm_clusters=4)
+    assert maps[0].light_name == "lights[0].cluster0.0"
