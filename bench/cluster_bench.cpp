@@ -10,7 +10,7 @@
 //  2. Tables 5.2 / 5.4 analogue: DSM resolution × clustering on/off × storage backend: clustering
 //     time, generation time, camera-pass time, bytes used (medians of OpenCL profiling events;
 //     the prepared scene is dropped before every render, so each one clusters and builds anew).
-//  3. Optionally (--images DIR) renders of the close pose, unclustered and clustered, side by side
+//  3. Optionally (--images DIR) renders of one pose (--image-pose; the close one by default), unclustered and clustered, side by side
 //     with a zoomed crop, and per-pixel |ΔT| maps of the quality grid.
 // See bench/README.md ("Clustered deep shadow maps") and bench/results/clusters.md.
 #include <CLI/CLI.hpp>
@@ -193,14 +193,16 @@ struct ViewPoints {
     float near_depth = 0;           // depths ≤ this: the nearest third
 };
 
-ViewPoints visible_points(const sombra::Scene& scene, int width, int height) {
+// `offset`: the fraction of the meshes' box diagonal by which each point moves back towards the
+// camera (onto the lit side of a surface, away from its own depth in the maps).
+ViewPoints visible_points(const sombra::Scene& scene, int width, int height, float offset_fraction) {
     const std::vector<WorldMesh> meshes = world_meshes(scene);
     const sombra::packing::PackedScene packed = sombra::packing::pack_scene(scene);
     const CameraGpu cam = sombra::packing::pack_camera(scene, width, height);
     Vec3 lo{INFINITY, INFINITY, INFINITY}, hi{-INFINITY, -INFINITY, -INFINITY};
     for (const WorldMesh& m : meshes)
         for (int a = 0; a < 3; ++a) lo[a] = std::min(lo[a], m.lo[a]), hi[a] = std::max(hi[a], m.hi[a]);
-    const float offset = 1e-3f * std::sqrt(dot(hi - lo, hi - lo));  // towards the camera: the lit side
+    const float offset = offset_fraction * std::sqrt(dot(hi - lo, hi - lo));
     const Vec3 origin = scene.camera.position;
     ViewPoints v;
     v.width = width, v.height = height;
@@ -240,10 +242,11 @@ sombra::Camera camera(const Vec3& position, const Vec3& look_at, float fov) {
 }
 
 // (a) close to cup_3 (31, −93), its own and its steam's spot-light shadows falling towards the
-// camera; (b) oblique and low across the array from its −x side; (c) the scene's own overview.
+// camera; (b) oblique and low across the array from its +x, −y corner, where the spot light's
+// shadows fall towards the camera too; (c) the scene's own overview.
 std::vector<Viewpoint> viewpoints(const sombra::Scene& scene) {
     return {{"a close", camera({95, -175, 55}, {35, -95, 8}, 45)},
-            {"b oblique", camera({-330, -230, 70}, {20, 0, 10}, 40)},
+            {"b oblique", camera({240, -215, 40}, {0, 0, 10}, 40)},
             {"c far", scene.camera}};
 }
 
@@ -278,8 +281,11 @@ sombra::RenderOptions dsm_options(const Variant& v, int width, int height, const
 
 // ---- 1. quality ----
 
+// lit: the points the reference sees lit (T ≥ 0.99), where any error is false shadow (acne);
+// shadowed: the others.
 struct ErrorStats {
-    double mean = 0, p95 = 0, near_mean = 0, near_p95 = 0, max = 0;
+    double mean = 0, p95 = 0, near_mean = 0, near_p95 = 0, lit_mean = 0, shadowed_mean = 0, max = 0;
+    std::size_t lit = 0, gross = 0;  // gross: |ΔT| > 0.5
 };
 
 double percentile(std::vector<double> v, double q) {
@@ -295,15 +301,18 @@ double mean_of(const std::vector<double>& v) {
 }
 
 ErrorStats error_stats(const ViewPoints& v, const std::vector<double>& technique, const std::vector<double>& reference) {
-    std::vector<double> all, near;
+    std::vector<double> all, near, lit, shadowed;
     ErrorStats e;
     for (std::size_t i = 0; i < technique.size(); ++i) {
         double d = std::abs(technique[i] - reference[i]);
         all.push_back(d);
         if (v.depth[i] <= v.near_depth) near.push_back(d);
+        (reference[i] >= 0.99 ? lit : shadowed).push_back(d);
         e.max = std::max(e.max, d);
+        e.gross += d > 0.5;
     }
     e.mean = mean_of(all), e.p95 = percentile(all, 0.95), e.near_mean = mean_of(near), e.near_p95 = percentile(near, 0.95);
+    e.lit_mean = mean_of(lit), e.shadowed_mean = mean_of(shadowed), e.lit = lit.size();
     return e;
 }
 
@@ -332,13 +341,14 @@ struct QualityRow {
 
 std::string quality_table(const std::vector<QualityRow>& rows) {
     std::ostringstream s;
-    s << "| viewpoint | light | variant | views | texels | bytes used | points (steam) | near points | mean |ΔT| | p95 |ΔT| "
-         "| near mean | near p95 | max |\n|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+    s << "| viewpoint | light | variant | views | texels | bytes used (all lights) | points (steam) | near | lit | mean ΔT | p95 ΔT | near mean "
+         "| near p95 | lit mean | shadowed mean | max | points ΔT > 0.5 |\n|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
     for (const QualityRow& r : rows)
-        s << "| " << r.viewpoint << " | " << r.light << " | " << r.variant << " | " << r.views << " | " << r.texels << " | "
-          << r.bytes << " | " << r.points << " (" << r.volume_points << ") | " << r.near_points << " | "
+        s << "| " << r.viewpoint << " | " << r.light << " | " << r.variant << " | " << r.views << " | " << r.texels << " | " << r.bytes << " | "
+          << r.points << " (" << r.volume_points << ") | " << r.near_points << " | " << r.error.lit << " | "
           << fixed(r.error.mean, 4) << " | " << fixed(r.error.p95, 4) << " | " << fixed(r.error.near_mean, 4) << " | "
-          << fixed(r.error.near_p95, 4) << " | " << fixed(r.error.max, 3) << " |\n";
+          << fixed(r.error.near_p95, 4) << " | " << fixed(r.error.lit_mean, 4) << " | " << fixed(r.error.shadowed_mean, 4) << " | "
+          << fixed(r.error.max, 3) << " | " << r.error.gross << " |\n";
     return s.str();
 }
 
@@ -350,46 +360,84 @@ sombra::Scene posed(sombra::Scene scene, const sombra::Camera& camera, int width
     return scene;
 }
 
-std::vector<QualityRow> measure_quality(sombra::Context& context, const sombra::Scene& scene, const std::vector<Variant>& variants,
-                                        int grid_width, int grid_height, const std::string& image_dir) {
-    std::vector<QualityRow> rows;
+std::string light_name(const sombra::Scene& scene, std::size_t light) {
+    const char* type = scene.lights[light].type == sombra::LightType::Spot    ? "spot "
+                       : scene.lights[light].type == sombra::LightType::Point ? "point "
+                                                                              : "directional ";
+    return type + std::to_string(light);
+}
+
+// One line per light: its clusters (members, views and their fields of view) and the objects left out.
+std::string describe_clusters(const sombra::Scene& scene, const sombra::RenderStats& stats) {
+    std::ostringstream s;
+    for (std::size_t light = 0; light < scene.lights.size(); ++light) {
+        s << "  - " << light_name(scene, light) << ":";
+        for (const auto& c : stats.dsm_clusters) {
+            if (c.light != int(light)) continue;
+            s << " [" << c.members.size() << " objects" << (c.members.size() == 1 ? " (" + c.members[0] + ")" : "") << ":";
+            for (const auto& v : c.views)
+                s << " " << (v.orthographic ? fixed(2 * v.half_width, 0) + "×" + fixed(2 * v.half_height, 0)
+                                            : fixed(v.fov_x_deg, 0) + "°×" + fixed(v.fov_y_deg, 0) + "°");
+            s << "]";
+        }
+        if (light < stats.dsm_ignored_objects.size()) s << "; left out: " << stats.dsm_ignored_objects[light].size();
+        s << "\n";
+    }
+    return s.str();
+}
+
+// Per viewpoint and offset, the visible points and each light's reference there; per variant one
+// build (the prepared scene is dropped first), then every light's and offset's queries on it.
+struct Quality {
+    std::vector<std::vector<QualityRow>> rows;  // per offset
+    std::string clusters;                       // describe_clusters per viewpoint and clustered variant
+};
+
+Quality measure_quality(sombra::Context& context, const sombra::Scene& scene, const std::vector<Variant>& variants, int grid_width,
+                        int grid_height, const std::vector<float>& offsets, const std::string& image_dir) {
+    Quality out;
+    out.rows.resize(offsets.size());
     for (const Viewpoint& vp : viewpoints(scene)) {
         sombra::Scene s = posed(scene, vp.camera, grid_width, grid_height);
-        ViewPoints v = visible_points(s, grid_width, grid_height);
-        std::size_t volume_points = std::count(v.in_volume.begin(), v.in_volume.end(), true), near_points = 0;
-        for (float d : v.depth) near_points += d <= v.near_depth;
-        for (std::size_t light = 0; light < s.lights.size(); ++light) {
-            std::vector<double> reference = sombra::bench::reference_values(s, int(light), v.points);
-            std::string light_name = (s.lights[light].type == sombra::LightType::Spot    ? "spot "
-                                      : s.lights[light].type == sombra::LightType::Point ? "point "
-                                                                                         : "directional ") +
-                                     std::to_string(light);
-            for (const Variant& variant : variants) {
-                forget_preparation(context, s);  // each variant clusters and builds for this pose
-                sombra::ShadowQuery q = sombra::shadow_transmittance(context, s, int(light), v.points,
-                                                                     dsm_options(variant, grid_width, grid_height, "atlas"));
-                QualityRow r{vp.name, light_name, variant.label(), v.points.size(), volume_points, near_points, 0, 0, 0, {}};
-                // this light's views: the clusters' (stats list them per light) or 1 / 6 per light
-                int views = 0;
-                for (const auto& c : q.stats.dsm_clusters) views += c.light == int(light) ? int(c.views.size()) : 0;
-                if (variant.clusters == 0) views = s.lights[light].type == sombra::LightType::Point ? 6 : 1;
-                r.views = views;
-                r.texels = (unsigned long long)views * (unsigned long long)variant.resolution * (unsigned long long)variant.resolution;
-                r.bytes = q.stats.dsm_bytes_used;  // all lights' maps
-                r.error = error_stats(v, q.transmittance, reference);
-                rows.push_back(r);
-                std::cout << vp.name << ", " << light_name << ", " << r.variant << ": mean " << fixed(r.error.mean, 4) << ", p95 "
-                          << fixed(r.error.p95, 4) << ", near mean " << fixed(r.error.near_mean, 4) << ", near p95 "
-                          << fixed(r.error.near_p95, 4) << std::endl;
-                if (!image_dir.empty()) {
-                    std::string name = vp.name.substr(0, 1) + "_light" + std::to_string(light) + "_m" +
-                                       std::to_string(variant.clusters) + "_r" + std::to_string(variant.resolution);
-                    write_error_map(v, q.transmittance, reference, image_dir + "/cluster_error_" + name + ".png");
+        std::vector<ViewPoints> points;
+        std::vector<std::vector<std::vector<double>>> reference;  // [offset][light][point]
+        for (float offset : offsets) {
+            points.push_back(visible_points(s, grid_width, grid_height, offset));
+            reference.emplace_back();
+            for (std::size_t light = 0; light < s.lights.size(); ++light)
+                reference.back().push_back(sombra::bench::reference_values(s, int(light), points.back().points));
+        }
+        for (const Variant& variant : variants) {
+            forget_preparation(context, s);  // each variant clusters and builds for this pose
+            const sombra::RenderOptions options = dsm_options(variant, grid_width, grid_height, "atlas");
+            for (std::size_t k = 0; k < offsets.size(); ++k) {
+                const ViewPoints& v = points[k];
+                std::size_t volume_points = std::count(v.in_volume.begin(), v.in_volume.end(), true), near_points = 0;
+                for (float d : v.depth) near_points += d <= v.near_depth;
+                for (std::size_t light = 0; light < s.lights.size(); ++light) {
+                    sombra::ShadowQuery q = sombra::shadow_transmittance(context, s, int(light), v.points, options);
+                    if (k == 0 && light == 0 && variant.clusters > 0)
+                        out.clusters += "- " + vp.name + ", " + variant.label() + ":\n" + describe_clusters(s, q.stats);
+                    QualityRow r{vp.name, light_name(s, light), variant.label(), v.points.size(), volume_points, near_points, 0, 0, 0, {}};
+                    // this light's views: the clusters' (the stats list them per light), or 1 / 6
+                    for (const auto& c : q.stats.dsm_clusters) r.views += c.light == int(light) ? int(c.views.size()) : 0;
+                    if (variant.clusters == 0) r.views = s.lights[light].type == sombra::LightType::Point ? 6 : 1;
+                    r.texels = (unsigned long long)r.views * (unsigned long long)variant.resolution * (unsigned long long)variant.resolution;
+                    r.bytes = q.stats.dsm_bytes_used;  // all lights' maps
+                    r.error = error_stats(v, q.transmittance, reference[k][light]);
+                    out.rows[k].push_back(r);
+                    std::cout << vp.name << ", offset " << offsets[k] << ", " << r.light << ", " << r.variant << ": mean "
+                              << fixed(r.error.mean, 4) << ", near mean " << fixed(r.error.near_mean, 4) << ", lit mean "
+                              << fixed(r.error.lit_mean, 4) << ", shadowed mean " << fixed(r.error.shadowed_mean, 4) << std::endl;
+                    if (!image_dir.empty())
+                        write_error_map(v, q.transmittance, reference[k][light],
+                                        image_dir + "/cluster_error_" + vp.name.substr(0, 1) + "_offset" + std::to_string(k) + "_light" + std::to_string(light) +
+                                            "_m" + std::to_string(variant.clusters) + "_r" + std::to_string(variant.resolution) + ".png");
                 }
             }
         }
     }
-    return rows;
+    return out;
 }
 
 // ---- 2. timing ----
@@ -404,15 +452,11 @@ struct TimingRow {
 
 // One warm-up render, then `runs` timed ones, each clustering and building its maps anew.
 TimingRow measure_timing(sombra::Context& context, const sombra::Scene& scene, const sombra::RenderOptions& options, int runs) {
-    forget_preparation(context, scene);
-    sombra::render(context, scene, options);
     std::vector<double> clustering, generation, camera, wall;
     sombra::RenderStats last;
-    for (int i = 0; i < runs; ++i) {
-        forget_preparation(context, scene);
-        auto start = std::chrono::steady_clock::now();
-        last = sombra::render(context, scene, options).stats;
-        wall.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
+    for (const sombra::bench::TimedRender& timed : sombra::bench::fresh_renders(context, scene, options, runs)) {
+        last = timed.stats;
+        wall.push_back(timed.wall_ms);
         double gen = 0;
         for (const auto& [stage, ms] : last.stage_ms)
             if (stage.rfind("dsm_", 0) == 0 && stage != "dsm_clustering") gen += ms;
@@ -452,11 +496,13 @@ void blit(const sombra::Image& from, int x0, int y0, int w, int h, int zoom, som
         }
 }
 
-// The close pose rendered with shadow rays (the reference technique) and by the first two
+// One pose rendered with shadow rays (the reference technique) and by the first two
 // variants, side by side, and below each the crop (x, y, w, h) zoomed by width / w.
 void write_close_ups(sombra::Context& context, const sombra::Scene& scene, const std::vector<Variant>& variants, int width,
-                     int height, const std::array<int, 4>& crop, const std::string& dir) {
-    sombra::Scene s = posed(scene, viewpoints(scene)[0].camera, width, height);
+                     int height, const std::vector<int>& crop, std::size_t pose, const std::string& dir) {
+    const Viewpoint vp = viewpoints(scene).at(pose);
+    sombra::Scene s = posed(scene, vp.camera, width, height);
+    const std::string tag = vp.name.substr(0, 1);
     const int zoom = std::max(1, width / crop[2]);
     std::vector<std::pair<std::string, sombra::RenderOptions>> renders;
     sombra::RenderOptions rays = dsm_options({}, width, height, "atlas");
@@ -472,7 +518,7 @@ void write_close_ups(sombra::Context& context, const sombra::Scene& scene, const
     for (std::size_t k = 0; k < renders.size(); ++k) {
         forget_preparation(context, s);
         sombra::Image image = sombra::render(context, s, renders[k].second).image;
-        sombra::write_image(image, dir + "/cup_array_close_" + renders[k].first + ".png");
+        sombra::write_image(image, dir + "/cup_array_pose_" + tag + "_" + renders[k].first + ".png");
         blit(image, 0, 0, width, height, 1, sheet, int(k) * width, 0);
         blit(image, crop[0], crop[1], crop[2], crop[3], zoom, sheet, int(k) * width, height);
         for (int x = crop[0]; x < crop[0] + crop[2]; ++x)  // the crop's outline in the full view
@@ -482,7 +528,7 @@ void write_close_ups(sombra::Context& context, const sombra::Scene& scene, const
             for (int x : {crop[0], crop[0] + crop[2] - 1})
                 if (x < width && y < height) std::fill_n(&sheet.rgba[std::size_t(y * sheet.width + int(k) * width + x) * 4], 3, 1.f);
     }
-    sombra::write_image(sheet, dir + "/cup_array_clusters_close.png");
+    sombra::write_image(sheet, dir + "/cup_array_clusters_pose_" + tag + ".png");
 }
 
 int run(int argc, char** argv) {
@@ -490,9 +536,10 @@ int run(int argc, char** argv) {
     std::vector<std::string> variant_specs{"0x1024", "4x512", "2x724"};
     std::vector<int> resolutions{256, 512, 1024};
     std::vector<std::string> storages{"atlas", "chunked"};
+    std::vector<float> offsets{1e-3f, 1e-2f};
     int grid_width = 96, grid_height = 64, width = 240, height = 160, runs = 3, clusters = 4;
-    int image_width = 480, image_height = 320;
-    std::array<int, 4> crop{150, 170, 240, 150};
+    int image_width = 480, image_height = 320, image_pose = 0;
+    std::vector<int> crop{150, 170, 240, 150};
     bool quick = false, no_quality = false, no_timing = false;
     CLI::App app{"sombra clustered deep shadow maps (Knecht §3.4): quality at equal memory and build/render times"};
     app.add_option("--scene", scene_path, "scene file")->capture_default_str();
@@ -501,6 +548,9 @@ int run(int argc, char** argv) {
         ->capture_default_str();
     app.add_option("--grid-width", grid_width, "quality grid pixels across")->capture_default_str()->check(CLI::Range(1, 4096));
     app.add_option("--grid-height", grid_height, "quality grid pixels down")->capture_default_str()->check(CLI::Range(1, 4096));
+    app.add_option("--offsets", offsets, "quality: offsets of the points towards the camera, fractions of the scene's diagonal")
+        ->delimiter(',')
+        ->capture_default_str();
     app.add_option("--resolutions", resolutions, "timing: DSM resolutions")->delimiter(',')->capture_default_str();
     app.add_option("--clusters", clusters, "timing: clusters of the clustered rows")->capture_default_str()->check(CLI::Range(1, 64));
     app.add_option("--storages", storages, "timing: DSM storage backends")->delimiter(',')->capture_default_str();
@@ -513,6 +563,7 @@ int run(int argc, char** argv) {
     app.add_option("--images", image_dir, "write the close pose's renders, a side-by-side sheet and |ΔT| maps here");
     app.add_option("--image-width", image_width, "renders for --images")->capture_default_str();
     app.add_option("--image-height", image_height, "renders for --images")->capture_default_str();
+    app.add_option("--image-pose", image_pose, "pose of the --images renders: 0 close, 1 oblique, 2 far")->capture_default_str()->check(CLI::Range(0, 2));
     app.add_option("--crop", crop, "close-up x,y,w,h in the --images renders")->delimiter(',')->expected(4)->capture_default_str();
     app.add_option("--device", device, "OpenCL device")->capture_default_str();
     app.add_option("--out", out, "also write the Markdown tables here");
@@ -532,12 +583,19 @@ int run(int argc, char** argv) {
            << std::thread::hardware_concurrency() << " cores\n\n";
     if (!image_dir.empty()) std::filesystem::create_directories(image_dir);
     if (!no_quality) {
-        std::vector<QualityRow> rows = measure_quality(context, scene, variants, grid_width, grid_height, image_dir);
-        report << "Quality at equal memory (" << grid_width << "×" << grid_height
-               << " grid, one point per pixel that sees something; |ΔT| against reference_transmittance; near: the nearest "
-                  "third of the points by depth; bytes used: all lights' maps):\n\n"
-               << quality_table(rows) << "\n";
-        std::cout << "\n" << quality_table(rows) << std::flush;
+        Quality q = measure_quality(context, scene, variants, grid_width, grid_height, offsets, image_dir);
+        for (std::size_t k = 0; k < offsets.size(); ++k) {
+            report << "Quality at equal memory, points offset by " << offsets[k] << " of the scene's diagonal towards the camera ("
+                   << grid_width << "×" << grid_height
+                   << " grid, one point per pixel that sees something; |ΔT| against reference_transmittance; near: the nearest "
+                      "third of the points by depth; lit: the points with reference T ≥ 0.99; ΔT: the absolute difference):\n\n"
+                   << quality_table(q.rows[k]) << "\n";
+            std::cout << "\n" << quality_table(q.rows[k]) << std::flush;
+        }
+        report << "Clusters per pose (members; each view's field of view; objects left out because they cannot shadow what "
+                  "the camera sees):\n\n"
+               << q.clusters << "\n";
+        std::cout << "\n" << q.clusters << std::flush;
     }
     if (!no_timing) {
         std::vector<TimingRow> rows;
@@ -557,7 +615,7 @@ int run(int argc, char** argv) {
                << timing_table(rows) << "\n";
         std::cout << "\n" << timing_table(rows) << std::flush;
     }
-    if (!image_dir.empty()) write_close_ups(context, scene, variants, image_width, image_height, crop, image_dir);
+    if (!image_dir.empty()) write_close_ups(context, scene, variants, image_width, image_height, crop, std::size_t(image_pose), image_dir);
     if (!out.empty()) sombra::bench::write_file(out, report.str());
     return 0;
 }
