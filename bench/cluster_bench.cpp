@@ -394,10 +394,11 @@ struct Quality {
 };
 
 Quality measure_quality(sombra::Context& context, const sombra::Scene& scene, const std::vector<Variant>& variants, int grid_width,
-                        int grid_height, const std::vector<float>& offsets, const std::string& image_dir) {
+                        int grid_height, const std::vector<float>& offsets, const std::string& poses, const std::string& map_dir) {
     Quality out;
     out.rows.resize(offsets.size());
     for (const Viewpoint& vp : viewpoints(scene)) {
+        if (poses.find(vp.name[0]) == std::string::npos) continue;
         sombra::Scene s = posed(scene, vp.camera, grid_width, grid_height);
         std::vector<ViewPoints> points;
         std::vector<std::vector<std::vector<double>>> reference;  // [offset][light][point]
@@ -429,9 +430,9 @@ Quality measure_quality(sombra::Context& context, const sombra::Scene& scene, co
                     std::cout << vp.name << ", offset " << offsets[k] << ", " << r.light << ", " << r.variant << ": mean "
                               << fixed(r.error.mean, 4) << ", near mean " << fixed(r.error.near_mean, 4) << ", lit mean "
                               << fixed(r.error.lit_mean, 4) << ", shadowed mean " << fixed(r.error.shadowed_mean, 4) << std::endl;
-                    if (!image_dir.empty())
+                    if (!map_dir.empty())
                         write_error_map(v, q.transmittance, reference[k][light],
-                                        image_dir + "/cluster_error_" + vp.name.substr(0, 1) + "_offset" + std::to_string(k) + "_light" + std::to_string(light) +
+                                        map_dir + "/cluster_error_" + vp.name.substr(0, 1) + "_offset" + std::to_string(k) + "_light" + std::to_string(light) +
                                             "_m" + std::to_string(variant.clusters) + "_r" + std::to_string(variant.resolution) + ".png");
                 }
             }
@@ -518,7 +519,6 @@ void write_close_ups(sombra::Context& context, const sombra::Scene& scene, const
     for (std::size_t k = 0; k < renders.size(); ++k) {
         forget_preparation(context, s);
         sombra::Image image = sombra::render(context, s, renders[k].second).image;
-        sombra::write_image(image, dir + "/cup_array_pose_" + tag + "_" + renders[k].first + ".png");
         blit(image, 0, 0, width, height, 1, sheet, int(k) * width, 0);
         blit(image, crop[0], crop[1], crop[2], crop[3], zoom, sheet, int(k) * width, height);
         for (int x = crop[0]; x < crop[0] + crop[2]; ++x)  // the crop's outline in the full view
@@ -532,14 +532,14 @@ void write_close_ups(sombra::Context& context, const sombra::Scene& scene, const
 }
 
 int run(int argc, char** argv) {
-    std::string scene_path = SOMBRA_DATA_DIR "/scenes/cup_array.json", device = "auto", out, image_dir;
+    std::string scene_path = SOMBRA_DATA_DIR "/scenes/cup_array.json", device = "auto", out, image_dir, map_dir, poses = "abc";
     std::vector<std::string> variant_specs{"0x1024", "4x512", "2x724"};
     std::vector<int> resolutions{256, 512, 1024};
     std::vector<std::string> storages{"atlas", "chunked"};
     std::vector<float> offsets{1e-3f, 1e-2f};
     int grid_width = 96, grid_height = 64, width = 240, height = 160, runs = 3, clusters = 4;
-    int image_width = 480, image_height = 320, image_pose = 0;
-    std::vector<int> crop{150, 170, 240, 150};
+    int image_width = 360, image_height = 240, image_pose = 0;
+    std::vector<int> crop{112, 127, 180, 112};
     bool quick = false, no_quality = false, no_timing = false;
     CLI::App app{"sombra clustered deep shadow maps (Knecht §3.4): quality at equal memory and build/render times"};
     app.add_option("--scene", scene_path, "scene file")->capture_default_str();
@@ -560,7 +560,9 @@ int run(int argc, char** argv) {
     app.add_flag("--quick", quick, "48×32 grid, variants 0x1024,4x512, resolutions 256,512, atlas only, 2 runs");
     app.add_flag("--no-quality", no_quality, "skip part 1");
     app.add_flag("--no-timing", no_timing, "skip part 2");
-    app.add_option("--images", image_dir, "write the close pose's renders, a side-by-side sheet and |ΔT| maps here");
+    app.add_option("--poses", poses, "quality: the poses, by letter (a close, b oblique, c far)")->capture_default_str();
+    app.add_option("--images", image_dir, "write a sheet of one pose rendered with rays and the first two variants here");
+    app.add_option("--error-maps", map_dir, "write the quality grid's per-pixel |ΔT| maps here (white: 0.5 or more)");
     app.add_option("--image-width", image_width, "renders for --images")->capture_default_str();
     app.add_option("--image-height", image_height, "renders for --images")->capture_default_str();
     app.add_option("--image-pose", image_pose, "pose of the --images renders: 0 close, 1 oblique, 2 far")->capture_default_str()->check(CLI::Range(0, 2));
@@ -581,9 +583,10 @@ int run(int argc, char** argv) {
     std::ostringstream report;
     report << "command: `" << command << "`  \ndevice: " << context.device().name << " [" << context.device().platform << "], "
            << std::thread::hardware_concurrency() << " cores\n\n";
-    if (!image_dir.empty()) std::filesystem::create_directories(image_dir);
+    for (const std::string& dir : {image_dir, map_dir})
+        if (!dir.empty()) std::filesystem::create_directories(dir);
     if (!no_quality) {
-        Quality q = measure_quality(context, scene, variants, grid_width, grid_height, offsets, image_dir);
+        Quality q = measure_quality(context, scene, variants, grid_width, grid_height, offsets, poses, map_dir);
         for (std::size_t k = 0; k < offsets.size(); ++k) {
             report << "Quality at equal memory, points offset by " << offsets[k] << " of the scene's diagonal towards the camera ("
                    << grid_width << "×" << grid_height
