@@ -84,16 +84,19 @@ inline std::vector<double> reference_values(const sombra::Scene& scene, int ligh
 // that the next render builds its shadow data again.
 inline void forget_preparation(sombra::Context& context, const sombra::Scene&) { context.release_prepared_scenes(); }
 
-// One warm-up render (program builds, PoCL kernel cache, first enqueue), then `runs` timed ones,
-// each after forget_preparation so that it builds its shadow data anew: their stats and wall times.
+// One warm-up render (program builds, PoCL kernel cache, first enqueue; unless warm_up is false),
+// then `runs` timed ones, each after forget_preparation so that it builds its shadow data anew:
+// their stats and wall times.
 struct TimedRender {
     sombra::RenderStats stats;
     double wall_ms = 0;
 };
 inline std::vector<TimedRender> fresh_renders(sombra::Context& context, const sombra::Scene& scene,
-                                              const sombra::RenderOptions& options, int runs) {
-    forget_preparation(context, scene);
-    sombra::render(context, scene, options);
+                                              const sombra::RenderOptions& options, int runs, bool warm_up = true) {
+    if (warm_up) {
+        forget_preparation(context, scene);
+        sombra::render(context, scene, options);
+    }
     std::vector<TimedRender> out;
     for (int i = 0; i < runs; ++i) {
         forget_preparation(context, scene);

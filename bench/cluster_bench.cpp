@@ -451,26 +451,45 @@ struct TimingRow {
     unsigned long long bytes = 0;
 };
 
-// One warm-up render, then `runs` timed ones, each clustering and building its maps anew.
-TimingRow measure_timing(sombra::Context& context, const sombra::Scene& scene, const sombra::RenderOptions& options, int runs) {
+// The row of one variant from its timed renders (each clustered and built anew).
+TimingRow timing_row(const sombra::RenderOptions& options, const std::vector<sombra::bench::TimedRender>& renders) {
     std::vector<double> clustering, generation, camera, wall;
-    sombra::RenderStats last;
-    for (const sombra::bench::TimedRender& timed : sombra::bench::fresh_renders(context, scene, options, runs)) {
-        last = timed.stats;
+    for (const sombra::bench::TimedRender& timed : renders) {
+        const sombra::RenderStats& stats = timed.stats;
         wall.push_back(timed.wall_ms);
         double gen = 0;
-        for (const auto& [stage, ms] : last.stage_ms)
+        for (const auto& [stage, ms] : stats.stage_ms)
             if (stage.rfind("dsm_", 0) == 0 && stage != "dsm_clustering") gen += ms;
-        if (gen == 0 || last.dsm_views_generated == 0) throw sombra::Error("a timed render built no deep shadow map");
+        if (gen == 0 || stats.dsm_views_generated == 0) throw sombra::Error("a timed render built no deep shadow map");
         generation.push_back(gen);
-        camera.push_back(last.stage_ms.at("camera_pass"));
-        clustering.push_back(last.stage_ms.count("dsm_clustering") ? last.stage_ms.at("dsm_clustering") : 0.0);
+        camera.push_back(stats.stage_ms.at("camera_pass"));
+        clustering.push_back(stats.stage_ms.count("dsm_clustering") ? stats.stage_ms.at("dsm_clustering") : 0.0);
     }
     TimingRow r;
     r.resolution = options.dsm_resolution, r.clusters = options.dsm_clusters, r.storage = options.dsm_storage;
-    r.views = last.dsm_views, r.bytes = last.dsm_bytes_used;
+    r.views = renders.back().stats.dsm_views, r.bytes = renders.back().stats.dsm_bytes_used;
     r.clustering_ms = median(clustering), r.generation_ms = median(generation), r.camera_ms = median(camera), r.wall_ms = median(wall);
     return r;
+}
+
+// Every variant warmed up once, then `runs` rounds in which each renders once, building anew:
+// the variants side by side in time, so that the load of a shared machine reaches them alike.
+std::vector<TimingRow> measure_timing(sombra::Context& context, const sombra::Scene& scene,
+                                      const std::vector<sombra::RenderOptions>& variants, int runs) {
+    std::vector<std::vector<sombra::bench::TimedRender>> renders(variants.size());
+    for (const sombra::RenderOptions& o : variants) sombra::bench::fresh_renders(context, scene, o, 0);
+    for (int run = 0; run < runs; ++run)
+        for (std::size_t v = 0; v < variants.size(); ++v) {
+            renders[v].push_back(sombra::bench::fresh_renders(context, scene, variants[v], 1, false).front());
+            const sombra::RenderStats& st = renders[v].back().stats;
+            std::cout << "run " << run + 1 << ", " << variants[v].dsm_resolution << "² "
+                      << (variants[v].dsm_clusters ? std::to_string(variants[v].dsm_clusters) + " clusters" : "unclustered")
+                      << " " << variants[v].dsm_storage << ": camera " << fixed(st.stage_ms.at("camera_pass"), 1) << " ms, wall "
+                      << fixed(renders[v].back().wall_ms, 0) << " ms" << std::endl;
+        }
+    std::vector<TimingRow> rows;
+    for (std::size_t v = 0; v < variants.size(); ++v) rows.push_back(timing_row(variants[v], renders[v]));
+    return rows;
 }
 
 std::string timing_table(const std::vector<TimingRow>& rows) {
@@ -601,20 +620,18 @@ int run(int argc, char** argv) {
         std::cout << "\n" << q.clusters << std::flush;
     }
     if (!no_timing) {
-        std::vector<TimingRow> rows;
+        std::vector<sombra::RenderOptions> timed;
         for (int res : resolutions)
             for (int m : {0, clusters})
                 for (const std::string& storage : storages) {
-                    sombra::RenderOptions o = dsm_options({m, res}, width, height, storage);
-                    o.shadow_cache = sombra::ShadowCacheMode::Off;  // camera pass = per-sample lookups
-                    rows.push_back(measure_timing(context, posed(scene, scene.camera, width, height), o, runs));
-                    const TimingRow& r = rows.back();
-                    std::cout << res << " " << (m ? std::to_string(m) + " clusters" : "unclustered") << " " << storage
-                              << ": clustering " << fixed(r.clustering_ms, 2) << " ms, generation " << fixed(r.generation_ms, 1)
-                              << " ms, camera " << fixed(r.camera_ms, 1) << " ms, " << r.bytes << " bytes" << std::endl;
+                    timed.push_back(dsm_options({m, res}, width, height, storage));
+                    timed.back().shadow_cache = sombra::ShadowCacheMode::Off;  // camera pass = per-sample lookups
                 }
+        std::vector<TimingRow> rows = measure_timing(context, posed(scene, scene.camera, width, height), timed, runs);
         report << "Build and render times (Knecht Tables 5.2 / 5.4 analogue; the scene's own camera, " << width << "×" << height
-               << ", shadow cache off; medians of " << runs << " runs after 1 warm-up, each clustering and building anew):\n\n"
+               << ", shadow cache off; medians of " << runs
+               << " rounds after 1 warm-up, each variant rendering once per round and clustering and building anew; "
+                  "clustering is host wall time, the other columns OpenCL profiling times but wall ms):\n\n"
                << timing_table(rows) << "\n";
         std::cout << "\n" << timing_table(rows) << std::flush;
     }
