@@ -567,7 +567,7 @@ int run(int argc, char** argv) {
         ->capture_default_str();
     app.add_option("--grid-width", grid_width, "quality grid pixels across")->capture_default_str()->check(CLI::Range(1, 4096));
     app.add_option("--grid-height", grid_height, "quality grid pixels down")->capture_default_str()->check(CLI::Range(1, 4096));
-    app.add_option("--offsets", offsets, "quality: offsets of the points towards the camera, fractions of the scene's diagonal")
+    app.add_option("--offsets", offsets, "quality: offsets of the points towards the camera, fractions of the meshes' box diagonal")
         ->delimiter(',')
         ->capture_default_str();
     app.add_option("--resolutions", resolutions, "timing: DSM resolutions")->delimiter(',')->capture_default_str();
@@ -607,7 +607,7 @@ int run(int argc, char** argv) {
     if (!no_quality) {
         Quality q = measure_quality(context, scene, variants, grid_width, grid_height, offsets, poses, map_dir);
         for (std::size_t k = 0; k < offsets.size(); ++k) {
-            report << "Quality at equal memory, points offset by " << offsets[k] << " of the scene's diagonal towards the camera ("
+            report << "Quality at equal memory, points offset by " << offsets[k] << " of the meshes' box diagonal towards the camera ("
                    << grid_width << "×" << grid_height
                    << " grid, one point per pixel that sees something; |ΔT| against reference_transmittance; near: the nearest "
                       "third of the points by depth; lit: the points with reference T ≥ 0.99; ΔT: the absolute difference):\n\n"
