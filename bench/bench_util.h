@@ -2,6 +2,7 @@
 // tables, and writing a result file.
 #pragma once
 #include <algorithm>
+#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
@@ -82,5 +83,28 @@ inline std::vector<double> reference_values(const sombra::Scene& scene, int ligh
 // reuses it when only the camera or image changed; a 1×1 render without shadows replaces it, so
 // that the next render builds its shadow data again.
 inline void forget_preparation(sombra::Context& context, const sombra::Scene&) { context.release_prepared_scenes(); }
+
+// One warm-up render (program builds, PoCL kernel cache, first enqueue; unless warm_up is false),
+// then `runs` timed ones, each after forget_preparation so that it builds its shadow data anew:
+// their stats and wall times.
+struct TimedRender {
+    sombra::RenderStats stats;
+    double wall_ms = 0;
+};
+inline std::vector<TimedRender> fresh_renders(sombra::Context& context, const sombra::Scene& scene,
+                                              const sombra::RenderOptions& options, int runs, bool warm_up = true) {
+    if (warm_up) {
+        forget_preparation(context, scene);
+        sombra::render(context, scene, options);
+    }
+    std::vector<TimedRender> out;
+    for (int i = 0; i < runs; ++i) {
+        forget_preparation(context, scene);
+        auto start = std::chrono::steady_clock::now();
+        sombra::RenderStats stats = sombra::render(context, scene, options).stats;
+        out.push_back({std::move(stats), std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count()});
+    }
+    return out;
+}
 
 }  // namespace sombra::bench

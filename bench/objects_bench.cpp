@@ -1,7 +1,8 @@
 // sombra_bench_objects — deep shadow maps against scene size, in one run (Knecht 2011 §5.3–5.4):
 //  1. Fig. 5.13 analogue: N steaming cups (the cup and steam plume of data/scenes/cup_array.json,
 //     Fig. 5.12, copied onto a grid), one spot + one point light: DSM generation time, raster
-//     time, camera-pass time, nodes per texel and memory against N, per storage backend.
+//     time, camera-pass time, nodes per texel and memory against N, per storage backend (and, with
+//     --clusters, per number of clustered deep shadow maps per light, Knecht §3.4).
 //  2. Tables 5.5–5.7 analogue: data-set resolution classes, the cup under one procedural cloud
 //     of 64³, 128³ or 256³ voxels (same world size): the same columns per class and backend.
 // Times are medians of OpenCL profiling events (RenderStats::stage_ms) after one warm-up; the
@@ -37,6 +38,7 @@ struct BenchOptions {
     std::vector<int> counts{1, 2, 4, 8, 16, 24};
     std::vector<int> cloud_sizes{64, 128, 256};
     std::vector<std::string> storages{"atlas", "chunked"};
+    std::vector<int> clusters{0};  // clustered deep shadow maps (Knecht §3.4): 0 off, else M per light
     int dsm_resolution = 256;
     float epsilon = 0.02f;
     int width = 160, height = 160;
@@ -48,11 +50,11 @@ struct BenchOptions {
 
 struct Row {
     std::string label;  // N, or the cloud's voxels per side
-    std::string storage;
+    std::string storage;  // the backend, and ", M clusters" when clustered
     std::size_t triangles = 0;
     int volumes = 0;
     unsigned long long voxels = 0;
-    double generation_ms = 0, raster_ms = 0, render_ms = 0, wall_ms = 0;
+    double clustering_ms = 0, generation_ms = 0, raster_ms = 0, render_ms = 0, wall_ms = 0;
     double mean_nodes = 0;
     unsigned max_nodes = 0;
     int views = 0;
@@ -164,27 +166,24 @@ sombra::Scene cloud_scene(int n, const CupTemplate& t) {
 
 // One warm-up render, then `runs` timed ones, each building its maps anew.
 void measure(sombra::Context& context, const sombra::Scene& scene, const sombra::RenderOptions& options, int runs, Row& row) {
-    forget_preparation(context, scene);
-    sombra::render(context, scene, options);  // program builds, PoCL kernel cache, first enqueue
-    std::vector<double> generation, raster, render, wall;
+    std::vector<double> clustering, generation, raster, render, wall;
     sombra::RenderStats last;
-    for (int i = 0; i < runs; ++i) {
-        forget_preparation(context, scene);
-        auto start = std::chrono::steady_clock::now();
-        last = sombra::render(context, scene, options).stats;
-        wall.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
+    for (const sombra::bench::TimedRender& timed : sombra::bench::fresh_renders(context, scene, options, runs)) {
+        last = timed.stats;
+        wall.push_back(timed.wall_ms);
         double gen = 0, ras = 0;
         bool built = false;
         for (const auto& [stage, ms] : last.stage_ms) {
             bool dsm = stage.rfind("dsm_", 0) == 0;
             built = built || dsm;
             if (is_raster_stage(stage) && (dsm || stage.rfind("camera_", 0) == 0)) ras += ms;
-            else if (dsm) gen += ms;
+            else if (dsm && stage != "dsm_clustering") gen += ms;
         }
         if (!built) throw sombra::Error("a DSM render reported no dsm_* stage: the maps were reused, not generated");
         generation.push_back(gen), raster.push_back(ras), render.push_back(last.stage_ms.at("camera_pass"));
+        clustering.push_back(last.stage_ms.count("dsm_clustering") ? last.stage_ms.at("dsm_clustering") : 0.0);
     }
-    row.generation_ms = median(generation), row.raster_ms = median(raster), row.render_ms = median(render);
+    row.clustering_ms = median(clustering), row.generation_ms = median(generation), row.raster_ms = median(raster), row.render_ms = median(render);
     row.wall_ms = median(wall);
     row.views = last.dsm_views, row.mean_nodes = last.dsm_mean_nodes_per_texel, row.max_nodes = last.dsm_max_nodes_per_texel;
     row.bytes_used = last.dsm_bytes_used, row.capped = last.dsm_capped_texels;
@@ -198,12 +197,12 @@ void describe(Row& row, const sombra::Scene& scene) {
 
 std::string markdown(const std::vector<Row>& rows, const std::string& first) {
     std::ostringstream s;
-    s << "| " << first << " | storage | triangles | volumes | voxels | views | DSM gen ms | raster ms | render ms | "
+    s << "| " << first << " | storage | triangles | volumes | voxels | views | clustering ms | DSM gen ms | raster ms | render ms | "
       << "wall ms | nodes/texel mean | max | bytes used | capped texels |\n"
-      << "|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+      << "|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
     for (const Row& r : rows)
         s << "| " << r.label << " | " << r.storage << " | " << r.triangles << " | " << r.volumes << " | " << r.voxels << " | "
-          << r.views << " | " << fixed(r.generation_ms, 1) << " | " << fixed(r.raster_ms, 1) << " | " << fixed(r.render_ms, 1)
+          << r.views << " | " << fixed(r.clustering_ms, 2) << " | " << fixed(r.generation_ms, 1) << " | " << fixed(r.raster_ms, 1) << " | " << fixed(r.render_ms, 1)
           << " | " << fixed(r.wall_ms, 0) << " | " << fixed(r.mean_nodes, 3) << " | " << r.max_nodes << " | " << r.bytes_used
           << " | " << r.capped << " |\n";
     return s.str();
@@ -215,7 +214,7 @@ std::string csv(const std::vector<Row>& rows, const std::string& part) {
         s << part << ',' << r.label << ',' << r.storage << ',' << r.triangles << ',' << r.volumes << ',' << r.voxels << ','
           << r.views << ',' << fixed(r.generation_ms, 3) << ',' << fixed(r.raster_ms, 3) << ',' << fixed(r.render_ms, 3) << ','
           << fixed(r.wall_ms, 1) << ',' << fixed(r.mean_nodes, 5) << ',' << r.max_nodes << ',' << r.bytes_used << ','
-          << r.capped << '\n';
+          << r.capped << ',' << fixed(r.clustering_ms, 3) << '\n';
     return s.str();
 }
 
@@ -227,6 +226,9 @@ int run(int argc, char** argv) {
         ->delimiter(',')
         ->check(CLI::Range(0, 1024));
     app.add_option("--storages", o.storages, "DSM storage backends, comma-separated")->delimiter(',');
+    app.add_option("--clusters", o.clusters, "clustered deep shadow maps: clusters per light, comma-separated (0: off)")
+        ->delimiter(',')
+        ->check(CLI::Range(0, 64));
     app.add_option("--dsm-resolution", o.dsm_resolution, "DSM texels per side")->check(CLI::Range(1, 8192));
     app.add_option("--eps", o.epsilon, "DSM compression error bound ε")->check(CLI::Range(0.0f, 1e6f));
     app.add_option("--width", o.width, "image width")->check(CLI::Range(1, 16384));
@@ -260,18 +262,20 @@ int run(int argc, char** argv) {
 
     std::vector<Row> count_rows, cloud_rows;
     auto measure_storages = [&](const sombra::Scene& scene, const std::string& label, std::vector<Row>& rows) {
-        for (const std::string& storage : o.storages) {
-            Row r;
-            r.label = label, r.storage = storage;
-            describe(r, scene);
-            sombra::RenderOptions options = base;
-            options.dsm_storage = storage;
-            measure(context, scene, options, o.runs, r);
-            rows.push_back(r);
-            std::cout << label << " " << storage << ": gen " << fixed(r.generation_ms, 1) << " ms, raster "
-                      << fixed(r.raster_ms, 1) << " ms, render " << fixed(r.render_ms, 1) << " ms, nodes/texel "
-                      << fixed(r.mean_nodes, 3) << " (max " << r.max_nodes << ")" << std::endl;
-        }
+        for (int m : o.clusters)
+            for (const std::string& storage : o.storages) {
+                Row r;
+                r.label = label, r.storage = storage + (m ? ", " + std::to_string(m) + " clusters" : "");
+                describe(r, scene);
+                sombra::RenderOptions options = base;
+                options.dsm_storage = storage;
+                options.dsm_clusters = m;
+                measure(context, scene, options, o.runs, r);
+                rows.push_back(r);
+                std::cout << label << " " << r.storage << ": gen " << fixed(r.generation_ms, 1) << " ms, raster "
+                          << fixed(r.raster_ms, 1) << " ms, render " << fixed(r.render_ms, 1) << " ms, nodes/texel "
+                          << fixed(r.mean_nodes, 3) << " (max " << r.max_nodes << ")" << std::endl;
+            }
     };
     for (int n : o.counts) measure_storages(cups_scene(n, cup_and_steam), std::to_string(n), count_rows);
     for (int size : o.cloud_sizes) measure_storages(cloud_scene(size, cup_and_steam), std::to_string(size) + "³", cloud_rows);
@@ -291,7 +295,7 @@ int run(int argc, char** argv) {
         write_file(dir / "objects_table.md", header + table);
         write_file(dir / "objects_table.csv",
                    "part,objects,storage,triangles,volumes,voxels,dsm_views,dsm_generation_ms,raster_ms,render_ms,wall_ms,"
-                   "mean_nodes_per_texel,max_nodes_per_texel,bytes_used,capped_texels\n" +
+                   "mean_nodes_per_texel,max_nodes_per_texel,bytes_used,capped_texels,clustering_ms\n" +
                        csv(count_rows, "cups") + csv(cloud_rows, "cloud"));
         std::cout << "wrote " << o.out_dir << "/objects_table.{md,csv}\n";
     }
