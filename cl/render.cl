@@ -201,7 +201,7 @@ __kernel void render_camera(SCENE_PARAMS, __global float4* image, __global uint*
     while (lany(sampling = segment_cursor_next(&cursor, &ray, volumes, camera->volume_count, occupancy))) {
 #ifdef SOMBRA_HAS_MESHES /* a surface at a segment boundary, in depth order with the samples */
         if (lany(cursor.surface)) {
-            composite_surface(volume_data, &state, &cursor, &ray, surface_triangles, surface_materials, cursor.surface);
+            composite_surface(volume_data, &state, &cursor, &ray, surface_triangles, surface_materials, surface_bias, cursor.surface);
             cursor.alive &= (state.transmittance > camera->termination_transmittance) | !cursor.surface;
             sampling &= !cursor.surface;
             if (!lany(sampling)) continue;
@@ -292,12 +292,12 @@ __kernel void shadow_cache_fill(SCENE_PARAMS, uint light_index, uint entry, __gl
 
 #ifdef SOMBRA_HAS_MESHES
 /* The surface shadow cache's fill: the shadow term of light `light_index` at surface points
- * (surface_points: position, unit normal; rows of row_points points) by the
- * program's technique, looked up where a fragment at the point would look it up
- * (surface_shadow_lookup) with the bias distance `bias_distance`; point k's value at
- * surface_shadow_cache[k · light_count + light_index]. */
+ * (surface_points: position, unit normal; rows of row_points points) by the program's technique,
+ * looked up where a fragment at the point looks it up (surface_shadow_lookup, surface_bias);
+ * point k's value at surface_shadow_cache[k · light_count + light_index]. */
 __kernel void surface_shadow_cache_fill(SCENE_PARAMS, uint light_index, __global const float4* surface_points, uint point_count,
-                                        uint row_points, float bias_distance, __global float* surface_shadow_cache SHADOW_PARAMS) {
+                                        uint row_points, __global const float* surface_bias,
+                                        __global float* surface_shadow_cache SHADOW_PARAMS) {
     uint first = get_global_id(1) * row_points + get_global_id(0) * SOMBRA_LANES;
     if (get_global_id(0) * SOMBRA_LANES >= row_points || first >= point_count) return;
     float px[SOMBRA_LANES], py[SOMBRA_LANES], pz[SOMBRA_LANES], nx[SOMBRA_LANES], ny[SOMBRA_LANES], nz[SOMBRA_LANES];
@@ -309,7 +309,7 @@ __kernel void surface_shadow_cache_fill(SCENE_PARAMS, uint light_index, __global
         read[lane] = first + lane < point_count ? -1 : 0;
     }
     lfloat3 p = surface_shadow_lookup(&lights[light_index], l3(LLOAD(px), LLOAD(py), LLOAD(pz)),
-                                      l3(LLOAD(nx), LLOAD(ny), LLOAD(nz)), (lfloat)(bias_distance));
+                                      l3(LLOAD(nx), LLOAD(ny), LLOAD(nz)), (lfloat)(surface_bias[light_index]));
     lint xs = (int)(first % row_points) + LANE_INDEX;
     uint row = get_global_id(1);
     SceneRefs scene = scene_refs(camera, lights, volumes, tf_tables, occupancy, (lfloat)(0.0f));

@@ -15,16 +15,18 @@
 #define SURFACE_PARAMS                                                                                   \
     __global const uint *fragment_first, __global const FragmentGpu *fragments,                         \
         __global const ScreenTriangleGpu *screen_triangles, __global const SurfaceTriangleGpu *surface_triangles, \
-        __global const SurfaceMaterialGpu *surface_materials
-#define SURFACE_ARGS fragment_first, fragments, screen_triangles, surface_triangles, surface_materials
+        __global const SurfaceMaterialGpu *surface_materials, __global const float *surface_bias
+#define SURFACE_ARGS fragment_first, fragments, screen_triangles, surface_triangles, surface_materials, surface_bias
 
 /* Where the shadow term of light `light` is looked up for surface point p with unit normal n: a
  * little off the surface on the light's side, so that the surface's own step in the deep shadow
- * map does not shadow it: bias ∝ `distance` (per fragment: the camera distance; the surface cache:
- * the light's reach over the scene, which a camera move does not change), scaled by 1/|cos θ|
- * (θ: incidence; capped at 5×), since at grazing light the neighbouring texels that the bilinear
- * lookup reads hold the surface's step at depths further apart. The per-fragment evaluation and
- * the surface cache's fill both look up here. */
+ * map does not shadow it: bias ∝ `distance`, the light's reach over the scene (surface_bias: the
+ * scene box's diagonal, or a positional light's distance to its farthest corner, to which its map's
+ * texels are proportional; not the camera distance, which a camera move would change), scaled by
+ * 1/|cos θ| (θ: incidence; capped at 5×), since at grazing light the neighbouring texels that the
+ * bilinear lookup reads hold the surface's step at depths further apart. The per-fragment
+ * evaluation and the surface cache's fill both look up here, so the cache holds at its points
+ * what a fragment there evaluates. */
 inline lfloat3 surface_shadow_lookup(__global const LightGpu* light, lfloat3 p, lfloat3 normal, lfloat distance) {
     lfloat3 to_light;
     light_incidence(light, p, &to_light);
@@ -66,7 +68,8 @@ inline void surface_cache_read(const CameraState* state, uint source, float v, f
  * (cursor->surface_fragment: Knecht §3.1.2, a surface lies on a segment boundary). */
 inline void composite_surface(VOLUME_DATA_PARAM, CameraState* state, const SegmentCursor* cursor, const VolumeRay* ray,
                               __global const SurfaceTriangleGpu* surface_triangles,
-                              __global const SurfaceMaterialGpu* surface_materials, lmask lanes) {
+                              __global const SurfaceMaterialGpu* surface_materials, __global const float* surface_bias,
+                              lmask lanes) {
     float ox[SOMBRA_LANES], oy[SOMBRA_LANES], oz[SOMBRA_LANES];
     float dx[SOMBRA_LANES], dy[SOMBRA_LANES], dz[SOMBRA_LANES];
     LSTORE(ray->origin.x, ox), LSTORE(ray->origin.y, oy), LSTORE(ray->origin.z, oz);
@@ -120,7 +123,7 @@ inline void composite_surface(VOLUME_DATA_PARAM, CameraState* state, const Segme
 #if SHADOW_TERM && defined(SOMBRA_SURFACE_SHADOW_CACHE)
             shadow[m] = select((lfloat)(1.0f), LLOAD(cached[m]), here);
 #elif SHADOW_TERM
-            lfloat3 lookup = surface_shadow_lookup(&state->scene.lights[m], p, normal, t);
+            lfloat3 lookup = surface_shadow_lookup(&state->scene.lights[m], p, normal, (lfloat)(surface_bias[m]));
             shadow[m] = select((lfloat)(1.0f), light_transmittance(volume_data, state, m, lookup, here), here);
 #else
             shadow[m] = (lfloat)(1.0f);

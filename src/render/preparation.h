@@ -83,6 +83,12 @@ std::vector<std::string> camera_pass_defines(const Scene& scene, const RenderOpt
                                              bool shadow_cache, bool surface_cache = false);
 void bind_scene(host::KernelArgs& args, const PreparedScene& p, const cl::Buffer& camera);
 
+// Per light, the distance surface fragments' shadow lookups are biased in proportion to (cl/surfaces.h
+// surface_shadow_lookup; render.cl's surface_bias): the light's reach over the scene's box (volumes
+// and meshes) — its diagonal, or a positional light's distance to its farthest corner — to which
+// the texels of its maps are proportional; a camera move does not change it (shadow_cache.cpp).
+std::vector<float> surface_bias_distances(const PreparedScene& p);
+
 // The shadow cache this frame reads, its stale entries filled, or nullptr when every sample and
 // fragment evaluates the technique (options.shadow_cache; Auto weighs the lattice points to fill
 // against the samples the frame is estimated to take, and the surface points to fill against the

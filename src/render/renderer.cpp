@@ -292,10 +292,14 @@ RenderResult render(Context& context, const Scene& scene, const RenderOptions& o
     prepared.technique.bind(args, runtime, options);
     if (cached) args("shadow_cache", cache->values)("shadow_cache_table", cache->table);
     if (surfaces_cached) args("surface_shadow_cache", cache->surfaces.values)("surface_cache_triangles", cache->surfaces.triangle_buffer);
+    cl::Buffer surface_bias;  // per light: surfaces.h surface_shadow_lookup's distance
     if (surfaces::has_fragments(scene)) {
+        std::vector<float> bias = pipeline::surface_bias_distances(p);
+        surface_bias = host::make_buffer(runtime, CL_MEM_READ_ONLY, bias.size() * sizeof(float), bias.data(), "surface bias");
         args("fragment_first", fragments.fragments.first)("fragments", fragments.fragments.fragments);
         args("screen_triangles", fragments.tiles.triangles)("surface_triangles", p.surfaces.triangles);
         args("surface_materials", p.surfaces.materials);
+        args("surface_bias", surface_bias);
     }
     args.done();
 

@@ -240,9 +240,8 @@ std::vector<std::string> surface_keys(const Scene& scene, const PreparedScene& p
     return keys;
 }
 
-// Per light, the distance surface_shadow_lookup's bias scales with at the surface part's points:
-// the light's reach over the scene (volumes and meshes), to which its view is fitted, in place of
-// the camera distance a fragment uses; a camera move does not change it.
+}  // namespace
+
 std::vector<float> surface_bias_distances(const PreparedScene& p) {
     shadows::WorldBox all;
     for (const shadows::WorldBox& b : shadows::volume_boxes(p.packed)) all.add(b.lo), all.add(b.hi);
@@ -252,9 +251,6 @@ std::vector<float> surface_bias_distances(const PreparedScene& p) {
     for (const LightGpu& light : p.packed.lights) distances.push_back(float(light_reach(all, light)));
     return distances;
 }
-
-
-}  // namespace
 
 const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, const Prepared& prepared,
                                           const RenderOptions& options, int width, int height, int lanes,
@@ -371,6 +367,7 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
             sc.bytes = n * lights * sizeof(float) + sc.points.size() * sizeof(cl_float4) + sc.triangles.size() * sizeof(cl_uint);
         }
         sc.bias_distances = surface_bias_distances(p);
+        cl::Buffer bias = host::make_buffer(runtime, CL_MEM_READ_ONLY, lights * sizeof(float), sc.bias_distances.data(), "surface bias");
         std::size_t stale_lights = std::size_t(std::count(surface_stale.begin(), surface_stale.end(), true));
         stats.shadow_cache_surface_entries_reused += int(lights - stale_lights);
         if (stale_lights > 0) {
@@ -383,7 +380,7 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
                 host::KernelArgs args{kernel};
                 bind_scene(args, p, camera_buffer);
                 args("light_index", cl_uint(m))("surface_points", sc.point_buffer)("point_count", cl_uint(n));
-                args("row_points", cl_uint(kSurfaceRowPoints))("bias_distance", sc.bias_distances[m])("surface_shadow_cache", sc.values);
+                args("row_points", cl_uint(kSurfaceRowPoints))("surface_bias", bias)("surface_shadow_cache", sc.values);
                 prepared.technique.bind(args, runtime, options);
                 args.done();
                 ms += host::run_packets(runtime, kernel, kSurfaceRowPoints, rows, lanes);
