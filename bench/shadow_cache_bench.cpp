@@ -182,7 +182,7 @@ int main(int argc, char** argv) {
                 sombra::RenderResult r;
                 v.frame_ms.push_back(wall_ms([&] { r = sombra::render(*v.context, moved, v.options); }));
                 v.camera_ms.push_back(r.stats.stage_ms.at("camera_pass"));
-                if (r.stats.shadow_cache_entries_built > 0)
+                if (r.stats.shadow_cache_entries_built + r.stats.shadow_cache_surface_entries_built > 0)
                     std::cerr << "warning: " << v.name << " refilled its cache on a camera move\n";
                 if (pose == 1) v.first_pose = std::move(r.image);
             }

@@ -10,7 +10,8 @@
  * (the shadow technique and its own defines: src/techniques/), SOMBRA_SHADOW_CACHE (the shadow
  * term read from the shadow cache), SOMBRA_HAS_MESHES (per-pixel fragment lists of surfaces and
  * polyhedral volume bounds merged into the segment cursor's boundaries, traversal.h; surfaces
- * composited at their depth: surfaces.h). The host binds the kernels' arguments by these names
+ * composited at their depth: surfaces.h), SOMBRA_SURFACE_SHADOW_CACHE (surface fragments read the
+ * shadow term from the surface shadow cache, surfaces.h). The host binds the kernels' arguments by these names
  * (src/host/kernel_args.h). */
 #include "shared/types.h"
 #include "shared/hash.h"
@@ -25,6 +26,11 @@
 #else
 #define SHADOW_CACHE_PARAMS
 #endif
+#ifdef SOMBRA_SURFACE_SHADOW_CACHE
+#define SURFACE_SHADOW_CACHE_PARAMS , __global const float *surface_shadow_cache, __global const uint *surface_cache_triangles
+#else
+#define SURFACE_SHADOW_CACHE_PARAMS
+#endif
 
 /* What every sample of the camera pass reads and accumulates. */
 typedef struct {
@@ -37,6 +43,10 @@ typedef struct {
 #ifdef SOMBRA_SHADOW_CACHE
     __global const float* shadow_cache;
     __global const ShadowCacheGpu* shadow_cache_table;
+#endif
+#ifdef SOMBRA_SURFACE_SHADOW_CACHE
+    __global const float* surface_shadow_cache;  /* point · light_count + light */
+    __global const uint* surface_cache_triangles; /* per source triangle: first point, subdivision k */
 #endif
 } CameraState;
 
@@ -137,7 +147,7 @@ inline lmask shade_sample(VOLUME_DATA_PARAM, CameraState* state, const VolumeRay
 #endif
 
 __kernel void render_camera(SCENE_PARAMS, __global float4* image, __global uint* sample_counts SHADOW_PARAMS
-                            SHADOW_CACHE_PARAMS
+                            SHADOW_CACHE_PARAMS SURFACE_SHADOW_CACHE_PARAMS
 #ifdef SOMBRA_HAS_MESHES
                             , SURFACE_PARAMS
 #endif
@@ -170,6 +180,10 @@ __kernel void render_camera(SCENE_PARAMS, __global float4* image, __global uint*
     state.shadow_cache = shadow_cache;
     state.shadow_cache_table = shadow_cache_table;
 #endif
+#ifdef SOMBRA_SURFACE_SHADOW_CACHE
+    state.surface_shadow_cache = surface_shadow_cache;
+    state.surface_cache_triangles = surface_cache_triangles;
+#endif
 
     SegmentCursor cursor;
     segment_cursor_init(&cursor, &ray, camera->volume_count, state.scene.jitter, lanes);
@@ -187,7 +201,7 @@ __kernel void render_camera(SCENE_PARAMS, __global float4* image, __global uint*
     while (lany(sampling = segment_cursor_next(&cursor, &ray, volumes, camera->volume_count, occupancy))) {
 #ifdef SOMBRA_HAS_MESHES /* a surface at a segment boundary, in depth order with the samples */
         if (lany(cursor.surface)) {
-            composite_surface(volume_data, &state, &cursor, &ray, surface_triangles, surface_materials, cursor.surface);
+            composite_surface(volume_data, &state, &cursor, &ray, surface_triangles, surface_materials, surface_bias, cursor.surface);
             cursor.alive &= (state.transmittance > camera->termination_transmittance) | !cursor.surface;
             sampling &= !cursor.surface;
             if (!lany(sampling)) continue;
@@ -225,6 +239,20 @@ inline bool cache_point_read(__global const uchar* occupancy, __global const Vol
     return false;
 }
 
+/* What a cache fill (shadow_cache_fill, surface_shadow_cache_fill) writes for SOMBRA_LANES
+ * neighbouring points: the shadow term of light `light_index` at world points p by the program's
+ * technique in the lanes where read[lane], 1 in the others; out[lane · stride] for lanes < count.
+ * Shadow rays start jittered as the camera pass's pixels (xs, row) would. */
+inline void cache_fill_lanes(VOLUME_DATA_PARAM, SceneRefs scene, ShadowState* shadow, uint light_index, lfloat3 p, lint xs,
+                             uint row, const int* read, uint count, __global float* out, uint stride) {
+#define SOMBRA_JITTER_LANE(k) sombra_pixel_jitter((uint)LC(xs, k), row, scene.camera->jitter_seed)
+    scene.jitter = LFROM_LANES(SOMBRA_JITTER_LANE);
+#undef SOMBRA_JITTER_LANE
+    float values[SOMBRA_LANES];
+    LSTORE(shadow_transmittance(volume_data, &scene, shadow, light_index, p, LLOAD(read) != 0), values);
+    for (uint lane = 0; lane < SOMBRA_LANES && lane < count; ++lane) out[lane * stride] = read[lane] ? values[lane] : 1.0f;
+}
+
 /* The shadow cache's first pass (Ament Alg. 1, updateShadowCache): the shadow term of light
  * `light_index` at the lattice points of cache entry `entry`, by the program's technique; a
  * work-item evaluates SOMBRA_LANES neighbouring points of a lattice row (rows: y + dims.y · z).
@@ -249,23 +277,48 @@ __kernel void shadow_cache_fill(SCENE_PARAMS, uint light_index, uint entry, __gl
         return;
     }
     lint xs = (int)x0 + LANE_INDEX;
-    lmask lanes = LLOAD(read) != 0;
     lfloat3 voxel = l3(LCONVERT_FLOAT(xs) * c->spacing.x, (lfloat)((row % c->dims.y) * c->spacing.y),
                        (lfloat)((row / c->dims.y) * c->spacing.z));
     lfloat3 p;
     p.x = mad(voxel.x, c->voxel_to_world[0].x, mad(voxel.y, c->voxel_to_world[0].y, mad(voxel.z, c->voxel_to_world[0].z, c->voxel_to_world[0].w)));
     p.y = mad(voxel.x, c->voxel_to_world[1].x, mad(voxel.y, c->voxel_to_world[1].y, mad(voxel.z, c->voxel_to_world[1].z, c->voxel_to_world[1].w)));
     p.z = mad(voxel.x, c->voxel_to_world[2].x, mad(voxel.y, c->voxel_to_world[2].y, mad(voxel.z, c->voxel_to_world[2].z, c->voxel_to_world[2].w)));
-#define SOMBRA_JITTER_LANE(k) sombra_pixel_jitter((uint)LC(xs, k), row, camera->jitter_seed)
-    SceneRefs scene = scene_refs(camera, lights, volumes, tf_tables, occupancy, LFROM_LANES(SOMBRA_JITTER_LANE));
-#undef SOMBRA_JITTER_LANE
+    SceneRefs scene = scene_refs(camera, lights, volumes, tf_tables, occupancy, (lfloat)(0.0f));
     ShadowState shadow;
     SHADOW_STATE_INIT(shadow)
-    float values[SOMBRA_LANES];
-    LSTORE(shadow_transmittance(volume_data, &scene, &shadow, light_index, p, lanes), values);
-    for (uint lane = 0; lane < SOMBRA_LANES && x0 + lane < (uint)c->dims.x; ++lane)
-        shadow_cache[c->offset + (size_t)row * c->dims.x + x0 + lane] = read[lane] ? values[lane] : 1.0f;
+    cache_fill_lanes(volume_data, scene, &shadow, light_index, p, xs, row, read, (uint)c->dims.x - x0,
+                     &shadow_cache[c->offset + (size_t)row * c->dims.x + x0], 1u);
 }
+
+#ifdef SOMBRA_HAS_MESHES
+/* The surface shadow cache's fill: the shadow term of light `light_index` at surface points
+ * (surface_points: position, unit normal; rows of row_points points) by the program's technique,
+ * looked up where a fragment at the point looks it up (surface_shadow_lookup, surface_bias);
+ * point k's value at surface_shadow_cache[k · light_count + light_index]. */
+__kernel void surface_shadow_cache_fill(SCENE_PARAMS, uint light_index, __global const float4* surface_points, uint point_count,
+                                        uint row_points, __global const float* surface_bias,
+                                        __global float* surface_shadow_cache SHADOW_PARAMS) {
+    uint first = get_global_id(1) * row_points + get_global_id(0) * SOMBRA_LANES;
+    if (get_global_id(0) * SOMBRA_LANES >= row_points || first >= point_count) return;
+    float px[SOMBRA_LANES], py[SOMBRA_LANES], pz[SOMBRA_LANES], nx[SOMBRA_LANES], ny[SOMBRA_LANES], nz[SOMBRA_LANES];
+    int read[SOMBRA_LANES];
+    for (uint lane = 0; lane < SOMBRA_LANES; ++lane) {
+        uint k = min(first + lane, point_count - 1);
+        float4 q = surface_points[2 * k], n = surface_points[2 * k + 1];
+        px[lane] = q.x, py[lane] = q.y, pz[lane] = q.z, nx[lane] = n.x, ny[lane] = n.y, nz[lane] = n.z;
+        read[lane] = first + lane < point_count ? -1 : 0;
+    }
+    lfloat3 p = surface_shadow_lookup(&lights[light_index], l3(LLOAD(px), LLOAD(py), LLOAD(pz)),
+                                      l3(LLOAD(nx), LLOAD(ny), LLOAD(nz)), (lfloat)(surface_bias[light_index]));
+    lint xs = (int)(first % row_points) + LANE_INDEX;
+    uint row = get_global_id(1);
+    SceneRefs scene = scene_refs(camera, lights, volumes, tf_tables, occupancy, (lfloat)(0.0f));
+    ShadowState shadow;
+    SHADOW_STATE_INIT(shadow)
+    cache_fill_lanes(volume_data, scene, &shadow, light_index, p, xs, row, read, point_count - first,
+                     &surface_shadow_cache[(size_t)first * camera->light_count + light_index], camera->light_count);
+}
+#endif
 #endif
 
 #if SHADOW_TERM && SOMBRA_LANES == 1

@@ -41,6 +41,50 @@ Vec3 lattice_world(const ShadowCacheGpu& c, int x, int y, int z) {
     return p;
 }
 
+// A square of side 2·half in the plane z = z0, facing +z, as n × n cells of two triangles each
+// (with smooth normals when `normals`), opacity 1.
+MeshInstance grid(int n, float half, float z0, bool normals) {
+    auto mesh = std::make_shared<Mesh>();
+    for (int j = 0; j <= n; ++j)
+        for (int i = 0; i <= n; ++i) mesh->positions.push_back({-half + 2 * half * float(i) / float(n), -half + 2 * half * float(j) / float(n), z0});
+    for (int j = 0; j < n; ++j)
+        for (int i = 0; i < n; ++i) {
+            std::uint32_t a = std::uint32_t(j * (n + 1) + i), b = a + 1, c = a + std::uint32_t(n + 1), d = c + 1;
+            mesh->triangles.push_back({a, b, d}), mesh->triangles.push_back({a, d, c});
+        }
+    if (normals) mesh->normals.assign(mesh->positions.size(), {0.f, 0.f, 1.f});
+    mesh->source = "grid";
+    MeshInstance mi;
+    mi.mesh = mesh;
+    mi.material.opacity = 1.f;
+    mi.name = "grid";
+    return mi;
+}
+
+// A blob of smoke above a floor of 18 big triangles (its shadow falls across them), a finely
+// tessellated translucent sheet above part of the floor, a directional and a point light.
+Scene surface_scene() {
+    Scene scene;
+    VolumeInstance v;
+    v.volume = std::make_shared<const Volume>(make_gaussian_blobs(20, 5, 7));
+    v.transfer_function = test::ramp_tf(0.1f, 0.7f, 0.6f);
+    v.transform = make_transform({-0.4f, 0.f, 0.f}, {0.f, 0.f, 0.f}, {0.035f, 0.035f, 0.035f});
+    scene.volumes.push_back(v);
+    scene.meshes.push_back(grid(3, 1.2f, -0.5f, false));
+    MeshInstance sheet = grid(12, 0.25f, 0.f, true);
+    sheet.transform = make_transform({0.5f, 0.2f, 0.3f}, {20.f, 0.f, 0.f}, {1.f, 1.f, 1.f});
+    sheet.material.opacity = 0.5f;
+    scene.meshes.push_back(sheet);
+    Light sun, bulb;
+    sun.direction = {0.3f, 0.2f, -1.f};
+    bulb.type = LightType::Point;
+    bulb.position = {0.6f, -0.4f, 1.6f};
+    scene.lights = {sun, bulb};
+    scene.camera.position = {0.2f, -2.4f, 1.6f};
+    scene.camera.look_at = {0.f, 0.f, -0.3f};
+    return scene;
+}
+
 }  // namespace
 
 TEST_CASE("shadow cache: every lattice point a sample can read holds the technique's own shadow term there", "[shadow_cache]") {
@@ -192,4 +236,134 @@ TEST_CASE("shadow cache option: names round-trip and a wrong one is refused nami
     CHECK_THROWS_WITH(set_render_option(o, "shadow_cache", "maybe"), Catch::Contains("auto, on, off"));
     o.shadow_cache = ShadowCacheMode(7);
     CHECK_THROWS_WITH(check_render_options(o), Catch::Contains("--shadow-cache"));
+}
+
+TEST_CASE("surface shadow cache: each corner holds the technique's term where a fragment there looks it up", "[shadow_cache]") {
+    Scene scene = surface_scene();
+    for (ShadowTechnique technique : {ShadowTechnique::Dsm, ShadowTechnique::Rays, ShadowTechnique::ShadowMap}) {
+        INFO(shadow_technique_name(technique));
+        Context context("cpu");
+        RenderOptions o = cache_options(technique, ShadowCacheMode::On);
+        RenderResult r = render(context, scene, o);
+        REQUIRE(r.stats.shadow_cache_surfaces_used);
+        const pipeline::SurfaceShadowCache& sc = context.kept_scenes().shadow_cache->surfaces;
+        std::size_t lights = scene.lights.size(), n = sc.point_count();
+        CHECK(r.stats.shadow_cache_surface_points == n);
+        // the sheet's triangles set the spacing (median edge): their corners; the floor's 18, ~20×
+        // longer, a lattice of ~20 intervals a side: ~230 points each
+        CHECK(n >= 288u * 3u + 18u * 200u);
+        CHECK(n <= 288u * 6u + 18u * 300u);
+        CHECK(r.stats.shadow_cache_surface_entries_built == 2);
+        std::vector<float> values(n * lights);
+        context.runtime().queue().enqueueReadBuffer(sc.values, CL_TRUE, 0, values.size() * sizeof(float), values.data());
+        const std::vector<LightGpu> packed = context.kept_scenes().prepared->packed.lights;  // a copy: queries repack them
+        std::size_t unlit = 0, compared = 0;
+        for (std::size_t m = 0; m < lights; ++m) {
+            // every 13th point, moved off the surface as surfaces.h surface_shadow_lookup moves it
+            std::vector<Vec3> lookups;
+            std::vector<float> cached;
+            for (std::size_t k = 0; k < n; k += 13) {
+                const cl_float4 &p = sc.points[2 * k], &nrm = sc.points[2 * k + 1];
+                double to_light[3];
+                double len = 0;
+                for (int a = 0; a < 3; ++a) {
+                    to_light[a] = packed[m].type == SOMBRA_LIGHT_DIRECTIONAL ? -packed[m].direction.s[a] : packed[m].position.s[a] - p.s[a];
+                    len += to_light[a] * to_light[a];
+                }
+                double cos_incidence = 0;
+                for (int a = 0; a < 3; ++a) cos_incidence += nrm.s[a] * to_light[a] / std::sqrt(len);
+                double bias = 2e-3 * sc.bias_distances[m] / std::max(std::abs(cos_incidence), 0.2) * (cos_incidence < 0 ? -1 : 1);
+                lookups.push_back({float(p.s[0] + bias * nrm.s[0]), float(p.s[1] + bias * nrm.s[1]), float(p.s[2] + bias * nrm.s[2])});
+                cached.push_back(values[k * lights + m]);
+            }
+            ShadowQuery q = shadow_transmittance(context, scene, int(m), lookups, o);
+            for (std::size_t k = 0; k < lookups.size(); ++k, ++compared) {
+                INFO("light " << m << " point " << 13 * k);
+                // the same code in lanes; shadow rays' jitter differs between the two kernels
+                CHECK(cached[k] == Approx(q.transmittance[k]).margin(technique == ShadowTechnique::Rays ? 2e-2 : 1e-4));
+                unlit += q.transmittance[k] < 0.9;
+            }
+        }
+        INFO(compared << " corners compared, " << unlit << " in shadow");
+        CHECK(unlit > 40);  // the comparison sees shadows, not only lit corners
+        CHECK(unlit < compared / 2);
+    }
+}
+
+TEST_CASE("surface shadow cache: cached surfaces stay close to per-fragment evaluation", "[shadow_cache]") {
+    Scene scene = surface_scene();
+    for (ShadowTechnique technique : shadowing_techniques()) {
+        Context context("cpu");
+        RenderOptions o = cache_options(technique, ShadowCacheMode::Off);
+        o.width = 80, o.height = 60;
+        o.dsm_resolution = 512;
+        Image direct = render(context, scene, o).image;
+        o.shadow_cache = ShadowCacheMode::On;
+        RenderResult cached = render(context, scene, o);
+        CHECK(cached.stats.shadow_cache_surfaces_used);
+        Scene unshadowed = scene;  // how much the shadows change the frame: what an error is measured against
+        o.shadows = ShadowTechnique::None;
+        double shadow_effect = test::compare(direct, render(context, unshadowed, o).image).mean_abs;
+        test::ImageDifference d = test::compare(direct, cached.image);
+        INFO(shadow_technique_name(technique) << ": cached vs per fragment, mean " << d.mean_abs << " max " << d.max_abs
+                                              << "; shadows change the frame by " << shadow_effect << " on average");
+        // lattice points ~0.06 apart interpolate the term linearly and the lookup's bias scales with
+        // the light's reach instead of the camera distance: within a tenth of what the shadows do
+        // on average; the largest differences lie along the sheet's sharp shadow edges (one
+        // lattice cell wide), the binary shadow map's the most. (Maps of 96 texels self-shadow the
+        // floor in a pattern finer than the lattice: 512 here.)
+        CHECK(shadow_effect > 5e-4);
+        CHECK(d.mean_abs < 0.1 * shadow_effect);
+        CHECK(d.max_abs < (technique == ShadowTechnique::ShadowMap ? 0.4 : 0.25));
+    }
+}
+
+TEST_CASE("surface shadow cache: kept across camera moves, refilled for moved lights, meshes and volumes", "[shadow_cache]") {
+    Scene scene = surface_scene();
+    Context context("cpu"), fresh("cpu");
+    RenderOptions o = cache_options(ShadowTechnique::Dsm, ShadowCacheMode::On);
+    CHECK(render(context, scene, o).stats.shadow_cache_surface_entries_built == 2);
+    scene.camera.position = {-0.3f, -2.2f, 1.9f};  // the camera moves: nothing refilled
+    RenderResult moved = render(context, scene, o);
+    CHECK(moved.stats.shadow_cache_surface_entries_built == 0);
+    CHECK(moved.stats.shadow_cache_surface_entries_reused == 2);
+    CHECK(moved.stats.shadow_cache_surface_points_to_fill == 0);
+    CHECK(moved.stats.stage_ms.count("shadow_cache") == 0);
+    scene.lights[1].position = {0.2f, -0.6f, 1.4f};  // the point light moves: its entry only
+    RenderResult lit = render(context, scene, o);
+    CHECK(lit.stats.shadow_cache_surface_entries_built == 1);
+    CHECK(lit.stats.shadow_cache_surface_entries_reused == 1);
+    CHECK(test::compare(lit.image, render(fresh, scene, o).image).max_abs <= 1e-6);  // as if built anew
+    scene.volumes[0].transfer_function = test::ramp_tf(0.2f, 0.6f, 0.9f);  // any volume may shadow a surface
+    CHECK(render(context, scene, o).stats.shadow_cache_surface_entries_built == 2);
+    scene.meshes[1].transform[3] = 0.4f;  // a moved mesh: new points, every entry
+    RenderResult sheet = render(context, scene, o);
+    CHECK(sheet.stats.shadow_cache_surface_entries_built == 2);
+    CHECK(test::compare(sheet.image, render(fresh, scene, o).image).max_abs <= 1e-6);
+    std::string json = sheet.stats.to_json();
+    CHECK(json.find("\"surfaces\"") != std::string::npos);
+    CHECK(json.find("\"estimated_fragments\"") != std::string::npos);
+}
+
+TEST_CASE("surface shadow cache auto: on when its points cost fewer evaluations than the frame's fragments", "[shadow_cache]") {
+    Scene scene = surface_scene();
+    Context context("cpu");
+    RenderOptions o = cache_options(ShadowTechnique::Dsm, ShadowCacheMode::Auto);
+    // 8² pixels: few fragments against ~5k points × 2 lights; 400²: more fragments; then 8² again,
+    // filled: nothing to fill, on at any size
+    struct Step {
+        int size;
+        bool used;
+    };
+    for (Step step : {Step{8, false}, Step{400, true}, Step{8, true}}) {
+        INFO(step.size << " pixels a side");
+        o.width = o.height = step.size;
+        RenderStats stats = render(context, scene, o).stats;
+        CHECK(stats.shadow_cache_surfaces_used == step.used);
+        CHECK(stats.shadow_cache_estimated_fragments > 0);
+        if (step.used) CHECK(stats.shadow_cache_surface_points_to_fill < stats.shadow_cache_estimated_fragments);
+        else CHECK(stats.shadow_cache_surface_points_to_fill > stats.shadow_cache_estimated_fragments);
+    }
+    o.shadow_cache = ShadowCacheMode::Off;
+    CHECK_FALSE(render(context, scene, o).stats.shadow_cache_surfaces_used);
 }

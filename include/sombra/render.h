@@ -187,6 +187,14 @@ struct RenderStats {
     // this call because their inputs changed, and kept from the previous call on the Context
     int sat_tables_built = 0, sat_tables_reused = 0;
     int shadow_cache_entries_built = 0, shadow_cache_entries_reused = 0;
+    // the shadow cache's surface part (scenes with meshes): whether this frame's surface fragments
+    // read it, its points (mesh triangle corners, shared corners once), for auto the points it had
+    // to fill (points × lights whose entries are stale) against the surface fragments × lights the
+    // frame shades at most, and its entries (one per light) built by this call and kept
+    bool shadow_cache_surfaces_used = false;
+    unsigned long long shadow_cache_surface_points = 0, shadow_cache_surface_points_to_fill = 0,
+                       shadow_cache_estimated_fragments = 0;
+    int shadow_cache_surface_entries_built = 0, shadow_cache_surface_entries_reused = 0;
     // true when the scene's device data of the previous call on this Context were reused (only
     // the camera, image size, shading options or lights changed); the deep shadow maps of lights
     // that did not move are reused too (dsm_views_generated counts those regenerated)

@@ -53,7 +53,8 @@ double decimal(float value) {
     return std::strtod(std::string(text, end).c_str(), nullptr);
 }
 
-// "shadow cache on (auto: 1.2 M points to fill, ≈ 15.7 M samples); " — what the frame did with
+// "shadow cache on (auto: 1.2 M points to fill, ≈ 15.7 M samples; surfaces on: 0.3 M points to
+// fill, ≤ 0.5 M fragments); " — what the frame did with
 // the shadow cache and, for auto, why; nothing when the frame has no shadow term to cache.
 std::string shadow_cache_note(const sombra::RenderStats& s, const sombra::RenderOptions& o) {
     if (!s.shadow_cache_used && s.shadow_cache_points_to_fill == 0) return "";
@@ -65,7 +66,12 @@ std::string shadow_cache_note(const sombra::RenderStats& s, const sombra::Render
             return std::string(text);
         };
         note += " (auto: " + millions(s.shadow_cache_points_to_fill) + " M points to fill, ≈ " +
-                millions(s.shadow_cache_estimated_samples) + " M samples)";
+                millions(s.shadow_cache_estimated_samples) + " M samples";
+        if (s.shadow_cache_surface_points > 0)
+            note += std::string("; surfaces ") + (s.shadow_cache_surfaces_used ? "on: " : "off: ") +
+                    millions(s.shadow_cache_surface_points_to_fill) + " M points to fill, ≤ " +
+                    millions(s.shadow_cache_estimated_fragments) + " M fragments";
+        note += ")";
     }
     return note + "; ";
 }

@@ -42,11 +42,30 @@ struct PreparedScene {
 // The shadow cache (render.h ShadowCacheMode; Ament Alg. 1): per volume and light a lattice of the
 // shadow term over the volume's voxels, filled by the technique (render.cl shadow_cache_fill); an
 // entry (volume × light) is refilled only when its key changed (shadow_cache.cpp).
+// Its surface part (scenes with meshes): the shadow term per light at a barycentric lattice of
+// points on each mesh triangle (k = 1: its corners; big triangles finer), looked up where a
+// fragment there would look it up (surfaces.h surface_shadow_lookup), filled by render.cl
+// surface_shadow_cache_fill; fragments interpolate it over their lattice cell.
+struct SurfaceShadowCache {
+    std::string points_key;                // the meshes' key (SceneKeys::meshes) the points were made for
+    std::vector<cl_float4> points;         // per point: position, unit normal (world)
+    // per source triangle: its first point and k; point (i, j), i + j ≤ k, at barycentric weights
+    // (1 − (i + j)/k, i/k, j/k) is first + j·(k + 1) − j·(j − 1)/2 + i
+    std::vector<cl_uint> triangles;
+    std::vector<std::string> keys;         // per light; empty: not filled
+    std::vector<float> bias_distances;     // per light: surface_shadow_lookup's distance (the light's reach)
+    cl::Buffer point_buffer, triangle_buffer, values;  // values: point · lights + light
+    std::size_t bytes = 0;
+    std::size_t point_count() const { return points.size() / 2; }
+};
+
 struct ShadowCache {
     std::vector<ShadowCacheGpu> layout;
     std::vector<std::string> keys;  // per entry; empty: not filled
     cl::Buffer values, table;
     std::size_t bytes = 0;
+    SurfaceShadowCache surfaces;
+    bool volumes_used = false, surfaces_used = false;  // what this frame reads (SOMBRA_SHADOW_CACHE, SOMBRA_SURFACE_SHADOW_CACHE)
 };
 
 // The scene prepared for `options` and the module of its technique, both kept on the Context.
@@ -61,14 +80,22 @@ int check_light(const Scene& scene, int light_index);
 // -D defines of render.cl's kernels for this scene and these options, SOMBRA_LANES = lanes
 // (renderer.cpp), and the arguments they share (SCENE_PARAMS, cl/scene_refs.h).
 std::vector<std::string> camera_pass_defines(const Scene& scene, const RenderOptions& options, const Prepared& p, int lanes,
-                                             bool shadow_cache);
+                                             bool shadow_cache, bool surface_cache = false);
 void bind_scene(host::KernelArgs& args, const PreparedScene& p, const cl::Buffer& camera);
 
-// The shadow cache this frame reads, its stale entries filled, or nullptr when every sample
-// evaluates the technique (options.shadow_cache; Auto weighs the points to fill against the
-// samples the frame is estimated to take) — shadow_cache.cpp.
+// Per light, the distance surface fragments' shadow lookups are biased in proportion to (cl/surfaces.h
+// surface_shadow_lookup; render.cl's surface_bias): the light's reach over the scene's box (volumes
+// and meshes) — its diagonal, or a positional light's distance to its farthest corner — to which
+// the texels of its maps are proportional; a camera move does not change it (shadow_cache.cpp).
+std::vector<float> surface_bias_distances(const PreparedScene& p);
+
+// The shadow cache this frame reads, its stale entries filled, or nullptr when every sample and
+// fragment evaluates the technique (options.shadow_cache; Auto weighs the lattice points to fill
+// against the samples the frame is estimated to take, and the surface points to fill against the
+// frame's surface fragments `surface_fragments`, each part on its own) — shadow_cache.cpp.
 const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, const Prepared& prepared,
-                                          const RenderOptions& options, int width, int height, int lanes, RenderStats& stats);
+                                          const RenderOptions& options, int width, int height, int lanes,
+                                          std::size_t surface_fragments, RenderStats& stats);
 
 }  // namespace pipeline
 

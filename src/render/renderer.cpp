@@ -103,7 +103,7 @@ std::unique_ptr<PreparedScene> prepare_anew(host::Runtime& runtime, const Scene&
 
 // -D defines for the camera pass: what this scene and these options need, nothing more.
 std::vector<std::string> camera_pass_defines(const Scene& scene, const RenderOptions& options, const Prepared& p, int lanes,
-                                             bool shadow_cache) {
+                                             bool shadow_cache, bool surface_cache) {
     std::vector<std::string> defines = shadows::volume_pass_defines(scene, p.scene.use_images, options.empty_space_skipping);
     defines.push_back("SOMBRA_LANES=" + std::to_string(lanes));
     defines.push_back("SOMBRA_LIGHT_SLOTS=" + std::to_string(std::max<std::size_t>(scene.lights.size(), 1)));
@@ -113,6 +113,7 @@ std::vector<std::string> camera_pass_defines(const Scene& scene, const RenderOpt
     if (surfaces::has_fragments(scene)) defines.push_back("SOMBRA_HAS_MESHES");
     p.technique.add_defines(scene, options, defines);
     if (shadow_cache) defines.push_back("SOMBRA_SHADOW_CACHE");
+    if (surface_cache) defines.push_back("SOMBRA_SURFACE_SHADOW_CACHE");
     return defines;
 }
 
@@ -191,7 +192,7 @@ double run_shadow_probe(host::Runtime& runtime, const Scene& scene, const Prepar
     CameraGpu camera = packing::pack_camera(scene, scene.width, scene.height);
     camera.jitter_seed = options.jitter_seed;
     cl::Buffer camera_buffer = host::make_buffer(runtime, CL_MEM_READ_ONLY, sizeof(CameraGpu), &camera, "camera");
-    cl::Kernel kernel(runtime.program("render.cl", camera_pass_defines(scene, options, prepared, 1, false)), "shadow_probe");
+    cl::Kernel kernel(runtime.program("render.cl", camera_pass_defines(scene, options, prepared, 1, false, false)), "shadow_probe");
     host::KernelArgs args(kernel);
     bind_scene(args, prepared.scene, camera_buffer);
     args("light_index", cl_uint(light))("points", points)("transmittance", out);
@@ -240,13 +241,21 @@ std::string RenderStats::to_json() const {
     }
     if (sat_tables > 0)
         j["sat"] = {{"tables", sat_tables}, {"bytes", sat_bytes}, {"tables_built", sat_tables_built}, {"tables_reused", sat_tables_reused}};
-    if (shadow_cache_points_to_fill > 0 || shadow_cache_used)
+    if (shadow_cache_points_to_fill > 0 || shadow_cache_used || shadow_cache_surface_points > 0) {
         j["shadow_cache"] = {{"used", shadow_cache_used},
                              {"bytes", shadow_cache_bytes},
                              {"entries_built", shadow_cache_entries_built},
                              {"entries_reused", shadow_cache_entries_reused},
                              {"points_to_fill", shadow_cache_points_to_fill},
                              {"estimated_samples", shadow_cache_estimated_samples}};
+        if (shadow_cache_surface_points > 0)
+            j["shadow_cache"]["surfaces"] = {{"used", shadow_cache_surfaces_used},
+                                             {"points", shadow_cache_surface_points},
+                                             {"entries_built", shadow_cache_surface_entries_built},
+                                             {"entries_reused", shadow_cache_surface_entries_reused},
+                                             {"points_to_fill", shadow_cache_surface_points_to_fill},
+                                             {"estimated_fragments", shadow_cache_estimated_fragments}};
+    }
     return j.dump(2);
 }
 
@@ -268,9 +277,16 @@ RenderResult render(Context& context, const Scene& scene, const RenderOptions& o
     pipeline::Prepared prepared = pipeline::prepare(context, scene, options, stats);
     const pipeline::PreparedScene& p = prepared.scene;
 
+    surfaces::ViewFragments fragments;
+    if (surfaces::has_fragments(scene)) {  // the camera view's fragments (Knecht §3.1: raster → segments); SURFACE_PARAMS
+        fragments = surfaces::view_fragments(runtime, scene, raster::camera_view(scene.camera, width, height));
+        stats.stage_ms["camera_raster"] = fragments.tiles.stats.count_ms + fragments.tiles.stats.write_ms;
+        stats.stage_ms["camera_fragments"] = fragments.fragments.stats.count_ms + fragments.fragments.stats.write_ms;
+    }
     // the shadow cache is filled first: its fill binds the technique's per-call buffers anew
-    const pipeline::ShadowCache* cache = pipeline::shadow_cache_for_frame(context, scene, prepared, options, width, height, lanes, stats);
-    bool cached = cache != nullptr;
+    const pipeline::ShadowCache* cache = pipeline::shadow_cache_for_frame(context, scene, prepared, options, width, height, lanes,
+                                                                          fragments.fragments.stats.fragments, stats);
+    bool cached = cache && cache->volumes_used, surfaces_cached = cache && cache->surfaces_used;
 
     CameraGpu camera = packing::pack_camera(scene, width, height);
     camera.termination_transmittance = options.termination_transmittance;
@@ -282,7 +298,7 @@ RenderResult render(Context& context, const Scene& scene, const RenderOptions& o
     cl::Buffer count_buffer = host::make_buffer(runtime, CL_MEM_WRITE_ONLY, pixels * sizeof(cl_uint), nullptr, "sample counts");
 
     auto build_start = std::chrono::steady_clock::now();
-    cl::Program& program = runtime.program("render.cl", pipeline::camera_pass_defines(scene, options, prepared, lanes, cached));
+    cl::Program& program = runtime.program("render.cl", pipeline::camera_pass_defines(scene, options, prepared, lanes, cached, surfaces_cached));
     stats.stage_ms["program_build"] = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - build_start).count();
     cl::Kernel kernel(program, "render_camera");
     host::KernelArgs args(kernel);
@@ -290,14 +306,15 @@ RenderResult render(Context& context, const Scene& scene, const RenderOptions& o
     args("image", image_buffer)("sample_counts", count_buffer);
     prepared.technique.bind(args, runtime, options);
     if (cached) args("shadow_cache", cache->values)("shadow_cache_table", cache->table);
-    surfaces::ViewFragments fragments;
-    if (surfaces::has_fragments(scene)) {  // the camera view's fragments (Knecht §3.1: raster → segments); SURFACE_PARAMS
-        fragments = surfaces::view_fragments(runtime, scene, raster::camera_view(scene.camera, width, height));
-        stats.stage_ms["camera_raster"] = fragments.tiles.stats.count_ms + fragments.tiles.stats.write_ms;
-        stats.stage_ms["camera_fragments"] = fragments.fragments.stats.count_ms + fragments.fragments.stats.write_ms;
+    if (surfaces_cached) args("surface_shadow_cache", cache->surfaces.values)("surface_cache_triangles", cache->surfaces.triangle_buffer);
+    cl::Buffer surface_bias;  // per light: surfaces.h surface_shadow_lookup's distance
+    if (surfaces::has_fragments(scene)) {
+        std::vector<float> bias = pipeline::surface_bias_distances(p);
+        surface_bias = host::make_buffer(runtime, CL_MEM_READ_ONLY, bias.size() * sizeof(float), bias.data(), "surface bias");
         args("fragment_first", fragments.fragments.first)("fragments", fragments.fragments.fragments);
         args("screen_triangles", fragments.tiles.triangles)("surface_triangles", p.surfaces.triangles);
         args("surface_materials", p.surfaces.materials);
+        args("surface_bias", surface_bias);
     }
     args.done();
 

@@ -2,7 +2,9 @@
 // and Ament et al. 2014 Alg. 1 for every technique. Per volume and light a lattice of the shadow
 // term over the volume's voxels, filled by the technique itself (render.cl shadow_cache_fill) and
 // kept on the Context; an entry is refilled only when its key changes. The camera pass reads it
-// trilinearly (render.cl cached_shadow).
+// trilinearly (render.cl cached_shadow). Its surface part holds the term per mesh triangle corner
+// and light (render.cl surface_shadow_cache_fill), which surface fragments interpolate
+// barycentrically (surfaces.h composite_surface).
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -18,6 +20,19 @@ namespace sombra::pipeline {
 namespace {
 
 constexpr std::size_t kShadowCachePoints = std::size_t(1) << 23;  // per volume and light (32 MiB)
+constexpr std::size_t kSurfacePoints = std::size_t(1) << 22;      // the surface part's, over all meshes (64 MiB + 4 MiB per light)
+constexpr int kSurfaceMaxSubdivision = 1024;                        // lattice intervals along a triangle's edge
+constexpr int kSurfaceRowPoints = 1024;                              // rows of the surface fill's launch
+
+double triangle_longest_edge(const SurfaceTriangleGpu& t) {
+    const cl_float4* c[3] = {&t.corner, &t.corner1, &t.corner2};
+    double longest = 0;
+    for (int e = 0; e < 3; ++e) {
+        const cl_float4 &a = *c[e], &b = *c[(e + 1) % 3];
+        longest = std::max(longest, std::hypot(double(a.s[0]) - b.s[0], double(a.s[1]) - b.s[1], double(a.s[2]) - b.s[2]));
+    }
+    return longest;
+}
 
 // The lattice of a volume: its voxels, the longest axis halved until at most kShadowCachePoints.
 std::array<int, 3> cache_lattice(const std::array<int, 3>& dims) {
@@ -65,12 +80,30 @@ std::vector<ShadowCacheGpu> cache_layout(const Scene& scene, const packing::Pack
 // content (voxels, transfer function, step) of its volume and of each volume that can reach it —
 // whose box, grown by four texels of a map fitted to the scene (bilinear lookups, pre-filtering)
 // and two steps, lies between the entry's volume and the light.
-std::vector<std::string> generic_keys(const Scene& scene, const PreparedScene& p, const techniques::ShadowModule& technique,
-                                      const RenderOptions& options) {
+std::string common_key(const PreparedScene& p, const RenderOptions& options) {
     const SceneKeys& k = p.keys;
     std::string common = std::string(shadow_technique_name(options.shadows)) + " seed " + std::to_string(options.jitter_seed) +
                          " | options " + k.options + " | meshes " + k.meshes + " | placement";
     for (const std::string& placement : k.volume_placement) common += " " + placement;
+    return common;
+}
+
+// How far a light's view fitted to the box `all` reaches: the box's diagonal, or a positional
+// light's distance to its farthest corner if longer.
+double light_reach(const shadows::WorldBox& all, const LightGpu& light) {
+    double reach = all.diagonal();
+    if (light.type != SOMBRA_LIGHT_DIRECTIONAL)
+        for (int c = 0; c < 8; ++c) {
+            const shadows::D3 corner{(c & 1 ? all.hi : all.lo)[0], (c & 2 ? all.hi : all.lo)[1], (c & 4 ? all.hi : all.lo)[2]};
+            reach = std::max(reach, std::hypot(corner[0] - light.position.s[0], corner[1] - light.position.s[1], corner[2] - light.position.s[2]));
+        }
+    return reach;
+}
+
+std::vector<std::string> generic_keys(const Scene& scene, const PreparedScene& p, const techniques::ShadowModule& technique,
+                                      const RenderOptions& options) {
+    const SceneKeys& k = p.keys;
+    std::string common = common_key(p, options);
     std::vector<shadows::WorldBox> boxes = shadows::volume_boxes(p.packed);
     shadows::WorldBox all;
     double step = 0;
@@ -79,13 +112,7 @@ std::vector<std::string> generic_keys(const Scene& scene, const PreparedScene& p
     for (std::size_t i = 0; i < scene.volumes.size(); ++i)
         for (std::size_t m = 0; m < scene.lights.size(); ++m) {
             const LightGpu& light = p.packed.lights[m];
-            double reach = all.diagonal();  // a positional light's map spans its distance to the farthest corner
-            if (light.type != SOMBRA_LIGHT_DIRECTIONAL)
-                for (int c = 0; c < 8; ++c) {
-                    const shadows::D3 corner{(c & 1 ? all.hi : all.lo)[0], (c & 2 ? all.hi : all.lo)[1], (c & 4 ? all.hi : all.lo)[2]};
-                    reach = std::max(reach, std::hypot(corner[0] - light.position.s[0], corner[1] - light.position.s[1],
-                                                       corner[2] - light.position.s[2]));
-                }
+            double reach = light_reach(all, light);  // a positional light's map spans its distance to the farthest corner
             // a texel of a view of ≤ 90° fitted to the scene spans ≤ (π/2)·reach / resolution
             double margin = 4 * 1.6 * reach / std::max(options.dsm_resolution, 1) + 2 * step;
             std::string key = common + " | light " + p.light_keys[m] + " " + technique.light_data_key(m) + " | volume " + std::to_string(i) + " " + k.volume_content[i];
@@ -150,81 +177,225 @@ double visible_brick_fraction(const packing::PackedScene& packed, std::size_t i)
     return bricks ? double(std::count(first, first + std::ptrdiff_t(bricks), cl_uchar(1))) / double(bricks) : 0.0;
 }
 
+// The surface part's points: per mesh triangle a barycentric lattice of k + 1 points along each
+// edge (k = 1: its corners), point (i, j) at barycentric weights (1 − (i + j)/k, i/k, j/k) of
+// corners 0, 1, 2, with the normal interpolated and normalized as composite_surface interpolates
+// it there. k: the triangle's longest edge over the spacing `spacing`, so that big triangles (a
+// floor, a table) resolve the shadows falling across them as finely as the meshes' own triangles.
+void make_surface_points(SurfaceShadowCache& s, const std::vector<SurfaceTriangleGpu>& triangles, double spacing) {
+    s.points.clear(), s.triangles.clear();
+    s.triangles.reserve(2 * triangles.size());
+    for (const SurfaceTriangleGpu& t : triangles) {
+        const cl_float4* corner[3] = {&t.corner, &t.corner1, &t.corner2};
+        int k = std::clamp(int(std::ceil(triangle_longest_edge(t) / spacing)), 1, kSurfaceMaxSubdivision);
+        s.triangles.push_back(cl_uint(s.points.size() / 2)), s.triangles.push_back(cl_uint(k));
+        for (int j = 0; j <= k; ++j)
+            for (int i = 0; i + j <= k; ++i) {
+                float v = float(i) / float(k), w = float(j) / float(k), u = 1.f - v - w;
+                float p[3], n[3];
+                for (int a = 0; a < 3; ++a) {
+                    p[a] = u * corner[0]->s[a] + v * corner[1]->s[a] + w * corner[2]->s[a];
+                    n[a] = u * t.normal[0].s[a] + v * t.normal[1].s[a] + w * t.normal[2].s[a];
+                }
+                float len = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+                if (len > 1e-12f) {
+                    for (float& x : n) x /= len;
+                } else {  // the face normal, as the fragment falls back to
+                    float e1[3], e2[3];
+                    for (int a = 0; a < 3; ++a) e1[a] = t.corner1.s[a] - t.corner.s[a], e2[a] = t.corner2.s[a] - t.corner.s[a];
+                    float c[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]};
+                    float cl = std::max(std::sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]), 1e-30f);
+                    for (int a = 0; a < 3; ++a) n[a] = c[a] / cl;
+                }
+                s.points.push_back(cl_float4{{p[0], p[1], p[2], 1.f}});
+                s.points.push_back(cl_float4{{n[0], n[1], n[2], 0.f}});
+            }
+    }
+}
+
+// The lattices' spacing: the meshes' median triangle edge (their own tessellation), grown while
+// the points would pass kSurfacePoints.
+double surface_spacing(const std::vector<SurfaceTriangleGpu>& triangles) {
+    std::vector<double> longest;
+    for (const SurfaceTriangleGpu& t : triangles) longest.push_back(triangle_longest_edge(t));
+    std::nth_element(longest.begin(), longest.begin() + std::ptrdiff_t(longest.size() / 2), longest.end());
+    double spacing = std::max(longest[longest.size() / 2], 1e-12);
+    for (;;) {
+        double points = 0;
+        for (double edge : longest) {
+            double k = std::clamp(std::ceil(edge / spacing), 1.0, double(kSurfaceMaxSubdivision));
+            points += (k + 1) * (k + 2) / 2;
+        }
+        if (points <= double(kSurfacePoints)) return spacing;
+        spacing *= 1.25;
+    }
+}
+
+// The surface part's keys, per light: what a lattice entry's generic key holds (generic_keys) with
+// every volume's content, as any volume may shadow a surface.
+std::vector<std::string> surface_keys(const Scene& scene, const PreparedScene& p, const techniques::ShadowModule& technique,
+                                      const RenderOptions& options) {
+    std::string common = common_key(p, options) + " | volumes";
+    for (const std::string& content : p.keys.volume_content) common += " | " + content;
+    std::vector<std::string> keys;
+    for (std::size_t m = 0; m < scene.lights.size(); ++m)
+        keys.push_back(common + " | light " + p.light_keys[m] + " " + technique.light_data_key(m));
+    return keys;
+}
+
 }  // namespace
 
+std::vector<float> surface_bias_distances(const PreparedScene& p) {
+    shadows::WorldBox all;
+    for (const shadows::WorldBox& b : shadows::volume_boxes(p.packed)) all.add(b.lo), all.add(b.hi);
+    for (const SurfaceTriangleGpu& t : p.packed_surfaces.triangles)
+        for (const cl_float4* c : {&t.corner, &t.corner1, &t.corner2}) all.add({c->s[0], c->s[1], c->s[2]});
+    std::vector<float> distances;
+    for (const LightGpu& light : p.packed.lights) distances.push_back(float(light_reach(all, light)));
+    return distances;
+}
+
 const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, const Prepared& prepared,
-                                          const RenderOptions& options, int width, int height, int lanes, RenderStats& stats) {
-    if (options.shadow_cache == ShadowCacheMode::Off || !prepared.technique.has_shadow_term() || scene.volumes.empty() ||
-        scene.lights.empty())
+                                          const RenderOptions& options, int width, int height, int lanes,
+                                          std::size_t surface_fragments, RenderStats& stats) {
+    const PreparedScene& p = prepared.scene;
+    bool has_surfaces = !p.packed_surfaces.triangles.empty();
+    if (options.shadow_cache == ShadowCacheMode::Off || !prepared.technique.has_shadow_term() ||
+        (scene.volumes.empty() && !has_surfaces) || scene.lights.empty())
         return nullptr;
     host::Runtime& runtime = context.runtime();
-    const PreparedScene& p = prepared.scene;
-    std::vector<ShadowCacheGpu> layout = cache_layout(scene, p.packed);
-    std::vector<std::string> keys =
-        prepared.technique.shadow_cache_keys({runtime, scene, p.packed, p.packed_surfaces, p.device, options, p.use_images});
-    if (keys.empty()) keys = generic_keys(scene, p, prepared.technique, options);
     std::unique_ptr<ShadowCache>& cache = context.kept_scenes().shadow_cache;
-    bool same_layout = cache && cache->layout.size() == layout.size() &&
-                       std::equal(layout.begin(), layout.end(), cache->layout.begin(), [](const ShadowCacheGpu& a, const ShadowCacheGpu& b) {
-                           return std::memcmp(&a, &b, sizeof(ShadowCacheGpu)) == 0;
-                       });
+    if (!cache) cache = std::make_unique<ShadowCache>();
     std::size_t lights = scene.lights.size();
-    std::vector<bool> stale(layout.size(), true);
-    for (std::size_t e = 0; e < layout.size(); ++e) stale[e] = !same_layout || cache->keys[e] != keys[e];
-
-    // Auto: a lattice point costs one evaluation of the technique, as a shaded sample does per
-    // light; both happen only near possibly visible bricks (the fill skips the other points)
-    double to_fill = 0, samples = 0;
     CameraGpu camera = packing::pack_camera(scene, width, height);
-    double voxel_size = 0;
-    std::vector<shadows::D3> corners = shadows::scene_corners(p.packed, voxel_size);
-    for (std::size_t i = 0; i < scene.volumes.size(); ++i) {
-        double visible = visible_brick_fraction(p.packed, i);
-        for (std::size_t m = 0; m < lights; ++m)
-            if (stale[i * lights + m]) to_fill += visible * double(lattice_points(layout[i * lights + m]));
-        samples += visible * double(lights) * estimated_samples(camera, &corners[8 * i], p.packed.volumes[i].step);
-    }
-    stats.shadow_cache_points_to_fill = static_cast<unsigned long long>(to_fill);
-    stats.shadow_cache_estimated_samples = static_cast<unsigned long long>(std::min(samples, 1.8e19));
-    if (options.shadow_cache == ShadowCacheMode::Auto && to_fill >= samples) return nullptr;
 
-    if (!same_layout) {  // other volumes or lights: a new cache
-        cache.reset();
-        auto fresh = std::make_unique<ShadowCache>();
-        fresh->layout = layout;
-        fresh->keys.assign(layout.size(), std::string());
-        std::size_t total = layout.back().offset + lattice_points(layout.back());
-        fresh->values = host::make_buffer(runtime, CL_MEM_READ_WRITE, total * sizeof(float), nullptr, "shadow cache");
-        fresh->table = host::make_buffer(runtime, CL_MEM_READ_ONLY, layout.size() * sizeof(ShadowCacheGpu), layout.data(), "shadow cache table");
-        fresh->bytes = total * sizeof(float);
-        cache = std::move(fresh);
-    }
-    std::size_t stale_entries = std::size_t(std::count(stale.begin(), stale.end(), true));
-    stats.shadow_cache_entries_reused += int(layout.size() - stale_entries);
-    if (stale_entries > 0) {
-        camera.jitter_seed = options.jitter_seed;  // the fill's shadow rays start where the camera pass's would
-        cl::Buffer camera_buffer = host::make_buffer(runtime, CL_MEM_READ_ONLY, sizeof(CameraGpu), &camera, "camera");
-        // the camera pass's own program (one build): the fill reads no cache
-        cl::Kernel kernel(runtime.program("render.cl", camera_pass_defines(scene, options, prepared, lanes, true)), "shadow_cache_fill");
-        host::ProgressStage stage(runtime.progress(), "shadow cache", double(stale_entries));
-        double ms = 0;
-        for (std::size_t e = 0; e < layout.size(); ++e) {
-            if (!stale[e]) continue;
-            cache->keys[e].clear();  // an entry half filled when a launch throws is not kept
-            host::KernelArgs args{kernel};
-            bind_scene(args, p, camera_buffer);
-            args("light_index", cl_uint(e % lights))("entry", cl_uint(e))("shadow_cache_table", cache->table)("shadow_cache", cache->values);
-            prepared.technique.bind(args, runtime, options);
-            args.done();
-            const ShadowCacheGpu& c = layout[e];
-            ms += host::run_packets(runtime, kernel, c.dims.s[0], c.dims.s[1] * c.dims.s[2], lanes);
-            cache->keys[e] = keys[e];
-            ++stats.shadow_cache_entries_built;
+    // The lattices: an entry is stale when its key changed or the layout did
+    std::vector<ShadowCacheGpu> layout;
+    std::vector<std::string> keys;
+    std::vector<bool> stale;
+    bool use_volumes = false, same_layout = false;
+    if (!scene.volumes.empty()) {
+        layout = cache_layout(scene, p.packed);
+        keys = prepared.technique.shadow_cache_keys({runtime, scene, p.packed, p.packed_surfaces, p.device, options, p.use_images});
+        if (keys.empty()) keys = generic_keys(scene, p, prepared.technique, options);
+        same_layout = cache->layout.size() == layout.size() &&
+                      std::equal(layout.begin(), layout.end(), cache->layout.begin(), [](const ShadowCacheGpu& a, const ShadowCacheGpu& b) {
+                          return std::memcmp(&a, &b, sizeof(ShadowCacheGpu)) == 0;
+                      });
+        stale.assign(layout.size(), true);
+        for (std::size_t e = 0; e < layout.size(); ++e) stale[e] = !same_layout || cache->keys[e] != keys[e];
+        // Auto: a lattice point costs one evaluation of the technique, as a shaded sample does per
+        // light; both happen only near possibly visible bricks (the fill skips the other points)
+        double to_fill = 0, samples = 0;
+        double voxel_size = 0;
+        std::vector<shadows::D3> corners = shadows::scene_corners(p.packed, voxel_size);
+        for (std::size_t i = 0; i < scene.volumes.size(); ++i) {
+            double visible = visible_brick_fraction(p.packed, i);
+            for (std::size_t m = 0; m < lights; ++m)
+                if (stale[i * lights + m]) to_fill += visible * double(lattice_points(layout[i * lights + m]));
+            samples += visible * double(lights) * estimated_samples(camera, &corners[8 * i], p.packed.volumes[i].step);
         }
-        stats.stage_ms["shadow_cache"] = ms;
+        stats.shadow_cache_points_to_fill = static_cast<unsigned long long>(to_fill);
+        stats.shadow_cache_estimated_samples = static_cast<unsigned long long>(std::min(samples, 1.8e19));
+        use_volumes = options.shadow_cache == ShadowCacheMode::On || to_fill < samples;
     }
+
+    // The surface points: a light's entry is stale when its key changed or the meshes did. Auto:
+    // a point costs one evaluation per light, as a shaded surface fragment does
+    SurfaceShadowCache& sc = cache->surfaces;
+    std::vector<std::string> surface_key_list;
+    std::vector<bool> surface_stale;
+    bool use_surfaces = false;
+    if (has_surfaces) {
+        if (sc.points_key != p.keys.meshes || sc.triangles.size() != 2 * p.packed_surfaces.triangles.size()) {
+            sc = SurfaceShadowCache();
+            make_surface_points(sc, p.packed_surfaces.triangles, surface_spacing(p.packed_surfaces.triangles));
+            sc.points_key = p.keys.meshes;
+        }
+        surface_key_list = surface_keys(scene, p, prepared.technique, options);
+        surface_stale.assign(lights, true);
+        for (std::size_t m = 0; m < lights && sc.keys.size() == lights; ++m) surface_stale[m] = sc.keys[m] != surface_key_list[m];
+        double stale_lights = double(std::count(surface_stale.begin(), surface_stale.end(), true));
+        stats.shadow_cache_surface_points = sc.point_count();
+        stats.shadow_cache_surface_points_to_fill = static_cast<unsigned long long>(stale_lights * double(sc.point_count()));
+        stats.shadow_cache_estimated_fragments = static_cast<unsigned long long>(double(surface_fragments) * double(lights));
+        use_surfaces = options.shadow_cache == ShadowCacheMode::On ||
+                       stale_lights * double(sc.point_count()) < double(surface_fragments) * double(lights);
+    }
+    cache->volumes_used = use_volumes, cache->surfaces_used = use_surfaces;
+    if (!use_volumes && !use_surfaces) return nullptr;
+
+    camera.jitter_seed = options.jitter_seed;  // the fills' shadow rays start where the camera pass's would
+    cl::Buffer camera_buffer = host::make_buffer(runtime, CL_MEM_READ_ONLY, sizeof(CameraGpu), &camera, "camera");
+    // the camera pass's own program (one build): the fills read no cache
+    cl::Program& program = runtime.program("render.cl", camera_pass_defines(scene, options, prepared, lanes, use_volumes, use_surfaces));
+    double ms = 0;
+    if (use_volumes) {
+        if (!same_layout) {  // other volumes or lights: new lattices
+            cache->values = cl::Buffer(), cache->table = cl::Buffer(), cache->bytes = 0;
+            cache->layout = layout;
+            cache->keys.assign(layout.size(), std::string());
+            std::size_t total = layout.back().offset + lattice_points(layout.back());
+            cache->values = host::make_buffer(runtime, CL_MEM_READ_WRITE, total * sizeof(float), nullptr, "shadow cache");
+            cache->table = host::make_buffer(runtime, CL_MEM_READ_ONLY, layout.size() * sizeof(ShadowCacheGpu), layout.data(), "shadow cache table");
+            cache->bytes = total * sizeof(float);
+        }
+        std::size_t stale_entries = std::size_t(std::count(stale.begin(), stale.end(), true));
+        stats.shadow_cache_entries_reused += int(layout.size() - stale_entries);
+        if (stale_entries > 0) {
+            cl::Kernel kernel(program, "shadow_cache_fill");
+            host::ProgressStage stage(runtime.progress(), "shadow cache", double(stale_entries));
+            for (std::size_t e = 0; e < layout.size(); ++e) {
+                if (!stale[e]) continue;
+                cache->keys[e].clear();  // an entry half filled when a launch throws is not kept
+                host::KernelArgs args{kernel};
+                bind_scene(args, p, camera_buffer);
+                args("light_index", cl_uint(e % lights))("entry", cl_uint(e))("shadow_cache_table", cache->table)("shadow_cache", cache->values);
+                prepared.technique.bind(args, runtime, options);
+                args.done();
+                const ShadowCacheGpu& c = layout[e];
+                ms += host::run_packets(runtime, kernel, c.dims.s[0], c.dims.s[1] * c.dims.s[2], lanes);
+                cache->keys[e] = keys[e];
+                ++stats.shadow_cache_entries_built;
+            }
+        }
+    }
+    if (use_surfaces) {
+        std::size_t n = sc.point_count();
+        if (sc.keys.size() != lights) {  // other lights: new values
+            sc.keys.assign(lights, std::string());
+            sc.point_buffer = host::make_buffer(runtime, CL_MEM_READ_ONLY, sc.points.size() * sizeof(cl_float4), sc.points.data(), "surface shadow cache points");
+            sc.triangle_buffer = host::make_buffer(runtime, CL_MEM_READ_ONLY, sc.triangles.size() * sizeof(cl_uint), sc.triangles.data(), "surface shadow cache triangles");
+            sc.values = host::make_buffer(runtime, CL_MEM_READ_WRITE, n * lights * sizeof(float), nullptr, "surface shadow cache");
+            sc.bytes = n * lights * sizeof(float) + sc.points.size() * sizeof(cl_float4) + sc.triangles.size() * sizeof(cl_uint);
+        }
+        sc.bias_distances = surface_bias_distances(p);
+        cl::Buffer bias = host::make_buffer(runtime, CL_MEM_READ_ONLY, lights * sizeof(float), sc.bias_distances.data(), "surface bias");
+        std::size_t stale_lights = std::size_t(std::count(surface_stale.begin(), surface_stale.end(), true));
+        stats.shadow_cache_surface_entries_reused += int(lights - stale_lights);
+        if (stale_lights > 0) {
+            cl::Kernel kernel(program, "surface_shadow_cache_fill");
+            host::ProgressStage stage(runtime.progress(), "surface shadow cache", double(stale_lights));
+            int rows = int((n + kSurfaceRowPoints - 1) / kSurfaceRowPoints);
+            for (std::size_t m = 0; m < lights; ++m) {
+                if (!surface_stale[m]) continue;
+                sc.keys[m].clear();
+                host::KernelArgs args{kernel};
+                bind_scene(args, p, camera_buffer);
+                args("light_index", cl_uint(m))("surface_points", sc.point_buffer)("point_count", cl_uint(n));
+                args("row_points", cl_uint(kSurfaceRowPoints))("surface_bias", bias)("surface_shadow_cache", sc.values);
+                prepared.technique.bind(args, runtime, options);
+                args.done();
+                ms += host::run_packets(runtime, kernel, kSurfaceRowPoints, rows, lanes);
+                sc.keys[m] = surface_key_list[m];
+                ++stats.shadow_cache_surface_entries_built;
+            }
+        }
+    }
+    if (stats.shadow_cache_entries_built + stats.shadow_cache_surface_entries_built > 0) stats.stage_ms["shadow_cache"] = ms;
     stats.shadow_cache_used = true;
-    stats.shadow_cache_bytes = cache->bytes;
+    stats.shadow_cache_surfaces_used = use_surfaces;
+    stats.shadow_cache_bytes = (use_volumes ? cache->bytes : 0) + (use_surfaces ? sc.bytes : 0);
     return cache.get();
 }
 
