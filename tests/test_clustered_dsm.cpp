@@ -220,3 +220,28 @@ TEST_CASE("clustered DSM: options out of range name their flag", "[clustered_dsm
     for (float distance : {-1.f, 11.f, NAN})
         CHECK_THROWS_WITH(render(test::context(), s, dsm_options(16, 2, distance)), Catch::Contains("--cluster-distance"));
 }
+
+TEST_CASE("clustered DSM: a camera that sees nothing any object could shadow leaves every light without maps", "[clustered_dsm]") {
+    Scene s = two_smokes(LightType::Spot);
+    s.camera.position = {0, 0, 3.2f};
+    s.camera.look_at = {0, 0, 10};  // looking away from both volumes
+    for (const std::string& storage : dsm_storage_names()) {
+        INFO(storage);
+        Context context("cpu");
+        RenderOptions o = dsm_options(16, 4);
+        o.dsm_storage = storage;
+        RenderResult away = render(context, s, o);
+        CHECK(away.stats.dsm_clusters.empty());
+        REQUIRE(away.stats.dsm_ignored_objects.size() == 1);
+        CHECK(away.stats.dsm_ignored_objects[0].size() == 2);
+        CHECK(away.stats.dsm_nodes == 0);
+        CHECK(build_deep_shadow_maps(context, s, 0, o).empty());
+        // turning back to the volumes builds their maps on the same Context
+        s.camera.look_at = {0, -0.2f, 0};
+        RenderResult back = render(context, s, o);
+        CHECK(back.stats.dsm_clusters.size() == 2);
+        CHECK(back.stats.dsm_views_generated >= 1);
+        CHECK(test::compare(back.image, render(test::context(), s, o).image).max_abs < 1e-6);
+        s.camera.look_at = {0, 0, 10};
+    }
+}

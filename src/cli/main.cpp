@@ -160,6 +160,9 @@ int write_dsm(sombra::Context& context, const sombra::Scene& scene, int light, c
     const sombra::RenderOptions& options = stats_context.options;
     sombra::RenderStats stats;
     auto maps = sombra::build_deep_shadow_maps(context, scene, light, options, &stats);
+    if (maps.empty())  // clustered: every object misses B, so the light shadows nothing the camera sees
+        throw sombra::Error("--light: light " + std::to_string(light) +
+                            " has no deep shadow map (--clusters: no object can shadow what the camera sees)");
     std::filesystem::path out(output);
     sombra::host::StagedOutputs outputs;
     std::vector<std::string> written;

@@ -74,6 +74,17 @@ ClusteredViews make_clustered_views(const Scene& scene, packing::PackedScene& pa
         }
         gpu.view_count = cl_uint(out.views.size()) - gpu.view_first;
     }
+    if (out.views.empty()) {
+        // every object misses B for every light: no light has a view, but the storage backends
+        // need one to exist — a placeholder that holds nothing and that no light refers to
+        DsmViewGpu placeholder{};
+        placeholder.axis_x = f4({1, 0, 0}), placeholder.axis_y = f4({0, 1, 0}), placeholder.axis_z = f4({0, 0, 1});
+        placeholder.extent_x = placeholder.extent_y = 1.f;
+        placeholder.resolution = cl_uint(resolution);
+        placeholder.volume_mask = 0;
+        out.views.push_back(placeholder);
+        out.meshes.emplace_back(scene.meshes.size(), false);
+    }
     const std::size_t texels = std::size_t(resolution) * std::size_t(resolution);
     if (out.views.size() * texels >= 0xffffffffull) throw Error("--dsm-res: too many texels for 32-bit indices");
     for (std::size_t i = 0; i < out.views.size(); ++i) out.views[i].first_texel = cl_uint(i * texels);

@@ -21,7 +21,8 @@ struct ClusteredViews {
 };
 
 // The clustered views of the scene's lights at `resolution` texels per side; sets
-// packed.lights[i].view_first / view_count (a light whose objects all miss B gets none: lit).
+// packed.lights[i].view_first / view_count (a light whose objects all miss B gets none: lit; when
+// no light has a view, one placeholder view that holds nothing keeps the backends' buffers).
 ClusteredViews make_clustered_views(const Scene& scene, packing::PackedScene& packed, int resolution,
                                     const clustering::ClusterOptions& options);
 
