@@ -40,7 +40,7 @@
 
 DSM_GENERATION_KERNEL(VOLUME_DATA_PARAM, __global const uchar* occupancy, __global const float* tf_tables,
      __global const VolumeGpu* volumes, uint volume_count, __global const DsmViewGpu* views, uint view_index,
-     float epsilon,
+     float epsilon, float step_scale,
 #ifdef SOMBRA_DSM_PRECOMPRESSED
      __global const PrecompressionGpu* precompression, __global const float* precompressed_fraction,
      __global const float* precompressed_opacity, __global const uchar* precompressed_count,
@@ -75,6 +75,7 @@ DSM_GENERATION_KERNEL(VOLUME_DATA_PARAM, __global const uchar* occupancy, __glob
     volume_ray_only(&ray, volume_count, v->volume_mask);
     SegmentCursor cursor;
     segment_cursor_init(&cursor, &ray, volume_count, LLOAD(jitter), texels);
+    cursor.step_scale = step_scale; /* RenderOptions::dsm_step */
 #ifdef SOMBRA_HAS_MESHES /* the texel's fragments: surfaces and volume bounds are segment boundaries */
     uint texel[SOMBRA_LANES];
     for (uint lane = 0; lane < SOMBRA_LANES; ++lane) texel[lane] = y * v->resolution + min(x0 + lane, v->resolution - 1);

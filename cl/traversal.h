@@ -136,7 +136,7 @@ typedef struct {
     lint next_bound; /* the first box bound not passed yet */
     lfloat t_start, t_end;
     lfloat step;     /* of the current segment: the smallest step of its active volumes × step_scale */
-    float step_scale; /* 1, or the shadow rays' RenderOptions::shadow_ray_step (shadow_ray.h) */
+    float step_scale; /* 1, the shadow rays' RenderOptions::shadow_ray_step (shadow_ray.h) or DSM generation's dsm_step */
     luint active;    /* bit i: volume i is active in the current segment */
     lint phase;      /* 0: the segment's start point comes next; 1: its samples; 2: its end point was the last */
     lint k;          /* index of the last sample in the segment: an integer, so that it never stalls */

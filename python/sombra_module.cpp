@@ -168,6 +168,7 @@ PYBIND11_MODULE(sombra, m) {
         .def_readwrite("lowpass_filter_kernel", &RenderOptions::lowpass_filter_kernel)
         .def_readwrite("cone_angle_deg", &RenderOptions::cone_angle_deg)
         .def_readwrite("shadow_ray_step", &RenderOptions::shadow_ray_step)
+        .def_readwrite("dsm_step", &RenderOptions::dsm_step)
         .def_readwrite("lowpass_max_entries", &RenderOptions::lowpass_max_entries)
         .def_readwrite("empty_space_skipping", &RenderOptions::empty_space_skipping)
         .def_readwrite("termination_transmittance", &RenderOptions::termination_transmittance)

@@ -806,3 +806,39 @@ TEST_CASE("pre-filtering: error near a sharp shadow edge against the point and t
         if (rods_scene) CHECK(filtered_error["box"] < 0.95 * filtered_error["none"]);  // sub-texel detail
     }
 }
+
+TEST_CASE("DSM generation step (dsm_step): coarser steps from the light stay within the reference tolerance", "[dsm]") {
+    auto points = random_points(300, 0.45f, 29);
+    for (LightType type : {LightType::Directional, LightType::Point}) {
+        Scene s = smoke_scene(type);
+        RenderOptions base = dsm_options(128, 0.01f);
+        Errors fine = against_reference(s, points, shadow_transmittance(test::context(), s, 0, points, base).transmittance);
+        for (bool precompression : {false, true}) {
+            RenderOptions coarse = base;
+            coarse.dsm_step = 2.f;
+            coarse.dsm_precompression = precompression;  // its tables follow the step
+            ShadowQuery q = shadow_transmittance(test::context(), s, 0, points, coarse);
+            Errors e = against_reference(s, points, q.transmittance);
+            INFO("light type " << int(type) << ", precompression " << precompression << ": step 1 mean " << fine.mean << " max "
+                               << fine.max << "; step 2 mean " << e.mean << " max " << e.max);
+            CHECK(e.non_finite == 0);
+            CHECK(e.mean < 0.01);  // the tolerance of step 1 ("against the brute-force reference")
+            CHECK(e.max < 0.06);
+            CHECK(e.mean < 2 * fine.mean + 1e-3);
+        }
+        // a different step marches other points: other maps
+        RenderOptions coarse = base;
+        coarse.dsm_step = 2.f;
+        auto a = build_deep_shadow_maps(test::context(), s, 0, base), b = build_deep_shadow_maps(test::context(), s, 0, coarse);
+        std::size_t nodes_a = 0, nodes_b = 0;
+        for (auto& m : a) nodes_a += m.nodes.size();
+        for (auto& m : b) nodes_b += m.nodes.size();
+        CHECK(nodes_a != nodes_b);
+    }
+    Scene s = smoke_scene(LightType::Spot);
+    for (float step : {0.f, -1.f, 17.f, NAN}) {
+        RenderOptions o = dsm_options(16, 0.01f);
+        o.dsm_step = step;
+        CHECK_THROWS_WITH(render(test::context(), s, o), Catch::Contains("--dsm-step"));
+    }
+}

@@ -86,6 +86,7 @@ nlohmann::json options_json(const sombra::RenderOptions& o) {
             {"phase_g", decimal(o.phase_g)},
             {"dsm_resolution", o.dsm_resolution},
             {"dsm_epsilon", decimal(o.dsm_epsilon)},
+            {"dsm_step", decimal(o.dsm_step)},
             {"dsm_storage", o.dsm_storage},
             {"dsm_precompression", o.dsm_precompression},
             {"dsm_prefilter", o.dsm_prefilter},
@@ -362,6 +363,9 @@ int run(int argc, char** argv) {
     render->add_option("--prefilter-jitter", prefilter_jitter, "jittered sub-pixel rays: on (seed 1), off, or a seed");
     render->add_option("--eps", dsm_epsilon, "deep shadow map compression error bound ε (Knecht Eq. 3.1)")
         ->check(in_range<float>(0, 1e6f));
+    float dsm_step = defaults.dsm_step;
+    const char* dsm_step_help = "DSM generation: factor on each volume's step for the rays from the light, in (0, 16] (> 1: faster, coarser)";
+    render->add_option("--dsm-step", dsm_step, dsm_step_help)->check(in_range<float>(1e-6f, 16));
     int dsm_clusters = defaults.dsm_clusters;
     float cluster_distance = defaults.dsm_cluster_distance;
     const char* clusters_help = "clustered deep shadow maps (Knecht §3.4): at most M object clusters per light, each with its "
@@ -408,6 +412,7 @@ int run(int argc, char** argv) {
             ->check(member_of("dsm_prefilter"));
         sub->add_option("--prefilter-jitter", prefilter_jitter, "jittered sub-pixel rays: on (seed 1), off, or a seed");
         sub->add_option("--eps", dsm_epsilon, "compression error bound ε")->check(in_range<float>(0, 1e6f));
+        sub->add_option("--dsm-step", dsm_step, dsm_step_help)->check(in_range<float>(1e-6f, 16));
         sub->add_option("--clusters", dsm_clusters, clusters_help)->check(in_range<int>(0, 64));
         sub->add_option("--cluster-distance", cluster_distance, distance_help)->check(in_range<float>(0, 10));
         sub->add_option("--stats", stats_path, "write build times and DSM sizes as JSON");
@@ -497,6 +502,7 @@ int run(int argc, char** argv) {
     options.dsm_storage = dsm_storage;
     options.dsm_precompression = precompression;
     options.dsm_prefilter = prefilter;
+    options.dsm_step = dsm_step;
     options.dsm_clusters = dsm_clusters;
     options.dsm_cluster_distance = cluster_distance;
     options.dsm_cluster_hysteresis = cluster_hysteresis;

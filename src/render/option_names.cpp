@@ -116,6 +116,11 @@ void check_render_options(const RenderOptions& options) {
         got << options.shadow_ray_step;
         throw Error("--ray-step: must lie in (0, 16], got " + got.str());
     }
+    if (!(options.dsm_step > 0.f && options.dsm_step <= 16.f)) {
+        std::ostringstream got;
+        got << options.dsm_step;
+        throw Error("--dsm-step: must lie in (0, 16], got " + got.str());
+    }
     if (options.dsm_clusters < 0 || options.dsm_clusters > 64)
         throw Error("--clusters: must lie in [0, 64] (0: off), got " + std::to_string(options.dsm_clusters));
     if (!(options.dsm_cluster_distance >= 0.f && options.dsm_cluster_distance <= 10.f)) {

@@ -58,7 +58,7 @@ struct DevicePrecompression {
 };
 
 DevicePrecompression upload_precompression(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
-                                           float epsilon, memory::DsmStats& stats) {
+                                           float epsilon, float step_scale, memory::DsmStats& stats) {
     auto start = std::chrono::steady_clock::now();
     std::vector<PrecompressionGpu> params;
     std::vector<float> fraction, opacity;
@@ -66,7 +66,8 @@ DevicePrecompression upload_precompression(host::Runtime& runtime, const Scene& 
     double max_error = 0;
     for (std::size_t i = 0; i < scene.volumes.size(); ++i) {
         const VolumeInstance& vi = scene.volumes[i];
-        float step = packed.volumes[i].step, voxel_size = step / vi.step_voxels;
+        float voxel_size = packed.volumes[i].step / vi.step_voxels;
+        float step = packed.volumes[i].step * step_scale;  // the generation rays' step (dsm_build.cl)
         float unit = vi.opacity_unit > 0.f ? vi.opacity_unit : voxel_size;
         // the table's own error adds to the DSM's: give it half of ε (at least 10⁻³)
         PrecompressionTable table = build_precompression_table(vi.transfer_function, unit, step, 256,
@@ -145,6 +146,7 @@ void generate(host::Runtime& runtime, const Scene& scene, const packing::PackedS
               const packing::DeviceScene& device_scene, std::vector<DsmViewGpu> views, const DsmBuildOptions& options,
               DeviceDsm& dsm, const std::vector<bool>& regenerate, const ViewMeshes& meshes) {
     if (!(options.epsilon >= 0.f) || !std::isfinite(options.epsilon)) throw Error("--eps: must be ≥ 0");
+    if (!(options.step_scale > 0.f && options.step_scale <= 16.f)) throw Error("--dsm-step: must lie in (0, 16]");
     if (options.prefilter != "none")
         return generate_prefiltered(runtime, scene, packed, device_scene, views, options, dsm, regenerate, meshes);
 
@@ -154,7 +156,7 @@ void generate(host::Runtime& runtime, const Scene& scene, const packing::PackedS
     for (auto& d : dsm.storage->defines()) defines.push_back(d);
     DevicePrecompression precompression;
     if (options.precompression) {
-        precompression = upload_precompression(runtime, scene, packed, options.epsilon, dsm.stats);
+        precompression = upload_precompression(runtime, scene, packed, options.epsilon, options.step_scale, dsm.stats);
         defines.push_back("SOMBRA_DSM_PRECOMPRESSED");
     }
     surfaces::DeviceSurfaces surface_data;  // meshes: their fragments in each view become steps (Knecht §3.2)
@@ -174,6 +176,7 @@ void generate(host::Runtime& runtime, const Scene& scene, const packing::PackedS
         else args("volume_data", device_scene.voxel_buffer);
         args("occupancy", device_scene.occupancy)("tf_tables", device_scene.tf_tables)("volumes", device_scene.volumes);
         args("volume_count", cl_uint(scene.volumes.size()))("views", dsm.views_buffer)("view_index", view)("epsilon", options.epsilon);
+        args("step_scale", options.step_scale);
         if (options.precompression) {
             args("precompression", precompression.params)("precompressed_fraction", precompression.fraction);
             args("precompressed_opacity", precompression.opacity)("precompressed_count", precompression.count);

@@ -16,6 +16,7 @@ namespace sombra::shadows {
 struct DsmBuildOptions {
     int resolution = 512;
     float epsilon = 0.02f;          // Knecht Eq. 3.1
+    float step_scale = 1.f;         // on each volume's step, for the rays from the light (RenderOptions::dsm_step)
     std::string storage = "atlas";  // atlas, chunked, compact
     bool precompression = false;    // pre-compressed visibility tables (Hadwiger §3.2)
     std::string prefilter = "none"; // none, box, tent or 5tap (cl/shared/prefilter.h)

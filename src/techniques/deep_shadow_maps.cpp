@@ -10,7 +10,7 @@
 namespace sombra::techniques {
 
 shadows::DsmBuildOptions dsm_build_options(const RenderOptions& o) {
-    return {o.dsm_resolution, o.dsm_epsilon, o.dsm_storage, o.dsm_precompression, o.dsm_prefilter, o.dsm_prefilter_jitter,
+    return {o.dsm_resolution, o.dsm_epsilon, o.dsm_step, o.dsm_storage, o.dsm_precompression, o.dsm_prefilter, o.dsm_prefilter_jitter,
             o.dsm_prefilter_seed, o.lanes};
 }
 
@@ -22,7 +22,7 @@ void DeepShadowMaps::add_defines(const Scene&, const RenderOptions& options, std
 // dsm and shadowmap read the same maps: the technique is not part of the key
 // dsm and shadowmap read the same maps: the technique is not part of the key
 void DeepShadowMaps::add_key(const RenderOptions& o, int lanes, std::ostream& key) const {
-    key << o.dsm_resolution << ' ' << o.dsm_epsilon << ' ' << o.dsm_storage << ' ' << o.dsm_precompression << ' ' << o.dsm_prefilter
+    key << o.dsm_resolution << ' ' << o.dsm_epsilon << ' ' << o.dsm_step << ' ' << o.dsm_storage << ' ' << o.dsm_precompression << ' ' << o.dsm_prefilter
         << ' ' << o.dsm_prefilter_jitter << ' ' << o.dsm_prefilter_seed << ' ' << lanes  // other packets build other maps
         << " clusters " << o.dsm_clusters << ' ' << o.dsm_cluster_distance;
 }
