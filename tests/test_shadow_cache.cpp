@@ -257,6 +257,7 @@ TEST_CASE("surface shadow cache: each corner holds the technique's term where a 
         std::vector<float> values(n * lights);
         context.runtime().queue().enqueueReadBuffer(sc.values, CL_TRUE, 0, values.size() * sizeof(float), values.data());
         const std::vector<LightGpu> packed = context.kept_scenes().prepared->packed.lights;  // a copy: queries repack them
+        const std::vector<float> bias_distances = pipeline::surface_bias_distances(*context.kept_scenes().prepared);
         std::size_t unlit = 0, compared = 0;
         for (std::size_t m = 0; m < lights; ++m) {
             // every 13th point, moved off the surface as surfaces.h surface_shadow_lookup moves it
@@ -272,7 +273,7 @@ TEST_CASE("surface shadow cache: each corner holds the technique's term where a 
                 }
                 double cos_incidence = 0;
                 for (int a = 0; a < 3; ++a) cos_incidence += nrm.s[a] * to_light[a] / std::sqrt(len);
-                double bias = 2e-3 * sc.bias_distances[m] / std::max(std::abs(cos_incidence), 0.2) * (cos_incidence < 0 ? -1 : 1);
+                double bias = 2e-3 * bias_distances[m] / std::max(std::abs(cos_incidence), 0.2) * (cos_incidence < 0 ? -1 : 1);
                 lookups.push_back({float(p.s[0] + bias * nrm.s[0]), float(p.s[1] + bias * nrm.s[1]), float(p.s[2] + bias * nrm.s[2])});
                 cached.push_back(values[k * lights + m]);
             }

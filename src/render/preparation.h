@@ -36,6 +36,7 @@ struct PreparedScene {
     packing::DeviceScene device;
     surfaces::PackedSurfaces packed_surfaces;  // scenes with meshes: world-space triangles and materials
     surfaces::DeviceSurfaces surfaces;         // the same on the device
+    cl::Buffer surface_bias;                   // with fragments, per light: surface_bias_distances, uploaded with the lights
     bool use_images = false;
 };
 
@@ -53,7 +54,6 @@ struct SurfaceShadowCache {
     // (1 − (i + j)/k, i/k, j/k) is first + j·(k + 1) − j·(j − 1)/2 + i
     std::vector<cl_uint> triangles;
     std::vector<std::string> keys;         // per light; empty: not filled
-    std::vector<float> bias_distances;     // per light: surface_shadow_lookup's distance (the light's reach)
     cl::Buffer point_buffer, triangle_buffer, values;  // values: point · lights + light
     std::size_t bytes = 0;
     std::size_t point_count() const { return points.size() / 2; }

@@ -72,6 +72,13 @@ SceneKeys scene_keys(const Scene& scene, const RenderOptions& o, bool use_images
     return keys;
 }
 
+// With fragments: the surface lookups' per-light bias distances (they follow the lights).
+void upload_surface_bias(host::Runtime& runtime, const Scene& scene, PreparedScene& p) {
+    if (!surfaces::has_fragments(scene)) return;
+    std::vector<float> bias = surface_bias_distances(p);
+    p.surface_bias = host::make_buffer(runtime, CL_MEM_READ_ONLY, bias.size() * sizeof(float), bias.data(), "surface bias");
+}
+
 // Packs the lights, lets the technique lay out its per-light data in them, uploads them.
 void upload_lights(host::Runtime& runtime, const Scene& scene, const RenderOptions& options, PreparedScene& p,
                    techniques::ShadowModule& technique) {
@@ -80,6 +87,7 @@ void upload_lights(host::Runtime& runtime, const Scene& scene, const RenderOptio
     if (!p.packed.lights.empty())  // OpenCL forbids writing 0 bytes
         runtime.queue().enqueueWriteBuffer(p.device.lights, CL_TRUE, 0, p.packed.lights.size() * sizeof(LightGpu),
                                            p.packed.lights.data());
+    upload_surface_bias(runtime, scene, p);
 }
 
 std::unique_ptr<PreparedScene> prepare_anew(host::Runtime& runtime, const Scene& scene, const RenderOptions& options,
@@ -95,6 +103,7 @@ std::unique_ptr<PreparedScene> prepare_anew(host::Runtime& runtime, const Scene&
     if (surfaces::has_fragments(scene)) {
         prepared->packed_surfaces = surfaces::pack_surfaces(scene);
         prepared->surfaces = surfaces::upload_surfaces(runtime, prepared->packed_surfaces);
+        upload_surface_bias(runtime, scene, *prepared);
     }
     return prepared;
 }
@@ -307,14 +316,11 @@ RenderResult render(Context& context, const Scene& scene, const RenderOptions& o
     prepared.technique.bind(args, runtime, options);
     if (cached) args("shadow_cache", cache->values)("shadow_cache_table", cache->table);
     if (surfaces_cached) args("surface_shadow_cache", cache->surfaces.values)("surface_cache_triangles", cache->surfaces.triangle_buffer);
-    cl::Buffer surface_bias;  // per light: surfaces.h surface_shadow_lookup's distance
     if (surfaces::has_fragments(scene)) {
-        std::vector<float> bias = pipeline::surface_bias_distances(p);
-        surface_bias = host::make_buffer(runtime, CL_MEM_READ_ONLY, bias.size() * sizeof(float), bias.data(), "surface bias");
         args("fragment_first", fragments.fragments.first)("fragments", fragments.fragments.fragments);
         args("screen_triangles", fragments.tiles.triangles)("surface_triangles", p.surfaces.triangles);
         args("surface_materials", p.surfaces.materials);
-        args("surface_bias", surface_bias);
+        args("surface_bias", p.surface_bias);
     }
     args.done();
 

@@ -369,8 +369,6 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
             sc.values = host::make_buffer(runtime, CL_MEM_READ_WRITE, n * lights * sizeof(float), nullptr, "surface shadow cache");
             sc.bytes = n * lights * sizeof(float) + sc.points.size() * sizeof(cl_float4) + sc.triangles.size() * sizeof(cl_uint);
         }
-        sc.bias_distances = surface_bias_distances(p);
-        cl::Buffer bias = host::make_buffer(runtime, CL_MEM_READ_ONLY, lights * sizeof(float), sc.bias_distances.data(), "surface bias");
         std::size_t stale_lights = std::size_t(std::count(surface_stale.begin(), surface_stale.end(), true));
         stats.shadow_cache_surface_entries_reused += int(lights - stale_lights);
         if (stale_lights > 0) {
@@ -383,7 +381,7 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
                 host::KernelArgs args{kernel};
                 bind_scene(args, p, camera_buffer);
                 args("light_index", cl_uint(m))("surface_points", sc.point_buffer)("point_count", cl_uint(n));
-                args("row_points", cl_uint(kSurfaceRowPoints))("surface_bias", bias)("surface_shadow_cache", sc.values);
+                args("row_points", cl_uint(kSurfaceRowPoints))("surface_bias", p.surface_bias)("surface_shadow_cache", sc.values);
                 prepared.technique.bind(args, runtime, options);
                 args.done();
                 ms += host::run_packets(runtime, kernel, kSurfaceRowPoints, rows, lanes);
