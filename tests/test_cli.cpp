@@ -81,6 +81,17 @@ void require_clean_failure(const CliRun& run, const std::string& file, const std
     CHECK_FALSE(std::filesystem::exists(output));
 }
 
+// Two small spheres, "left" and "right", 4 apart across a directional light: two clusters.
+std::string two_spheres_file(const std::string& name) {
+    const nlohmann::json sphere = {{"type", "sphere"}, {"size", 16}};
+    const nlohmann::json tf = {{"rgb_points", {0, 1, 1, 1, 1, 1, 1, 1}}, {"opacity_points", {0, 0, 1, 0.5}}};
+    auto volume = [&](const char* volume_name, float x) {
+        return nlohmann::json{{"name", volume_name}, {"generator", sphere}, {"transfer_function", tf},
+                              {"transform", {{"translate", {x, 0, 0}}, {"scale", 0.06}}}};
+    };
+    return scene_file(name, {{"camera", {{"position", {0, 0, 8}}}}, {"volumes", {volume("left", -2), volume("right", 2)}}});
+}
+
 }  // namespace
 
 TEST_CASE("sombra render writes the image and the stats", "[cli]") {
@@ -494,12 +505,7 @@ TEST_CASE("sombra render: one progress line per stage on a non-terminal stderr, 
 }
 
 TEST_CASE("sombra render --clusters renders clustered deep shadow maps and lists the clusters in --stats", "[cli][clustered_dsm]") {
-    const nlohmann::json sphere = {{"type", "sphere"}, {"size", 16}};
-    const nlohmann::json tf = {{"rgb_points", {0, 1, 1, 1, 1, 1, 1, 1}}, {"opacity_points", {0, 0, 1, 0.5}}};
-    const std::string scene = scene_file("render_clusters.json", {
-        {"camera", {{"position", {0, 0, 8}}}},
-        {"volumes", {{{"name", "left"}, {"generator", sphere}, {"transfer_function", tf}, {"transform", {{"translate", {-2, 0, 0}}, {"scale", 0.06}}}},
-                     {{"name", "right"}, {"generator", sphere}, {"transfer_function", tf}, {"transform", {{"translate", {2, 0, 0}}, {"scale", 0.06}}}}}}});
+    const std::string scene = two_spheres_file("render_clusters.json");
     const std::string dir = sombra::test::temp_dir(), out = dir + "/clusters.png", stats = dir + "/clusters_stats.json";
     CliRun run = run_cli("render " + scene + " -o " + out + " --stats " + stats + " --shadows dsm --dsm-res 32 --clusters 4");
     INFO(run.stderr_text);
@@ -518,12 +524,7 @@ TEST_CASE("sombra render --clusters renders clustered deep shadow maps and lists
 }
 
 TEST_CASE("sombra clusters prints each light's clusters and writes them as JSON", "[cli][clustering]") {
-    const nlohmann::json sphere = {{"type", "sphere"}, {"size", 16}};
-    const nlohmann::json tf = {{"rgb_points", {0, 1, 1, 1, 1, 1, 1, 1}}, {"opacity_points", {0, 0, 1, 0.5}}};
-    const std::string scene = scene_file("clusters.json", {
-        {"camera", {{"position", {0, 0, 8}}}},
-        {"volumes", {{{"name", "left"}, {"generator", sphere}, {"transfer_function", tf}, {"transform", {{"translate", {-2, 0, 0}}, {"scale", 0.06}}}},
-                     {{"name", "right"}, {"generator", sphere}, {"transfer_function", tf}, {"transform", {{"translate", {2, 0, 0}}, {"scale", 0.06}}}}}}});
+    const std::string scene = two_spheres_file("clusters.json");
     const std::string json_path = sombra::test::temp_dir() + "/clusters.out.json";
     const CliOutput run = run_cli_output("clusters " + scene + " --json " + json_path);
     INFO("stderr: " << run.err);
