@@ -10,7 +10,8 @@ A=$1; B=$2; RUNS=${3:-5}; SCENES=${4:-"smoke default"}; STORAGES=${5:-"atlas com
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
 TMP=$(mktemp -d); trap 'rm -rf "$TMP"' EXIT
 no_cache() {  # BIN -> its flag for per-sample lookups (--shadow-cache off; builds before it: --no-shadow-cache)
-    if "$1" render --help | grep -q -- '--shadow-cache'; then echo "--shadow-cache off"; else echo "--no-shadow-cache"; fi
+    local help; help=$("$1" render --help 2>&1 || true)  # not `| grep -q`: its early exit fails the pipe (pipefail)
+    if grep -q -- '--shadow-cache' <<<"$help"; then echo "--shadow-cache off"; else echo "--no-shadow-cache"; fi
 }
 render() {  # BIN SCENE STORAGE SHADOWS -> "camera_pass_ms dsm_stages_sum_ms dsm_build_ms dsm_count_ms"
     # shellcheck disable=SC2046

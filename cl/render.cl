@@ -92,8 +92,8 @@ inline lmask shade_sample(VOLUME_DATA_PARAM, CameraState* state, const VolumeRay
     lfloat3 color_sum = l3((lfloat)(0.0f), (lfloat)(0.0f), (lfloat)(0.0f));
     uint light_count = state->scene.camera->light_count;
     lfloat shadow[SOMBRA_LIGHT_SLOTS]; /* transmittance to each light, found once per sample */
-    for (uint m = 0; m < light_count; ++m) shadow[m] = (lfloat)(1.0f);
-    lmask shadows_known = (lmask)(0);
+    lmask shadow_known[SOMBRA_LIGHT_SLOTS];
+    for (uint m = 0; m < light_count; ++m) shadow[m] = (lfloat)(1.0f), shadow_known[m] = (lmask)(0);
     for (uint i = 0; i < SOMBRA_VOLUME_SLOTS; ++i) {
         lmask here = sampling & ((cursor->active & (1u << i)) != 0u);
         if (!lany(here)) continue;
@@ -110,17 +110,25 @@ inline lmask shade_sample(VOLUME_DATA_PARAM, CameraState* state, const VolumeRay
         normal = normal_from_gradient(v, gradient_voxel(volume_data, v, pv));
 #endif
 #if SHADOW_TERM
-        lmask needed = visible & !shadows_known;
-        if (lany(needed)) {
-            for (uint m = 0; m < light_count; ++m) {
-#ifdef SOMBRA_SHADOW_CACHE
-                lfloat transmittance_to_light = cached_shadow(state, i, m, pv);
+#ifdef SOMBRA_SCATTERING
+        lfloat3 facing = l3((lfloat)(0.0f), (lfloat)(0.0f), (lfloat)(0.0f));
 #else
-                lfloat transmittance_to_light = light_transmittance(volume_data, state, m, p, needed);
+        lfloat3 facing = normal_facing_viewer(normal, state->to_viewer);
 #endif
-                shadow[m] = select(shadow[m], transmittance_to_light, needed);
-            }
-            shadows_known |= needed;
+        for (uint m = 0; m < light_count; ++m) {
+            /* only where the light's term can be non-zero (shading.h): a light behind the
+             * sample's lit side costs no shadow lookup */
+            lmask needed = visible & !shadow_known[m];
+            if (!lany(needed)) continue;
+            needed &= light_term_possible(&state->scene.lights[m], p, facing);
+            if (!lany(needed)) continue;
+#ifdef SOMBRA_SHADOW_CACHE
+            lfloat transmittance_to_light = cached_shadow(state, i, m, pv);
+#else
+            lfloat transmittance_to_light = light_transmittance(volume_data, state, m, p, needed);
+#endif
+            shadow[m] = select(shadow[m], transmittance_to_light, needed);
+            shadow_known[m] |= needed;
         }
 #endif
 #ifdef SOMBRA_SCATTERING

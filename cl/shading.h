@@ -26,6 +26,23 @@ inline lfloat light_incidence(__global const LightGpu* light, lfloat3 p, lfloat3
     return attenuation;
 }
 
+/* N turned to face the viewer (gradients have no preferred side): the side Eq. 3.9 lights. */
+inline lfloat3 normal_facing_viewer(lfloat3 normal, lfloat3 to_viewer) {
+    return l3_select(normal, l3_scale(normal, (lfloat)(-1.0f)), l3_dot(normal, to_viewer) < 0.0f);
+}
+
+/* The lanes where a light's term can be non-zero, whatever its shadow: the light reaches p
+ * (f_m > 0: inside a spot's cone) and, for Phong with a normal (`facing`, from
+ * normal_facing_viewer; 0 = none), lies on the lit side (L·N > 0: else both k_d (L·N) and the
+ * highlight are 0). Elsewhere the shading multiplies shadow_m by 0, so the pass need not find it
+ * (Henyey–Greenstein's phase is positive in every direction: single scattering passes no normal). */
+inline lmask light_term_possible(__global const LightGpu* light, lfloat3 p, lfloat3 facing) {
+    lfloat3 to_light;
+    lfloat incidence = light_incidence(light, p, &to_light);
+    lmask has_normal = l3_dot(facing, facing) > 0.0f;
+    return (incidence > 0.0f) & (!has_normal | (l3_dot(facing, to_light) > 0.0f));
+}
+
 /* I_p = k_a i_a c + Σ_m f_m [k_d (L_m·N) c + k_s (R_m·V)^n] i_m · shadow_m  (Knecht Eq. 3.9).
  * N is made to face the viewer (gradients have no preferred side); N = 0 marks a vanishing
  * gradient, shaded as if lit head-on without a highlight (homogeneous media such as fog).
@@ -36,7 +53,7 @@ inline lfloat3 phong_shade_lanes(__global const LightGpu* lights, uint light_cou
                                  lfloat3 to_viewer, const lfloat* shadow) {
     lfloat3 result = l3_scale(color, ka * ambient_intensity);
     lmask has_normal = l3_dot(normal, normal) > 0.0f;
-    normal = l3_select(normal, l3_scale(normal, (lfloat)(-1.0f)), l3_dot(normal, to_viewer) < 0.0f);
+    normal = normal_facing_viewer(normal, to_viewer);
     for (uint m = 0; m < light_count; ++m) {
         lfloat3 to_light;
         lfloat incidence = light_incidence(&lights[m], p, &to_light);

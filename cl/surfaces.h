@@ -123,8 +123,13 @@ inline void composite_surface(VOLUME_DATA_PARAM, CameraState* state, const Segme
 #if SHADOW_TERM && defined(SOMBRA_SURFACE_SHADOW_CACHE)
             shadow[m] = select((lfloat)(1.0f), LLOAD(cached[m]), here);
 #elif SHADOW_TERM
-            lfloat3 lookup = surface_shadow_lookup(&state->scene.lights[m], p, normal, (lfloat)(surface_bias[m]));
-            shadow[m] = select((lfloat)(1.0f), light_transmittance(volume_data, state, m, lookup, here), here);
+            /* only where the light's term can be non-zero (shading.h) */
+            lmask lit = here & light_term_possible(&state->scene.lights[m], p, normal_facing_viewer(normal, state->to_viewer));
+            shadow[m] = (lfloat)(1.0f);
+            if (lany(lit)) {
+                lfloat3 lookup = surface_shadow_lookup(&state->scene.lights[m], p, normal, (lfloat)(surface_bias[m]));
+                shadow[m] = select((lfloat)(1.0f), light_transmittance(volume_data, state, m, lookup, lit), lit);
+            }
 #else
             shadow[m] = (lfloat)(1.0f);
 #endif

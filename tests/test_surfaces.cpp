@@ -412,3 +412,32 @@ TEST_CASE("shipped mesh scenes (Knecht Fig. 5.2–5.4, 5.12) load and render wit
         CHECK(bad == 0);
     }
 }
+
+TEST_CASE("surfaces: per-fragment shadows darken the side of a floor that faces the camera and the light", "[surfaces][shadows]") {
+    // The camera pass looks a light's shadow up only where its term can be non-zero (cl/shading.h
+    // light_term_possible): here the floor's upper side faces the camera and the light from above.
+    Scene s = test::sphere_scene(32);
+    s.meshes.push_back(quad(1.5f, -0.9f, 1.f, {0.8f, 0.8f, 0.8f}));  // opaque floor under the sphere
+    RenderOptions none;
+    none.shadow_cache = ShadowCacheMode::Off;  // per-fragment lookups
+    Image plain = render(test::context(), s, none).image;
+    Scene volume_only = s;
+    volume_only.meshes.clear();
+    Image volume = render(test::context(), volume_only, none).image;  // its α: the pixels the sphere covers
+    for (ShadowTechnique technique : {ShadowTechnique::Rays, ShadowTechnique::Dsm}) {
+        RenderOptions o = none;
+        o.shadows = technique;
+        o.dsm_resolution = 128;
+        Image shadowed = render(test::context(), s, o).image;
+        float darkest = 0.f, brightest = 0.f;
+        for (std::size_t i = 0; i < plain.rgba.size(); ++i) {
+            if (i % 4 == 3) continue;
+            brightest = std::max(brightest, shadowed.rgba[i] - plain.rgba[i]);
+            if (volume.rgba[i / 4 * 4 + 3] < 1e-6f)  // the floor alone
+                darkest = std::max(darkest, plain.rgba[i] - shadowed.rgba[i]);
+        }
+        INFO(shadow_technique_name(technique) << ": largest darkening of the floor " << darkest);
+        CHECK(brightest < 1e-5f);  // shadows only remove light
+        CHECK(darkest > 0.2f);     // the sphere's shadow on the floor
+    }
+}
