@@ -32,6 +32,9 @@ enum class SweepSize { Quick, Default, Full };
 struct Sweep {
     std::vector<int> resolutions;  // dsm and shadowmap
     std::vector<float> epsilons;
+    // DSM generation step factors (RenderOptions::dsm_step) besides 1: default and quick at every
+    // resolution with the smallest ε; full: in the product.
+    std::vector<float> dsm_steps;
     // Default and quick: resolution × ε with atlas / no pre-filter, then each other storage and
     // pre-filter at one point (the smallest resolution and ε). Full: the whole product.
     bool dsm_product = false;
@@ -44,15 +47,15 @@ Sweep make_sweep(SweepSize size) {
     const std::vector<std::string> all_prefilters = sombra::render_option_values("dsm_prefilter");
     switch (size) {
     case SweepSize::Quick:
-        return {{128, 256}, {0.02f}, false, {"compact"}, {"box"}, {2, 1}, {3}, {}, {7}, {10}};
+        return {{128, 256}, {0.02f}, {2}, false, {"compact"}, {"box"}, {2, 1}, {3}, {}, {7}, {10}};
     case SweepSize::Full:
-        return {{128, 256, 512, 1024}, {0.005f, 0.01f, 0.02f, 0.05f, 0.1f, 0.2f}, true, all_storages, all_prefilters,
+        return {{128, 256, 512, 1024}, {0.005f, 0.01f, 0.02f, 0.05f, 0.1f, 0.2f}, {1.5f, 2, 4}, true, all_storages, all_prefilters,
                 {8, 4, 2, 1, 0.5f}, {1, 2, 3, 5, 7, 11, 15, 23}, {1, 2, 3, 5, 7, 11, 15, 23}, {1, 3, 7, 15, 31},
                 {2.5f, 5, 10, 20, 40}};
     case SweepSize::Default:
         break;
     }
-    return {{128, 256, 512}, {0.01f, 0.1f}, false, all_storages, all_prefilters, {2, 1, 0.5f}, {1, 3, 9}, {3, 9}, {3, 9}, {5, 15}};
+    return {{128, 256, 512}, {0.01f, 0.1f}, {2}, false, all_storages, all_prefilters, {2, 1, 0.5f}, {1, 3, 9}, {3, 9}, {3, 9}, {5, 15}};
 }
 
 // One technique at one setting of its knobs (the shadow cache is chosen per measurement).
@@ -72,29 +75,36 @@ std::vector<Variant> make_variants(const Sweep& sweep, const RenderOptions& base
     add(ShadowTechnique::None, "–", [](RenderOptions&) {});
     for (float step : sweep.ray_steps)
         add(ShadowTechnique::Rays, "step ×" + shortest(step), [&](RenderOptions& o) { o.shadow_ray_step = step; });
-    auto add_dsm = [&](int resolution, float epsilon, const std::string& storage, const std::string& prefilter) {
+    auto add_dsm = [&](int resolution, float epsilon, const std::string& storage, const std::string& prefilter, float step) {
         std::string setting = std::to_string(resolution) + "² ε=" + shortest(epsilon);
+        if (step != 1.f) setting += " step ×" + shortest(step);
         if (storage != "atlas") setting += " " + storage;
         if (prefilter != "none") setting += " prefilter " + prefilter;
         add(ShadowTechnique::Dsm, setting, [&](RenderOptions& o) {
             o.dsm_resolution = resolution, o.dsm_epsilon = epsilon, o.dsm_storage = storage, o.dsm_prefilter = prefilter;
+            o.dsm_step = step;
         });
     };
+    std::vector<float> all_steps{1.f};
+    all_steps.insert(all_steps.end(), sweep.dsm_steps.begin(), sweep.dsm_steps.end());
     for (int resolution : sweep.resolutions)
         for (float epsilon : sweep.epsilons)
             if (sweep.dsm_product) {
                 for (const std::string& storage : sweep.storages)
-                    for (const std::string& prefilter : sweep.prefilters) add_dsm(resolution, epsilon, storage, prefilter);
+                    for (const std::string& prefilter : sweep.prefilters)
+                        for (float step : all_steps) add_dsm(resolution, epsilon, storage, prefilter, step);
             } else {
-                add_dsm(resolution, epsilon, "atlas", "none");
+                add_dsm(resolution, epsilon, "atlas", "none", 1.f);
             }
-    if (!sweep.dsm_product) {  // the other storages and pre-filters at one point
-        int resolution = *std::min_element(sweep.resolutions.begin(), sweep.resolutions.end());
+    if (!sweep.dsm_product) {  // the generation steps at the smallest ε, the other storages and pre-filters at one point
         float epsilon = *std::min_element(sweep.epsilons.begin(), sweep.epsilons.end());
+        for (int resolution : sweep.resolutions)
+            for (float step : sweep.dsm_steps) add_dsm(resolution, epsilon, "atlas", "none", step);
+        int resolution = *std::min_element(sweep.resolutions.begin(), sweep.resolutions.end());
         for (const std::string& storage : sweep.storages)
-            if (storage != "atlas") add_dsm(resolution, epsilon, storage, "none");
+            if (storage != "atlas") add_dsm(resolution, epsilon, storage, "none", 1.f);
         for (const std::string& prefilter : sweep.prefilters)
-            if (prefilter != "none") add_dsm(resolution, epsilon, "atlas", prefilter);
+            if (prefilter != "none") add_dsm(resolution, epsilon, "atlas", prefilter, 1.f);
     }
     for (int resolution : sweep.resolutions)
         add(ShadowTechnique::ShadowMap, std::to_string(resolution) + "²", [&](RenderOptions& o) { o.dsm_resolution = resolution; });
@@ -265,14 +275,14 @@ std::string markdown_table(const std::vector<Row>& rows) {
 
 std::string csv_table(const std::vector<Row>& rows) {
     std::ostringstream s;
-    s << "technique,setting,shadow_cache,cache_used,dsm_resolution,dsm_epsilon,dsm_storage,dsm_prefilter,ray_step,filter_width,"
+    s << "technique,setting,shadow_cache,cache_used,dsm_resolution,dsm_epsilon,dsm_storage,dsm_prefilter,dsm_step,ray_step,filter_width,"
          "filter_kernel,cone_angle_deg,build_ms,cache_fill_ms,camera_ms,first_frame_ms,image_mean,image_p95,point_mean,point_max,"
          "pareto_image,pareto_point\n";
     s.precision(6);
     for (const Row& r : rows) {
         const RenderOptions& o = r.options;
         s << r.technique << ",\"" << r.setting << "\"," << (r.technique == "none" ? "" : r.cache ? "on" : "off") << ','
-          << r.cache_used << ',' << o.dsm_resolution << ',' << o.dsm_epsilon << ',' << o.dsm_storage << ',' << o.dsm_prefilter << ','
+          << r.cache_used << ',' << o.dsm_resolution << ',' << o.dsm_epsilon << ',' << o.dsm_storage << ',' << o.dsm_prefilter << ',' << o.dsm_step << ','
           << o.shadow_ray_step << ',' << o.lowpass_filter_width << ',' << o.lowpass_filter_kernel << ',' << o.cone_angle_deg << ','
           << r.times.build_ms << ',' << r.times.cache_fill_ms << ',' << r.times.camera_ms << ',' << r.times.first_frame_ms << ','
           << r.image.mean << ',' << r.image.tail << ',' << r.point.mean << ',' << r.point.tail << ',' << r.pareto_image << ','
