@@ -291,10 +291,18 @@ std::string csv_table(const std::vector<Row>& rows) {
     return s.str();
 }
 
-// The plot, by bench/plot_error_pareto.py when the Python has matplotlib.
-void plot(const std::string& python, const std::filesystem::path& csv, const std::filesystem::path& png, const std::string& title) {
+bool imports_matplotlib(const std::string& python) {
+    return std::system((python + " -c 'import matplotlib' >/dev/null 2>&1").c_str()) == 0;
+}
+
+// The plot, by bench/plot_error_pareto.py when the Python has matplotlib; the default `python3`
+// falls back to Debian's /usr/bin/python3 (python3-matplotlib) when the first on PATH lacks it
+// (a pyenv or virtual environment).
+void plot(std::string python, bool python_given, const std::filesystem::path& csv, const std::filesystem::path& png,
+          const std::string& title) {
     std::string later = python + " " + SOMBRA_PLOT_SCRIPT + " " + csv.string() + " " + png.string();
-    if (std::system((python + " -c 'import matplotlib' >/dev/null 2>&1").c_str()) != 0) {
+    if (!imports_matplotlib(python) && !python_given && imports_matplotlib("/usr/bin/python3")) python = "/usr/bin/python3";
+    if (!imports_matplotlib(python)) {
         std::cout << "note: no plot: `" << python << "` cannot import matplotlib (python3-matplotlib); later: " << later << "\n";
         return;
     }
@@ -319,7 +327,7 @@ int run(int argc, char** argv) {
     app.add_option("--reference-step", reference_step, "shadow-ray step factor of the reference image")->check(CLI::Range(0.01f, 1.f));
     app.add_option("--device", device, "OpenCL device: auto, cpu, gpu, or an index from `sombra devices`");
     app.add_option("--out", out_dir, "output folder (default bench/results/error/<scene>)");
-    app.add_option("--python", python, "Python with matplotlib, for the plot");
+    CLI::Option* python_option = app.add_option("--python", python, "Python with matplotlib, for the plot");
     app.add_flag("--quick", quick, "a small sweep");
     app.add_flag("--full", full, "the big sweep (every DSM resolution × ε × storage × pre-filter)")->excludes("--quick");
     CLI11_PARSE(app, argc, argv);
@@ -393,7 +401,7 @@ int run(int argc, char** argv) {
     sombra::bench::write_file(dir / "error_table.md", header + table);
     sombra::bench::write_file(dir / "error_table.csv", csv_table(rows));
     std::cout << "\n" << table << "wrote " << (dir / "error_table.{md,csv}").string() << "\n";
-    plot(python, dir / "error_table.csv", dir / "error_pareto.png",
+    plot(python, python_option->count() > 0, dir / "error_table.csv", dir / "error_pareto.png",
          scene_name + ", " + std::to_string(width) + "×" + std::to_string(height));
     return 0;
 }
