@@ -119,12 +119,15 @@ inline void composite_surface(VOLUME_DATA_PARAM, CameraState* state, const Segme
         uint light_count = state->scene.camera->light_count;
         lfloat shadow[SOMBRA_LIGHT_SLOTS];
         lfloat3 normal = l3(LLOAD(nx), LLOAD(ny), LLOAD(nz));
+#if SHADOW_TERM && !defined(SOMBRA_SURFACE_SHADOW_CACHE)
+        lfloat3 facing = normal_facing_viewer(normal, state->to_viewer);
+#endif
         for (uint m = 0; m < light_count; ++m) {
 #if SHADOW_TERM && defined(SOMBRA_SURFACE_SHADOW_CACHE)
             shadow[m] = select((lfloat)(1.0f), LLOAD(cached[m]), here);
 #elif SHADOW_TERM
             /* only where the light's term can be non-zero (shading.h) */
-            lmask lit = here & light_term_possible(&state->scene.lights[m], p, normal_facing_viewer(normal, state->to_viewer));
+            lmask lit = here & light_term_possible(&state->scene.lights[m], p, facing);
             shadow[m] = (lfloat)(1.0f);
             if (lany(lit)) {
                 lfloat3 lookup = surface_shadow_lookup(&state->scene.lights[m], p, normal, (lfloat)(surface_bias[m]));

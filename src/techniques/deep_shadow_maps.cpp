@@ -20,7 +20,6 @@ void DeepShadowMaps::add_defines(const Scene&, const RenderOptions& options, std
 }
 
 // dsm and shadowmap read the same maps: the technique is not part of the key
-// dsm and shadowmap read the same maps: the technique is not part of the key
 void DeepShadowMaps::add_key(const RenderOptions& o, int lanes, std::ostream& key) const {
     key << o.dsm_resolution << ' ' << o.dsm_epsilon << ' ' << o.dsm_step << ' ' << o.dsm_storage << ' ' << o.dsm_precompression << ' ' << o.dsm_prefilter
         << ' ' << o.dsm_prefilter_jitter << ' ' << o.dsm_prefilter_seed << ' ' << lanes  // other packets build other maps
