@@ -49,6 +49,21 @@ inline uint claim_block(__global uint* entry, __global uint* counters, uint pool
     return fresh;
 }
 
+#ifdef SOMBRA_DSM_BUILD_PROGRAM
+/* Packed lookups (RenderOptions::dsm_lookup "packed", src/memory/dsm_storage.h): after generation a
+ * backend's dsm_pack kernel copies every texel's nodes, in depth order, into one run of
+ * packed[texel_first[t] …] (the compact layout, storage_compact.h), which every lookup then reads.
+ * A launch covers texels [first_texel, first_texel + resolution²) of one view: the texel of
+ * work-item i, its view number and its (x, y). */
+inline void dsm_pack_texel(uint first_texel, uint resolution, uint* texel, uint* view, uint* x, uint* y) {
+    uint i = (uint)get_global_id(0);
+    *texel = first_texel + i;
+    *view = first_texel / (resolution * resolution);
+    *x = i % resolution;
+    *y = i / resolution;
+}
+#endif
+
 /* Lookups are scalar, one lane at a time (techniques/dsm.h): a lane's search stops as soon as its
  * own texel is answered, instead of every lane of a packet running the longest search in lockstep
  * through per-lane gathers. Each bilinear corner keeps a hint per lane (Hadwiger §3.5: the search

@@ -27,11 +27,21 @@
         __global uint* restrict atlas_allocator, uint atlas_pool_blocks
 #define DSM_WRITE_ARGS atlas_layout, texel_count, atlas_blocks, atlas_allocator, atlas_pool_blocks
 
-inline uint atlas_tile(__global const DsmViewGpu* v, uint x, uint y) {
-    uint per_row = dsm_tiles_per_row(v);
-    return dsm_view_number(v) * per_row * per_row + (y / DSM_TILE_SIZE) * per_row + x / DSM_TILE_SIZE;
+/* The tile of texel (x, y) of view number `view`, views of `per_row`² tiles. */
+inline uint atlas_tile_of(uint view, uint per_row, uint x, uint y) {
+    return view * per_row * per_row + (y / DSM_TILE_SIZE) * per_row + x / DSM_TILE_SIZE;
 }
+inline uint atlas_tile(__global const DsmViewGpu* v, uint x, uint y) { return atlas_tile_of(dsm_view_number(v), dsm_tiles_per_row(v), x, y); }
 inline uint atlas_texel_in_tile(uint x, uint y) { return (y % DSM_TILE_SIZE) * DSM_TILE_SIZE + x % DSM_TILE_SIZE; }
+/* Where node k of a texel lies in the pool: in block `block`, layer k mod LAYERS, the texel's column of the tile. */
+inline uint atlas_node_index(uint block, uint k, uint texel_in_tile) {
+    return (block * SOMBRA_ATLAS_LAYERS + k % SOMBRA_ATLAS_LAYERS) * ATLAS_TILE_TEXELS + texel_in_tile;
+}
+/* Node k of a texel through its tile's layout entries (an unallocated entry, which a finished
+ * build never leaves below the texel's count, reads block 0). */
+inline float2 atlas_node(__global const uint* layout, __global const float* atlas_blocks, uint k, uint texel_in_tile) {
+    return vload2(atlas_node_index(max(layout[k / SOMBRA_ATLAS_LAYERS], 1u) - 1, k, texel_in_tile), atlas_blocks);
+}
 
 typedef struct {
     uint tile, texel_in_tile, texel, count;
@@ -63,13 +73,26 @@ inline void dsm_writer_put(DsmWriter* w, DSM_WRITE_PARAMS, float z, float alpha)
     }
     uint block = atlas_block(DSM_WRITE_ARGS, w->tile, k / SOMBRA_ATLAS_LAYERS);
     if (block == DSM_NO_BLOCK) return;
-    uint at = (block * SOMBRA_ATLAS_LAYERS + k % SOMBRA_ATLAS_LAYERS) * ATLAS_TILE_TEXELS + w->texel_in_tile;
-    vstore2((float2)(z, alpha), at, atlas_blocks);
+    vstore2((float2)(z, alpha), atlas_node_index(block, k, w->texel_in_tile), atlas_blocks);
 }
 
 inline void dsm_writer_end(DsmWriter* w, DSM_WRITE_PARAMS, __global const DsmViewGpu* v, uint x, uint y) {
     texel_count[w->texel] = w->count;
 }
+
+#ifdef SOMBRA_DSM_BUILD_PROGRAM
+/* Packed lookups: the texel's nodes, layer by layer, into its run (dsm_storage_common.h). */
+__kernel void dsm_pack(__global const uint* restrict atlas_layout, __global const uint* restrict texel_count,
+                       __global const float* restrict atlas_blocks, uint first_texel, uint resolution,
+                       __global const uint* restrict texel_first, __global float* restrict packed) {
+    uint texel, view, x, y;
+    dsm_pack_texel(first_texel, resolution, &texel, &view, &x, &y);
+    uint per_row = (resolution + DSM_TILE_SIZE - 1) / DSM_TILE_SIZE, texel_in_tile = atlas_texel_in_tile(x, y);
+    __global const uint* layout = &atlas_layout[atlas_tile_of(view, per_row, x, y) * SOMBRA_ATLAS_MAX_BLOCKS];
+    uint first = texel_first[texel], count = texel_count[texel];
+    for (uint k = 0; k < count; ++k) vstore2(atlas_node(layout, atlas_blocks, k, texel_in_tile), first + k, packed);
+}
+#endif
 
 #define DSM_READ_PARAMS \
     __global const uint* restrict atlas_layout, __global const uint* restrict texel_count, __global const float* restrict atlas_blocks
@@ -78,17 +101,14 @@ inline void dsm_writer_end(DsmWriter* w, DSM_WRITE_PARAMS, __global const DsmVie
 #define DSM_READ_STATE_INIT(s) ((s).atlas_layout = atlas_layout, (s).texel_count = texel_count, (s).atlas_blocks = atlas_blocks)
 #define DSM_READ_ARGS_OF(s) (s)->atlas_layout, (s)->texel_count, (s)->atlas_blocks
 
-/* V'(z) of texel (x, y) of view v (Knecht Eq. 3.7): the walk of DSM_SCALAR_LOOKUP, node k found
- * through the tile's layout table (block of layer range k / LAYERS, layer k mod LAYERS; an
- * unallocated entry, which a finished build never leaves below the count, reads block 0). */
+/* V'(z) of texel (x, y) of view v (Knecht Eq. 3.7) read in place (RenderOptions::dsm_lookup
+ * "native"): the walk of DSM_SCALAR_LOOKUP, node k found through the tile's layout table (block
+ * of layer range k / LAYERS, layer k mod LAYERS). */
 inline float dsm_texel_opacity(DSM_READ_PARAMS, __global const DsmViewGpu* v, int x, int y, float z, DsmSearchHint* hint) {
-    uint per_row = dsm_tiles_per_row(v);
-    uint tile = dsm_view_number(v) * per_row * per_row + ((uint)y / DSM_TILE_SIZE) * per_row + (uint)x / DSM_TILE_SIZE;
     uint texel_in_tile = atlas_texel_in_tile((uint)x, (uint)y);
     int count = (int)texel_count[dsm_texel_index(v, (uint)x, (uint)y)];
-    __global const uint* layout = &atlas_layout[tile * SOMBRA_ATLAS_MAX_BLOCKS];
-#define DSM_NODE(k) \
-    vload2(((max(layout[(uint)(k) / SOMBRA_ATLAS_LAYERS], 1u) - 1) * SOMBRA_ATLAS_LAYERS + (uint)(k) % SOMBRA_ATLAS_LAYERS) * ATLAS_TILE_TEXELS + texel_in_tile, atlas_blocks)
+    __global const uint* layout = &atlas_layout[atlas_tile(v, (uint)x, (uint)y) * SOMBRA_ATLAS_MAX_BLOCKS];
+#define DSM_NODE(k) atlas_node(layout, atlas_blocks, (uint)(k), texel_in_tile)
     float alpha;
     DSM_SCALAR_LOOKUP(alpha, count, z, hint);
 #undef DSM_NODE

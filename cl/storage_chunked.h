@@ -4,7 +4,8 @@
  * pool with atomic_inc + atomic_cmpxchg (Alg. 4.1; no spin-waits). Each texel's nodes form a
  * linked list whose head sits in a per-texel lookup table (Eq. 4.13–4.17). After generation the
  * nodes are rearranged for reading (dsm_rearrange: depth, opacity and link in one float4, as
- * Knecht's chunk texture) and lookups walk the list linearly. With SOMBRA_CHUNKS_COUNTED the
+ * Knecht's chunk texture) and lookups walk the list linearly, or (packed lookups, the default) each
+ * texel's list is copied into one run (dsm_pack). With SOMBRA_CHUNKS_COUNTED the
  * host counts the nodes of every tile first (dsm_count) and gives each tile an exact run
  * instead of whole chunks: Knecht wasted 7.8 chunks per chunk used (Table 5.11); this wastes none,
  * at the price of a second march. */
@@ -82,6 +83,18 @@ __kernel void dsm_rearrange(__global const float* chunk_nodes, __global const ui
     size_t slot = get_global_id(0);
     float2 node = vload2(slot, chunk_nodes);
     chunk_texture[slot] = (float4)(node.x, node.y, as_float(chunk_next[slot]), 0.0f);
+}
+
+/* Packed lookups, instead of dsm_rearrange: the texel's list, walked from its head, into its run
+ * (dsm_storage_common.h). */
+__kernel void dsm_pack(__global const uint* restrict texel_head, __global const uint* restrict texel_count,
+                       __global const float* restrict chunk_nodes, __global const uint* restrict chunk_next,
+                       uint first_texel, uint resolution, __global const uint* restrict texel_first,
+                       __global float* restrict packed) {
+    uint texel, view, x, y;
+    dsm_pack_texel(first_texel, resolution, &texel, &view, &x, &y);
+    uint slot = texel_head[texel], at = texel_first[texel], end = at + texel_count[texel];
+    for (; at < end && slot != CHUNK_END; ++at, slot = chunk_next[slot]) vstore2(vload2(slot, chunk_nodes), at, packed);
 }
 #endif
 

@@ -157,6 +157,7 @@ PYBIND11_MODULE(sombra, m) {
         .def_readwrite("dsm_resolution", &RenderOptions::dsm_resolution)
         .def_readwrite("dsm_epsilon", &RenderOptions::dsm_epsilon)
         .def_readwrite("dsm_storage", &RenderOptions::dsm_storage)
+        .def_readwrite("dsm_lookup", &RenderOptions::dsm_lookup)
         .def_readwrite("dsm_precompression", &RenderOptions::dsm_precompression)
         .def_readwrite("dsm_prefilter", &RenderOptions::dsm_prefilter)
         .def_readwrite("dsm_prefilter_jitter", &RenderOptions::dsm_prefilter_jitter)

@@ -187,10 +187,14 @@ TEST_CASE("atlas memory follows the nodes: a many-node map within 2x of compact'
     Scene scene = homogeneous_cube(n, 1.f / n, 0.03f);
     scene.lights = {point_light({0.05f, -0.03f, 0.02f})};
     std::vector<Vec3> points = {{0.1f, 0.1f, 0.1f}};
-    auto stats_of = [&](const char* storage) {
-        return shadow_transmittance(test::context(), scene, 0, points, technique(ShadowTechnique::Dsm, storage, 0.001f, 256)).stats;
+    auto stats_of = [&](const char* storage, const char* lookup) {
+        RenderOptions o = technique(ShadowTechnique::Dsm, storage, 0.001f, 256);
+        o.dsm_lookup = lookup;
+        return shadow_transmittance(test::context(), scene, 0, points, o).stats;
     };
-    RenderStats compact = stats_of("compact"), atlas = stats_of("atlas");
+    // the atlas's own layout (native lookups); packed lookups add a compact copy
+    RenderStats compact = stats_of("compact", "native"), atlas = stats_of("atlas", "native");
+    CHECK(stats_of("atlas", "packed").dsm_bytes_used == atlas.dsm_bytes_used + compact.dsm_bytes_used);
     INFO("nodes " << compact.dsm_nodes << " (mean " << compact.dsm_mean_nodes_per_texel << ", max "
                   << compact.dsm_max_nodes_per_texel << " per texel); bytes: compact " << compact.dsm_bytes_used
                   << ", atlas " << atlas.dsm_bytes_used);

@@ -177,6 +177,7 @@ TEST_CASE("sombra render --help shows every option's default, from RenderOptions
     CHECK_THAT(line_of("--cone-angle"), Catch::Contains("=10"));
     CHECK_THAT(line_of("--shadows"), Catch::Contains("=none"));
     CHECK_THAT(line_of("--storage"), Catch::Contains("=" + defaults.dsm_storage));
+    CHECK_THAT(line_of("--dsm-lookup"), Catch::Contains("=" + defaults.dsm_lookup));
     CHECK_THAT(line_of("--device"), Catch::Contains("=auto"));
 }
 
@@ -461,7 +462,7 @@ TEST_CASE("enumerated render options by name: every name round-trips, unknown on
     CHECK(test::error_of([&] { set_render_option(o, "shadows", "dsmm"); }) ==
           "shadows: unknown value 'dsmm' (none, rays, dsm, shadowmap, lowpass, ao, cone)");
     CHECK(test::error_of([] { render_option_values("shadow"); }) ==
-          "unknown enumerated render option 'shadow' (shadows, gradient, shading, storage, dsm_storage, dsm_prefilter, lowpass_filter_kernel, shadow_cache)");
+          "unknown enumerated render option 'shadow' (shadows, gradient, shading, storage, dsm_storage, dsm_lookup, dsm_prefilter, lowpass_filter_kernel, shadow_cache)");
     CHECK(parse_light_type("omni") == LightType::Point);
     CHECK(test::error_of([] { parse_light_type("sun"); }) == "unknown light type 'sun' (directional, spot, point)");
 }

@@ -68,13 +68,18 @@ struct RenderOptions {
     float dsm_epsilon = 0.02f;  // compression error bound (Knecht Eq. 3.1)
     // DSM generation: a factor on each volume's step for the rays from the light (the
     // pre-compressed tables follow it; the camera rays keep their step). Larger is faster and
-    // coarser along the light: on the CT at 512², ε 0.01, 2 makes generation 1.6× faster for +3 %
-    // mean error against the reference (docs/deep-shadow-maps.md). In (0, 16].
+    // coarser along the light: on the CT at 512², ε 0.01, 2 makes generation 1.55× faster for
+    // +14 % point error and +54 % image error against the reference (bench/README.md). In (0, 16].
     float dsm_step = 1.f;
     // DSM storage backend: "atlas" (3D-texture-like atlas of layer blocks allocated per tile on
     // demand, Hadwiger §3.4 / Knecht Eq. 4.7–4.10), "chunked" (64-node chunks per 8×8 tile with
     // atomics and linked lists, Knecht Alg. 4.1) or "compact" (count, prefix sum, write).
     std::string dsm_storage = "atlas";
+    // How lookups read the maps: "packed" (after each build, every texel's nodes are copied into
+    // one run, the compact layout; lookups of every storage then cost the same) or "native" (in
+    // the storage's own layout: the atlas's layers, the chunked storage's lists, as Hadwiger and
+    // Knecht read them). Identical images; packed costs one copy per build and its memory.
+    std::string dsm_lookup = "packed";
     // Pre-compressed visibility tables (Hadwiger §3.2): each step of a one-volume segment is
     // replaced by its precomputed, compressed visibility, so isosurfaces of step transfer
     // functions cast shadows from where they lie rather than from the next sample.
@@ -129,7 +134,7 @@ struct RenderOptions {
 // The options with a fixed set of values, by name, as the command line, --stats and the Python
 // module spell them ("dsm", "sobel", …): the one list of each (src/render/option_names.cpp; the
 // techniques' and storages' from their registries). option: "shadows", "gradient", "shading",
-// "storage" (volume storage), "dsm_storage", "dsm_prefilter", "lowpass_filter_kernel" or
+// "storage" (volume storage), "dsm_storage", "dsm_lookup", "dsm_prefilter", "lowpass_filter_kernel" or
 // "shadow_cache" (auto, on, off).
 // An unknown option or value throws sombra::Error naming it and the accepted ones.
 std::vector<std::string> render_option_values(const std::string& option);  // the value names, in order

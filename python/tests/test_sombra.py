@@ -122,6 +122,10 @@ def test_load_scene_and_options(context):
     options.shadow_cache = "on"  # the shadow cache by name, for any technique
     image, stats = sombra.render(context, scene, options, shadows="dsm", dsm_resolution=64)
     assert options.shadow_cache == "on" and stats["shadow_cache"]["used"]
+    # DSM lookups from the packed copy (default) or in the atlas's own layout: the same image
+    packed, _ = sombra.render(context, scene, options, shadows="dsm", dsm_resolution=64, shadow_cache="off")
+    native, _ = sombra.render(context, scene, options, shadows="dsm", dsm_resolution=64, shadow_cache="off", dsm_lookup="native")
+    assert options.dsm_lookup == "packed" and np.array_equal(packed, native)
 
 
 def test_bad_arguments_name_the_argument(context, tmp_path):

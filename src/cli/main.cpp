@@ -88,6 +88,7 @@ nlohmann::json options_json(const sombra::RenderOptions& o) {
             {"dsm_epsilon", decimal(o.dsm_epsilon)},
             {"dsm_step", decimal(o.dsm_step)},
             {"dsm_storage", o.dsm_storage},
+            {"dsm_lookup", o.dsm_lookup},
             {"dsm_precompression", o.dsm_precompression},
             {"dsm_prefilter", o.dsm_prefilter},
             {"dsm_prefilter_jitter", o.dsm_prefilter_jitter},
@@ -348,11 +349,15 @@ int run(int argc, char** argv) {
     int dsm_resolution = defaults.dsm_resolution;
     float dsm_epsilon = defaults.dsm_epsilon;
     std::string dsm_storage = defaults.dsm_storage;
+    std::string dsm_lookup = defaults.dsm_lookup;
+    const char* dsm_lookup_help = "DSM lookups: packed (each texel's nodes copied into one run after generation) or native "
+                                  "(in the storage's own layout)";
     bool precompression = defaults.dsm_precompression;
     std::string prefilter = defaults.dsm_prefilter;
     render->add_option("--dsm-res", dsm_resolution, "deep shadow map texels per side")->check(in_range<int>(1, 8192));
     render->add_option("--storage", dsm_storage, "deep shadow map storage: atlas, chunked, chunked-ondemand (Knecht) or compact")
         ->check(member_of("dsm_storage"));
+    render->add_option("--dsm-lookup", dsm_lookup, dsm_lookup_help)->check(member_of("dsm_lookup"));
     render->add_flag("--precompression", precompression, "pre-compressed visibility tables for DSM generation (Hadwiger §3.2)");
     std::string prefilter_jitter = !defaults.dsm_prefilter_jitter ? "off"
                                    : defaults.dsm_prefilter_seed == 1 ? "on"
@@ -407,6 +412,7 @@ int run(int argc, char** argv) {
         sub->add_option("--dsm-res", dsm_resolution, "deep shadow map texels per side")->check(in_range<int>(1, 8192));
         sub->add_option("--storage", dsm_storage, "deep shadow map storage: atlas, chunked, chunked-ondemand (Knecht) or compact")
             ->check(member_of("dsm_storage"));
+        sub->add_option("--dsm-lookup", dsm_lookup, dsm_lookup_help)->check(member_of("dsm_lookup"));
         sub->add_flag("--precompression", precompression, "pre-compressed visibility tables (Hadwiger §3.2)");
         sub->add_option("--prefilter", prefilter, "DSM pre-filtering: none, box, tent or 5tap")
             ->check(member_of("dsm_prefilter"));
@@ -500,6 +506,7 @@ int run(int argc, char** argv) {
     options.dsm_resolution = dsm_resolution;
     options.dsm_epsilon = dsm_epsilon;
     options.dsm_storage = dsm_storage;
+    options.dsm_lookup = dsm_lookup;
     options.dsm_precompression = precompression;
     options.dsm_prefilter = prefilter;
     options.dsm_step = dsm_step;

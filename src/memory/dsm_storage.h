@@ -56,11 +56,29 @@ struct BuildContext {
         run_view;
 };
 
+// Every texel's nodes as one run, in the compact layout (cl/storage_compact.h): the compact
+// storage itself, and the copy that packed lookups read (RenderOptions::dsm_lookup).
+struct PackedNodes {
+    std::vector<cl_uint> texel_first;  // per texel its first node; texels + 1 entries
+    cl::Buffer texel_first_buffer, nodes;  // nodes: (depth, opacity) pairs, + 1 spare (lookups of empty texels read in bounds)
+    std::size_t bytes() const { return texel_first.size() * sizeof(cl_uint) + (node_count() + 1) * 2 * sizeof(float); }
+    std::size_t node_count() const { return texel_first.empty() ? 0 : std::size_t(texel_first.back()); }
+    void bind(host::KernelArgs& args) const { args("texel_first", texel_first_buffer)("nodes", nodes); }
+    DeepShadowMap read_back(host::Runtime& runtime, const DsmViewGpu& view) const;
+};
+// Offsets of consecutive runs of counts[i] nodes (a prefix sum, counts.size() + 1 entries);
+// throws sombra::Error past 2^31 nodes.
+std::vector<cl_uint> run_offsets(const std::vector<cl_uint>& counts);
+
 class DsmStorage {
 public:
     virtual ~DsmStorage() = default;
     virtual std::string name() const = 0;
-    virtual std::vector<std::string> defines() const = 0;  // selects cl/storage_<name>.h
+    virtual std::vector<std::string> defines() const = 0;  // selects cl/storage_<name>.h for generation
+    // The defines of the lookup programs: none (the compact reader) when lookups read the packed
+    // copy, else the backend's own.
+    std::vector<std::string> lookup_defines() const { return packed_lookups_ ? std::vector<std::string>{} : defines(); }
+    bool packed_lookups() const { return packed_lookups_; }
     // Generates context.generates() views; stats cover every view (nodes, bytes) and the work
     // done by this call (stage times).
     virtual void build(BuildContext& context, DsmStats& stats) = 0;
@@ -70,12 +88,34 @@ public:
     // Share of the allocated node memory held by superseded nodes of regenerated views; the
     // caller rebuilds everything anew when it grows too large.
     virtual double garbage_fraction() const { return 0.0; }
-    virtual void bind_for_reading(host::KernelArgs& args) const = 0;  // DSM_READ_PARAMS, in order
-    virtual DeepShadowMap read_back(host::Runtime& runtime, const DsmViewGpu& view, cl_uint view_number) const = 0;
+    // DSM_READ_PARAMS of the lookup programs, in order: the packed copy's or the backend's own.
+    void bind_for_reading(host::KernelArgs& args) const {
+        if (packed_lookups_) packed_.bind(args);
+        else bind_native(args);
+    }
+    // One view's nodes on the host (deep EXR export, tests).
+    DeepShadowMap read_back(host::Runtime& runtime, const DsmViewGpu& view, cl_uint view_number) const {
+        return packed_lookups_ ? packed_.read_back(runtime, view) : read_back_native(runtime, view, view_number);
+    }
+
+protected:
+    virtual void bind_native(host::KernelArgs& args) const = 0;
+    virtual DeepShadowMap read_back_native(host::Runtime& runtime, const DsmViewGpu& view, cl_uint view_number) const = 0;
+    // After a build with packed lookups: every texel's nodes (`counts` per texel) copied into
+    // packed_ by the backend's dsm_pack kernel (cl/dsm_storage_common.h), whose own buffers
+    // `bind_source` binds; stage "dsm_pack", bytes_used grows by the copy.
+    void pack(BuildContext& context, const std::vector<cl_uint>& counts,
+              const std::function<void(host::KernelArgs&)>& bind_source, DsmStats& stats);
+
+    bool packed_lookups_ = false;
+    PackedNodes packed_;
+    friend std::unique_ptr<DsmStorage> make_dsm_storage(const std::string& name, const std::string& lookup);
 };
 
-// "compact", "atlas" or "chunked"; throws sombra::Error naming --storage otherwise.
-std::unique_ptr<DsmStorage> make_dsm_storage(const std::string& name);
+// `name`: "atlas", "chunked", "chunked-ondemand" or "compact" (RenderOptions::dsm_storage);
+// `lookup`: "packed" or "native" (RenderOptions::dsm_lookup). Throws sombra::Error naming
+// --storage or --dsm-lookup otherwise.
+std::unique_ptr<DsmStorage> make_dsm_storage(const std::string& name, const std::string& lookup = "packed");
 
 // Shared helpers of the backends.
 // Nodes per texel of every view, from a counting march (dsm_count, SOMBRA_DSM_COUNT_ONLY) over

@@ -96,15 +96,17 @@ public:
         // empty layers of allocated blocks (tiles whose texels differ in node count), blocks lost
         // in allocation races, blocks of the superseded nodes of regenerated views
         stats.bytes_wasted = used_blocks * kBlockBytes - std::min<std::size_t>(stats.nodes * 2 * sizeof(float), used_blocks * kBlockBytes);
+        if (packed_lookups_) pack(context, counts_host_, [&](host::KernelArgs& args) { bind_native(args); }, stats);
     }
 
     double garbage_fraction() const override { return garbage_fraction_; }
 
-    void bind_for_reading(host::KernelArgs& args) const override {
+protected:
+    void bind_native(host::KernelArgs& args) const override {
         args("atlas_layout", layout_)("texel_count", counts_)("atlas_blocks", blocks_);
     }
 
-    DeepShadowMap read_back(host::Runtime& rt, const DsmViewGpu& view, cl_uint view_number) const override {
+    DeepShadowMap read_back_native(host::Runtime& rt, const DsmViewGpu& view, cl_uint view_number) const override {
         std::vector<float> blocks(std::size_t(pool_blocks_) * kBlockBytes / sizeof(float));
         rt.queue().enqueueReadBuffer(blocks_, CL_TRUE, 0, blocks.size() * sizeof(float), blocks.data());
         DeepShadowMap map;

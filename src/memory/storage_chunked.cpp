@@ -121,14 +121,15 @@ public:
             pool_ = pool;
             slots_ = std::size_t(pool) * kChunkLength;
         }
-        // rearranged for reading: one float4 per slot
-        texture_ = host::make_buffer(rt, CL_MEM_READ_WRITE, slots_ * 4 * sizeof(float), nullptr, "chunk texture");
-        cl::Kernel rearrange(rt.program(context.program, context.defines), "dsm_rearrange");
-        host::KernelArgs{rearrange}("chunk_nodes", nodes_)("chunk_next", next_)("chunk_texture", texture_).done();
-        cl::Event event;
-        rt.queue().enqueueNDRangeKernel(rearrange, cl::NullRange, cl::NDRange(slots_), cl::NullRange, nullptr, &event);
-        event.wait();
-        stats.stage_ms["dsm_rearrange"] = host::Runtime::event_ms(event);
+        if (!packed_lookups_) {  // rearranged for reading in place: one float4 per slot
+            texture_ = host::make_buffer(rt, CL_MEM_READ_WRITE, slots_ * 4 * sizeof(float), nullptr, "chunk texture");
+            cl::Kernel rearrange(rt.program(context.program, context.defines), "dsm_rearrange");
+            host::KernelArgs{rearrange}("chunk_nodes", nodes_)("chunk_next", next_)("chunk_texture", texture_).done();
+            cl::Event event;
+            rt.queue().enqueueNDRangeKernel(rearrange, cl::NullRange, cl::NDRange(slots_), cl::NullRange, nullptr, &event);
+            event.wait();
+            stats.stage_ms["dsm_rearrange"] = host::Runtime::event_ms(event);
+        }
 
         counts_host_.resize(texels);
         rt.queue().enqueueReadBuffer(counts_, CL_TRUE, 0, texels * sizeof(cl_uint), counts_host_.data());
@@ -146,20 +147,26 @@ public:
             live = std::size_t(std::count_if(table.begin(), table.end(), [](cl_uint c) { return c != 0; })) * kChunkLength;
         }
         garbage_fraction_ = taken > 0 ? double(taken - std::min(live, taken)) / double(taken) : 0.0;
-        std::size_t node_bytes = 4 * sizeof(float);  // per slot of the chunk texture
+        // per slot: the chunk texture's float4 (native lookups) or the node and its link (packed)
+        std::size_t node_bytes = packed_lookups_ ? 2 * sizeof(float) + sizeof(cl_uint) : 4 * sizeof(float);
         std::size_t tables = texels * 2 * sizeof(cl_uint) + tiles * ((counted_ ? 1 : kChunksPerTile) + 1) * sizeof(cl_uint);
         // wasted: unfilled slots of allocated chunks (Knecht Table 5.11), chunks lost in races,
         // the pool's unused tail, superseded nodes of regenerated views; counted allocation of a
         // fresh build wastes only the one spare slot
         stats.bytes_used = slots_ * node_bytes + tables;
         stats.bytes_wasted = (slots_ - stats.nodes) * node_bytes;
+        if (packed_lookups_)
+            pack(context, counts_host_, [&](host::KernelArgs& args) {
+                args("texel_head", head_)("texel_count", counts_)("chunk_nodes", nodes_)("chunk_next", next_);
+            }, stats);
     }
 
     double garbage_fraction() const override { return garbage_fraction_; }
 
-    void bind_for_reading(host::KernelArgs& args) const override { args("texel_head", head_)("chunk_texture", texture_); }
+protected:
+    void bind_native(host::KernelArgs& args) const override { args("texel_head", head_)("chunk_texture", texture_); }
 
-    DeepShadowMap read_back(host::Runtime& rt, const DsmViewGpu& view, cl_uint) const override {
+    DeepShadowMap read_back_native(host::Runtime& rt, const DsmViewGpu& view, cl_uint) const override {
         std::vector<float> texture(slots_ * 4);
         rt.queue().enqueueReadBuffer(texture_, CL_TRUE, 0, texture.size() * sizeof(float), texture.data());
         DeepShadowMap map;

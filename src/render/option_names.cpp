@@ -61,6 +61,7 @@ const std::vector<EnumOption>& enum_options() {
         enum_option<VolumeStorage, &RenderOptions::storage>(
             "storage", "--volume-storage", {{"auto", VolumeStorage::Auto}, {"buffer", VolumeStorage::Buffer}, {"image", VolumeStorage::Image}}),
         named_option<&RenderOptions::dsm_storage>("dsm_storage", "--storage", dsm_storage_names()),
+        named_option<&RenderOptions::dsm_lookup>("dsm_lookup", "--dsm-lookup", {"packed", "native"}),
         named_option<&RenderOptions::dsm_prefilter>("dsm_prefilter", "--prefilter", {"none", "box", "tent", "5tap"}),
         named_option<&RenderOptions::lowpass_filter_kernel>("lowpass_filter_kernel", "--filter-kernel", {"box", "gauss"}),
         enum_option<ShadowCacheMode, &RenderOptions::shadow_cache>(

@@ -24,7 +24,7 @@ namespace {
 // A DSM set about to be generated: its backend and its views on the device.
 DeviceDsm start_dsm(host::Runtime& runtime, const std::vector<DsmViewGpu>& views, const DsmBuildOptions& options) {
     DeviceDsm dsm;
-    dsm.storage = memory::make_dsm_storage(options.storage);
+    dsm.storage = memory::make_dsm_storage(options.storage, options.lookup);
     dsm.stats.views = int(views.size());
     dsm.stats.resolution = options.resolution;
     dsm.views_buffer = host::make_buffer(runtime, CL_MEM_READ_ONLY, views.size() * sizeof(DsmViewGpu), views.data(),

@@ -17,7 +17,8 @@ struct DsmBuildOptions {
     int resolution = 512;
     float epsilon = 0.02f;          // Knecht Eq. 3.1
     float step_scale = 1.f;         // on each volume's step, for the rays from the light (RenderOptions::dsm_step)
-    std::string storage = "atlas";  // atlas, chunked, compact
+    std::string storage = "atlas";  // atlas, chunked, chunked-ondemand, compact
+    std::string lookup = "packed";  // packed or native (RenderOptions::dsm_lookup)
     bool precompression = false;    // pre-compressed visibility tables (Hadwiger §3.2)
     std::string prefilter = "none"; // none, box, tent or 5tap (cl/shared/prefilter.h)
     bool prefilter_jitter = true;   // stratified jitter of the sub-pixel rays

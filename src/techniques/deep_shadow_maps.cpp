@@ -10,18 +10,18 @@
 namespace sombra::techniques {
 
 shadows::DsmBuildOptions dsm_build_options(const RenderOptions& o) {
-    return {o.dsm_resolution, o.dsm_epsilon, o.dsm_step, o.dsm_storage, o.dsm_precompression, o.dsm_prefilter, o.dsm_prefilter_jitter,
-            o.dsm_prefilter_seed, o.lanes};
+    return {o.dsm_resolution, o.dsm_epsilon, o.dsm_step, o.dsm_storage, o.dsm_lookup, o.dsm_precompression, o.dsm_prefilter,
+            o.dsm_prefilter_jitter, o.dsm_prefilter_seed, o.lanes};
 }
 
 void DeepShadowMaps::add_defines(const Scene&, const RenderOptions& options, std::vector<std::string>& defines) const {
     defines.push_back(options.shadows == ShadowTechnique::ShadowMap ? "SOMBRA_TECHNIQUE_SHADOWMAP" : "SOMBRA_TECHNIQUE_DSM");
-    for (auto& d : memory::make_dsm_storage(options.dsm_storage)->defines()) defines.push_back(d);
+    for (auto& d : memory::make_dsm_storage(options.dsm_storage, options.dsm_lookup)->lookup_defines()) defines.push_back(d);
 }
 
 // dsm and shadowmap read the same maps: the technique is not part of the key
 void DeepShadowMaps::add_key(const RenderOptions& o, int lanes, std::ostream& key) const {
-    key << o.dsm_resolution << ' ' << o.dsm_epsilon << ' ' << o.dsm_step << ' ' << o.dsm_storage << ' ' << o.dsm_precompression << ' ' << o.dsm_prefilter
+    key << o.dsm_resolution << ' ' << o.dsm_epsilon << ' ' << o.dsm_step << ' ' << o.dsm_storage << ' ' << o.dsm_lookup << ' ' << o.dsm_precompression << ' ' << o.dsm_prefilter
         << ' ' << o.dsm_prefilter_jitter << ' ' << o.dsm_prefilter_seed << ' ' << lanes  // other packets build other maps
         << " clusters " << o.dsm_clusters << ' ' << o.dsm_cluster_distance;
 }
