@@ -60,6 +60,7 @@ struct BenchOptions {
     std::vector<std::string> storages = kDsmStorages;
     int lanes_resolution = -1;  // resolution of the 1-lane vs 8-lane comparison; -1: the largest, 0: none
     std::vector<std::string> speed_scenes;  // --speed: only the lookup and generation speed tables
+    std::vector<std::string> lookups = {"packed", "native"};  // --speed: RenderOptions::dsm_lookup, side by side
 };
 
 struct Row {
@@ -191,19 +192,20 @@ std::map<int, double> measure_lanes(sombra::Context& context, const sombra::Scen
     return medians;
 }
 
-// --speed: per scene and storage, the camera pass with DSM lookups against the same pass without
-// shadows (renders alternating none, dsm after one warm-up each, medians of `runs`; every DSM
-// render generates its maps again), and the generation's dsm_* stages of those renders (medians).
-// Ratios of one run are what to compare: the machine may be shared (bench/README.md).
+// --speed: per scene and storage, the camera pass with DSM lookups (per --lookups: packed, native)
+// against the same pass without shadows (renders alternating none, dsm per lookup after one
+// warm-up each, medians of `runs`; every DSM render generates its maps again), and the
+// generation's dsm_* stages of those renders (medians). Ratios of one run are what to compare:
+// the machine may be shared (bench/README.md). The compact storage is packed already: one row.
 std::string measure_speed(sombra::Context& context, const BenchOptions& o) {
     int resolution = *std::max_element(o.resolutions.begin(), o.resolutions.end());
     float epsilon = o.epsilons.front();
     std::ostringstream lookup, generation;
     lookup << "DSM lookup: camera pass with --shadows dsm against --shadows none (" << o.width << "x" << o.height
            << ", DSM " << resolution << "², ε " << shortest(epsilon) << "; alternating runs, medians of " << o.runs << "):\n\n"
-           << "| scene | storage | none ms | dsm ms | dsm ÷ none |\n|---|---|---:|---:|---:|\n";
+           << "| scene | storage | lookup | none ms | dsm ms | dsm ÷ none |\n|---|---|---|---:|---:|---:|\n";
     generation << "DSM generation per stage (the same DSM renders; " << resolution << "², ε " << shortest(epsilon) << "):\n\n"
-               << "| scene | storage | stages (ms) | sum ms |\n|---|---|---|---:|\n";
+               << "| scene | storage | lookup | stages (ms) | sum ms |\n|---|---|---|---|---:|\n";
     for (const std::string& path : o.speed_scenes) {
         sombra::Scene scene = sombra::load_scene(path);
         std::string name = std::filesystem::path(path).stem().string();
@@ -211,32 +213,42 @@ std::string measure_speed(sombra::Context& context, const BenchOptions& o) {
             sombra::RenderOptions none;
             none.width = o.width, none.height = o.height;
             none.shadow_cache = sombra::ShadowCacheMode::Off;  // the lookup per sample, as the issue measures it
-            sombra::RenderOptions dsm = none;
-            dsm.shadows = sombra::ShadowTechnique::Dsm;
-            dsm.dsm_resolution = resolution, dsm.dsm_epsilon = epsilon;
-            set_dsm_storage(dsm, storage, 0);
-            std::vector<double> none_ms, dsm_ms, sums;
-            std::map<std::string, std::vector<double>> stages;
+            std::vector<sombra::RenderOptions> runs{none};    // none, then one DSM render per lookup
+            for (const std::string& lookup_name : o.lookups) {
+                if (storage == "compact" && runs.size() > 1) break;
+                sombra::RenderOptions dsm = none;
+                dsm.shadows = sombra::ShadowTechnique::Dsm;
+                dsm.dsm_resolution = resolution, dsm.dsm_epsilon = epsilon;
+                set_dsm_storage(dsm, storage, 0);
+                dsm.dsm_lookup = lookup_name;
+                runs.push_back(dsm);
+            }
+            std::vector<std::vector<double>> camera_ms(runs.size()), sums(runs.size());
+            std::vector<std::map<std::string, std::vector<double>>> stages(runs.size());
             for (int i = -1; i < o.runs; ++i)  // i = −1: warm-up (program builds, PoCL cache)
-                for (const sombra::RenderOptions* options : {&none, &dsm}) {
+                for (std::size_t r = 0; r < runs.size(); ++r) {
                     forget_preparation(context, scene);
-                    sombra::RenderStats stats = sombra::render(context, scene, *options).stats;
+                    sombra::RenderStats stats = sombra::render(context, scene, runs[r]).stats;
                     if (i < 0) continue;
-                    (options == &none ? none_ms : dsm_ms).push_back(stats.stage_ms.at("camera_pass"));
-                    if (options == &none) continue;
+                    camera_ms[r].push_back(stats.stage_ms.at("camera_pass"));
                     double sum = 0;
                     for (const auto& [stage, ms] : stats.stage_ms)
-                        if (stage.rfind("dsm_", 0) == 0) stages[stage].push_back(ms), sum += ms;
-                    sums.push_back(sum);
+                        if (stage.rfind("dsm_", 0) == 0) stages[r][stage].push_back(ms), sum += ms;
+                    sums[r].push_back(sum);
                 }
-            lookup << "| " << name << " | " << storage << " | " << fixed(median(none_ms), 1) << " | " << fixed(median(dsm_ms), 1)
-                   << " | " << fixed(median(dsm_ms) / median(none_ms), 2) << " |\n";
-            generation << "| " << name << " | " << storage << " |";
-            for (const auto& [stage, ms] : stages) generation << " " << stage << " " << fixed(median(ms), 1) << ";";
-            generation << " | " << fixed(median(sums), 1) << " |\n";
-            std::cout << name << " " << storage << ": none " << fixed(median(none_ms), 1) << " ms, dsm " << fixed(median(dsm_ms), 1)
-                      << " ms (" << fixed(median(dsm_ms) / median(none_ms), 2) << "×), generation " << fixed(median(sums), 1)
-                      << " ms" << std::endl;
+            const double none_ms = median(camera_ms[0]);
+            for (std::size_t r = 1; r < runs.size(); ++r) {
+                const std::string& lookup_name = runs[r].dsm_lookup;
+                const double dsm_ms = median(camera_ms[r]);
+                lookup << "| " << name << " | " << storage << " | " << lookup_name << " | " << fixed(none_ms, 1) << " | "
+                       << fixed(dsm_ms, 1) << " | " << fixed(dsm_ms / none_ms, 2) << " |\n";
+                generation << "| " << name << " | " << storage << " | " << lookup_name << " |";
+                for (const auto& [stage, ms] : stages[r]) generation << " " << stage << " " << fixed(median(ms), 1) << ";";
+                generation << " | " << fixed(median(sums[r]), 1) << " |\n";
+                std::cout << name << " " << storage << " " << lookup_name << ": none " << fixed(none_ms, 1) << " ms, dsm "
+                          << fixed(dsm_ms, 1) << " ms (" << fixed(dsm_ms / none_ms, 2) << "×), generation "
+                          << fixed(median(sums[r]), 1) << " ms" << std::endl;
+            }
         }
     }
     return lookup.str() + "\n" + generation.str();
@@ -346,6 +358,9 @@ int run(int argc, char** argv) {
                    "only the speed tables, for these scenes (comma-separated): DSM lookup ÷ no shadows and DSM generation "
                    "per stage, at the largest --resolutions and the first --eps, per --storages")
         ->delimiter(',');
+    app.add_option("--lookups", o.lookups, "--speed: DSM lookups compared side by side (RenderOptions::dsm_lookup: packed, native)")
+        ->delimiter(',')
+        ->check(CLI::IsMember({"packed", "native"}));
     CLI11_PARSE(app, argc, argv);
 
     std::string command;
