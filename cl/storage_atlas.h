@@ -6,7 +6,8 @@
  * function. A texel may hold at most SOMBRA_ATLAS_MAX_BLOCKS · LAYERS nodes (the layer cap);
  * when it is hit, the deepest node overwrites the last layer, the texel is counted, and nothing
  * is ever written out of bounds. Blocks are allocated with atomic_inc + atomic_cmpxchg only (no
- * spin-waits, which deadlock on PoCL); a block lost in a race is counted as waste. */
+ * spin-waits, which deadlock on PoCL); a block lost in a race is counted as waste. Lookups read
+ * the layers in place (native) or a packed copy that dsm_pack makes after generation. */
 #ifndef SOMBRA_STORAGE_ATLAS_H
 #define SOMBRA_STORAGE_ATLAS_H
 #include "dsm_storage_common.h"
