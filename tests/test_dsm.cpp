@@ -12,6 +12,7 @@
 
 #include "reference/raycaster_ref.h"
 #include "geometry/scene_upload.h"
+#include "host/runtime.h"
 #include "shadows/dsm_views.h"
 #include "shared/hash.h"
 #include "shared/prefilter.h"
@@ -394,21 +395,40 @@ TEST_CASE("DSM generation in packets of 8 texels stores the nodes of one texel p
     base.dsm_precompression = GENERATE(false, true);
     for (const std::string& storage : sombra::dsm_storage_names()) {
         base.dsm_storage = storage;
-        RenderOptions scalar = base, packets = base;
+        RenderOptions scalar = base;
         scalar.lanes = 1;
-        packets.lanes = 8;
         // every light's maps come from one preparation per lane count
         std::vector<std::vector<DeepShadowMap>> reference;
         for (int light : {0, 1}) reference.push_back(build_deep_shadow_maps(test::context(), s, light, scalar));
-        for (int light : {0, 1}) {
-            std::size_t nodes = 0;
-            for (const auto& map : reference[light]) nodes += map.nodes.size();
-            CHECK(nodes > 0);
-            require_same_nodes(build_deep_shadow_maps(test::context(), s, light, packets), reference[light],
-                               std::string(storage) + (base.dsm_precompression ? ", tables" : "") + ", light " +
-                                   std::to_string(light));
+        for (int lanes : {8, 16}) {  // 16: the default on AVX-512 CPUs (host::generation_lanes)
+            RenderOptions packets = base;
+            packets.lanes = lanes;
+            for (int light : {0, 1}) {
+                std::size_t nodes = 0;
+                for (const auto& map : reference[light]) nodes += map.nodes.size();
+                CHECK(nodes > 0);
+                require_same_nodes(build_deep_shadow_maps(test::context(), s, light, packets), reference[light],
+                                   std::string(storage) + (base.dsm_precompression ? ", tables" : "") + ", light " +
+                                       std::to_string(light) + ", " + std::to_string(lanes) + " lanes");
+            }
         }
     }
+}
+
+TEST_CASE("default packet widths: 8 in the camera pass, the native float vector width in DSM generation", "[dsm][lanes]") {
+    host::Runtime& runtime = test::context().runtime();
+    CHECK(host::generation_lanes(runtime, 4) == 4);  // asked for: taken
+    CHECK(host::packet_lanes(runtime, 16) == 16);
+    CHECK_THROWS_WITH(host::generation_lanes(runtime, 3), Catch::Contains("--lanes"));
+    if (runtime.info().is_gpu) {
+        CHECK(host::generation_lanes(runtime, 0) == 1);
+        CHECK(host::packet_lanes(runtime, 0) == 1);
+        return;
+    }
+    const cl_uint native = runtime.device().getInfo<CL_DEVICE_NATIVE_VECTOR_WIDTH_FLOAT>();
+    INFO("native float vector width " << native);
+    CHECK(host::packet_lanes(runtime, 0) == 8);
+    CHECK(host::generation_lanes(runtime, 0) == (native >= 16 ? 16 : 8));
 }
 
 TEST_CASE("chunked storage with counted allocation wastes < 10 % — Knecht's on-demand chunks waste more", "[dsm][storage]") {

@@ -124,8 +124,9 @@ struct RenderOptions {
     float termination_transmittance = 1e-3f;  // early ray termination threshold on t_acc
     unsigned jitter_seed = 1;
     // Rays per work-item, marched together in OpenCL vector types (1, 4, 8 or 16), in the camera
-    // pass and in DSM generation (neighbouring pixels / texels of a row); 0 = auto: 8 on CPU
-    // devices (PoCL runs them on the SIMD units), 1 on GPUs. The maps do not depend on it.
+    // pass and in DSM generation (neighbouring pixels / texels of a row); 0 = auto: on CPU devices
+    // (PoCL runs them on the SIMD units) 8 in the camera pass and the native float vector width in
+    // DSM generation (16 with AVX-512, else 8), 1 on GPUs. The maps do not depend on it.
     int lanes = 0;
     // Reports of the call's long stages (sombra/progress.h); empty: silent. Must not throw.
     ProgressCallback progress;

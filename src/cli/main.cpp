@@ -389,7 +389,7 @@ int run(int argc, char** argv) {
     render->add_flag("--no-empty-space-skipping", no_skip, "march empty bricks too (for comparisons)");
     render->add_option("--seed", seed, "seed of the per-pixel ray jitter");
     int lanes = defaults.lanes;
-    render->add_option("--lanes", lanes, "rays per work-item in vector types (camera pass and DSM generation): 1, 4, 8, 16 (default: 8 on CPUs, 1 on GPUs)")
+    render->add_option("--lanes", lanes, "rays per work-item in vector types (camera pass and DSM generation): 1, 4, 8, 16 (default: on CPUs 8 in the camera pass, the native float vector width in DSM generation; 1 on GPUs)")
         ->check(CLI::IsMember({0, 1, 4, 8, 16}));
 
     CLI::App* devices = app.add_subcommand("devices", "list OpenCL platforms and devices");

@@ -158,6 +158,12 @@ int packet_lanes(const Runtime& runtime, int requested) {
     return lanes;
 }
 
+int generation_lanes(const Runtime& runtime, int requested) {
+    if (requested > 0 || runtime.info().is_gpu) return packet_lanes(runtime, requested);
+    const cl_uint native = runtime.device().getInfo<CL_DEVICE_NATIVE_VECTOR_WIDTH_FLOAT>();
+    return native >= 16 ? 16 : 8;
+}
+
 double run_packets(Runtime& runtime, cl::Kernel& kernel, int width, int height, int lanes, double units) {
     std::size_t columns = std::size_t((width + lanes - 1) / lanes), rows = std::size_t(height);
     cl::NDRange local = cl::NullRange;

@@ -151,7 +151,7 @@ void generate(host::Runtime& runtime, const Scene& scene, const packing::PackedS
         return generate_prefiltered(runtime, scene, packed, device_scene, views, options, dsm, regenerate, meshes);
 
     auto defines = volume_pass_defines(scene, device_scene.uses_images, true);
-    int lanes = host::packet_lanes(runtime, options.lanes);  // packets of texels of a row
+    int lanes = host::generation_lanes(runtime, options.lanes);  // packets of texels of a row
     defines.push_back("SOMBRA_LANES=" + std::to_string(lanes));
     for (auto& d : dsm.storage->defines()) defines.push_back(d);
     DevicePrecompression precompression;
