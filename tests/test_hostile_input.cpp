@@ -186,6 +186,11 @@ TEST_CASE("hostile input: PLY files that crashed or hung Assimp give one line", 
         const std::string f = write_file("hostile" + std::to_string(i++) + ".ply", text);
         require_error(error_of([&] { load_mesh(f); }), f, what);
     }
+    // an element without properties takes no bytes: a huge count is read in no time (it hung)
+    const std::string empty_element = write_file("empty_element.ply", "ply\nformat ascii 1.0\nelement comment_block 47777777776\n" +
+                                                                          vertex + "element face 1\nproperty list uchar int vertex_indices\n"
+                                                                          "end_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n");
+    CHECK(load_mesh(empty_element).triangles.size() == 1);  // before the fix: a loop of 4.8·10¹⁰ entries
     const std::string other = write_file("mesh.stl", "solid x\nendsolid x\n");  // only OBJ reaches Assimp
     require_error(error_of([&] { load_mesh(other); }), other, "unknown mesh format");
 }

@@ -78,7 +78,6 @@ public:
     // The defines of the lookup programs: none (the compact reader) when lookups read the packed
     // copy, else the backend's own.
     std::vector<std::string> lookup_defines() const { return packed_lookups_ ? std::vector<std::string>{} : defines(); }
-    bool packed_lookups() const { return packed_lookups_; }
     // Generates context.generates() views; stats cover every view (nodes, bytes) and the work
     // done by this call (stage times).
     virtual void build(BuildContext& context, DsmStats& stats) = 0;
