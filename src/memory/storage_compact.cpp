@@ -2,7 +2,6 @@
 #include <chrono>
 
 #include "memory/dsm_storage.h"
-#include "sombra/error.h"
 
 namespace sombra::memory {
 namespace {
