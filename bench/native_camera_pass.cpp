@@ -118,7 +118,8 @@ struct RayAccum {
 // shade_sample() of cl/render.cl for the point the traversal is at. Returns false when the ray
 // terminates (t_acc ≤ threshold).
 bool visit_point(const SceneView& s, const RayTraversal& ray, RayAccum& acc) {
-    V3 p = ray.origin + ray.t * ray.dir, to_viewer = -ray.dir;
+    // the light term at the interval's midpoint, as shade_sample() takes it
+    V3 p_light = ray.origin + (ray.t - 0.5f * ray.delta) * ray.dir, to_viewer = -ray.dir;
     float sigma_sum = 0.0f;
     V3 color_sum{0, 0, 0};
     for (unsigned i = 0; i < SOMBRA_MAX_VOLUMES; ++i) {
@@ -132,7 +133,7 @@ bool visit_point(const SceneView& s, const RayTraversal& ray, RayAccum& acc) {
         if (!(sigma > 0.0f) || !ray.closes_medium()) continue;
         V3 normal = s.lights.empty() ? V3{0, 0, 0} : normal_from_gradient(v, gradient_voxel(v, pv));
         V3 shaded = phong_shade(s.lights.data(), unsigned(s.lights.size()), s.camera.ambient_intensity, v,
-                                classify_color(v, density), p, normal, to_viewer);
+                                classify_color(v, density), p_light, normal, to_viewer);
         sigma_sum += sigma;
         color_sum = color_sum + sigma * shaded;
     }
@@ -175,7 +176,7 @@ struct SampleBatch {
     int count = 0;
     int lane[kLanes];
     float vx[kLanes], vy[kLanes], vz[kLanes];  // voxel position
-    float wx[kLanes], wy[kLanes], wz[kLanes];  // world position
+    float wx[kLanes], wy[kLanes], wz[kLanes];  // world position of the light term: the interval's midpoint
     float ex[kLanes], ey[kLanes], ez[kLanes];  // unit vector to the viewer
     float front[kLanes], density[kLanes];      // density at the previous point and at this one
     float r[kLanes], g[kLanes], b[kLanes], sigma[kLanes];
@@ -234,11 +235,11 @@ void gather_samples(Wavefront& w, unsigned i) {
     for (int l = 0; l < kLanes; ++l) {
         if (w.pixel[l] < 0 || !(w.ray[l].active & (1u << i))) continue;
         const RayTraversal& ray = w.ray[l];
-        V3 pv = ray.vox_origin[i] + ray.t * ray.vox_dir[i], p = ray.origin + ray.t * ray.dir;
+        V3 pv = ray.vox_origin[i] + ray.t * ray.vox_dir[i], p_light = ray.origin + (ray.t - 0.5f * ray.delta) * ray.dir;
         int j = b.count++;
         b.lane[j] = l;
         b.vx[j] = pv.x, b.vy[j] = pv.y, b.vz[j] = pv.z;
-        b.wx[j] = p.x, b.wy[j] = p.y, b.wz[j] = p.z;
+        b.wx[j] = p_light.x, b.wy[j] = p_light.y, b.wz[j] = p_light.z;
         b.ex[j] = -ray.dir.x, b.ey[j] = -ray.dir.y, b.ez[j] = -ray.dir.z;
         b.front[j] = w.front[l][i];
         w.samples[l] += 1;  // one per volume per point, as the kernel counts

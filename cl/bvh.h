@@ -17,14 +17,14 @@ typedef struct {
     int top;
 } BvhWalk;
 
-inline void bvh_walk_init(BvhWalk* w, uint node_count) {
+static inline void bvh_walk_init(BvhWalk* w, uint node_count) {
     w->top = 0;
     if (node_count > 0) w->stack[w->top++] = 0u;
 }
 
 /* The next leaf whose box some lane in `lanes` crosses within [t_min, t_max]: its triangle range
  * in *first, *count. Returns false once the hierarchy is exhausted. */
-inline bool bvh_walk_next(BvhWalk* w, __global const BvhNodeGpu* nodes, lfloat3 o, lfloat3 d, lfloat t_min, lfloat t_max,
+static inline bool bvh_walk_next(BvhWalk* w, __global const BvhNodeGpu* nodes, lfloat3 o, lfloat3 d, lfloat t_min, lfloat t_max,
                           lmask lanes, uint* first, uint* count) {
     while (w->top > 0) {
         uint i = w->stack[--w->top];

@@ -25,7 +25,7 @@ __constant int prefilter_taps[][4] = SOMBRA_PREFILTER_BOX_TAPS;
 
 /* A tap's V at depth z ≥ its last passed node (z0, a0) (z0 = −∞: none passed, V = 0), linear
  * towards its next node (fine_nodes[next], if next < end), clamped to [0, 1]. */
-inline float prefilter_tap_value(__global const float* fine_nodes, uint next, uint end, float z0, float a0, float z) {
+static inline float prefilter_tap_value(__global const float* fine_nodes, uint next, uint end, float z0, float a0, float z) {
     float value = a0;
     if (z0 == -INFINITY) value = 0.0f;
     else if (next < end) {

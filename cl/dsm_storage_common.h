@@ -12,11 +12,11 @@
 
 #define DSM_TILE_SIZE 8 /* texels per side of a tile (Knecht §4.1.1, Hadwiger Fig. 1) */
 
-inline uint dsm_texel_index(__global const DsmViewGpu* v, uint x, uint y) { return v->first_texel + y * v->resolution + x; }
+static inline uint dsm_texel_index(__global const DsmViewGpu* v, uint x, uint y) { return v->first_texel + y * v->resolution + x; }
 
 /* Tiles of a view: ⌈resolution / 8⌉² of them, numbered row by row; views follow each other. */
-inline uint dsm_tiles_per_row(__global const DsmViewGpu* v) { return (v->resolution + DSM_TILE_SIZE - 1) / DSM_TILE_SIZE; }
-inline uint dsm_view_number(__global const DsmViewGpu* v) { return v->first_texel / (v->resolution * v->resolution); }
+static inline uint dsm_tiles_per_row(__global const DsmViewGpu* v) { return (v->resolution + DSM_TILE_SIZE - 1) / DSM_TILE_SIZE; }
+static inline uint dsm_view_number(__global const DsmViewGpu* v) { return v->first_texel / (v->resolution * v->resolution); }
 
 #define DSM_NO_BLOCK 0xffffffffu
 
@@ -28,9 +28,11 @@ inline uint dsm_view_number(__global const DsmViewGpu* v) { return v->first_texe
  * that finds the pool empty gives its number back (counters[0] counts handed-out blocks only and
  * never exceeds the pool) and marks the entry wanted; counters[1] counts the wanted entries, each
  * once, so the host grows the pool by what is missing, not by how often it was asked. A block
- * lost to another work-item that claimed the entry first is counted in counters[lost] (waste). */
-inline uint claim_block(__global uint* entry, __global uint* counters, uint pool, uint lost) {
-    uint held = *entry;
+ * lost to another work-item that claimed the entry first is counted in counters[lost] (waste).
+ * Every access to *entry is atomic (other work-items cmpxchg it concurrently): the first read is
+ * an atomic_or with 0, OpenCL 1.2's atomic load. */
+static inline uint claim_block(__global uint* entry, __global uint* counters, uint pool, uint lost) {
+    uint held = atomic_or(entry, 0u);
     if (held == DSM_BLOCK_WANTED) return DSM_NO_BLOCK;
     if (held) return held - 1;
     uint fresh = atomic_inc(&counters[0]);
@@ -55,7 +57,7 @@ inline uint claim_block(__global uint* entry, __global uint* counters, uint pool
  * packed[texel_first[t] …] (the compact layout, storage_compact.h), which every lookup then reads.
  * A launch covers texels [first_texel, first_texel + resolution²) of one view: the texel of
  * work-item i, its view number and its (x, y). */
-inline void dsm_pack_texel(uint first_texel, uint resolution, uint* texel, uint* view, uint* x, uint* y) {
+static inline void dsm_pack_texel(uint first_texel, uint resolution, uint* texel, uint* view, uint* x, uint* y) {
     uint i = (uint)get_global_id(0);
     *texel = first_texel + i;
     *view = first_texel / (resolution * resolution);

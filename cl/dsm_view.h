@@ -8,7 +8,7 @@
 
 /* Ray through the point (ndc_x, ndc_y) ∈ [−1, 1]² of the view's image plane; t along it is the
  * view's depth (unit direction from the light, or from the near plane). */
-inline void dsm_view_ray(__global const DsmViewGpu* v, float ndc_x, float ndc_y, float3* origin, float3* dir) {
+static inline void dsm_view_ray(__global const DsmViewGpu* v, float ndc_x, float ndc_y, float3* origin, float3* dir) {
     float3 across = ndc_x * v->extent_x * v->axis_x.xyz + ndc_y * v->extent_y * v->axis_y.xyz;
     if (v->perspective) {
         *origin = v->origin.xyz;
@@ -21,7 +21,7 @@ inline void dsm_view_ray(__global const DsmViewGpu* v, float ndc_x, float ndc_y,
 
 /* The ray of texel (x, y) of a generated map: the one place a texel's ray position is chosen (the
  * texel centre; shifted and jittered in pre-filtering's sub-pixel maps, see DsmViewGpu). */
-inline void dsm_texel_ray(__global const DsmViewGpu* v, uint x, uint y, float3* origin, float3* dir) {
+static inline void dsm_texel_ray(__global const DsmViewGpu* v, uint x, uint y, float3* origin, float3* dir) {
     float res = (float)v->resolution;
     float px = sombra_texel_ray_coord(x, y, 0, v->ray_shift, v->jitter, v->jitter_seed);
     float py = sombra_texel_ray_coord(x, y, 1, v->ray_shift, v->jitter, v->jitter_seed);
@@ -30,7 +30,7 @@ inline void dsm_texel_ray(__global const DsmViewGpu* v, uint x, uint y, float3* 
 
 /* Continuous texel coordinates (texel centres at integers) and depth of points p; `covered` marks
  * the lanes whose point projects into the view (in front of a perspective view, inside the map). */
-inline lmask dsm_view_project(__global const DsmViewGpu* v, lfloat3 p, lfloat* u, lfloat* w, lfloat* depth) {
+static inline lmask dsm_view_project(__global const DsmViewGpu* v, lfloat3 p, lfloat* u, lfloat* w, lfloat* depth) {
     lfloat3 d = l3_sub(p, l3_splat(v->origin.xyz));
     lfloat qx = l3_dot_uniform(d, v->axis_x.xyz), qy = l3_dot_uniform(d, v->axis_y.xyz);
     lfloat qz = l3_dot_uniform(d, v->axis_z.xyz);

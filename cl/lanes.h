@@ -81,9 +81,9 @@ typedef int16 lmask;
 
 /* Per-lane loads ptr[idx[lane]] (the CPU has no cheaper gather for OpenCL C to use). */
 #if SOMBRA_LANES == 1
-inline lfloat gather(__global const float* ptr, lint idx) { return ptr[idx]; }
+static inline lfloat gather(__global const float* ptr, lint idx) { return ptr[idx]; }
 #else
-inline lfloat gather(__global const float* ptr, lint idx) {
+static inline lfloat gather(__global const float* ptr, lint idx) {
 #define SOMBRA_GATHER_LANE(c) ptr[LC(idx, c)]
     return LFROM_LANES(SOMBRA_GATHER_LANE);
 #undef SOMBRA_GATHER_LANE
@@ -95,19 +95,19 @@ typedef struct {
     lfloat x, y, z;
 } lfloat3;
 
-inline lfloat3 l3(lfloat x, lfloat y, lfloat z) {
+static inline lfloat3 l3(lfloat x, lfloat y, lfloat z) {
     lfloat3 r = {x, y, z};
     return r;
 }
-inline lfloat3 l3_splat(float3 v) { return l3((lfloat)(v.x), (lfloat)(v.y), (lfloat)(v.z)); }
-inline lfloat3 l3_add(lfloat3 a, lfloat3 b) { return l3(a.x + b.x, a.y + b.y, a.z + b.z); }
-inline lfloat3 l3_sub(lfloat3 a, lfloat3 b) { return l3(a.x - b.x, a.y - b.y, a.z - b.z); }
-inline lfloat3 l3_scale(lfloat3 a, lfloat s) { return l3(a.x * s, a.y * s, a.z * s); }
-inline lfloat3 l3_mad(lfloat3 a, lfloat s, lfloat3 b) { return l3(mad(a.x, s, b.x), mad(a.y, s, b.y), mad(a.z, s, b.z)); }
-inline lfloat l3_dot(lfloat3 a, lfloat3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
-inline lfloat l3_dot_uniform(lfloat3 a, float3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
-inline lfloat3 l3_select(lfloat3 a, lfloat3 b, lmask m) { return l3(select(a.x, b.x, m), select(a.y, b.y, m), select(a.z, b.z, m)); }
-inline lfloat3 l3_normalize(lfloat3 a) {
+static inline lfloat3 l3_splat(float3 v) { return l3((lfloat)(v.x), (lfloat)(v.y), (lfloat)(v.z)); }
+static inline lfloat3 l3_add(lfloat3 a, lfloat3 b) { return l3(a.x + b.x, a.y + b.y, a.z + b.z); }
+static inline lfloat3 l3_sub(lfloat3 a, lfloat3 b) { return l3(a.x - b.x, a.y - b.y, a.z - b.z); }
+static inline lfloat3 l3_scale(lfloat3 a, lfloat s) { return l3(a.x * s, a.y * s, a.z * s); }
+static inline lfloat3 l3_mad(lfloat3 a, lfloat s, lfloat3 b) { return l3(mad(a.x, s, b.x), mad(a.y, s, b.y), mad(a.z, s, b.z)); }
+static inline lfloat l3_dot(lfloat3 a, lfloat3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+static inline lfloat l3_dot_uniform(lfloat3 a, float3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+static inline lfloat3 l3_select(lfloat3 a, lfloat3 b, lmask m) { return l3(select(a.x, b.x, m), select(a.y, b.y, m), select(a.z, b.z, m)); }
+static inline lfloat3 l3_normalize(lfloat3 a) {
     lfloat inv = rsqrt(l3_dot(a, a));
     return l3_scale(a, inv);
 }

@@ -11,16 +11,16 @@
 #include "shared/types.h"
 #pragma OPENCL EXTENSION cl_khr_fp64 : enable
 
-inline size_t sat_entry(int4 n, int i, int j, int k) {
+static inline size_t sat_entry(int4 n, int i, int j, int k) {
     return (size_t)i + (size_t)(n.x + 1) * ((size_t)j + (size_t)(n.y + 1) * (size_t)k);
 }
 
-inline ulong sat_fixed_point(float tau) {
+static inline ulong sat_fixed_point(float tau) {
     return convert_ulong_sat_rte(fmin(fmax(tau, 0.0f), SOMBRA_SAT_MAX_CELL_TAU) * SOMBRA_SAT_UNITS_PER_TAU);
 }
 
 /* Σ cells in [lo, hi) (integer bounds, clamped to the grid: σ is 0 outside it). */
-inline long sat_box(__global const ulong* s, int4 n, int3 lo, int3 hi) {
+static inline long sat_box(__global const ulong* s, int4 n, int3 lo, int3 hi) {
     lo = clamp(lo, (int3)(0), n.xyz);
     hi = clamp(hi, (int3)(0), n.xyz);
     ulong sum = s[sat_entry(n, hi.x, hi.y, hi.z)] - s[sat_entry(n, lo.x, hi.y, hi.z)] - s[sat_entry(n, hi.x, lo.y, hi.z)] -
@@ -31,7 +31,7 @@ inline long sat_box(__global const ulong* s, int4 n, int3 lo, int3 hi) {
 
 /* S at a real grid position: trilinear in the integer entries (exact for cell-wise constant
  * cells), in double: the entries reach 2^50 and more, the boxes built from them are small. */
-inline double sat_at(__global const ulong* s, int4 n, double3 g) {
+static inline double sat_at(__global const ulong* s, int4 n, double3 g) {
     g = clamp(g, (double3)(0.0), convert_double3(n.xyz));
     int3 i = min(convert_int3(floor(g)), n.xyz - 1);
     i = max(i, (int3)(0));
@@ -47,14 +47,14 @@ inline double sat_at(__global const ulong* s, int4 n, double3 g) {
 }
 
 /* S at real grid position g; with wrap, grid axis 0 is periodic: S(x + k·n.x) = S(x) + k·S(n.x). */
-inline double sat_at_wrapped(__global const ulong* s, int4 n, double3 g, bool wrap) {
+static inline double sat_at_wrapped(__global const ulong* s, int4 n, double3 g, bool wrap) {
     if (!wrap) return sat_at(s, n, g);
     double turns = floor(g.x / n.x);
     return sat_at(s, n, (double3)(g.x - turns * n.x, g.y, g.z)) + turns * sat_at(s, n, (double3)(n.x, g.y, g.z));
 }
 
 /* Σ cells over the real box [lo, hi) (grid units): 8 corners of S. */
-inline double sat_box_real(__global const ulong* s, int4 n, double3 lo, double3 hi, bool wrap) {
+static inline double sat_box_real(__global const ulong* s, int4 n, double3 lo, double3 hi, bool wrap) {
     double sum = 0.0;
     for (int c = 0; c < 8; ++c) {
         double3 corner = (double3)(c & 1 ? lo.x : hi.x, c & 2 ? lo.y : hi.y, c & 4 ? lo.z : hi.z);
@@ -68,16 +68,16 @@ inline double sat_box_real(__global const ulong* s, int4 n, double3 lo, double3 
  * mean optical depth (its SAT box / its area) is weighted by the mass of a Gaussian with σ = a
  * quarter of the patch width (truncated at ±2σ) over it. The (K+1)² × 2 corners of S are read once. */
 #define SOMBRA_GAUSS_SUBBOXES 5
-inline double normal_mass(double a, double b) { return 0.5 * (erf(b * M_SQRT1_2) - erf(a * M_SQRT1_2)); }
+static inline double normal_mass(double a, double b) { return 0.5 * (erf(b * M_SQRT1_2) - erf(a * M_SQRT1_2)); }
 
 /* Grid point from the two lateral coordinates (the axes other than `axis`, in order) and depth. */
-inline double3 sat_point(int axis, double a, double b, double depth) {
+static inline double3 sat_point(int axis, double a, double b, double depth) {
     return axis == 0 ? (double3)(depth, a, b) : axis == 1 ? (double3)(a, depth, b) : (double3)(a, b, depth);
 }
 
 /* Σ w·τ_sub / Σ w over the patch [lo, hi] across `axis`, [depth.x, depth.y] along it, in units of
  * S. `sphere` (SSAT) turns sub-box areas into solid angles over Δφ·Δθ; NULL: Cartesian cells. */
-inline double gauss_patch(__global const ulong* s, int4 n, int axis, double2 lo, double2 hi, double2 depth, bool wrap,
+static inline double gauss_patch(__global const ulong* s, int4 n, int axis, double2 lo, double2 hi, double2 depth, bool wrap,
                           __global const SsatGridGpu* sphere) {
     const int k = SOMBRA_GAUSS_SUBBOXES;
     double corner[SOMBRA_GAUSS_SUBBOXES + 1][SOMBRA_GAUSS_SUBBOXES + 1][2];
@@ -107,7 +107,7 @@ inline double gauss_patch(__global const ulong* s, int4 n, int axis, double2 lo,
 
 /* Box-filtered optical depth τ̄ from world point p towards the light of grid g (Ament Eq. 13, 15):
  * CSAT(C) / A with A = W² cells; with SOMBRA_LOWPASS_GAUSS, Gaussian weights over sub-boxes (Eq. 25). */
-inline float csat_filtered_depth(__global const ulong* sat, __global const SatGridGpu* g, float3 p) {
+static inline float csat_filtered_depth(__global const ulong* sat, __global const SatGridGpu* g, float3 p) {
     __global const ulong* s = sat + g->data_offset;
     int4 n = g->dims;
     int width = (int)g->filter_cells;
@@ -158,7 +158,7 @@ inline float csat_filtered_depth(__global const ulong* sat, __global const SatGr
 /* Baselines on one volume-aligned SAT (Schlegel et al. 2011). Ambient occlusion: the mean σ in the
  * cube of side W cells around p times W/2 cells, the optical depth of an average ray of that
  * radius (no direction). */
-inline float sat_ambient_depth(__global const ulong* sat, __global const SatGridGpu* g, float3 p) {
+static inline float sat_ambient_depth(__global const ulong* sat, __global const SatGridGpu* g, float3 p) {
     double3 c;
     for (int a = 0; a < 3; ++a) ((double*)&c)[a] = dot(g->to_grid[a].xyz, p) + g->to_grid[a].w;
     double radius = 0.5 * g->filter_cells;
@@ -169,7 +169,7 @@ inline float sat_ambient_depth(__global const ulong* sat, __global const SatGrid
 /* Cone shadows: the cone of half angle atan(cone_tan) from p towards the light (unit vector
  * `towards`, up to world distance `reach`) as a series of cubes of growing size along its axis,
  * each read from the SAT in constant time: τ = Σ mean σ(cube) · its length. */
-inline float sat_cone_depth(__global const ulong* sat, __global const SatGridGpu* g, float3 p, float3 towards, float reach) {
+static inline float sat_cone_depth(__global const ulong* sat, __global const SatGridGpu* g, float3 p, float3 towards, float reach) {
     __global const ulong* s = sat + g->data_offset;
     double3 c, d;
     for (int a = 0; a < 3; ++a) {
@@ -195,7 +195,7 @@ inline float sat_cone_depth(__global const ulong* sat, __global const SatGridGpu
  * spherical pyramid runs from the light to p (Eq. 21–22). τ̄ = Σ(σ·Δr·w_θ)·Δφ·Δθ / Ω_box (the
  * solid-angle average over the pyramid's rays, Eq. 24). Boxes across φ = ±π wrap; near the
  * poles the box takes every φ. With SOMBRA_LOWPASS_GAUSS, Gaussian weights over sub-boxes. */
-inline float ssat_filtered_depth(__global const ulong* sat, __global const SsatGridGpu* g, float3 p) {
+static inline float ssat_filtered_depth(__global const ulong* sat, __global const SsatGridGpu* g, float3 p) {
     __global const ulong* s = sat + g->data_offset;
     int4 n = g->dims;
     double3 d = convert_double3(p - g->light.xyz);

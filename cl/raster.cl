@@ -12,12 +12,12 @@
 #define TILE SOMBRA_TILE_SIZE
 #define HALF_PIXEL (1 << (SOMBRA_SUBPIXEL_BITS - 1))
 
-inline long floor_div(long a, long b) { /* b > 0 */
+static inline long floor_div(long a, long b) { /* b > 0 */
     return a >= 0 ? a / b : -((-a + b - 1) / b);
 }
 
 /* Bits of the tile's pixels (x, y) with e + x·ex + y·ey ≥ t, bit 8y + x. */
-inline ulong edge_mask(long e, long ex, long ey, long t) {
+static inline ulong edge_mask(long e, long ex, long ey, long t) {
     ulong m = 0;
     if (ex == 0 && ey == 0) return e >= t ? ~(ulong)0 : 0;
     if (abs(ex) >= abs(ey)) {
@@ -58,7 +58,7 @@ typedef struct {
     long dx, dy;
 } Edge;
 
-inline Edge make_edge(long ax, long ay, long bx, long by) {
+static inline Edge make_edge(long ax, long ay, long bx, long by) {
     Edge g;
     g.ax = ax, g.ay = ay, g.dx = bx - ax, g.dy = by - ay;
     g.ex = -g.dy << SOMBRA_SUBPIXEL_BITS;
@@ -68,13 +68,13 @@ inline Edge make_edge(long ax, long ay, long bx, long by) {
 }
 
 /* E at the centre of pixel (px, py). */
-inline long edge_at(const Edge* g, int px, int py) {
+static inline long edge_at(const Edge* g, int px, int py) {
     long cx = ((long)px << SOMBRA_SUBPIXEL_BITS) + HALF_PIXEL, cy = ((long)py << SOMBRA_SUBPIXEL_BITS) + HALF_PIXEL;
     return g->dx * (cy - g->ay) - g->dy * (cx - g->ax);
 }
 
 /* Pixels of the tile inside the screen. */
-inline ulong screen_mask(int tx, int ty, __global const RasterScreenGpu* s) {
+static inline ulong screen_mask(int tx, int ty, __global const RasterScreenGpu* s) {
     int cols = min(TILE, (int)s->width - tx * TILE), rows = min(TILE, (int)s->height - ty * TILE);
     ulong row = 0xFFul >> (TILE - cols);
     ulong m = 0;
@@ -83,7 +83,7 @@ inline ulong screen_mask(int tx, int ty, __global const RasterScreenGpu* s) {
 }
 
 /* Walks the tiles of triangle i's bounding box: counts (WRITE 0) or writes (WRITE 1) its masks. */
-inline void raster_triangle(uint i, __global const ScreenTriangleGpu* tris, __global const RasterScreenGpu* s,
+static inline void raster_triangle(uint i, __global const ScreenTriangleGpu* tris, __global const RasterScreenGpu* s,
                             __global uint* counts, __global const uint* first_chunk, __global uint* fill,
                             __global ulong* masks, __global uint* ids, __global uint* overflow, int write) {
     __global const ScreenTriangleGpu* tri = tris + i;

@@ -7,7 +7,7 @@
 #define SOMBRA_RAY_TRIANGLE_H
 #include "lanes.h"
 
-inline int lexicographically_before(float3 p, float3 q) {
+static inline int lexicographically_before(float3 p, float3 q) {
     return p.x < q.x || (p.x == q.x && (p.y < q.y || (p.y == q.y && p.z < q.z)));
 }
 
@@ -16,7 +16,7 @@ inline int lexicographically_before(float3 p, float3 q) {
  * lexicographic order and negated for the other direction, so the two triangles that share the
  * edge (and run it oppositely) get exactly opposite signs whatever the rounding; a line through
  * the edge (0) takes the side of the lexicographic direction. */
-inline lmask edge_side(lfloat3 origin, lfloat3 dir, float3 p, float3 q) {
+static inline lmask edge_side(lfloat3 origin, lfloat3 dir, float3 p, float3 q) {
     int forward = lexicographically_before(p, q);
     float3 lo = forward ? p : q, hi = forward ? q : p;
     lfloat3 a = l3_sub(l3_splat(lo), origin), b = l3_sub(l3_splat(hi), origin);
@@ -29,7 +29,7 @@ inline lmask edge_side(lfloat3 origin, lfloat3 dir, float3 p, float3 q) {
  * the line passes all three edges on the same side and meets the plane there. +∞ in lanes
  * outside `lanes`, that miss it, that run in its plane (|dir · n| ≤ 10⁻⁷ |n|) or when the
  * triangle is degenerate (n = 0): no division by zero, no NaN. t may be ≤ 0: callers bound it. */
-inline lfloat ray_triangle_t(lfloat3 origin, lfloat3 dir, float3 c0, float3 c1, float3 c2, lmask lanes) {
+static inline lfloat ray_triangle_t(lfloat3 origin, lfloat3 dir, float3 c0, float3 c1, float3 c2, lmask lanes) {
     float3 n = cross(c1 - c0, c2 - c0);
     float area2 = dot(n, n); /* |n|² */
     if (!(area2 > 0.0f)) return (lfloat)(INFINITY); /* (a scalar test: & with a lane mask would truncate it) */

@@ -15,7 +15,7 @@
  * its box [−0.5, dims − 0.5] in steps of at most its ray step, each split at the voxel-centre
  * planes it crosses and pre-integrated (traversal.h split_interval_depth, whatever the volume's
  * stiffness: a table is built once per light). */
-inline float segment_optical_depth(VOLUME_DATA_PARAM, __global const VolumeGpu* volumes, uint volume_count,
+static inline float segment_optical_depth(VOLUME_DATA_PARAM, __global const VolumeGpu* volumes, uint volume_count,
                                    __global const float* tf_tables, float3 a, float3 b) {
     float length = distance(a, b);
     if (!(length > 0.0f)) return 0.0f;

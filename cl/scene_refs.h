@@ -19,7 +19,7 @@ typedef struct {
     VOLUME_DATA_PARAM, __global const uchar *occupancy, __global const float *tf_tables,                       \
         __global const VolumeGpu *volumes, __global const LightGpu *lights, __global const CameraGpu *camera
 
-inline SceneRefs scene_refs(__global const CameraGpu* camera, __global const LightGpu* lights, __global const VolumeGpu* volumes,
+static inline SceneRefs scene_refs(__global const CameraGpu* camera, __global const LightGpu* lights, __global const VolumeGpu* volumes,
                             __global const float* tf_tables, __global const uchar* occupancy, lfloat jitter) {
     SceneRefs s;
     s.camera = camera;

@@ -7,11 +7,11 @@
 
 #define TILE SOMBRA_TILE_SIZE
 
-inline ulong pixel_bit(uint px, uint py) { return 1ul << ((py % TILE) * TILE + px % TILE); }
-inline uint tile_of(uint px, uint py, __global const RasterScreenGpu* s) { return (py / TILE) * s->tiles_x + px / TILE; }
+static inline ulong pixel_bit(uint px, uint py) { return 1ul << ((py % TILE) * TILE + px % TILE); }
+static inline uint tile_of(uint px, uint py, __global const RasterScreenGpu* s) { return (py / TILE) * s->tiles_x + px / TILE; }
 
 /* Depth of triangle t at the centre of pixel (px, py) (DsmViewGpu convention). */
-inline float fragment_depth(__global const ScreenTriangleGpu* t, uint px, uint py, __global const RasterScreenGpu* s) {
+static inline float fragment_depth(__global const ScreenTriangleGpu* t, uint px, uint py, __global const RasterScreenGpu* s) {
     const float unit = 1.0f / (float)(1 << SOMBRA_SUBPIXEL_BITS);
     float cx = (float)px + 0.5f, cy = (float)py + 0.5f;
     /* plane equation over the screen (Knecht §3.1.2); q = 1 / view z or view z */
@@ -34,7 +34,7 @@ __kernel void segments_count(__global const RasterScreenGpu* s, __global const u
 }
 
 /* (depth, triangle) order: near first, ties by triangle index (deterministic). */
-inline int before(FragmentGpu a, FragmentGpu b) {
+static inline int before(FragmentGpu a, FragmentGpu b) {
     return a.depth < b.depth || (a.depth == b.depth && a.triangle < b.triangle);
 }
 

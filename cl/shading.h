@@ -8,7 +8,7 @@
 
 /* Unit vectors from p towards the light, and the light's intensity factor at p: distance
  * attenuation 1/(c + l·d + q·d²) for point and spot lights, times the spot cone's smooth edge. */
-inline lfloat light_incidence(__global const LightGpu* light, lfloat3 p, lfloat3* to_light) {
+static inline lfloat light_incidence(__global const LightGpu* light, lfloat3 p, lfloat3* to_light) {
     if (light->type == SOMBRA_LIGHT_DIRECTIONAL) {
         *to_light = l3_splat(-light->direction.xyz);
         return (lfloat)(1.0f);
@@ -27,7 +27,7 @@ inline lfloat light_incidence(__global const LightGpu* light, lfloat3 p, lfloat3
 }
 
 /* N turned to face the viewer (gradients have no preferred side): the side Eq. 3.9 lights. */
-inline lfloat3 normal_facing_viewer(lfloat3 normal, lfloat3 to_viewer) {
+static inline lfloat3 normal_facing_viewer(lfloat3 normal, lfloat3 to_viewer) {
     return l3_select(normal, l3_scale(normal, (lfloat)(-1.0f)), l3_dot(normal, to_viewer) < 0.0f);
 }
 
@@ -36,7 +36,7 @@ inline lfloat3 normal_facing_viewer(lfloat3 normal, lfloat3 to_viewer) {
  * normal_facing_viewer; 0 = none), lies on the lit side (L·N > 0: else both k_d (L·N) and the
  * highlight are 0). Elsewhere the shading multiplies shadow_m by 0, so the pass need not find it
  * (Henyey–Greenstein's phase is positive in every direction: single scattering passes no normal). */
-inline lmask light_term_possible(__global const LightGpu* light, lfloat3 p, lfloat3 facing) {
+static inline lmask light_term_possible(__global const LightGpu* light, lfloat3 p, lfloat3 facing) {
     lfloat3 to_light;
     lfloat incidence = light_incidence(light, p, &to_light);
     lmask has_normal = l3_dot(facing, facing) > 0.0f;
@@ -48,7 +48,7 @@ inline lmask light_term_possible(__global const LightGpu* light, lfloat3 p, lflo
  * gradient, shaded as if lit head-on without a highlight (homogeneous media such as fog).
  * shadow[m] is the transmittance 1 − α_m from the sample to light m (Knecht Eq. 3.8). */
 /* The coefficients per lane (surface fragments of several meshes share a packet). */
-inline lfloat3 phong_shade_lanes(__global const LightGpu* lights, uint light_count, float ambient_intensity, lfloat ka,
+static inline lfloat3 phong_shade_lanes(__global const LightGpu* lights, uint light_count, float ambient_intensity, lfloat ka,
                                  lfloat kd, lfloat ks, lfloat shininess, lfloat3 color, lfloat3 p, lfloat3 normal,
                                  lfloat3 to_viewer, const lfloat* shadow) {
     lfloat3 result = l3_scale(color, ka * ambient_intensity);
@@ -77,7 +77,7 @@ inline lfloat3 phong_shade_lanes(__global const LightGpu* lights, uint light_cou
  * towards the viewer, per unit extinction, with albedo c (the transfer function's colour):
  * c [k_a i_a + Σ_m 4π p(θ_m) f_m i_m · shadow_m], p Henyey–Greenstein with asymmetry g. The phase
  * is scaled by 4π so that isotropic scattering has unit gain (as a head-on diffuse k_d = 1). */
-inline lfloat3 scatter_shade(__global const LightGpu* lights, uint light_count, float ambient_intensity, float g,
+static inline lfloat3 scatter_shade(__global const LightGpu* lights, uint light_count, float ambient_intensity, float g,
                              __global const VolumeGpu* material, lfloat3 color, lfloat3 p, lfloat3 to_viewer,
                              const lfloat* shadow) {
     lfloat gain = (lfloat)(material->ambient * ambient_intensity);
@@ -92,7 +92,7 @@ inline lfloat3 scatter_shade(__global const LightGpu* lights, uint light_count, 
     return l3(color.x * (gain + light_sum.x), color.y * (gain + light_sum.y), color.z * (gain + light_sum.z));
 }
 
-inline lfloat3 phong_shade(__global const LightGpu* lights, uint light_count, float ambient_intensity,
+static inline lfloat3 phong_shade(__global const LightGpu* lights, uint light_count, float ambient_intensity,
                            __global const VolumeGpu* material, lfloat3 color, lfloat3 p, lfloat3 normal,
                            lfloat3 to_viewer, const lfloat* shadow) {
     return phong_shade_lanes(lights, light_count, ambient_intensity, (lfloat)(material->ambient), (lfloat)(material->diffuse),

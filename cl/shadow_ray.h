@@ -31,7 +31,7 @@ typedef struct {
  * the BVH leaves the packet's rays cross (cl/bvh.h); lanes whose transmittance reached 0 drop out.
  * A ray in a triangle's plane (|det| ≤ 10⁻⁷ of |e1 × e2|) and a degenerate triangle (e1 × e2 = 0)
  * cross nothing: no division by zero, no NaN. */
-inline lfloat surfaces_transmittance(const ShadowRayGeometry* g, lfloat3 p, lfloat3 dir, lfloat t_max, lmask lanes) {
+static inline lfloat surfaces_transmittance(const ShadowRayGeometry* g, lfloat3 p, lfloat3 dir, lfloat t_max, lmask lanes) {
     lfloat result = (lfloat)(1.0f);
     BvhWalk walk;
     bvh_walk_init(&walk, g->shadow_bvh_nodes);
@@ -48,7 +48,7 @@ inline lfloat surfaces_transmittance(const ShadowRayGeometry* g, lfloat3 p, lflo
 #endif
 
 /* Transmittance from p to the light (with meshes, times surfaces_transmittance). */
-inline lfloat shadow_ray(VOLUME_DATA_PARAM, const SceneRefs* scene, const ShadowRayGeometry* geometry,
+static inline lfloat shadow_ray(VOLUME_DATA_PARAM, const SceneRefs* scene, const ShadowRayGeometry* geometry,
                          __global const LightGpu* light, lfloat3 p, lmask lanes) {
     lfloat3 dir;
     lfloat t_max;

@@ -29,40 +29,42 @@
 #define DSM_WRITE_ARGS atlas_layout, texel_count, atlas_blocks, atlas_allocator, atlas_pool_blocks
 
 /* The tile of texel (x, y) of view number `view`, views of `per_row`² tiles. */
-inline uint atlas_tile_of(uint view, uint per_row, uint x, uint y) {
+static inline uint atlas_tile_of(uint view, uint per_row, uint x, uint y) {
     return view * per_row * per_row + (y / DSM_TILE_SIZE) * per_row + x / DSM_TILE_SIZE;
 }
-inline uint atlas_tile(__global const DsmViewGpu* v, uint x, uint y) { return atlas_tile_of(dsm_view_number(v), dsm_tiles_per_row(v), x, y); }
-inline uint atlas_texel_in_tile(uint x, uint y) { return (y % DSM_TILE_SIZE) * DSM_TILE_SIZE + x % DSM_TILE_SIZE; }
+static inline uint atlas_tile(__global const DsmViewGpu* v, uint x, uint y) { return atlas_tile_of(dsm_view_number(v), dsm_tiles_per_row(v), x, y); }
+static inline uint atlas_texel_in_tile(uint x, uint y) { return (y % DSM_TILE_SIZE) * DSM_TILE_SIZE + x % DSM_TILE_SIZE; }
 /* Where node k of a texel lies in the pool: in block `block`, layer k mod LAYERS, the texel's column of the tile. */
-inline uint atlas_node_index(uint block, uint k, uint texel_in_tile) {
+static inline uint atlas_node_index(uint block, uint k, uint texel_in_tile) {
     return (block * SOMBRA_ATLAS_LAYERS + k % SOMBRA_ATLAS_LAYERS) * ATLAS_TILE_TEXELS + texel_in_tile;
 }
 /* Node k of a texel through its tile's layout entries (an unallocated entry, which a finished
  * build never leaves below the texel's count, reads block 0). */
-inline float2 atlas_node(__global const uint* layout, __global const float* atlas_blocks, uint k, uint texel_in_tile) {
+static inline float2 atlas_node(__global const uint* layout, __global const float* atlas_blocks, uint k, uint texel_in_tile) {
     return vload2(atlas_node_index(max(layout[k / SOMBRA_ATLAS_LAYERS], 1u) - 1, k, texel_in_tile), atlas_blocks);
 }
 
 typedef struct {
     uint tile, texel_in_tile, texel, count;
     int capped;
+    uint held_slot, held_block; /* the layer range last claimed and its block: one claim per range */
 } DsmWriter;
 
-inline void dsm_writer_begin(DsmWriter* w, DSM_WRITE_PARAMS, __global const DsmViewGpu* v, uint x, uint y) {
+static inline void dsm_writer_begin(DsmWriter* w, DSM_WRITE_PARAMS, __global const DsmViewGpu* v, uint x, uint y) {
     w->tile = atlas_tile(v, x, y);
     w->texel_in_tile = atlas_texel_in_tile(x, y);
     w->texel = dsm_texel_index(v, x, y);
     w->count = 0;
     w->capped = 0;
+    w->held_slot = SOMBRA_ATLAS_MAX_BLOCKS; /* none */
 }
 
 /* The block of layer range `slot` of `tile`, allocated if needed. */
-inline uint atlas_block(DSM_WRITE_PARAMS, uint tile, uint slot) {
+static inline uint atlas_block(DSM_WRITE_PARAMS, uint tile, uint slot) {
     return claim_block(&atlas_layout[tile * SOMBRA_ATLAS_MAX_BLOCKS + slot], atlas_allocator, atlas_pool_blocks, 3);
 }
 
-inline void dsm_writer_put(DsmWriter* w, DSM_WRITE_PARAMS, float z, float alpha) {
+static inline void dsm_writer_put(DsmWriter* w, DSM_WRITE_PARAMS, float z, float alpha) {
     const uint cap = SOMBRA_ATLAS_MAX_BLOCKS * SOMBRA_ATLAS_LAYERS;
     uint k = w->count;
     if (k >= cap) { /* keep the function's end: the deepest node replaces the last layer */
@@ -72,12 +74,17 @@ inline void dsm_writer_put(DsmWriter* w, DSM_WRITE_PARAMS, float z, float alpha)
     } else {
         w->count += 1;
     }
-    uint block = atlas_block(DSM_WRITE_ARGS, w->tile, k / SOMBRA_ATLAS_LAYERS);
+    uint slot = k / SOMBRA_ATLAS_LAYERS;
+    if (slot != w->held_slot) {
+        w->held_slot = slot;
+        w->held_block = atlas_block(DSM_WRITE_ARGS, w->tile, slot);
+    }
+    uint block = w->held_block;
     if (block == DSM_NO_BLOCK) return;
     vstore2((float2)(z, alpha), atlas_node_index(block, k, w->texel_in_tile), atlas_blocks);
 }
 
-inline void dsm_writer_end(DsmWriter* w, DSM_WRITE_PARAMS, __global const DsmViewGpu* v, uint x, uint y) {
+static inline void dsm_writer_end(DsmWriter* w, DSM_WRITE_PARAMS, __global const DsmViewGpu* v, uint x, uint y) {
     texel_count[w->texel] = w->count;
 }
 
@@ -105,7 +112,7 @@ __kernel void dsm_pack(__global const uint* restrict atlas_layout, __global cons
 /* V'(z) of texel (x, y) of view v (Knecht Eq. 3.7) read in place (RenderOptions::dsm_lookup
  * "native"): the walk of DSM_SCALAR_LOOKUP, node k found through the tile's layout table (block
  * of layer range k / LAYERS, layer k mod LAYERS). */
-inline float dsm_texel_opacity(DSM_READ_PARAMS, __global const DsmViewGpu* v, int x, int y, float z, DsmSearchHint* hint) {
+static inline float dsm_texel_opacity(DSM_READ_PARAMS, __global const DsmViewGpu* v, int x, int y, float z, DsmSearchHint* hint) {
     uint texel_in_tile = atlas_texel_in_tile((uint)x, (uint)y);
     int count = (int)texel_count[dsm_texel_index(v, (uint)x, (uint)y)];
     __global const uint* layout = &atlas_layout[atlas_tile(v, (uint)x, (uint)y) * SOMBRA_ATLAS_MAX_BLOCKS];

@@ -33,7 +33,7 @@ typedef struct {
     uint tile, texel, count, previous_slot;
 } DsmWriter;
 
-inline void dsm_writer_begin(DsmWriter* w, DSM_WRITE_PARAMS, __global const DsmViewGpu* v, uint x, uint y) {
+static inline void dsm_writer_begin(DsmWriter* w, DSM_WRITE_PARAMS, __global const DsmViewGpu* v, uint x, uint y) {
     uint per_row = dsm_tiles_per_row(v);
     w->tile = dsm_view_number(v) * per_row * per_row + (y / DSM_TILE_SIZE) * per_row + x / DSM_TILE_SIZE;
     w->texel = dsm_texel_index(v, x, y);
@@ -43,7 +43,7 @@ inline void dsm_writer_begin(DsmWriter* w, DSM_WRITE_PARAMS, __global const DsmV
 }
 
 /* Global index of chunk `c` of `tile`, allocated if needed (Knecht Alg. 4.1). */
-inline uint chunk_of_tile(DSM_WRITE_PARAMS, uint tile, uint c) {
+static inline uint chunk_of_tile(DSM_WRITE_PARAMS, uint tile, uint c) {
     if (c >= SOMBRA_CHUNKS_PER_TILE) {
         atomic_inc(&chunk_allocator[1]);
         return CHUNK_END;
@@ -51,7 +51,7 @@ inline uint chunk_of_tile(DSM_WRITE_PARAMS, uint tile, uint c) {
     return claim_block(&tile_chunks[tile * SOMBRA_CHUNKS_PER_TILE + c], chunk_allocator, chunk_pool, 2);
 }
 
-inline void dsm_writer_put(DsmWriter* w, DSM_WRITE_PARAMS, float z, float alpha) {
+static inline void dsm_writer_put(DsmWriter* w, DSM_WRITE_PARAMS, float z, float alpha) {
     uint n = atomic_inc(&tile_fill[w->tile]); /* the tile's n-th node */
 #ifdef SOMBRA_CHUNKS_COUNTED
     /* counted allocation: the host counted every tile's nodes first and gave each tile one
@@ -71,7 +71,7 @@ inline void dsm_writer_put(DsmWriter* w, DSM_WRITE_PARAMS, float z, float alpha)
     w->count += 1;
 }
 
-inline void dsm_writer_end(DsmWriter* w, DSM_WRITE_PARAMS, __global const DsmViewGpu* v, uint x, uint y) {
+static inline void dsm_writer_end(DsmWriter* w, DSM_WRITE_PARAMS, __global const DsmViewGpu* v, uint x, uint y) {
     texel_count[w->texel] = w->count;
 }
 
@@ -109,7 +109,7 @@ __kernel void dsm_pack(__global const uint* restrict texel_head, __global const 
  * and found a node at or before z there (Hadwiger §3.5); the hint keeps the last node at or
  * before z. 0 before the first node, the last node's opacity after the last, linear in between
  * (Eq. 3.7), clamped to [0, 1]. */
-inline float dsm_texel_opacity(DSM_READ_PARAMS, __global const DsmViewGpu* v, int x, int y, float z, DsmSearchHint* hint) {
+static inline float dsm_texel_opacity(DSM_READ_PARAMS, __global const DsmViewGpu* v, int x, int y, float z, DsmSearchHint* hint) {
     __global const float4* texture = (__global const float4*)chunk_texture;
     int texel = (int)dsm_texel_index(v, (uint)x, (uint)y);
     uint slot = CHUNK_END;

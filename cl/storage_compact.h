@@ -14,16 +14,16 @@ typedef struct {
     uint next; /* index of the texel's next node */
 } DsmWriter;
 
-inline void dsm_writer_begin(DsmWriter* w, DSM_WRITE_PARAMS, __global const DsmViewGpu* v, uint x, uint y) {
+static inline void dsm_writer_begin(DsmWriter* w, DSM_WRITE_PARAMS, __global const DsmViewGpu* v, uint x, uint y) {
     w->next = texel_first[dsm_texel_index(v, x, y)];
 }
 
-inline void dsm_writer_put(DsmWriter* w, DSM_WRITE_PARAMS, float z, float alpha) {
+static inline void dsm_writer_put(DsmWriter* w, DSM_WRITE_PARAMS, float z, float alpha) {
     vstore2((float2)(z, alpha), w->next, nodes);
     w->next += 1;
 }
 
-inline void dsm_writer_end(DsmWriter* w, DSM_WRITE_PARAMS, __global const DsmViewGpu* v, uint x, uint y) {}
+static inline void dsm_writer_end(DsmWriter* w, DSM_WRITE_PARAMS, __global const DsmViewGpu* v, uint x, uint y) {}
 
 /* ---- reading (render.cl) ---- */
 #define DSM_READ_PARAMS __global const uint* restrict texel_first, __global const float* restrict nodes
@@ -36,7 +36,7 @@ inline void dsm_writer_end(DsmWriter* w, DSM_WRITE_PARAMS, __global const DsmVie
 
 /* V'(z) of texel (x, y) of view v (Knecht Eq. 3.7): the walk of DSM_SCALAR_LOOKUP over the texel's
  * run of nodes. */
-inline float dsm_texel_opacity(DSM_READ_PARAMS, __global const DsmViewGpu* v, int x, int y, float z, DsmSearchHint* hint) {
+static inline float dsm_texel_opacity(DSM_READ_PARAMS, __global const DsmViewGpu* v, int x, int y, float z, DsmSearchHint* hint) {
     uint texel = v->first_texel + (uint)y * v->resolution + (uint)x;
     uint begin = texel_first[texel];
     int count = (int)(texel_first[texel + 1] - begin);

@@ -27,7 +27,7 @@
  * bilinear lookup reads hold the surface's step at depths further apart. The per-fragment
  * evaluation and the surface cache's fill both look up here, so the cache holds at its points
  * what a fragment there evaluates. */
-inline lfloat3 surface_shadow_lookup(__global const LightGpu* light, lfloat3 p, lfloat3 normal, lfloat distance) {
+static inline lfloat3 surface_shadow_lookup(__global const LightGpu* light, lfloat3 p, lfloat3 normal, lfloat distance) {
     lfloat3 to_light;
     light_incidence(light, p, &to_light);
     lfloat cos_incidence = l3_dot(normal, to_light);
@@ -40,7 +40,7 @@ inline lfloat3 surface_shadow_lookup(__global const LightGpu* light, lfloat3 p, 
  * `source`: linear over the cell of the triangle's lattice (SurfaceShadowCache: k intervals per
  * edge, point (i, j) at weights (1 − (i + j)/k, i/k, j/k)) that holds it; k = 1 reads the corners
  * with the normal's weights. */
-inline void surface_cache_read(const CameraState* state, uint source, float v, float w, float cached[][SOMBRA_LANES], int c) {
+static inline void surface_cache_read(const CameraState* state, uint source, float v, float w, float cached[][SOMBRA_LANES], int c) {
     uint first = state->surface_cache_triangles[2 * source], k = state->surface_cache_triangles[2 * source + 1];
     float a = v * (float)k, b = w * (float)k;
     int j0 = min((int)floor(b), (int)k - 1);
@@ -66,7 +66,7 @@ inline void surface_cache_read(const CameraState* state, uint source, float v, f
 
 /* Composites, in lanes `lanes`, the surface fragment the segment cursor handed over
  * (cursor->surface_fragment: Knecht §3.1.2, a surface lies on a segment boundary). */
-inline void composite_surface(VOLUME_DATA_PARAM, CameraState* state, const SegmentCursor* cursor, const VolumeRay* ray,
+static inline void composite_surface(VOLUME_DATA_PARAM, CameraState* state, const SegmentCursor* cursor, const VolumeRay* ray,
                               __global const SurfaceTriangleGpu* surface_triangles,
                               __global const SurfaceMaterialGpu* surface_materials, __global const float* surface_bias,
                               lmask lanes) {

@@ -37,7 +37,7 @@ typedef struct {
 
 /* Slab test of every lane's ray against the box [lo, hi]; returns (t_near, t_far), empty when
  * t_near > t_far. Lanes parallel to a slab and outside it miss. */
-inline void intersect_box(lfloat3 o, lfloat3 d, lfloat3 lo, lfloat3 hi, lfloat* t_near, lfloat* t_far) {
+static inline void intersect_box(lfloat3 o, lfloat3 d, lfloat3 lo, lfloat3 hi, lfloat* t_near, lfloat* t_far) {
     lfloat t0 = (lfloat)(-INFINITY), t1 = (lfloat)(INFINITY);
     lfloat oa[3] = {o.x, o.y, o.z}, da[3] = {d.x, d.y, d.z}, la[3] = {lo.x, lo.y, lo.z}, ha[3] = {hi.x, hi.y, hi.z};
     for (int axis = 0; axis < 3; ++axis) {
@@ -56,7 +56,7 @@ inline void intersect_box(lfloat3 o, lfloat3 d, lfloat3 lo, lfloat3 hi, lfloat* 
 #include "bvh.h" /* walks hierarchies with intersect_box */
 
 /* Fills ray for t in [t_min, t_max]; a volume's box is [-0.5, dims - 0.5] in voxel space. */
-inline void make_volume_ray(VolumeRay* ray, __global const VolumeGpu* volumes, uint volume_count, lfloat3 origin,
+static inline void make_volume_ray(VolumeRay* ray, __global const VolumeGpu* volumes, uint volume_count, lfloat3 origin,
                             lfloat3 dir, lfloat t_min, lfloat t_max) {
     ray->origin = origin;
     ray->dir = dir;
@@ -79,17 +79,17 @@ inline void make_volume_ray(VolumeRay* ray, __global const VolumeGpu* volumes, u
 
 /* The ray misses every volume whose bit in `mask` is clear (a cluster's map holds its member
  * volumes only, Knecht §3.4.3). */
-inline void volume_ray_only(VolumeRay* ray, uint volume_count, uint mask) {
+static inline void volume_ray_only(VolumeRay* ray, uint volume_count, uint mask) {
     for (uint i = 0; i < volume_count; ++i)
         if (!(mask & (1u << i))) ray->t_enter[i] = ray->t_exit[i] = (lfloat)(INFINITY);
 }
 
-inline lfloat3 ray_voxel_point(const VolumeRay* ray, uint i, lfloat t) { return l3_mad(ray->vox_dir[i], t, ray->vox_origin[i]); }
+static inline lfloat3 ray_voxel_point(const VolumeRay* ray, uint i, lfloat t) { return l3_mad(ray->vox_dir[i], t, ray->vox_origin[i]); }
 
 #ifdef SOMBRA_SKIP_EMPTY
 /* Lanes whose sample at t lies in an empty brick of every active volume; for them *t_resume is
  * where the first of those bricks ends along the ray (all samples before it are empty too). */
-inline lmask in_empty_bricks(__global const uchar* occupancy, __global const VolumeGpu* volumes, uint volume_count,
+static inline lmask in_empty_bricks(__global const uchar* occupancy, __global const VolumeGpu* volumes, uint volume_count,
                              const VolumeRay* ray, luint active, lfloat t, lmask lanes, lfloat* t_resume) {
     lmask empty = lanes;
     lfloat t_exit = (lfloat)(INFINITY);
@@ -168,7 +168,7 @@ typedef struct {
 #endif
 } SegmentCursor;
 
-inline void segment_cursor_init(SegmentCursor* c, const VolumeRay* ray, uint volume_count, lfloat jitter, lmask lanes) {
+static inline void segment_cursor_init(SegmentCursor* c, const VolumeRay* ray, uint volume_count, lfloat jitter, lmask lanes) {
     /* all enter/exit values, sorted per lane by a compare-exchange network (missed volumes are
      * +∞ and sort last) */
     uint n = 2 * volume_count;
@@ -205,7 +205,7 @@ inline void segment_cursor_init(SegmentCursor* c, const VolumeRay* ray, uint vol
 #ifdef SOMBRA_HAS_MESHES
 /* Volumes with a polyhedral bound: their inside bit starts cleared, and each bound crossing in
  * front of the ray's start toggles it (parity: odd ⇒ the start lies inside the closed mesh). */
-inline luint box_bounded_volumes(__global const VolumeGpu* volumes, uint volume_count) {
+static inline luint box_bounded_volumes(__global const VolumeGpu* volumes, uint volume_count) {
     uint bounded = 0u;
     for (uint i = 0; i < volume_count; ++i)
         if (volumes[i].bound_count > 0u) bounded |= 1u << i;
@@ -214,7 +214,7 @@ inline luint box_bounded_volumes(__global const VolumeGpu* volumes, uint volume_
 
 /* Events from each lane's sorted fragment list: fragments [first[pixel], first[pixel + 1]) of
  * its pixel (lanes outside `lanes` get none). */
-inline void segment_cursor_use_fragments(SegmentCursor* c, __global const VolumeGpu* volumes, uint volume_count,
+static inline void segment_cursor_use_fragments(SegmentCursor* c, __global const VolumeGpu* volumes, uint volume_count,
                                          __global const uint* fragment_first, __global const FragmentGpu* fragments,
                                          __global const ScreenTriangleGpu* screen, const uint* pixel, lmask lanes) {
     c->source = SOMBRA_EVENTS_FRAGMENTS;
@@ -238,7 +238,7 @@ inline void segment_cursor_use_fragments(SegmentCursor* c, __global const Volume
 /* Events from crossing the bound triangles along the ray, 0 < t < t_max, found through their BVH
  * (cl/bvh.h) in (t, triangle) order; the inside bits from the parity of all crossings at t > 0
  * (to infinity). */
-inline void segment_cursor_use_bound_triangles(SegmentCursor* c, const VolumeRay* ray, __global const VolumeGpu* volumes,
+static inline void segment_cursor_use_bound_triangles(SegmentCursor* c, const VolumeRay* ray, __global const VolumeGpu* volumes,
                                                uint volume_count, __global const SurfaceTriangleGpu* triangles,
                                                __global const BvhNodeGpu* bvh, uint bvh_nodes, lfloat t_max, lmask lanes) {
     c->source = SOMBRA_EVENTS_TRIANGLES;
@@ -261,7 +261,7 @@ inline void segment_cursor_use_bound_triangles(SegmentCursor* c, const VolumeRay
 }
 
 /* Depth of each lane's next event (+∞: none) in `lanes`; *which gets its fragment or triangle. */
-inline lfloat cursor_peek_event(const SegmentCursor* c, const VolumeRay* ray, lmask lanes, uint* which) {
+static inline lfloat cursor_peek_event(const SegmentCursor* c, const VolumeRay* ray, lmask lanes, uint* which) {
     float depth[SOMBRA_LANES];
     if (c->source == SOMBRA_EVENTS_TRIANGLES) {
         /* the first crossing after the last one passed, in (t, index) order (ties at one t, e.g.
@@ -297,7 +297,7 @@ inline lfloat cursor_peek_event(const SegmentCursor* c, const VolumeRay* ray, lm
 
 /* Lanes `moving` begin a new segment: in lanes `take` it ends at their next event (taken from the
  * source), in the others at a box bound. */
-inline void cursor_take_event(SegmentCursor* c, lmask moving, lmask take, const uint* which, lfloat depth) {
+static inline void cursor_take_event(SegmentCursor* c, lmask moving, lmask take, const uint* which, lfloat depth) {
     int move[SOMBRA_LANES], taken[SOMBRA_LANES];
     float t[SOMBRA_LANES];
     LSTORE(moving, move);
@@ -314,7 +314,7 @@ inline void cursor_take_event(SegmentCursor* c, lmask moving, lmask take, const 
 
 /* Passes the events that end the segments of `lanes`: a bound toggles its volume's inside bit;
  * returns the lanes whose event is a surface fragment (kept in surface_fragment). */
-inline lmask cursor_pass_events(SegmentCursor* c, lmask lanes) {
+static inline lmask cursor_pass_events(SegmentCursor* c, lmask lanes) {
     int pass[SOMBRA_LANES], surface[SOMBRA_LANES];
     uint toggle[SOMBRA_LANES];
     LSTORE(lanes, pass);
@@ -346,7 +346,7 @@ inline lmask cursor_pass_events(SegmentCursor* c, lmask lanes) {
  * bricks' value range maps to zero extinction). Returns the lanes that have a point at c->t and,
  * with meshes, the lanes c->surface whose surface fragment lies at c->t; no lane once every ray
  * is done. */
-inline lmask segment_cursor_next(SegmentCursor* c, const VolumeRay* ray, __global const VolumeGpu* volumes,
+static inline lmask segment_cursor_next(SegmentCursor* c, const VolumeRay* ray, __global const VolumeGpu* volumes,
                                  uint volume_count, __global const uchar* occupancy) {
     /* lanes whose last point ended their segment (or that handed over a surface) move on to their
      * next non-empty segment */
@@ -462,14 +462,14 @@ inline lmask segment_cursor_next(SegmentCursor* c, const VolumeRay* ray, __globa
 }
 
 /* Density of volume i at the cursor's point (trilinear, voxel space) in lanes `here`. */
-inline lfloat density_at_point(VOLUME_DATA_PARAM, __global const VolumeGpu* v, const VolumeRay* ray, uint i, lfloat t) {
+static inline lfloat density_at_point(VOLUME_DATA_PARAM, __global const VolumeGpu* v, const VolumeRay* ray, uint i, lfloat t) {
     return sample_density(volume_data, v, ray_voxel_point(ray, i, t));
 }
 
 /* Mean extinction of volume i over the interval the cursor's point closes: pre-integrated
  * (volume_sample.h) between the density at the previous point, *front, and `density` at this
  * one; *front becomes `density` in lanes `here`. A start point (delta 0) only sets *front. */
-inline lfloat interval_sigma(__global const float* tf_tables, __global const VolumeGpu* v, lfloat density, lfloat* front,
+static inline lfloat interval_sigma(__global const float* tf_tables, __global const VolumeGpu* v, lfloat density, lfloat* front,
                              lmask here) {
     lfloat sigma = preintegrated_sigma(tf_tables, v, *front, density);
     *front = select(*front, density, here);
@@ -480,7 +480,7 @@ inline lfloat interval_sigma(__global const float* tf_tables, __global const Vol
  * and `back` at t1, split where the ray crosses a voxel-centre plane (integer voxel coordinate,
  * one per axis at most), where the trilinear density has its kinks: between the crossings it is
  * nearly linear and the pre-integrated σ of each piece is its exact mean. */
-inline lfloat voxel_piece_depth(VOLUME_DATA_PARAM, __global const VolumeGpu* v, __global const float* tf_tables,
+static inline lfloat voxel_piece_depth(VOLUME_DATA_PARAM, __global const VolumeGpu* v, __global const float* tf_tables,
                                 const VolumeRay* ray, uint i, lfloat t0, lfloat t1, lfloat front, lfloat back, lmask here) {
     lfloat3 o = ray->vox_origin[i], d = ray->vox_dir[i];
     lfloat oa[3] = {o.x, o.y, o.z}, da[3] = {d.x, d.y, d.z}, crossing[3];
@@ -516,7 +516,7 @@ inline lfloat voxel_piece_depth(VOLUME_DATA_PARAM, __global const VolumeGpu* v, 
  * then sampled, not cut off (a one-voxel wall: the tent of its value along the ray is linear
  * between the crossings). interval_volume_depth: this for stiff volumes, else one pre-integrated
  * interval. */
-inline lfloat split_interval_depth(VOLUME_DATA_PARAM, __global const VolumeGpu* v, __global const float* tf_tables,
+static inline lfloat split_interval_depth(VOLUME_DATA_PARAM, __global const VolumeGpu* v, __global const float* tf_tables,
                                    const VolumeRay* ray, uint i, lfloat t0, lfloat t1, lfloat front, lfloat back, lmask here) {
     lfloat3 span = l3_scale(ray->vox_dir[i], t1 - t0);
     lfloat longest = fmax(fabs(span.x), fmax(fabs(span.y), fabs(span.z)));
@@ -535,7 +535,7 @@ inline lfloat split_interval_depth(VOLUME_DATA_PARAM, __global const VolumeGpu* 
     return depth + voxel_piece_depth(volume_data, v, tf_tables, ray, i, t, t1, density, back, here);
 }
 
-inline lfloat interval_volume_depth(VOLUME_DATA_PARAM, __global const VolumeGpu* v, __global const float* tf_tables,
+static inline lfloat interval_volume_depth(VOLUME_DATA_PARAM, __global const VolumeGpu* v, __global const float* tf_tables,
                                     const VolumeRay* ray, uint i, lfloat t0, lfloat t1, lfloat front, lfloat back, lmask here) {
     if (!v->stiff) return preintegrated_sigma(tf_tables, v, front, back) * (t1 - t0);
     return split_interval_depth(volume_data, v, tf_tables, ray, i, t0, t1, front, back, here);
@@ -545,7 +545,7 @@ inline lfloat interval_volume_depth(VOLUME_DATA_PARAM, __global const VolumeGpu*
  * active volumes (an overlap adds extinctions); front[i]: volume i's density at the previous
  * point, updated. 0 in lanes outside `sampling`. Callers keep t finite in every lane. Used by the
  * light passes (shadow rays, DSM generation); the camera pass blends colours by interval_sigma. */
-inline lfloat interval_optical_depth(VOLUME_DATA_PARAM, __global const VolumeGpu* volumes, __global const float* tf_tables,
+static inline lfloat interval_optical_depth(VOLUME_DATA_PARAM, __global const VolumeGpu* volumes, __global const float* tf_tables,
                                      const VolumeRay* ray, const SegmentCursor* c, lfloat t, lfloat* front, lmask sampling) {
     lfloat depth = (lfloat)(0.0f);
     lfloat t0 = t - select((lfloat)(0.0f), c->delta, sampling);

@@ -14,20 +14,20 @@ __constant sampler_t volume_sampler = CLK_NORMALIZED_COORDS_FALSE | CLK_ADDRESS_
 #define VOLUME_DATA_PARAM __global const float* restrict volume_data
 #endif
 
-inline lfloat3 to_voxel_point(__global const VolumeGpu* v, lfloat3 p) {
+static inline lfloat3 to_voxel_point(__global const VolumeGpu* v, lfloat3 p) {
     return l3(l3_dot_uniform(p, v->world_to_voxel[0].xyz) + v->world_to_voxel[0].w,
               l3_dot_uniform(p, v->world_to_voxel[1].xyz) + v->world_to_voxel[1].w,
               l3_dot_uniform(p, v->world_to_voxel[2].xyz) + v->world_to_voxel[2].w);
 }
 
-inline lfloat3 to_voxel_direction(__global const VolumeGpu* v, lfloat3 d) {
+static inline lfloat3 to_voxel_direction(__global const VolumeGpu* v, lfloat3 d) {
     return l3(l3_dot_uniform(d, v->world_to_voxel[0].xyz), l3_dot_uniform(d, v->world_to_voxel[1].xyz),
               l3_dot_uniform(d, v->world_to_voxel[2].xyz));
 }
 
 /* Trilinear density at voxel positions p (voxel centres at integers), clamped to the edge.
  * Callers keep p finite in every lane (masked lanes included). */
-inline lfloat sample_density(VOLUME_DATA_PARAM, __global const VolumeGpu* v, lfloat3 p) {
+static inline lfloat sample_density(VOLUME_DATA_PARAM, __global const VolumeGpu* v, lfloat3 p) {
     lfloat px = clamp(p.x, 0.0f, (float)(v->dims.x - 1));
     lfloat py = clamp(p.y, 0.0f, (float)(v->dims.y - 1));
     lfloat pz = clamp(p.z, 0.0f, (float)(v->dims.z - 1));
@@ -59,7 +59,7 @@ typedef struct {
     lfloat sigma;
 } Classified;
 
-inline Classified classify(__global const float* tf_tables, __global const VolumeGpu* v, lfloat density) {
+static inline Classified classify(__global const float* tf_tables, __global const VolumeGpu* v, lfloat density) {
     lfloat u = clamp((density - v->tf_domain_min) * v->tf_domain_scale, 0.0f, (float)(v->tf_size - 1));
     lint i0 = min(LCONVERT_INT(u), (int)v->tf_size - 2);
     lfloat f = u - LCONVERT_FLOAT(i0);
@@ -73,7 +73,7 @@ inline Classified classify(__global const float* tf_tables, __global const Volum
 }
 
 /* σ of the volume's table at entry coordinates u in [0, size − 1] (linear between entries). */
-inline lfloat table_sigma(__global const float* table, uint size, lfloat u) {
+static inline lfloat table_sigma(__global const float* table, uint size, lfloat u) {
     lint i0 = min(LCONVERT_INT(u), (int)size - 2);
     lfloat f = u - LCONVERT_FLOAT(i0);
     return mix(gather(table, 4 * i0 + 3), gather(table, 4 * i0 + 7), f);
@@ -88,7 +88,7 @@ inline lfloat table_sigma(__global const float* table, uint size, lfloat u) {
  * Within one entry cell the mean of the linear σ is σ at the middle (exact, no cancellation);
  * across cells, ∫σ du is the partial cells at both ends plus the whole cells between them from
  * the prefix sums F (hi + lo pairs), plus the clamped parts beyond the table: every term ≥ 0. */
-inline lfloat preintegrated_sigma(__global const float* tf_tables, __global const VolumeGpu* v, lfloat d_front,
+static inline lfloat preintegrated_sigma(__global const float* tf_tables, __global const VolumeGpu* v, lfloat d_front,
                                   lfloat d_back) {
     __global const float* table = tf_tables + 4 * v->tf_offset;
     __global const float* prefix = tf_tables + v->tf_integral_offset;
@@ -114,11 +114,11 @@ inline lfloat preintegrated_sigma(__global const float* tf_tables, __global cons
     return select(mid_sigma, integral / select((lfloat)(1.0f), width, interval), interval & !simple);
 }
 
-inline lfloat3 offset_voxel(lfloat3 p, float dx, float dy, float dz) { return l3(p.x + dx, p.y + dy, p.z + dz); }
+static inline lfloat3 offset_voxel(lfloat3 p, float dx, float dy, float dz) { return l3(p.x + dx, p.y + dy, p.z + dz); }
 
 /* Voxel-space gradient of the density: central differences, or the 3×3×3 Sobel operator when
  * SOMBRA_SOBEL is defined (course slides, "Gradient Calculation"). Units: density per voxel. */
-inline lfloat3 gradient_voxel(VOLUME_DATA_PARAM, __global const VolumeGpu* v, lfloat3 p) {
+static inline lfloat3 gradient_voxel(VOLUME_DATA_PARAM, __global const VolumeGpu* v, lfloat3 p) {
 #ifdef SOMBRA_SOBEL
     lfloat3 g = l3((lfloat)(0.0f), (lfloat)(0.0f), (lfloat)(0.0f));
     for (int dz = -1; dz <= 1; ++dz)
@@ -141,7 +141,7 @@ inline lfloat3 gradient_voxel(VOLUME_DATA_PARAM, __global const VolumeGpu* v, lf
 /* World-space surface normal from the voxel-space gradient (g_world = Jᵀ g_voxel, J = the
  * world→voxel Jacobian), pointing towards lower density. Lanes where the gradient vanishes —
  * measured in transfer-function entries per voxel, so the threshold is unit-free — get 0. */
-inline lfloat3 normal_from_gradient(__global const VolumeGpu* v, lfloat3 g_voxel) {
+static inline lfloat3 normal_from_gradient(__global const VolumeGpu* v, lfloat3 g_voxel) {
     lmask vanishing = sqrt(l3_dot(g_voxel, g_voxel)) * v->tf_domain_scale < 1e-3f;
     float3 j0 = v->world_to_voxel[0].xyz, j1 = v->world_to_voxel[1].xyz, j2 = v->world_to_voxel[2].xyz;
     lfloat3 g = l3(g_voxel.x * j0.x + g_voxel.y * j1.x + g_voxel.z * j2.x,

@@ -8,12 +8,16 @@ packages=(
   build-essential cmake pkg-config binutils
   # OpenCL: PoCL (CPU device), ICD loader, C and C++ headers
   pocl-opencl-icd ocl-icd-opencl-dev opencl-clhpp-headers opencl-c-headers clinfo
+  # a second OpenCL implementation: Oclgrind, a simulated OpenCL 1.2 device that checks every
+  # access and reports data races (tests/portability/oclgrind.sh)
+  oclgrind
   # maths, images, tests, JSON, command line
   libglm-dev libopenimageio-dev catch2 nlohmann-json3-dev libcli11-dev
   # volume and mesh formats (OBJ: tinyobjloader's header; nifti1_io.h includes nifti1.h, which is in libnifti2-dev)
   libniftiio-dev libnifti2-dev libznz-dev libzip-dev zlib1g-dev libtinyobjloader-dev
-  # the Python module (python/): pybind11 for Debian's python3, numpy, pytest for its tests
-  pybind11-dev python3-dev python3-numpy python3-pytest
+  # the Python module (python/): Debian's python3 with its numpy 1.24 and pytest; venv and pip for
+  # scripts/python-deps.sh (pybind11 ≥ 2.12, which numpy 2 needs, and numpy 2 come from PyPI)
+  python3-dev python3-numpy python3-pytest python3-venv python3-pip
   # the benches' plots (bench/plot_error_pareto.py, bench/plot_lowpass.py)
   python3-matplotlib
   # OpenVDB (.vdb; its headers include Boost's, which libopenvdb-dev does not pull in) and ITK's
@@ -33,10 +37,11 @@ for p in "${packages[@]}"; do
 done
 if [ ${#missing[@]} -eq 0 ]; then
   echo "install-deps: all ${#packages[@]} packages present"
-  exit 0
+else
+  SUDO=""
+  [ "$(id -u)" -eq 0 ] || SUDO="sudo"
+  echo "install-deps: installing ${missing[*]}"
+  $SUDO apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq "${missing[@]}"
 fi
-SUDO=""
-[ "$(id -u)" -eq 0 ] || SUDO="sudo"
-echo "install-deps: installing ${missing[*]}"
-$SUDO apt-get update -qq
-DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq "${missing[@]}"
+"$(dirname "$0")/python-deps.sh"

@@ -96,7 +96,7 @@ std::string two_spheres_file(const std::string& name) {
 
 TEST_CASE("sombra render writes the image and the stats", "[cli]") {
     std::string scene = scene_file("good.json", nlohmann::json::object());
-    std::string out = sombra::test::temp_dir() + "/good.png", stats = sombra::test::temp_dir() + "/good.json";
+    std::string out = sombra::test::temp_dir() + "/good.png", stats = sombra::test::temp_dir() + "/good-stats.json";
     CliRun run = run_cli("render " + scene + " -o " + out + " --stats " + stats + " --device cpu");
     INFO(run.stderr_text);
     REQUIRE(run.exit_code == 0);
@@ -113,7 +113,7 @@ TEST_CASE("sombra render writes the image and the stats", "[cli]") {
 
 TEST_CASE("sombra render --shadows lowpass writes soft shadows", "[cli]") {
     std::string scene = scene_file("lowpass.json", nlohmann::json::object());
-    std::string out = sombra::test::temp_dir() + "/lowpass.png", stats = sombra::test::temp_dir() + "/lowpass.json";
+    std::string out = sombra::test::temp_dir() + "/lowpass.png", stats = sombra::test::temp_dir() + "/lowpass-stats.json";
     CliRun run = run_cli("render " + scene + " -o " + out + " --stats " + stats + " --shadows lowpass --filter 5 --filter-kernel gauss");
     INFO(run.stderr_text);
     REQUIRE(run.exit_code == 0);
@@ -574,4 +574,60 @@ TEST_CASE("sombra clusters prints each light's clusters and writes them as JSON"
     CHECK(std::abs(left[0] - right[0]) + std::abs(left[1] - right[1]) + std::abs(left[2] - right[2]) > 0.3f);
     const std::string unwritten_image = sombra::test::temp_dir() + "/unwritten.png";
     require_clean_failure(run_cli("clusters " + scene + " --image " + unwritten_image + " --light 3"), "--light", "1 lights", unwritten_image);
+}
+
+// Issue 25 item 1: an output never replaces an input of the command (compared by device and inode,
+// links resolved) nor anything but a regular file, and the outputs of one command are committed
+// together: each case is refused with one line before any work, and every input is left as it was.
+TEST_CASE("outputs never touch inputs or non-regular files, and are committed together", "[cli][hostile]") {
+    namespace fs = std::filesystem;
+    const std::string dir = sombra::test::temp_dir() + "/outputs_inputs";
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+    const std::string scene = scene_file("outputs_inputs/s.json", {{"image", {{"width", 8}, {"height", 8}}}});
+    const auto read_all = [](const std::string& path) {
+        std::ifstream in(path);
+        std::stringstream text;
+        text << in.rdbuf();
+        return text.str();
+    };
+    const std::string scene_text = read_all(scene);
+    const std::string image = dir + "/o.png";
+    fs::create_symlink(scene, dir + "/link.json");
+
+    // --stats, -o or a link to it naming the scene: refused, the scene unchanged, no image
+    for (const std::string& args : {"-o " + image + " --stats " + scene, "-o " + image + " --stats " + dir + "/link.json",
+                                    "-o " + dir + "/./s.json.png --stats " + dir + "/../outputs_inputs/s.json"}) {
+        const CliRun run = run_cli("render " + scene + " " + args);
+        INFO(args << ": " << run.stderr_text);
+        CHECK(run.exit_code != 0);
+        CHECK(std::count(run.stderr_text.begin(), run.stderr_text.end(), '\n') == 1);
+        CHECK(run.stderr_text.find("is an input of this command") != std::string::npos);
+        CHECK(read_all(scene) == scene_text);
+        CHECK_FALSE(fs::exists(image));
+    }
+    // the points file of `visibility` is an input too
+    const std::string points = write_file("outputs_inputs/p.csv", "0,0,0\n0.1,0,0\n");
+    const CliRun stats_on_points = run_cli("visibility " + scene + " --light 0 --points " + points + " --stats " + points);
+    CHECK(stats_on_points.stderr_text.find("is an input of this command") != std::string::npos);
+    CHECK(read_all(points) == "0,0,0\n0.1,0,0\n");
+    // a device node (through a link: links are resolved) or a FIFO is never replaced
+    fs::create_symlink("/dev/null", dir + "/null.png");
+    REQUIRE(::mkfifo((dir + "/fifo.png").c_str(), 0600) == 0);
+    for (const std::string& node : {dir + "/null.png", dir + "/fifo.png"}) {
+        const CliRun run = run_cli("render " + scene + " -o " + node);
+        INFO(node << ": " << run.stderr_text);
+        CHECK(run.exit_code != 0);
+        CHECK(run.stderr_text.find("not a regular file") != std::string::npos);
+        CHECK_FALSE(fs::is_regular_file(node));
+    }
+    CHECK(fs::is_character_file("/dev/null"));
+    // two outputs naming one file through different spellings
+    const CliRun twice = run_cli("render " + scene + " -o " + image + " --stats " + dir + "/../outputs_inputs/o.png");
+    CHECK(twice.stderr_text.find("named twice as an output") != std::string::npos);
+    CHECK_FALSE(fs::exists(image));
+    // clusters: a failed --image leaves no --json behind (both are committed together)
+    const CliRun clusters = run_cli("clusters " + scene + " --json " + dir + "/c.json --image " + dir + "/c.bmp");
+    CHECK(clusters.exit_code != 0);
+    CHECK_FALSE(fs::exists(dir + "/c.json"));
 }

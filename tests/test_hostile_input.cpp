@@ -16,7 +16,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "host/staged_outputs.h"
+#include "render/staged_outputs.h"
 #include "sombra/sombra.h"
 #include "test_support.h"
 
@@ -226,13 +226,13 @@ TEST_CASE("hostile input: outputs are committed together or not at all", "[hosti
     fs::create_directories(dir);
     const auto write = [](const std::string& path) { std::ofstream(path) << "data"; };
     {  // an error before the commit: nothing at the final names, no staged file
-        host::StagedOutputs outputs;
+        detail::StagedOutputs outputs;
         outputs.write((dir / "a.png").string(), write);
         CHECK_THROWS_AS(outputs.write((dir / "b.json").string(), [](const std::string&) { throw Error("x: failed"); }), Error);
     }
     CHECK(fs::is_empty(dir));
     {  // a rename that fails in the commit takes back the ones before it
-        host::StagedOutputs outputs;
+        detail::StagedOutputs outputs;
         outputs.write((dir / "a.png").string(), write);
         outputs.write((dir / "b.json").string(), write);
         fs::create_directories(dir / "b.json" / "child");  // b.json became a non-empty folder
@@ -243,7 +243,7 @@ TEST_CASE("hostile input: outputs are committed together or not at all", "[hosti
     CHECK(std::distance(fs::directory_iterator(dir), fs::directory_iterator()) == 1);  // only the folder b.json
     fs::remove_all(dir / "b.json");
     {  // errors name the final path, not the staged one
-        host::StagedOutputs outputs;
+        detail::StagedOutputs outputs;
         const std::string message =
             error_of([&] { outputs.write((dir / "c.exr").string(), [](const std::string& p) { throw Error(p + ": disk full"); }); });
         CHECK(message == (dir / "c.exr").string() + ": disk full");
@@ -258,7 +258,7 @@ TEST_CASE("hostile input: outputs are committed together or not at all", "[hosti
                             "\": \"d.exr\" is read-only)");
     }
     {
-        host::StagedOutputs outputs;
+        detail::StagedOutputs outputs;
         outputs.write((dir / "c.exr").string(), write);
         outputs.commit();
     }

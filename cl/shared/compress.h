@@ -16,11 +16,11 @@
 
 #ifndef __OPENCL_C_VERSION__
 #include <cmath>
-#define SB_COMPRESS_INLINE inline
+#define SB_COMPRESS_INLINE static inline
 #define SB_FMAX(a, b) std::fmax(a, b)
 #define SB_FMIN(a, b) std::fmin(a, b)
 #else
-#define SB_COMPRESS_INLINE inline
+#define SB_COMPRESS_INLINE static inline
 #define SB_FMAX(a, b) fmax(a, b)
 #define SB_FMIN(a, b) fmin(a, b)
 #endif

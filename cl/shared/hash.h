@@ -4,11 +4,11 @@
 #define SOMBRA_SHARED_HASH_H
 
 #ifdef __OPENCL_C_VERSION__
-#define SB_INLINE inline
+#define SB_INLINE static inline
 typedef uint sb_hash_uint;
 #else
 #include <cstdint>
-#define SB_INLINE inline
+#define SB_INLINE static inline
 typedef std::uint32_t sb_hash_uint;
 #endif
 

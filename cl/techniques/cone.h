@@ -9,14 +9,14 @@ typedef struct {
 #define SHADOW_STATE_INIT(s) SAT_TABLES_INIT((s).tables)
 
 /* The cone's optical depth towards one light from world point p (its axis: to the light). */
-inline float cone_lane(__global const ulong* sat, __global const SatGridGpu* g, __global const LightGpu* light, float3 p) {
+static inline float cone_lane(__global const ulong* sat, __global const SatGridGpu* g, __global const LightGpu* light, float3 p) {
     bool directional = light->type == SOMBRA_LIGHT_DIRECTIONAL;
     float3 to_light = directional ? -light->direction.xyz : light->position.xyz - p;
     float reach = directional ? INFINITY : length(to_light);
     return sat_cone_depth(sat, g, p, to_light / fmax(length(to_light), 1e-30f), reach);
 }
 
-inline lfloat shadow_transmittance(VOLUME_DATA_PARAM, const SceneRefs* scene, ShadowState* s, uint m, lfloat3 p, lmask lanes) {
+static inline lfloat shadow_transmittance(VOLUME_DATA_PARAM, const SceneRefs* scene, ShadowState* s, uint m, lfloat3 p, lmask lanes) {
     __global const SatGridGpu* g = &s->tables.sat_grids[m];
 #define CONE_LANE(c) cone_lane(s->tables.sat, g, &scene->lights[m], SAT_LANE_POINT(p, c))
     lfloat depth = LFROM_LANES(CONE_LANE);

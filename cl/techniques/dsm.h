@@ -19,7 +19,7 @@ typedef struct {
     DsmSearchHint hints[SOMBRA_LIGHT_SLOTS * 4][SOMBRA_LANES];
 } ShadowState;
 
-inline void dsm_state_init(ShadowState* s) {
+static inline void dsm_state_init(ShadowState* s) {
     for (int i = 0; i < SOMBRA_LIGHT_SLOTS * 4; ++i)
         for (int lane = 0; lane < SOMBRA_LANES; ++lane) s->hints[i][lane].texel = -1, s->hints[i][lane].node = 0;
 }
@@ -28,7 +28,7 @@ inline void dsm_state_init(ShadowState* s) {
 /* α of one texel at depth z: V'(z) (Knecht Eq. 3.7), or with DSM_BINARY_LOOKUP the binary
  * shadow-map baseline: fully shadowed behind the depth where the texel's opacity reaches 1/2
  * (the depth a classic shadow map stores), lit before it. */
-inline float texel_attenuation(DSM_READ_PARAMS, __global const DsmViewGpu* v, int x, int y, float z, DsmSearchHint* hint) {
+static inline float texel_attenuation(DSM_READ_PARAMS, __global const DsmViewGpu* v, int x, int y, float z, DsmSearchHint* hint) {
     float alpha = dsm_texel_opacity(DSM_READ_ARGS, v, x, y, z, hint);
 #ifdef DSM_BINARY_LOOKUP
     alpha = alpha >= 0.5f ? 1.0f : 0.0f;
@@ -36,7 +36,7 @@ inline float texel_attenuation(DSM_READ_PARAMS, __global const DsmViewGpu* v, in
     return alpha;
 }
 
-inline lfloat shadow_transmittance(VOLUME_DATA_PARAM, const SceneRefs* scene, ShadowState* s, uint light_index, lfloat3 p,
+static inline lfloat shadow_transmittance(VOLUME_DATA_PARAM, const SceneRefs* scene, ShadowState* s, uint light_index, lfloat3 p,
                                    lmask lanes) {
     __global const LightGpu* light = &scene->lights[light_index];
     DsmSearchHint (*hints)[SOMBRA_LANES] = &s->hints[4 * light_index];

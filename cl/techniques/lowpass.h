@@ -12,7 +12,7 @@ typedef struct {
 } ShadowState;
 #define SHADOW_STATE_INIT(s) SAT_TABLES_INIT((s).tables)
 
-inline lfloat shadow_transmittance(VOLUME_DATA_PARAM, const SceneRefs* scene, ShadowState* s, uint m, lfloat3 p, lmask lanes) {
+static inline lfloat shadow_transmittance(VOLUME_DATA_PARAM, const SceneRefs* scene, ShadowState* s, uint m, lfloat3 p, lmask lanes) {
     __global const SatGridGpu* g = &s->tables.sat_grids[m];
     __global const SsatGridGpu* sphere = &s->tables.ssat_grids[m];
     lfloat depth;

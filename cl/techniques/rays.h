@@ -30,6 +30,6 @@ typedef struct {
 } ShadowState;
 #define SHADOW_STATE_INIT(s) SHADOW_MESH_INIT((s).geometry) SHADOW_BOUND_INIT((s).geometry)
 
-inline lfloat shadow_transmittance(VOLUME_DATA_PARAM, const SceneRefs* scene, ShadowState* s, uint m, lfloat3 p, lmask lanes) {
+static inline lfloat shadow_transmittance(VOLUME_DATA_PARAM, const SceneRefs* scene, ShadowState* s, uint m, lfloat3 p, lmask lanes) {
     return shadow_ray(volume_data, scene, &s->geometry, &scene->lights[m], p, lanes);
 }

@@ -191,3 +191,38 @@ def test_clustered_deep_shadow_maps(context):
     assert len(members) == len(set(members)) and "table" in members  # each object in one cluster of a light
     maps, _ = sombra.build_deep_shadow_maps(context, scene, 0, dsm_resolution=32, dsm_clusters=4)
     assert maps[0].light_name == "lights[0].cluster0.0"
+
+
+def test_returned_arrays_hold_one_value_per_point_with_their_own_strides(context):
+    """Under numpy 2 a module built with pybind11 < 2.12 returned stride-0 arrays (every point the
+    first point's value) and zeroed offsets (issue 26): each returned array is checked for its
+    dtype, shape, strides and values that differ from point to point."""
+    import os
+
+    expected_major = os.environ.get("SOMBRA_EXPECT_NUMPY_MAJOR")
+    if expected_major:  # the ctest run under numpy 2 does run under numpy 2
+        assert np.__version__.split(".")[0] == expected_major
+    scene = numpy_scene(lopsided_volume())
+    n = 60
+    t = np.linspace(0, 1, n)
+    points = np.stack([-0.35 + 0.7 * t, 0.05 + 0.1 * t, 0.3 - 0.6 * t], axis=1)
+    reference = sombra.reference_transmittance(scene, 0, points)
+    rays, _ = sombra.shadow_transmittance(context, scene, 0, points, shadows="rays")
+    dsm, _ = sombra.shadow_transmittance(context, scene, 0, points, shadows="dsm", dsm_resolution=64)
+    for name, values in (("reference", reference), ("rays", rays), ("dsm", dsm)):
+        assert values.dtype == np.float64 and values.shape == (n,) and values.strides == (8,), name
+        assert len(np.unique(values)) > n // 2, f"{name}: {values[:5]}"  # a value per point, not one for all
+    for i in (0, 23, n - 1):  # each point's value is its own, as a query of that point alone gives it
+        assert reference[i] == sombra.reference_transmittance(scene, 0, points[i:i + 1])[0]
+    assert np.abs(rays - reference).max() < 0.02
+    image, _ = sombra.render(context, scene, shadows="dsm", dsm_resolution=32)
+    assert image.strides == (40 * 16, 16, 4) and image.flags.c_contiguous
+    assert len(np.unique(image[..., 3])) > 100
+    maps, _ = sombra.build_deep_shadow_maps(context, scene, 0, dsm_resolution=24)
+    view = maps[0]
+    assert view.first.dtype == np.uint32 and view.first.strides == (4,) and view.first.shape == (24 * 24 + 1,)
+    assert view.first[0] == 0 and (np.diff(view.first.astype(np.int64)) >= 0).all() and view.first[-1] > 0
+    for values in (view.depth, view.opacity):
+        assert values.dtype == np.float32 and values.strides == (4,) and values.shape == (view.first[-1],)
+        assert len(np.unique(values)) > 10
+    assert view.world_to_camera.strides == (16, 4) and len(np.unique(view.world_to_camera)) > 3

@@ -9,7 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "clustering/clustering.h"
-#include "host/staged_outputs.h"
+#include "render/staged_outputs.h"
 #include "sombra/error.h"
 #include "sombra/render.h"
 
@@ -158,9 +158,8 @@ void add_clusters_command(CLI::App& app, ClustersCommand& command) {
 }
 
 int run_clusters_command(const ClustersCommand& command, const Scene& scene) {
-    if (!command.json_path.empty()) host::StagedOutputs::check_target(command.json_path);
+    detail::StagedOutputs::check_targets({command.json_path, command.image_path});
     if (!command.image_path.empty()) {
-        host::StagedOutputs::check_target(command.image_path);
         if (command.light < 0 || command.light >= int(scene.lights.size()))
             throw Error("--light: the scene has " + std::to_string(scene.lights.size()) + " lights; " + std::to_string(command.light) +
                         " is not one of them");
@@ -168,13 +167,12 @@ int run_clusters_command(const ClustersCommand& command, const Scene& scene) {
     const clustering::ClusterOptions options{command.max_clusters, command.distance};
     const auto lights = clustering::cluster_lights(scene, options);
     const nlohmann::json j = clusters_json(scene, clustering::scene_objects(scene), lights, !(command.distance > 0));
+    detail::StagedOutputs outputs;  // --json and --image are committed together or not at all
     if (!command.json_path.empty()) {
-        host::StagedOutputs outputs;
         outputs.write(command.json_path, [&](const std::string& staged) {
             std::ofstream out(staged);
             if (!(out << j.dump(2) << '\n') || !out.flush()) throw Error(command.json_path + ": cannot write file");
         });
-        outputs.commit();
     }
     if (!command.image_path.empty()) {
         const std::vector<clustering::SceneObject> objects = clustering::scene_objects(scene);
@@ -184,10 +182,9 @@ int run_clusters_command(const ClustersCommand& command, const Scene& scene) {
         RenderOptions render_options;
         render_options.width = command.width, render_options.height = command.height;
         const Image image = render(context, tinted_by_cluster(scene, objects, *clusters), render_options).image;
-        host::StagedOutputs outputs;
         outputs.write(command.image_path, [&](const std::string& staged) { write_image(image, staged); });
-        outputs.commit();
     }
+    outputs.commit();
     std::cout << clusters_text(j);
     return 0;
 }

@@ -18,7 +18,8 @@
 #include <nlohmann/json.hpp>
 
 #include "cli/clusters_command.h"
-#include "host/staged_outputs.h"
+#include "render/staged_outputs.h"
+#include "scene/input_file.h"
 #include "scene/suggest.h"
 #include "sombra/sombra.h"
 
@@ -150,7 +151,7 @@ struct StageTimes {
 };
 
 // --stats next to the other outputs: staged with them.
-void stage_stats(sombra::host::StagedOutputs& outputs, const std::string& stats_path, const nlohmann::json& stats) {
+void stage_stats(sombra::detail::StagedOutputs& outputs, const std::string& stats_path, const nlohmann::json& stats) {
     if (!stats_path.empty())
         outputs.write(stats_path, [&](const std::string& path) { write_text_file(path, stats.dump(2)); });
 }
@@ -166,7 +167,7 @@ int write_dsm(sombra::Context& context, const sombra::Scene& scene, int light, c
         throw sombra::Error("--light: light " + std::to_string(light) +
                             " has no deep shadow map (--clusters: no object can shadow what the camera sees)");
     std::filesystem::path out(output);
-    sombra::host::StagedOutputs outputs;
+    sombra::detail::StagedOutputs outputs;
     std::vector<std::string> written;
     for (const sombra::DeepShadowMap& map : maps) {
         std::string path = output;
@@ -242,7 +243,7 @@ int print_visibility(sombra::Context& context, const sombra::Scene& scene, int l
     summary << " (lowpass W " << options.lowpass_filter_width << ")\n";
     if (!quiet) std::cerr << summary.str();
     sombra::ShadowQuery& dsm = queries.front();
-    sombra::host::StagedOutputs outputs;
+    sombra::detail::StagedOutputs outputs;
     nlohmann::json j = command_stats(dsm.stats, stats_context);
     // every technique was asked, at points rather than pixels: no camera options
     for (const char* camera_only : {"width", "height", "shadows", "shading", "gradient", "phase_g", "jitter_seed"})
@@ -481,12 +482,14 @@ int run(int argc, char** argv) {
         throw sombra::Error(output + ": output must end in .png or .exr");
     if (dsm->parsed() && output_extension != ".exr")
         throw sombra::Error(output + ": a deep shadow map is written as OpenEXR: the name must end in .exr");
-    for (const std::string& path : {output, stats_path})
-        if (!path.empty()) sombra::host::StagedOutputs::check_target(path);
+    auto check_outputs = [&] { sombra::detail::StagedOutputs::check_targets({output, stats_path}); };
+    check_outputs();
 
     sombra::VolumeLoadOptions load;
     load.non_finite = non_finite == "sanitize" ? sombra::NonFinitePolicy::Sanitize : sombra::NonFinitePolicy::Reject;
     sombra::Scene scene = sombra::load_scene(scene_path, load);
+    if (visibility->parsed()) sombra::detail::regular_file_size(points_path);  // an input, read below
+    check_outputs();  // again, now that the inputs are known: no output may name one (before any work)
     sombra::Context context(device);
     sombra::RenderOptions options;
     options.width = width, options.height = height;
@@ -526,7 +529,7 @@ int run(int argc, char** argv) {
     if (dsm->parsed()) return write_dsm(context, scene, light_index, stats_context, output, stats_path, quiet);
     if (visibility->parsed()) return print_visibility(context, scene, light_index, stats_context, points_path, stats_path, quiet);
     sombra::RenderResult result = sombra::render(context, scene, options);
-    sombra::host::StagedOutputs outputs;
+    sombra::detail::StagedOutputs outputs;
     outputs.write(output, [&](const std::string& staged) { sombra::write_image(result.image, staged); });
     stage_stats(outputs, stats_path, command_stats(result.stats, stats_context));
     outputs.commit();

@@ -147,6 +147,9 @@ cl::Program& Runtime::program(const std::string& source, const std::vector<std::
 }
 
 double Runtime::event_ms(const cl::Event& event) {
+    // Profiling data is defined once the command has completed (OpenCL 1.2 §5.12: reading it
+    // earlier is CL_PROFILING_INFO_NOT_AVAILABLE); a blocking write may return before that.
+    event.wait();
     auto start = event.getProfilingInfo<CL_PROFILING_COMMAND_START>();
     auto end = event.getProfilingInfo<CL_PROFILING_COMMAND_END>();
     return double(end - start) * 1e-6;

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <filesystem>
 
+#include "scene/input_file.h"
 #include "sombra/error.h"
 #include "sombra/render.h"
 
@@ -66,6 +67,7 @@ void write_image(const Image& image, const std::string& path) {
 }
 
 Image read_image(const std::string& path) {
+    detail::regular_file_size(path);  // a regular file (never a FIFO or device, which would block), noted as an input
     auto in = OIIO::ImageInput::open(path);
     if (!in) throw Error(path + ": cannot read image (" + OIIO::geterror() + ")");
     const OIIO::ImageSpec& spec = in->spec();

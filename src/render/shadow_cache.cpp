@@ -350,7 +350,7 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
                 cache->keys[e].clear();  // an entry half filled when a launch throws is not kept
                 host::KernelArgs args{kernel};
                 bind_scene(args, p, camera_buffer);
-                args("light_index", cl_uint(e % lights))("entry", cl_uint(e))("shadow_cache_table", cache->table)("shadow_cache", cache->values);
+                args("light_index", cl_uint(e % lights))("cache_entry", cl_uint(e))("shadow_cache_table", cache->table)("shadow_cache", cache->values);
                 prepared.technique.bind(args, runtime, options);
                 args.done();
                 const ShadowCacheGpu& c = layout[e];

@@ -2,6 +2,7 @@
 
 #include <cerrno>
 #include <cstring>
+#include <mutex>
 
 #include <fcntl.h>
 #include <sys/stat.h>
@@ -11,6 +12,17 @@
 
 namespace sombra::detail {
 namespace {
+
+std::mutex inputs_mutex;
+std::vector<std::pair<FileIdentity, std::string>> inputs;  // in the order first read
+
+void note_input(const struct stat& st, const std::string& path) {
+    const FileIdentity id{std::uint64_t(st.st_dev), std::uint64_t(st.st_ino)};
+    std::lock_guard<std::mutex> lock(inputs_mutex);
+    for (const auto& known : inputs)
+        if (known.first == id) return;
+    inputs.emplace_back(id, path);
+}
 
 const char* kind_of(mode_t mode) {
     if (S_ISDIR(mode)) return "a directory";
@@ -31,6 +43,7 @@ public:
         struct stat st {};
         if (::fstat(fd_, &st) != 0) fail(std::string("cannot stat: ") + std::strerror(errno));
         if (!S_ISREG(st.st_mode)) fail(std::string("not a regular file (") + kind_of(st.st_mode) + ")");
+        note_input(st, path);
         size_ = std::uint64_t(st.st_size);
     }
     ~RegularFile() { ::close(fd_); }
@@ -52,6 +65,11 @@ private:
 };
 
 }  // namespace
+
+std::vector<std::pair<FileIdentity, std::string>> inputs_read() {
+    std::lock_guard<std::mutex> lock(inputs_mutex);
+    return inputs;
+}
 
 std::uint64_t regular_file_size(const std::string& path) { return RegularFile(path).size(); }
 

@@ -4,9 +4,21 @@
 #include <algorithm>
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace sombra::detail {
+
+// The identity of a file: its device and inode (links resolved), as stat(2) gives them.
+struct FileIdentity {
+    std::uint64_t device = 0, inode = 0;
+    bool operator==(const FileIdentity& o) const { return device == o.device && inode == o.inode; }
+};
+
+// Every file this process opened through regular_file_size / read_regular_file (every reader goes
+// through them), with the path it was opened by: outputs are checked against them so that no
+// command ever writes over one of its own inputs (render/staged_outputs.h). Thread-safe.
+std::vector<std::pair<FileIdentity, std::string>> inputs_read();
 
 // Requires a regular file, opened without blocking; throws "PATH: cannot open for reading: …" or
 // "PATH: not a regular file (a directory)". Returns its size in bytes.

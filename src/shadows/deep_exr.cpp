@@ -19,6 +19,7 @@
 #include <string>
 #include <vector>
 
+#include "scene/input_file.h"
 #include "sombra/error.h"
 #include "sombra/shadows.h"
 
@@ -161,6 +162,7 @@ void write_deep_exr(const DeepShadowMap& map, const std::string& path) {
 }
 
 DeepShadowMap read_deep_exr(const std::string& path) {
+    detail::regular_file_size(path);  // a regular file (never a FIFO or device, which would block), noted as an input
     auto in = OIIO::ImageInput::open(path);
     if (!in) {
         std::string why = OIIO::geterror();

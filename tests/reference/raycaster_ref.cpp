@@ -362,6 +362,7 @@ Image render_reference(const Scene& scene, int width, int height, const Referenc
             IntervalValues values(volumes.size());
             march_segments(volumes, eye, dir, INFINITY, jitter, [&](double t, double delta, const std::vector<std::size_t>& active) {
                 V3 p = eye + t * dir;
+                V3 p_light = eye + (t - 0.5 * delta) * dir;  // the light term at the interval's midpoint (cl/render.cl)
                 double sigma_sum = 0;
                 V3 color_sum{0, 0, 0};
                 std::vector<double> shadow;  // transmittance to each light, once per sample
@@ -385,8 +386,8 @@ Image render_reference(const Scene& scene, int width, int height, const Referenc
                     }
                     if (shadow.empty())
                         for (const Light& l : scene.lights)
-                            shadow.push_back(options.shadow_rays ? shadow_ray_transmittance(volumes, l, p, jitter) : 1.0);
-                    V3 shaded = shade(scene, vi.material, {c[0], c[1], c[2]}, p, normal, -1.0 * dir, shadow);
+                            shadow.push_back(options.shadow_rays ? shadow_ray_transmittance(volumes, l, p_light, jitter) : 1.0);
+                    V3 shaded = shade(scene, vi.material, {c[0], c[1], c[2]}, p_light, normal, -1.0 * dir, shadow);
                     sigma_sum += sigma;
                     color_sum = color_sum + sigma * shaded;
                 }

@@ -1,14 +1,16 @@
-#include "host/staged_outputs.h"
+#include "render/staged_outputs.h"
 
 #include <algorithm>
 #include <cctype>
 #include <filesystem>
 
+#include <sys/stat.h>
 #include <unistd.h>
 
+#include "scene/input_file.h"
 #include "sombra/error.h"
 
-namespace sombra::host {
+namespace sombra::detail {
 
 namespace fs = std::filesystem;
 
@@ -19,18 +21,66 @@ StagedOutputs::~StagedOutputs() {
     }
 }
 
+namespace {
+
+const char* kind_of(const fs::file_status& st) {
+    switch (st.type()) {
+        case fs::file_type::fifo: return "a FIFO";
+        case fs::file_type::character: return "a character device";
+        case fs::file_type::block: return "a block device";
+        case fs::file_type::socket: return "a socket";
+        default: return "not a plain file";
+    }
+}
+
+// Whether two paths name one file: the same device and inode when both exist (links resolved),
+// else the same path once made absolute and normal.
+bool same_file(const std::string& a, const std::string& b) {
+    std::error_code ec;
+    if (fs::exists(a, ec) && fs::exists(b, ec)) return fs::equivalent(a, b, ec) && !ec;
+    const fs::path ca = fs::weakly_canonical(a, ec), cb = fs::weakly_canonical(b, ec);
+    return ca == cb;
+}
+
+}  // namespace
+
 void StagedOutputs::check_target(const std::string& final_path) {
     const fs::path target(final_path), folder = target.parent_path().empty() ? fs::path(".") : target.parent_path();
     std::error_code ec;
-    if (fs::is_directory(target, ec)) throw Error(final_path + ": cannot write: is a directory");
+    const fs::file_status st = fs::status(target, ec);  // follows links: what the name leads to
+    if (fs::is_directory(st)) throw Error(final_path + ": cannot write: is a directory");
+    if (fs::exists(st)) {
+        if (!fs::is_regular_file(st))
+            throw Error(final_path + ": cannot write: " + kind_of(st) + ", not a regular file (outputs replace only regular files)");
+        struct stat info {};
+        if (::stat(final_path.c_str(), &info) == 0) {
+            const detail::FileIdentity id{std::uint64_t(info.st_dev), std::uint64_t(info.st_ino)};
+            for (const auto& [input, input_path] : detail::inputs_read())
+                if (input == id)
+                    throw Error(final_path + ": cannot write: it is an input of this command (" + input_path +
+                                "); name another output");
+        }
+    }
     if (!fs::is_directory(folder, ec)) throw Error(final_path + ": cannot write: no folder " + folder.string());
 }
 
+void StagedOutputs::check_targets(const std::vector<std::string>& final_paths) {
+    for (std::size_t i = 0; i < final_paths.size(); ++i) {
+        if (final_paths[i].empty()) continue;
+        check_target(final_paths[i]);
+        for (std::size_t k = 0; k < i; ++k)
+            if (!final_paths[k].empty() && same_file(final_paths[k], final_paths[i]))
+                throw Error(final_paths[i] + ": named twice as an output" +
+                            (final_paths[k] == final_paths[i] ? "" : " (also as " + final_paths[k] + ")"));
+    }
+}
+
 std::string StagedOutputs::stage(const std::string& final_path) {
-    check_target(final_path);
     const fs::path target(final_path);
-    for (const auto& file : files_)
-        if (file.second == final_path) throw Error(final_path + ": named twice as an output");
+    std::vector<std::string> finals;
+    for (const auto& file : files_) finals.push_back(file.second);
+    finals.push_back(final_path);
+    check_targets(finals);
     // hidden, unique to this process, same extension: NAME.png → .NAME.sombra-PID-K.png
     const std::string staged = (target.parent_path() / ("." + target.stem().string() + ".sombra-" +
                                                         std::to_string(::getpid()) + "-" + std::to_string(files_.size()) +
@@ -62,6 +112,7 @@ void StagedOutputs::throw_renamed(std::string message, const std::string& staged
 }
 
 void StagedOutputs::commit() {
+    for (const auto& file : files_) check_target(file.second);  // inputs read since staging count too
     for (std::size_t i = 0; i < files_.size(); ++i) {
         std::error_code ec;
         fs::rename(files_[i].first, files_[i].second, ec);
@@ -74,4 +125,4 @@ void StagedOutputs::commit() {
     files_.clear();
 }
 
-}  // namespace sombra::host
+}  // namespace sombra::detail
