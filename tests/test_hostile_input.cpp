@@ -86,9 +86,12 @@ TEST_CASE("hostile input: directories, FIFOs and devices are refused before any 
     require_error(error_of([&] { load_volume(fifo); }), fifo, "not a regular file (a FIFO)");
     require_error(error_of([&] { load_scene(fifo); }), fifo, "a FIFO");
     require_error(error_of([&] { load_points_csv(fifo); }), fifo, "a FIFO");
+    require_error(error_of([&] { read_deep_exr(fifo); }), fifo, "a FIFO");  // OpenImageIO would block on it
+    require_error(error_of([&] { read_image(fifo); }), fifo, "a FIFO");
     CHECK(std::chrono::steady_clock::now() - start < std::chrono::seconds(5));
 
     require_error(error_of([] { load_points_csv("/dev/zero"); }), "/dev/zero", "a character device");
+    require_error(error_of([] { read_deep_exr("/dev/zero"); }), "/dev/zero", "a character device");
     require_error(error_of([&] { load_points_csv(test::temp_dir()); }), test::temp_dir(), "a directory");
 }
 
