@@ -16,6 +16,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "host/runtime.h"
 #include "render/staged_outputs.h"
 #include "sombra/sombra.h"
 #include "test_support.h"
@@ -266,4 +267,23 @@ TEST_CASE("hostile input: outputs are committed together or not at all", "[hosti
         outputs.commit();
     }
     CHECK(fs::exists(dir / "c.exr"));
+}
+
+// Issue 25 item 3: every buffer is checked against the device's largest allocation and its global
+// memory before the implementation sees it (PoCL asserted, aborting the process, on oversized ones).
+TEST_CASE("hostile input: a buffer over the device's limits is one line naming what needed it", "[hostile]") {
+    host::Runtime& runtime = test::context().runtime();
+    const DeviceInfo& device = runtime.info();
+    REQUIRE(device.max_allocation_bytes > 0);
+    REQUIRE(device.max_allocation_bytes <= device.global_memory_bytes);
+    const std::size_t too_big = std::size_t(device.max_allocation_bytes) + 1;
+    const std::string message = error_of([&] { host::make_buffer(runtime, CL_MEM_READ_WRITE, too_big, nullptr, "test nodes"); });
+    INFO(message);
+    CHECK(message.rfind("test nodes: needs ", 0) == 0);
+    CHECK(message.find("the device allows") != std::string::npos);
+    CHECK(message.find("CL_DEVICE_MAX_MEM_ALLOC_SIZE") != std::string::npos);
+    const std::string over_memory =
+        error_of([&] { host::check_allocation(runtime, device.global_memory_bytes + 1, "test volume"); });
+    CHECK(over_memory.rfind("test volume: needs ", 0) == 0);
+    CHECK_NOTHROW(host::make_buffer(runtime, CL_MEM_READ_WRITE, 1 << 20, nullptr, "test small"));
 }

@@ -1,6 +1,7 @@
 // sombra — OpenCL platforms and devices as the library user sees them.
 #pragma once
 #include <memory>
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -13,6 +14,7 @@ struct DeviceInfo {
     bool is_gpu;
     std::string opencl_c_version;
     unsigned long long global_memory_bytes;
+    unsigned long long max_allocation_bytes;  // CL_DEVICE_MAX_MEM_ALLOC_SIZE: the largest one buffer
 };
 
 std::vector<DeviceInfo> list_devices();
@@ -20,7 +22,10 @@ std::vector<DeviceInfo> list_devices();
 namespace host { class Runtime; }
 namespace detail { struct KeptScenes; }
 
-// An OpenCL context, device, queue and program cache. Create one per process and share it.
+// An OpenCL context, device, queue and program cache. Create one per process and share it: it is
+// safe to share between threads, which take turns (every call on it — render, shadow_transmittance,
+// build_deep_shadow_maps, release_prepared_scenes — holds its lock for the whole call; calls on
+// different Contexts run in parallel).
 // selector: "" or "auto" (first GPU, else the first CPU device, i.e. PoCL), "cpu", "gpu", or an
 // index from list_devices(). Throws sombra::Error if no such device exists.
 class Context {
@@ -35,8 +40,11 @@ public:
     // render prepares everything anew. Compiled programs stay.
     void release_prepared_scenes();
     detail::KeptScenes& kept_scenes();  // the renderer's (src/render/preparation.h)
+    // Held by each call on this Context for its duration (recursive: a call may make another).
+    std::unique_lock<std::recursive_mutex> exclusive() { return std::unique_lock<std::recursive_mutex>(mutex_); }
 
 private:
+    std::recursive_mutex mutex_;
     std::unique_ptr<host::Runtime> runtime_;
     std::unique_ptr<detail::KeptScenes> kept_;
 };

@@ -226,3 +226,33 @@ def test_returned_arrays_hold_one_value_per_point_with_their_own_strides(context
         assert values.dtype == np.float32 and values.strides == (4,) and values.shape == (view.first[-1],)
         assert len(np.unique(values)) > 10
     assert view.world_to_camera.strides == (16, 4) and len(np.unique(view.world_to_camera)) > 3
+
+
+def test_one_context_shared_by_threads(context):
+    """A Context may be shared between threads: calls take turns on its lock (issue 25; two threads
+    used to crash in preparation or abort in PoCL). Each thread's results equal a lone call's."""
+    import threading
+
+    scene = numpy_scene(lopsided_volume())
+    points = np.random.default_rng(9).uniform(-0.3, 0.3, size=(40, 3))
+    alone_image, _ = sombra.render(context, scene, shadows="dsm", dsm_resolution=32)
+    alone_t, _ = sombra.shadow_transmittance(context, scene, 0, points, shadows="rays")
+    results, errors = {}, []
+
+    def work(k):
+        try:
+            if k % 2:
+                results[k] = sombra.render(context, scene, shadows="dsm", dsm_resolution=32)[0]
+            else:
+                results[k] = sombra.shadow_transmittance(context, scene, 0, points, shadows="rays")[0]
+        except Exception as e:  # noqa: BLE001 - reported below
+            errors.append(repr(e))
+
+    threads = [threading.Thread(target=work, args=(k,)) for k in range(6)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join(timeout=300)
+    assert not errors and len(results) == 6
+    for k, value in results.items():
+        assert np.array_equal(value, alone_image if k % 2 else alone_t), k

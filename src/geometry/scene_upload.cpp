@@ -229,6 +229,7 @@ DeviceScene upload_scene(host::Runtime& runtime, const Scene& scene, const Packe
         sum_z > dev.getInfo<CL_DEVICE_IMAGE3D_MAX_DEPTH>())
         throw Error("--volume-storage image: volumes (" + std::to_string(max_x) + "×" + std::to_string(max_y) + "×" +
                     std::to_string(sum_z) + " stacked) exceed the device's 3D image limits; use buffer storage");
+    host::check_allocation(runtime, std::uint64_t(max_x) * max_y * sum_z * sizeof(float), "volume voxels (3D image)");
     try {
         d.voxel_image = cl::Image3D(runtime.context(), ro, cl::ImageFormat(CL_R, CL_FLOAT), max_x, max_y, sum_z);
     } catch (const cl::Error& e) {

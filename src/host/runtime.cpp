@@ -51,6 +51,7 @@ std::vector<DeviceEntry> enumerate() {
             info.is_gpu = (device.getInfo<CL_DEVICE_TYPE>() & CL_DEVICE_TYPE_GPU) != 0;
             info.opencl_c_version = device.getInfo<CL_DEVICE_OPENCL_C_VERSION>();
             info.global_memory_bytes = device.getInfo<CL_DEVICE_GLOBAL_MEM_SIZE>();
+            info.max_allocation_bytes = device.getInfo<CL_DEVICE_MAX_MEM_ALLOC_SIZE>();
             entries.push_back({platform, device, info});
         }
     }
@@ -179,12 +180,24 @@ double run_packets(Runtime& runtime, cl::Kernel& kernel, int width, int height, 
     return run_tiled(runtime, kernel, cl::NDRange(columns, rows), local, units);
 }
 
+void check_allocation(const Runtime& runtime, std::uint64_t bytes, const std::string& what) {
+    const DeviceInfo& device = runtime.info();
+    const auto mib = [](std::uint64_t b) { return std::to_string((b + (1u << 20) - 1) >> 20) + " MiB"; };
+    if (bytes > device.max_allocation_bytes)
+        throw Error(what + ": needs " + mib(bytes) + " in one buffer, the device allows " + mib(device.max_allocation_bytes) +
+                    " (" + device.name + ", CL_DEVICE_MAX_MEM_ALLOC_SIZE)");
+    if (bytes > device.global_memory_bytes)
+        throw Error(what + ": needs " + mib(bytes) + ", the device has " + mib(device.global_memory_bytes) + " (" + device.name + ")");
+}
+
 cl::Buffer make_buffer(Runtime& runtime, cl_mem_flags flags, std::size_t bytes, const void* host_data,
                        const std::string& what) {
     if (bytes == 0) {  // OpenCL forbids empty buffers; kernels never read past their counts
         bytes = 16;
         host_data = nullptr;
     }
+    // checked here rather than left to the implementation, which may assert (PoCL) instead of failing
+    check_allocation(runtime, bytes, what);
     try {
         if (host_data) flags |= CL_MEM_COPY_HOST_PTR;
         return cl::Buffer(runtime.context(), flags, bytes, const_cast<void*>(host_data));

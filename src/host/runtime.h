@@ -3,6 +3,7 @@
 #pragma once
 #include <CL/opencl.hpp>
 
+#include <cstdint>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -68,6 +69,11 @@ double run_packets(Runtime& runtime, cl::Kernel& kernel, int width, int height, 
 
 // The source of a cl/ file with every #include "…" replaced by the file's text.
 std::string expand_kernel_source(const std::string& path);
+
+// Throws "WHAT: needs N MiB in one buffer, the device allows M MiB (DEVICE, …)" when `bytes` exceed
+// the device's largest allocation or its global memory: the same line on every device, checked
+// before the implementation sees the request (PoCL asserts on an oversized buffer).
+void check_allocation(const Runtime& runtime, std::uint64_t bytes, const std::string& what);
 
 // Allocation helpers that turn CL_MEM_OBJECT_ALLOCATION_FAILURE and friends into one clear line.
 cl::Buffer make_buffer(Runtime& runtime, cl_mem_flags flags, std::size_t bytes, const void* host_data,

@@ -11,6 +11,9 @@ Context::~Context() { kept_.reset(); }
 const DeviceInfo& Context::device() const { return runtime_->info(); }
 host::Runtime& Context::runtime() { return *runtime_; }
 detail::KeptScenes& Context::kept_scenes() { return *kept_; }
-void Context::release_prepared_scenes() { *kept_ = detail::KeptScenes(); }
+void Context::release_prepared_scenes() {
+    auto held = exclusive();
+    *kept_ = detail::KeptScenes();
+}
 
 }  // namespace sombra

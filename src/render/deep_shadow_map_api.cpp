@@ -9,6 +9,7 @@ namespace sombra {
 
 std::vector<DeepShadowMap> build_deep_shadow_maps(Context& context, const Scene& scene, int light_index,
                                                   const RenderOptions& options, RenderStats* stats_out) {
+    auto held = context.exclusive();  // one call at a time on a Context (sombra/device.h)
     host::Runtime& runtime = context.runtime();
     pipeline::check_light(scene, light_index);
     host::ProgressScope progress(runtime.progress(), options.progress);
@@ -41,6 +42,7 @@ std::vector<DeepShadowMap> build_deep_shadow_maps(Context& context, const Scene&
 
 std::vector<DeepShadowMap> build_prefilter_sub_maps(Context& context, const Scene& scene, int light_index,
                                                     const RenderOptions& options) {
+    auto held = context.exclusive();  // one call at a time on a Context (sombra/device.h)
     host::Runtime& runtime = context.runtime();
     pipeline::check_light(scene, light_index);
     RenderOptions scene_only = options;

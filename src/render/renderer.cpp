@@ -270,6 +270,7 @@ std::string RenderStats::to_json() const {
 
 
 RenderResult render(Context& context, const Scene& scene, const RenderOptions& options) {
+    auto held = context.exclusive();  // one call at a time on a Context (sombra/device.h)
     host::Runtime& runtime = context.runtime();
     int width = options.width > 0 ? options.width : scene.width;
     int height = options.height > 0 ? options.height : scene.height;
@@ -343,6 +344,7 @@ RenderResult render(Context& context, const Scene& scene, const RenderOptions& o
 
 ShadowQuery shadow_transmittance(Context& context, const Scene& scene, int light_index, const std::vector<Vec3>& points,
                                  const RenderOptions& options) {
+    auto held = context.exclusive();  // one call at a time on a Context (sombra/device.h)
     host::Runtime& runtime = context.runtime();
     pipeline::check_light(scene, light_index);
     if (!techniques::make_module(scene, options.shadows)->has_shadow_term())
