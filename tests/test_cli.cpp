@@ -2,7 +2,9 @@
 // and no output file; good input writes the image and the stats.
 #include <catch2/catch.hpp>
 
+#include <array>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -630,4 +632,35 @@ TEST_CASE("outputs never touch inputs or non-regular files, and are committed to
     const CliRun clusters = run_cli("clusters " + scene + " --json " + dir + "/c.json --image " + dir + "/c.bmp");
     CHECK(clusters.exit_code != 0);
     CHECK_FALSE(fs::exists(dir + "/c.json"));
+}
+
+// Issue 25: libraries print nothing of their own: a TIFF with a tag libtiff does not know (it
+// warns "TIFFReadDirectory: Warning, Unknown field with tag 40000" on stderr) renders with only
+// sombra's own lines (none with --quiet).
+TEST_CASE("library chatter: libtiff's warnings do not reach stderr", "[cli][hostile]") {
+    // a 4×4 8-bit one-page TIFF written by hand, with the private tag 40000 (sorted, as TIFF wants)
+    const std::vector<std::array<std::uint32_t, 4>> entries = {
+        {256, 3, 1, 4}, {257, 3, 1, 4}, {258, 3, 1, 8},  {259, 3, 1, 1},  {262, 3, 1, 1},
+        {273, 4, 1, 0}, {277, 3, 1, 1}, {278, 3, 1, 4}, {279, 4, 1, 16}, {40000, 3, 1, 7}};
+    std::string tiff = std::string("II*\0", 4);
+    auto put = [&](std::uint32_t v, int bytes) {
+        for (int i = 0; i < bytes; ++i) tiff.push_back(char((v >> (8 * i)) & 0xff));
+    };
+    put(8, 4);
+    put(std::uint32_t(entries.size()), 2);
+    const std::uint32_t data_at = 8 + 2 + 12 * std::uint32_t(entries.size()) + 4;
+    for (const auto& e : entries) {
+        put(e[0], 2), put(e[1], 2), put(e[2], 4);
+        put(e[0] == 273 ? data_at : e[3], e[1] == 3 ? 2 : 4);
+        if (e[1] == 3) put(0, 2);
+    }
+    put(0, 4);
+    for (int i = 0; i < 16; ++i) tiff.push_back(char(i * 16));
+    write_file("chatter.tif", tiff);
+    const std::string scene = scene_file("chatter.json", {{"volumes", {{{"file", "chatter.tif"},
+        {"transfer_function", {{"rgb_points", {0, 1, 1, 1, 255, 1, 1, 1}}, {"opacity_points", {0, 0, 255, 0.5}}}}}}}});
+    const CliOutput run = run_cli_output("render " + scene + " -o " + sombra::test::temp_dir() + "/chatter.png -q");
+    INFO(run.err);
+    CHECK(run.exit_code == 0);
+    CHECK(run.err.empty());
 }

@@ -609,3 +609,102 @@ TEST_CASE("NIfTI: the sform places the volume (ch2: MNI, RAS), and save_volume_n
     e.values = v.voxels;
     require_placed(back, e);
 }
+
+// Issue 25 item 2: the data files of detached NRRD / MetaImage headers go through the same input
+// rules as every file (regular files only, relative to the header), LIST and pattern forms
+// included; the dimension count and the voxel sizes are checked before ITK sees the header; a TIFF's
+// page chain is walked by us (loops, offsets past the end, pages that differ are refused).
+TEST_CASE("hostile input: detached data files, dimension counts, geometry fields and TIFF page chains are ours to check",
+          "[volume_io][itk][hostile]") {
+    TempDir tmp;
+    const std::string nrrd_head =
+        "NRRD0004\ntype: float\ndimension: 3\nspace: left-posterior-superior\nsizes: 2 3 4\n"
+        "space directions: (2,0,0) (0,3,0) (0,0,-4)\nendian: little\nencoding: raw\n";
+    std::vector<float> values(24);
+    for (int i = 0; i < 24; ++i) values[std::size_t(i)] = float(i);
+    const auto write_text = [&](const std::string& name, const std::string& text) {
+        write_bytes(tmp.path(name), text.data(), text.size());
+        return tmp.path(name);
+    };
+    write_bytes(tmp.path("slice0.raw"), reinterpret_cast<const char*>(values.data()), 12 * sizeof(float));
+    write_bytes(tmp.path("slice1.raw"), reinterpret_cast<const char*>(values.data() + 12), 12 * sizeof(float));
+    write_bytes(tmp.path("whole.raw"), reinterpret_cast<const char*>(values.data()), 24 * sizeof(float));
+
+    SECTION("good detached data: one file, a LIST and a pattern load the same voxels") {
+        // LIST and pattern pieces are 3-D here (the last number): the whole, or two halves along z
+        for (const std::string& data : {std::string("data file: whole.raw\n"), std::string("data file: LIST 3\nwhole.raw\n"),
+                                        std::string("data file: slice%d.raw 0 1 1 3\n")}) {
+            INFO(data);
+            const Volume v = load_volume(write_text("good.nhdr", nrrd_head + data));
+            REQUIRE(v.dims == std::array<int, 3>{2, 3, 4});
+            CHECK(v.voxels == values);
+        }
+        const std::string mhd = "ObjectType = Image\nNDims = 3\nDimSize = 2 3 4\nElementSpacing = 1 1 1\n"
+                                "ElementType = MET_FLOAT\nElementDataFile = whole.raw\n";
+        CHECK(load_volume(write_text("good.mhd", mhd)).voxels == values);
+    }
+    SECTION("a data file that is a FIFO or a device is refused at once, naming the header and the data file") {
+        REQUIRE(::mkfifo(tmp.path("pipe.raw").c_str(), 0600) == 0);
+        const std::string fifo_header = write_text("fifo.nhdr", nrrd_head + "data file: pipe.raw\n");
+        require_one_line(error_of([&] { load_volume(fifo_header); }), fifo_header, "pipe.raw: not a regular file (a FIFO)");
+        const std::string zero = write_text("zero.mhd", "ObjectType = Image\nNDims = 3\nDimSize = 2 3 4\n"
+                                                        "ElementType = MET_FLOAT\nElementDataFile = /dev/zero\n");
+        require_one_line(error_of([&] { load_volume(zero); }), zero, "a character device");
+    }
+    SECTION("LIST and pattern data naming missing files are refused (ITK rendered uninitialised memory)") {
+        const std::string list = write_text("list.mhd", "ObjectType = Image\nNDims = 3\nDimSize = 2 3 2\n"
+                                                        "ElementType = MET_FLOAT\nElementDataFile = LIST 2D\n"
+                                                        "slice0.raw\nmissing.raw\n");
+        require_one_line(error_of([&] { load_volume(list); }), list, "missing.raw");
+        const std::string pattern = write_text("pattern.nhdr", nrrd_head + "data file: slice%d.raw 0 2 1 2\n");
+        require_one_line(error_of([&] { load_volume(pattern); }), pattern, "slice2.raw");
+        const std::string unsafe = write_text("unsafe.nhdr", nrrd_head + "data file: slice%s.raw 0 1 1 2\n");
+        require_one_line(error_of([&] { load_volume(unsafe); }), unsafe, "one integer conversion");
+        const std::string many = write_text("many.nhdr", nrrd_head + "data file: s%09d.raw 0 999999999 1 2\n");
+        require_one_line(error_of([&] { load_volume(many); }), many, "more than 65536");
+    }
+    SECTION("impossible dimension counts and voxel sizes") {
+        const std::string ndims = write_text("ndims.mhd", "ObjectType = Image\nNDims = -3\nDimSize = 2 3 4\n"
+                                                          "ElementType = MET_FLOAT\nElementDataFile = whole.raw\n");
+        require_one_line(error_of([&] { load_volume(ndims); }), ndims, "NDims: -3");
+        std::string huge = nrrd_head;
+        huge.replace(huge.find("(2,0,0)"), 7, "(1e300,0,0)");
+        const std::string far = write_text("far.nhdr", huge + "data file: whole.raw\n");
+        require_one_line(error_of([&] { load_volume(far); }), far, "voxel size along axis 0");
+        const std::string zero_spacing = write_text("zero.mhd", "ObjectType = Image\nNDims = 3\nDimSize = 2 3 4\n"
+                                                                "ElementSpacing = 1 0 1\nElementType = MET_FLOAT\n"
+                                                                "ElementDataFile = whole.raw\n");
+        require_one_line(error_of([&] { load_volume(zero_spacing); }), zero_spacing, "voxel size along axis 1");
+    }
+    SECTION("TIFF page chains: a loop and pages of different sizes") {
+        const std::array<int, 3> dims{6, 5, 3};
+        const std::string stack = tmp.path("stack.tif");
+        volume_io::write_itk(stack, dims, distinct_values(dims), volume_io::ItkGeometry{}, false);
+        std::vector<char> bytes = bytes_of(stack);
+        REQUIRE(bytes.size() > 8);
+        REQUIRE(bytes[0] == 'I');  // little endian, as libtiff writes on x86
+        auto u16 = [&](std::size_t at) { return std::uint32_t(std::uint8_t(bytes[at])) | std::uint32_t(std::uint8_t(bytes[at + 1])) << 8; };
+        auto u32 = [&](std::size_t at) { return u16(at) | u16(at + 2) << 16; };
+        // follow the chain to the last page and point its "next" back at the first page
+        std::uint32_t first = u32(4), page = first, next_at = 0;
+        for (int k = 0; k < 3; ++k) {
+            next_at = page + 2 + 12 * u16(page);
+            if (k < 2) page = u32(next_at);
+        }
+        REQUIRE(u32(next_at) == 0);
+        std::vector<char> looped = bytes;
+        std::memcpy(&looped[next_at], &first, 4);
+        write_bytes(tmp.path("loop.tif"), looped.data(), looped.size());
+        require_one_line(error_of([&] { load_volume(tmp.path("loop.tif")); }), tmp.path("loop.tif"), "a loop");
+        // the last page's width (tag 256) made 7: a page unlike the others
+        std::vector<char> unlike = bytes;
+        bool patched = false;
+        for (std::uint32_t e = 0; e < u16(page); ++e) {
+            const std::size_t at = page + 2 + 12 * e;
+            if (u16(at) == 256) unlike[at + 8] = 7, patched = true;
+        }
+        REQUIRE(patched);
+        write_bytes(tmp.path("unlike.tif"), unlike.data(), unlike.size());
+        require_one_line(error_of([&] { load_volume(tmp.path("unlike.tif")); }), tmp.path("unlike.tif"), "every page of a stack must match");
+    }
+}

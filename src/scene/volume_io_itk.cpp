@@ -8,6 +8,7 @@
 #include "scene/volume_io_common.h"
 
 #include "scene/input_file.h"
+#include "scene/volume_io_itk_checks.h"
 
 #if defined(__clang__)
 // Debian's ITK 5.2 generated its compiler-detection header for GCC only: under clang (the sanitizer
@@ -51,6 +52,8 @@
 #include <iostream>
 #include <mutex>
 #include <sstream>
+
+#include <unistd.h>
 
 namespace sombra::volume_io {
 namespace {
@@ -122,7 +125,7 @@ void check_header(const std::string& path, itk::ImageIOBase& io, std::size_t sli
         throw file_error(path, "dims", std::to_string(count) + " voxels exceed the limit of " +
                                            std::to_string(options.max_voxels));
     const std::uint64_t bytes = std::uint64_t(count) * std::uint64_t(io.GetComponentSize());
-    if (input_bytes > 0 && bytes / kMaxInflation > input_bytes)
+    if (bytes / kMaxInflation > input_bytes)
         throw file_error(path, "data", "truncated: the header declares " + std::to_string(bytes) +
                                            " bytes of voxels, more than " + std::to_string(input_bytes) +
                                            " bytes of input can hold");
@@ -216,7 +219,53 @@ Volume to_volume(const std::string& path, const Image& image, ItkFormat format) 
     return volume;
 }
 
+// Everything written to the process's stderr while it lives (std::cerr, and what C libraries print
+// with fprintf: libtiff's warnings, libjpeg's and OpenJPEG's messages), captured at the file
+// descriptor into a temporary file instead of reaching the user before sombra's own one line.
+// One at a time (a process has one fd 2): readers hold the lock for their whole read.
+class StderrCapture {
+public:
+    StderrCapture() : lock_(mutex()) {
+        std::cerr.flush();
+        std::fflush(stderr);
+        file_ = std::tmpfile();
+        saved_ = file_ ? ::dup(2) : -1;
+        if (saved_ < 0 || ::dup2(::fileno(file_), 2) < 0) restore();
+    }
+    ~StderrCapture() { restore(); }
+    StderrCapture(const StderrCapture&) = delete;
+    StderrCapture& operator=(const StderrCapture&) = delete;
+    // What was written so far.
+    std::string text() {
+        if (!file_) return "";
+        std::cerr.flush();
+        std::fflush(stderr);
+        std::string out;
+        std::rewind(file_);
+        char buffer[4096];
+        for (std::size_t n; (n = std::fread(buffer, 1, sizeof buffer, file_)) > 0 && out.size() < (1u << 20);) out.append(buffer, n);
+        std::fseek(file_, 0, SEEK_END);
+        return out;
+    }
+
+private:
+    static std::mutex& mutex() {
+        static std::mutex m;
+        return m;
+    }
+    void restore() {
+        std::cerr.flush();
+        std::fflush(stderr);
+        if (saved_ >= 0) ::dup2(saved_, 2), ::close(saved_), saved_ = -1;
+        if (file_) std::fclose(file_), file_ = nullptr;
+    }
+    std::unique_lock<std::mutex> lock_;
+    std::FILE* file_ = nullptr;
+    int saved_ = -1;
+};
+
 Volume read_series(const std::string& dir, const VolumeLoadOptions& options) {
+    StderrCapture capture;  // GDCM, libjpeg and OpenJPEG print to stderr: kept from the user
     std::uint64_t total_bytes = 0;
     folder_files(dir, &total_bytes);
     const std::vector<std::string> files = series_files(dir);
@@ -242,52 +291,24 @@ Volume read_series(const std::string& dir, const VolumeLoadOptions& options) {
     return to_volume(dir, image, ItkFormat::dicom_series);
 }
 
-// Redirects std::cerr while it lives (readers are not run from several threads at once).
-class CerrCapture {
-public:
-    CerrCapture() : old_(std::cerr.rdbuf(buffer_.rdbuf())) {}
-    ~CerrCapture() { std::cerr.rdbuf(old_); }
-    CerrCapture(const CerrCapture&) = delete;
-    CerrCapture& operator=(const CerrCapture&) = delete;
-    std::string text() const { return buffer_.str(); }
-
-private:
-    std::ostringstream buffer_;
-    std::streambuf* old_;
-};
-
-// Whether the voxels are in the file itself (so its size bounds them): NRRD without a "data file"
-// field, MetaImage with "ElementDataFile = LOCAL", any TIFF or DICOM file. A detached header
-// (.nhdr, .mhd) names a data file whose size ITK does not tell.
-bool attached_data(const std::string& path, ItkFormat format) {
-    if (format != ItkFormat::nrrd && format != ItkFormat::metaimage) return true;
-    std::ifstream in(path, std::ios::binary);
-    std::string line;
-    for (int n = 0; n < 200 && std::getline(in, line); ++n) {
-        if (!line.empty() && line.back() == '\r') line.pop_back();
-        if (format == ItkFormat::nrrd) {
-            if (line.empty()) return true;  // the end of a NRRD header
-            if (line.rfind("data file:", 0) == 0 || line.rfind("datafile:", 0) == 0) return false;
-        } else if (line.rfind("ElementDataFile", 0) == 0) {
-            return line.find("LOCAL") != std::string::npos;
-        }
-    }
-    return false;
-}
-
 Volume read_file(const std::string& path, ItkFormat format, const VolumeLoadOptions& options) {
     const std::uint64_t file_bytes = detail::regular_file_size(path);
     // MetaIO prints to std::cerr what it cannot parse (ITK's exception says it again), and reports a
     // short compressed stream only there, carrying on with a part-filled buffer: caught and made
-    // the error.
-    CerrCapture capture;
+    // the error. libtiff, libjpeg and OpenJPEG print to stderr: kept from the user too.
+    StderrCapture capture;
     if (format == ItkFormat::dicom) check_dicom_meta(path, file_bytes);
+    if (format == ItkFormat::tiff) check_tiff_pages(path);
+    // the bytes the voxels can come from: this file, or the data files a detached header names
+    const std::uint64_t input_bytes = format == ItkFormat::nrrd || format == ItkFormat::metaimage
+                                          ? check_detached_header(path, format == ItkFormat::nrrd)
+                                          : file_bytes;
     itk::ImageIOBase::Pointer io = make_io(format);
     if (!io->CanReadFile(path.c_str()))
         throw file_error(path, "header", std::string("not a readable ") + format_name(format) + " file");
     io->SetFileName(path);
     io->ReadImageInformation();
-    check_header(path, *io, 1, attached_data(path, format) ? file_bytes : 0, options);
+    check_header(path, *io, 1, input_bytes, options);
 
     auto reader = itk::ImageFileReader<Image>::New();
     reader->SetImageIO(io);

@@ -1,0 +1,295 @@
+// sombra — what the ITK-read formats declare, checked by us before ITK (or libtiff, MetaIO, teem)
+// sees the file (docs/hostile-input.md "Every reader is ours to bound"):
+//  - NRRD and MetaImage headers: the dimension count, the geometry fields (finite, non-zero),
+//    and the data files a detached header names (one file, a LIST, or a printf pattern): each
+//    resolved against the header's folder and opened by the same rules as every input (regular
+//    files only: never a FIFO or a device), their sizes summed so the voxel count can be checked
+//    against the bytes that really exist;
+//  - TIFF: the chain of image directories walked by hand, so a loop, an offset past the end or
+//    pages of different sizes or sample layouts are refused instead of hanging or being cropped.
+// No ITK header here (they cost ~20 s of compile time): plain text and bytes.
+#include "scene/volume_io_itk_checks.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+#include "scene/input_file.h"
+
+namespace sombra::volume_io {
+namespace {
+
+constexpr std::size_t kMaxDataFiles = 65536;    // files of a LIST or pattern (one per slice)
+constexpr std::size_t kMaxHeaderLines = 4096;   // lines read before the header must have ended
+constexpr std::uint64_t kMaxTiffPages = 65536;  // image directories followed in a TIFF
+
+std::string trim(const std::string& text) {
+    std::size_t a = 0, b = text.size();
+    while (a < b && std::isspace(static_cast<unsigned char>(text[a]))) ++a;
+    while (b > a && std::isspace(static_cast<unsigned char>(text[b - 1]))) --b;
+    return text.substr(a, b - a);
+}
+
+std::vector<std::string> tokens(const std::string& text) {
+    std::istringstream in(text);
+    std::vector<std::string> out;
+    for (std::string t; in >> t;) out.push_back(t);
+    return out;
+}
+
+std::string lower(std::string text) {
+    std::transform(text.begin(), text.end(), text.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+    return text;
+}
+
+// A printf pattern with exactly one integer conversion (%d, %03d, %i, %u …) and no other '%'
+// but "%%": the only patterns the formats define; anything else could read past the argument list.
+bool safe_integer_pattern(const std::string& pattern) {
+    int conversions = 0;
+    for (std::size_t i = 0; i < pattern.size(); ++i) {
+        if (pattern[i] != '%') continue;
+        if (i + 1 < pattern.size() && pattern[i + 1] == '%') {
+            ++i;
+            continue;
+        }
+        std::size_t k = i + 1;
+        while (k < pattern.size() && (std::isdigit(static_cast<unsigned char>(pattern[k])) || pattern[k] == '0')) ++k;
+        if (k >= pattern.size() || (pattern[k] != 'd' && pattern[k] != 'i' && pattern[k] != 'u') || k - i > 4) return false;
+        ++conversions;
+        i = k;
+    }
+    return conversions == 1;
+}
+
+// The data files of "data file:" (NRRD) or "ElementDataFile =" (MetaImage) after the key: a
+// name, "LIST" (names on the lines after the header: `rest`), or "PATTERN MIN MAX STEP".
+std::vector<std::string> data_file_names(const std::string& header, const std::string& field, const std::string& value,
+                                         std::istream& rest) {
+    const std::vector<std::string> words = tokens(value);
+    if (words.empty()) throw file_error(header, field, "names no data file");
+    if (words[0] == "LIST") {
+        std::vector<std::string> names;
+        for (std::string line; std::getline(rest, line);) {
+            line = trim(line);
+            if (line.empty()) continue;
+            if (names.size() == kMaxDataFiles)
+                throw file_error(header, field, "LIST names more than " + std::to_string(kMaxDataFiles) + " files");
+            names.push_back(line);
+        }
+        if (names.empty()) throw file_error(header, field, "LIST names no file");
+        return names;
+    }
+    if (words.size() >= 4 && words[0].find('%') != std::string::npos) {
+        if (!safe_integer_pattern(words[0]))
+            throw file_error(header, field, "pattern '" + words[0] + "' must hold one integer conversion such as %03d");
+        const long long first = parse_int(header, field, words[1]), last = parse_int(header, field, words[2]),
+                        step = parse_int(header, field, words[3]);
+        if (step == 0 || (last - first) / step < 0)
+            throw file_error(header, field, "pattern range " + words[1] + " … " + words[2] + " step " + words[3] + " is empty");
+        const long long count = (last - first) / step + 1;
+        if (count > static_cast<long long>(kMaxDataFiles))
+            throw file_error(header, field, "pattern names " + std::to_string(count) + " files, more than " +
+                                                std::to_string(kMaxDataFiles));
+        std::vector<std::string> names;
+        for (long long i = 0; i < count; ++i) {
+            char name[4096];
+            const int n = std::snprintf(name, sizeof name, words[0].c_str(), first + i * step);
+            if (n < 0 || n >= int(sizeof name)) throw file_error(header, field, "pattern gives a name too long");
+            names.emplace_back(name);
+        }
+        return names;
+    }
+    return {trim(value)};
+}
+
+// Each data file resolved against the header's folder and opened as an input; their total size.
+std::uint64_t data_file_bytes(const std::string& header, const std::string& field, const std::vector<std::string>& names) {
+    const std::filesystem::path folder = std::filesystem::path(header).parent_path();
+    std::uint64_t total = 0;
+    for (const std::string& name : names) {
+        const std::filesystem::path p(name);
+        const std::string resolved = (p.is_absolute() ? p : folder / p).string();
+        try {
+            total += detail::regular_file_size(resolved);
+        } catch (const Error& e) {
+            throw file_error(header, field, "data file " + name + ": " + one_line(e.what()));
+        }
+    }
+    return total;
+}
+
+// "(a,b,c)" → three finite numbers; "none" → nothing. NRRD's vector syntax.
+bool nrrd_vector(const std::string& header, const std::string& field, const std::string& word, std::array<double, 3>* v) {
+    if (word == "none") return false;
+    if (word.size() < 2 || word.front() != '(' || word.back() != ')')
+        throw file_error(header, field, "expected vectors such as (1,0,0), got '" + word + "'");
+    std::string inner = word.substr(1, word.size() - 2);
+    std::replace(inner.begin(), inner.end(), ',', ' ');
+    const std::vector<std::string> parts = tokens(inner);
+    if (parts.size() != 3) throw file_error(header, field, "expected 3 components, got '" + word + "'");
+    for (int i = 0; i < 3; ++i) (*v)[std::size_t(i)] = parse_number(header, field, parts[std::size_t(i)]);
+    return true;
+}
+
+void check_length(const std::string& header, const std::string& field, double length, int axis) {
+    if (!(std::isfinite(length) && length >= double(limits::kMinLength) && length <= 1e18))
+        throw file_error(header, field, "voxel size along axis " + std::to_string(axis) + " is " +
+                                            (std::isfinite(length) ? std::to_string(length) : std::string("not finite")) +
+                                            " (must be > 0 and finite)");
+}
+
+std::uint64_t check_nrrd(const std::string& header, std::uint64_t header_bytes) {
+    std::ifstream in(header, std::ios::binary);
+    std::string line;
+    std::vector<std::string> names;
+    bool detached = false;
+    for (std::size_t n = 0; n < kMaxHeaderLines && std::getline(in, line); ++n) {
+        if (!line.empty() && line.back() == '\r') line.pop_back();
+        if (line.empty()) break;  // the end of the header
+        if (line[0] == '#' || line.find(":=") != std::string::npos) continue;  // comments, key/value pairs
+        const std::size_t colon = line.find(':');
+        if (colon == std::string::npos) continue;
+        const std::string key = lower(trim(line.substr(0, colon))), value = trim(line.substr(colon + 1));
+        if (key == "dimension") {
+            const long long d = parse_int(header, "dimension", value);
+            if (d < 1 || d > 4) throw file_error(header, "dimension", std::to_string(d) + " (must be 1 … 4)");
+        } else if (key == "space directions") {
+            int axis = 0;
+            for (const std::string& word : tokens(value)) {
+                std::array<double, 3> v{};
+                if (nrrd_vector(header, key, word, &v)) check_length(header, key, std::hypot(v[0], v[1], v[2]), axis);
+                ++axis;
+            }
+        } else if (key == "spacings") {
+            int axis = 0;
+            for (const std::string& word : tokens(value)) {
+                if (lower(word) != "nan") check_length(header, key, std::fabs(parse_number(header, key, word)), axis);
+                ++axis;
+            }
+        } else if (key == "data file" || key == "datafile") {
+            names = data_file_names(header, key, value, in);
+            detached = true;
+            if (tokens(value).front() == "LIST") break;  // the names took the rest of the file
+        }
+    }
+    return detached ? data_file_bytes(header, "data file", names) : header_bytes;
+}
+
+std::uint64_t check_metaimage(const std::string& header, std::uint64_t header_bytes) {
+    std::ifstream in(header, std::ios::binary);
+    std::string line;
+    for (std::size_t n = 0; n < kMaxHeaderLines && std::getline(in, line); ++n) {
+        if (!line.empty() && line.back() == '\r') line.pop_back();
+        const std::size_t eq = line.find('=');
+        if (eq == std::string::npos) continue;
+        const std::string key = trim(line.substr(0, eq)), value = trim(line.substr(eq + 1));
+        if (key == "NDims") {
+            const long long d = parse_int(header, "NDims", value);
+            if (d < 1 || d > 4) throw file_error(header, "NDims", std::to_string(d) + " (must be 1 … 4)");
+        } else if (key == "ElementSpacing" || key == "ElementSize") {
+            int axis = 0;
+            for (const std::string& word : tokens(value)) check_length(header, key, std::fabs(parse_number(header, key, word)), axis++);
+        } else if (key == "ElementDataFile") {  // the last field: the data (or the LIST) follows
+            if (value == "LOCAL") return header_bytes;
+            return data_file_bytes(header, key, data_file_names(header, key, value, in));
+        }
+    }
+    throw file_error(header, "ElementDataFile", "missing (a MetaImage header ends with it)");
+}
+
+// ---- TIFF: the image file directories (TIFF 6.0 §2; BigTIFF) ----
+
+class TiffBytes {
+public:
+    TiffBytes(const std::string& path, std::uint64_t size) : path_(path), size_(size), in_(path, std::ios::binary) {}
+    std::uint64_t size() const { return size_; }
+    // n ≤ 8 bytes at `offset` in the file's byte order; throws when they lie past the end.
+    std::uint64_t read(std::uint64_t offset, int n, const char* what) {
+        unsigned char b[8] = {};
+        if (offset > size_ || std::uint64_t(n) > size_ - offset)
+            throw file_error(path_, "pages", std::string(what) + " at byte " + std::to_string(offset) + " lies past the end of the file");
+        in_.seekg(std::streamoff(offset));
+        in_.read(reinterpret_cast<char*>(b), n);
+        if (in_.gcount() != n) throw file_error(path_, "pages", std::string("cannot read ") + what);
+        std::uint64_t v = 0;
+        for (int i = 0; i < n; ++i) v |= std::uint64_t(b[little_ ? i : n - 1 - i]) << (8 * i);
+        return v;
+    }
+    void set_little(bool little) { little_ = little; }
+
+private:
+    std::string path_;
+    std::uint64_t size_;
+    std::ifstream in_;
+    bool little_ = true;
+};
+
+// What every page must share: ImageWidth, ImageLength, BitsPerSample, SamplesPerPixel,
+// SampleFormat (the value field as stored: inline value or offset of the list).
+struct TiffPage {
+    std::uint64_t width = 0, length = 0, bits = 1, samples = 1, format = 1;
+    bool operator==(const TiffPage& o) const {
+        return width == o.width && length == o.length && bits == o.bits && samples == o.samples && format == o.format;
+    }
+    std::string describe() const {
+        return std::to_string(width) + "×" + std::to_string(length) + ", " + std::to_string(samples) + " sample(s) of " +
+               std::to_string(bits) + " bits, format " + std::to_string(format);
+    }
+};
+
+}  // namespace
+
+std::uint64_t check_detached_header(const std::string& header, bool nrrd) {
+    const std::uint64_t bytes = detail::regular_file_size(header);
+    return nrrd ? check_nrrd(header, bytes) : check_metaimage(header, bytes);
+}
+
+void check_tiff_pages(const std::string& path) {
+    TiffBytes f(path, detail::regular_file_size(path));
+    const std::uint64_t order = f.read(0, 2, "the byte-order mark");
+    if (order != 0x4949 && order != 0x4d4d) throw file_error(path, "header", "not a TIFF file (no II or MM byte-order mark)");
+    f.set_little(order == 0x4949);
+    const std::uint64_t version = f.read(2, 2, "the version");
+    const bool big = version == 43;
+    if (version != 42 && !big) throw file_error(path, "header", "not a TIFF file (version " + std::to_string(version) + ")");
+    const int offset_bytes = big ? 8 : 4, count_bytes = big ? 8 : 2, entry_bytes = big ? 20 : 12;
+    std::uint64_t next = f.read(big ? 8 : 4, offset_bytes, "the first page's offset");
+    std::set<std::uint64_t> seen;
+    TiffPage first;
+    for (std::uint64_t page = 0; next != 0; ++page) {
+        if (page == kMaxTiffPages) throw file_error(path, "pages", "more than " + std::to_string(kMaxTiffPages) + " pages");
+        if (!seen.insert(next).second)
+            throw file_error(path, "pages", "page " + std::to_string(page) + " points back to an earlier page (a loop)");
+        const std::uint64_t entries = f.read(next, count_bytes, "a page's entry count");
+        if (entries > (f.size() - next) / std::uint64_t(entry_bytes))
+            throw file_error(path, "pages", "page " + std::to_string(page) + " declares " + std::to_string(entries) +
+                                                " entries, more than the file holds");
+        TiffPage p;
+        for (std::uint64_t e = 0; e < entries; ++e) {
+            const std::uint64_t at = next + std::uint64_t(count_bytes) + e * std::uint64_t(entry_bytes);
+            const std::uint64_t tag = f.read(at, 2, "a tag"), type = f.read(at + 2, 2, "a tag type");
+            const std::uint64_t count = f.read(at + 4, big ? 8 : 4, "a tag's count");
+            const int value_bytes = type == 3 ? 2 : type == 4 ? 4 : type == 16 ? 8 : offset_bytes;  // SHORT, LONG, LONG8
+            std::uint64_t value = f.read(at + 4 + std::uint64_t(big ? 8 : 4), value_bytes, "a tag value");
+            if (count != 1) value = (std::uint64_t(1) << 63) | count;  // a list (one per sample): compared by its length
+            if (tag == 256) p.width = value;
+            else if (tag == 257) p.length = value;
+            else if (tag == 258) p.bits = value;
+            else if (tag == 277) p.samples = value;
+            else if (tag == 339) p.format = value;
+        }
+        if (page == 0) first = p;
+        else if (!(p == first))
+            throw file_error(path, "pages", "page " + std::to_string(page) + " is " + p.describe() + ", page 0 " +
+                                                first.describe() + ": every page of a stack must match");
+        next = f.read(next + std::uint64_t(count_bytes) + entries * std::uint64_t(entry_bytes), offset_bytes, "the next page's offset");
+    }
+    if (seen.empty()) throw file_error(path, "pages", "no page");
+}
+
+}  // namespace sombra::volume_io

@@ -1,0 +1,23 @@
+// sombra — checks of the ITK-read formats' headers that run before ITK reads them
+// (src/scene/volume_io_itk_checks.cpp). Internal to src/scene.
+#pragma once
+#include <cstdint>
+#include <string>
+
+#include "scene/volume_io_common.h"
+
+namespace sombra::volume_io {
+
+// A NRRD (nrrd = true) or MetaImage header: its dimension count (1 … 4), its voxel sizes (finite,
+// > 0) and the data files it names (one, a LIST, or a printf pattern with a range), each opened
+// as an input (regular files only, relative to the header's folder). Returns the bytes the voxels
+// can come from: the header file's own size when the data is attached, else the data files' sum.
+// Throws "HEADER: FIELD: …".
+std::uint64_t check_detached_header(const std::string& header, bool nrrd);
+
+// Walks a TIFF's (or BigTIFF's) chain of image directories: throws "FILE: pages: …" for a loop,
+// an offset or entry table past the end of the file, more than 65,536 pages, or a page whose
+// size, samples, bits or sample format differ from the first page's.
+void check_tiff_pages(const std::string& path);
+
+}  // namespace sombra::volume_io
