@@ -228,8 +228,6 @@ PYBIND11_MODULE(sombra, m) {
                 volume->dims = {int(a.shape(2)), int(a.shape(1)), int(a.shape(0))};  // x fastest: C order (z, y, x)
                 volume->voxels.assign(a.data(), a.data() + a.size());
                 volume->spacing = vec3(spacing, "Scene.add_volume", "spacing");
-                for (float sp : volume->spacing)
-                    if (!(sp > 0.f)) throw py::value_error("Scene.add_volume: spacing: must be > 0");
                 volume->source = name.empty() ? "numpy array" : name;
                 volume->update_range();
                 VolumeInstance vi;
@@ -243,6 +241,7 @@ PYBIND11_MODULE(sombra, m) {
                 vi.step_voxels = step_voxels;
                 vi.opacity_unit = opacity_unit;
                 vi.name = name;
+                if (auto problem = volume_problem(vi)) throw py::value_error("Scene.add_volume: " + problem->field + ": " + problem->what);
                 s.volumes.push_back(vi);
                 return s.volumes.size() - 1;
             },
@@ -264,12 +263,15 @@ PYBIND11_MODULE(sombra, m) {
                 }
                 l.position = vec3(position, "Scene.add_light", "position");
                 l.direction = vec3(direction, "Scene.add_light", "direction");
-                const double length = std::hypot(double(l.direction[0]), double(l.direction[1]), double(l.direction[2]));
-                if (!(length > 1e-6)) throw py::value_error("Scene.add_light: direction: must be a non-zero vector");
-                for (float& c : l.direction) c = float(c / length);  // as scene files are read
                 l.color = vec3(color, "Scene.add_light", "color");
                 l.intensity = intensity;
                 l.cone_angle_deg = cone_angle_deg;
+                // the rules scene files obey (sombra/scene.h), at the call that received the value
+                if (auto problem = light_problem(l)) throw py::value_error("Scene.add_light: " + problem->field + ": " + problem->what);
+                if (l.type != LightType::Point) {
+                    const double length = std::hypot(double(l.direction[0]), double(l.direction[1]), double(l.direction[2]));
+                    for (float& c : l.direction) c = float(c / length);  // as scene files are read
+                }
                 s.lights.push_back(l);
                 return s.lights.size() - 1;
             },

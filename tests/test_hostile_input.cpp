@@ -287,3 +287,36 @@ TEST_CASE("hostile input: a buffer over the device's limits is one line naming w
     CHECK(over_memory.rfind("test volume: needs ", 0) == 0);
     CHECK_NOTHROW(host::make_buffer(runtime, CL_MEM_READ_WRITE, 1 << 20, nullptr, "test small"));
 }
+
+// Issue 25 item 4: scenes built in code obey the rules scene files do, checked at every render by
+// the same functions the loader uses (sombra/scene.h volume_problem, light_problem); a step of 0
+// used to hang the camera pass, a NaN intensity or a 90° cone rendered.
+TEST_CASE("hostile input: scenes built in code are held to the scene file rules at render", "[hostile]") {
+    Scene good;
+    VolumeInstance vi;
+    vi.volume = test::constant_volume({4, 4, 4}, 1.f);
+    vi.transfer_function = test::constant_tf(0.1f);
+    vi.transform = make_transform({0, 0, 0}, {0, 0, 0}, {0.1f, 0.1f, 0.1f});
+    good.volumes.push_back(vi);
+    good.lights.push_back(Light{});
+    good.width = good.height = 8;
+    CHECK_NOTHROW(render(test::context(), good));
+    const auto render_error = [](const Scene& scene) { return error_of([&] { render(test::context(), scene); }); };
+    Scene s = good;
+    s.volumes[0].step_voxels = 0.f;
+    CHECK_THAT(render_error(s), Catch::Contains("volumes[0].step_voxels: must lie in [0.01, 16]"));
+    s = good;
+    s.volumes[0].spacing[1] = std::nanf("");
+    CHECK_THAT(render_error(s), Catch::Contains("volumes[0].spacing"));
+    s = good;
+    s.lights[0].intensity = std::nanf("");
+    CHECK_THAT(render_error(s), Catch::Contains("lights[0].intensity: must be ≥ 0"));
+    s = good;
+    s.lights[0].type = LightType::Spot;
+    s.lights[0].cone_angle_deg = 90.f;
+    CHECK_THAT(render_error(s), Catch::Contains("lights[0].cone_angle_deg: must lie in (0, 90)"));
+    s = good;
+    s.lights[0].type = LightType::Point;
+    s.lights[0].att_constant = 0.f;
+    CHECK_THAT(render_error(s), Catch::Contains("lights[0].attenuation"));
+}

@@ -2,6 +2,7 @@
 #pragma once
 #include <array>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -99,7 +100,18 @@ Scene load_scene(const std::string& path, const VolumeLoadOptions& options = {})
 // blank lines skipped), at most limits::kMaxPoints; throws "FILE: line N: …" for anything else.
 std::vector<Vec3> load_points_csv(const std::string& path);
 
-// Checks values that make no sense (camera at its look-at point, zero-size volumes, …).
+// The rules scene files enforce on one volume or light, for those built in code (Python, C++):
+// the first field that breaks them, named as the JSON names it ("step_voxels", "cone_angle_deg"),
+// and what is wrong; nothing when all hold. NaN breaks every rule. The scene loader, the Python
+// module (at add_volume / add_light) and validate_scene (at every render) apply these same checks.
+struct FieldProblem {
+    std::string field, what;
+};
+std::optional<FieldProblem> volume_problem(const VolumeInstance& volume);  // spacing, step_voxels, opacity_unit
+std::optional<FieldProblem> light_problem(const Light& light);  // direction, color, intensity, cone, attenuation
+
+// Checks values that make no sense (camera at its look-at point, zero-size volumes, …) and every
+// volume's and light's fields (volume_problem, light_problem): throws "WHERE: FIELD: what".
 void validate_scene(const Scene& scene, const std::string& where);
 
 // World transform (row-major) of a volume's bound mesh: VolumeInstance::transform · bound.transform.

@@ -256,3 +256,34 @@ def test_one_context_shared_by_threads(context):
     assert not errors and len(results) == 6
     for k, value in results.items():
         assert np.array_equal(value, alone_image if k % 2 else alone_t), k
+
+
+def test_scene_values_are_checked_at_the_call_with_the_scene_files_rules(context):
+    """Python scenes obey the rules scene files do, at the call that received the value (issue 25:
+    step_voxels=0 hung the renderer; NaN intensities and a 180° cone were accepted); a value set
+    later is caught at render by the same checks."""
+    volume = lopsided_volume()
+    scene = sombra.Scene(width=16, height=16)
+
+    def message(call):
+        with pytest.raises(ValueError) as raised:
+            call()
+        return str(raised.value)
+
+    assert message(lambda: scene.add_volume(volume, step_voxels=0)) == "Scene.add_volume: step_voxels: must lie in [0.01, 16]"
+    assert message(lambda: scene.add_volume(volume, step_voxels=float("nan"))).startswith("Scene.add_volume: step_voxels")
+    assert message(lambda: scene.add_volume(volume, spacing=(1, 0, 1))) == "Scene.add_volume: spacing: must be ≥ 1e-12 (positive)"
+    assert message(lambda: scene.add_volume(volume, opacity_unit=-1)).startswith("Scene.add_volume: opacity_unit")
+    assert message(lambda: scene.add_light("spot", cone_angle_deg=90)) == "Scene.add_light: cone_angle_deg: must lie in (0, 90)"
+    assert message(lambda: scene.add_light("point", intensity=float("nan"))) == "Scene.add_light: intensity: must be ≥ 0"
+    assert message(lambda: scene.add_light("directional", direction=(0, 0, 0))) == (
+        "Scene.add_light: direction: must be a non-zero vector")
+    assert message(lambda: scene.add_light("point", color=(1, -1, 1))) == "Scene.add_light: color: must be ≥ 0"
+    assert scene.volume_count == 0 and scene.light_count == 0  # nothing half-added
+    scene.add_volume(volume, spacing=SPACING, opacity=OPACITY, color=COLOR)
+    scene.add_light("spot", **LIGHT)
+    scene.set_camera(**CAMERA)
+    scene.ambient_intensity = -1.0  # an attribute set after the fact: render checks it
+    with pytest.raises(sombra.Error) as raised:
+        sombra.render(context, scene)
+    assert "ambient_intensity: must be ≥ 0" in str(raised.value)

@@ -151,8 +151,6 @@ VolumeInstance read_volume(const json& j, const std::string& file, const std::st
         vi.volume = read_generator(f.at("generator"), file, f.field("generator"), options);
     }
     vi.spacing = f.vec3("spacing", vi.volume->spacing);
-    for (float s : vi.spacing)
-        if (!(s >= limits::kMinLength)) f.fail("spacing", "must be ≥ 1e-12 (positive)");
     // The file's placement (orientation and position), then the scene's transform: one matrix.
     std::array<float, 16> placement = vi.volume->placement;
     const std::string where = f.string("placement", "file");
@@ -163,10 +161,8 @@ VolumeInstance read_volume(const json& j, const std::string& file, const std::st
     if (f.has("transform")) vi.transform = multiply(read_transform(f.at("transform"), file, f.field("transform")), placement);
     vi.transfer_function = read_transfer_function(f.at("transfer_function"), file, f.field("transfer_function"));
     vi.step_voxels = f.number("step_voxels", vi.step_voxels);
-    if (!(vi.step_voxels >= 0.01f && vi.step_voxels <= 16.f)) f.fail("step_voxels", "must lie in [0.01, 16]");
     vi.opacity_unit = f.number("opacity_unit", 0.f);
-    if (!(vi.opacity_unit == 0.f || vi.opacity_unit >= limits::kMinLength))  // σ = −ln(1 − α)/unit stays finite
-        f.fail("opacity_unit", "must be 0 (one voxel) or ≥ 1e-12");
+    if (auto problem = volume_problem(vi)) f.fail(problem->field, problem->what);
     if (f.has("material")) {
         JsonFields m(f.at("material"), file, f.field("material"));
         vi.material = read_phong(m, vi.material);
@@ -218,28 +214,21 @@ Light read_light(const json& j, const std::string& file, const std::string& path
         f.fail("type", e.what());
     }
     if (l.type != LightType::Directional) l.position = f.vec3("position", l.position);
-    if (l.type != LightType::Point) {
-        l.direction = f.vec3("direction", l.direction);
-        const double len = std::hypot(double(l.direction[0]), double(l.direction[1]), double(l.direction[2]));
-        if (!(len > 1e-6)) f.fail("direction", "must be a non-zero vector");
-        for (float& c : l.direction) c = float(c / len);
-    }
+    if (l.type != LightType::Point) l.direction = f.vec3("direction", l.direction);
     l.color = f.vec3("color", l.color);
-    for (float c : l.color)
-        if (c < 0.f) f.fail("color", "must be ≥ 0");
     l.intensity = f.number("intensity", l.intensity);
-    if (l.intensity < 0.f) f.fail("intensity", "must be ≥ 0");
     if (l.type == LightType::Spot) {
         l.cone_angle_deg = f.number("cone_angle_deg", l.cone_angle_deg);
-        if (!(l.cone_angle_deg > 0.f && l.cone_angle_deg < 90.f)) f.fail("cone_angle_deg", "must lie in (0, 90)");
         l.cone_softness = f.number("cone_softness", l.cone_softness);
-        if (!(l.cone_softness >= 0.f && l.cone_softness <= 1.f)) f.fail("cone_softness", "must lie in [0, 1]");
     }
     if (l.type != LightType::Directional && f.has("attenuation")) {
         Vec3 a = f.vec3("attenuation", {1, 0, 0});
-        if (a[0] < 0.f || a[1] < 0.f || a[2] < 0.f || !(a[0] + a[1] + a[2] > 0.f))
-            f.fail("attenuation", "constant, linear, quadratic must be ≥ 0 and not all 0");
         l.att_constant = a[0], l.att_linear = a[1], l.att_quadratic = a[2];
+    }
+    if (auto problem = light_problem(l)) f.fail(problem->field, problem->what);
+    if (l.type != LightType::Point) {
+        const double len = std::hypot(double(l.direction[0]), double(l.direction[1]), double(l.direction[2]));
+        for (float& c : l.direction) c = float(c / len);
     }
     f.finish();
     return l;
@@ -281,6 +270,37 @@ std::array<float, 16> make_transform(const Vec3& t, const Vec3& r, const Vec3& s
 
 std::array<float, 16> bound_to_world(const VolumeInstance& volume) { return multiply(volume.transform, volume.bound.transform); }
 
+std::optional<FieldProblem> volume_problem(const VolumeInstance& vi) {
+    for (float s : vi.spacing)
+        if (!(s >= limits::kMinLength && s <= limits::kMaxCoordinate)) return FieldProblem{"spacing", "must be ≥ 1e-12 (positive)"};
+    if (!(vi.step_voxels >= 0.01f && vi.step_voxels <= 16.f)) return FieldProblem{"step_voxels", "must lie in [0.01, 16]"};
+    if (!(vi.opacity_unit == 0.f || (vi.opacity_unit >= limits::kMinLength && vi.opacity_unit <= limits::kMaxCoordinate)))
+        return FieldProblem{"opacity_unit", "must be 0 (one voxel) or ≥ 1e-12"};  // σ = −ln(1 − α)/unit stays finite
+    for (float m : vi.transform)
+        if (!std::isfinite(m)) return FieldProblem{"transform", "must be finite"};
+    return std::nullopt;
+}
+
+std::optional<FieldProblem> light_problem(const Light& l) {
+    if (l.type != LightType::Point) {
+        const double len = std::hypot(double(l.direction[0]), double(l.direction[1]), double(l.direction[2]));
+        if (!(len > 1e-6 && std::isfinite(len))) return FieldProblem{"direction", "must be a non-zero vector"};
+    }
+    for (float c : l.color)
+        if (!(c >= 0.f && std::isfinite(c))) return FieldProblem{"color", "must be ≥ 0"};
+    if (!(l.intensity >= 0.f && std::isfinite(l.intensity))) return FieldProblem{"intensity", "must be ≥ 0"};
+    if (l.type == LightType::Spot) {
+        if (!(l.cone_angle_deg > 0.f && l.cone_angle_deg < 90.f)) return FieldProblem{"cone_angle_deg", "must lie in (0, 90)"};
+        if (!(l.cone_softness >= 0.f && l.cone_softness <= 1.f)) return FieldProblem{"cone_softness", "must lie in [0, 1]"};
+    }
+    if (l.type != LightType::Directional) {
+        const float a[3] = {l.att_constant, l.att_linear, l.att_quadratic};
+        if (!(a[0] >= 0.f && a[1] >= 0.f && a[2] >= 0.f && a[0] + a[1] + a[2] > 0.f && std::isfinite(a[0] + a[1] + a[2])))
+            return FieldProblem{"attenuation", "constant, linear, quadratic must be ≥ 0 and not all 0"};
+    }
+    return std::nullopt;
+}
+
 void validate_scene(const Scene& scene, const std::string& where) {
     const Camera& c = scene.camera;
     Vec3 d{c.look_at[0] - c.position[0], c.look_at[1] - c.position[1], c.look_at[2] - c.position[2]};
@@ -300,8 +320,13 @@ void validate_scene(const Scene& scene, const std::string& where) {
         throw file_error(where, "volumes", "at most " + std::to_string(SOMBRA_MAX_VOLUMES) + " volumes per scene");
     if (scene.lights.size() > std::size_t(limits::kMaxLights))
         throw file_error(where, "lights", "at most " + std::to_string(limits::kMaxLights) + " lights per scene");
-    for (std::size_t i = 0; i < scene.lights.size(); ++i)
+    if (!(scene.ambient_intensity >= 0.f && std::isfinite(scene.ambient_intensity)))
+        throw file_error(where, "ambient_intensity", "must be ≥ 0");
+    for (std::size_t i = 0; i < scene.lights.size(); ++i) {
         check_point(where, "lights[" + std::to_string(i) + "].position", scene.lights[i].position);
+        if (auto problem = light_problem(scene.lights[i]))
+            throw file_error(where, "lights[" + std::to_string(i) + "]." + problem->field, problem->what);
+    }
     for (std::size_t i = 0; i < scene.meshes.size(); ++i) {
         const MeshInstance& mi = scene.meshes[i];
         if (!mi.mesh || mi.mesh->positions.empty()) continue;
@@ -314,6 +339,7 @@ void validate_scene(const Scene& scene, const std::string& where) {
         if (!scene.volumes[i].volume || scene.volumes[i].volume->voxel_count() == 0)
             throw file_error(where, "volumes[" + std::to_string(i) + "]", "volume is empty");
         const VolumeInstance& vi = scene.volumes[i];
+        if (auto problem = volume_problem(vi)) throw file_error(where, "volumes[" + std::to_string(i) + "]." + problem->field, problem->what);
         Vec3 half;
         for (int a = 0; a < 3; ++a) half[a] = 0.5f * float(vi.volume->dims[a]) * vi.spacing[a];
         check_world_extent(where, "volumes[" + std::to_string(i) + "]", vi.transform, {-half[0], -half[1], -half[2]}, half);
