@@ -38,6 +38,31 @@ static inline int before(FragmentGpu a, FragmentGpu b) {
     return a.depth < b.depth || (a.depth == b.depth && a.triangle < b.triangle);
 }
 
+/* Moves out[i] down the max-heap out[0 … n) until both children are not after it. */
+static inline void sift_down(__global FragmentGpu* out, uint i, uint n) {
+    FragmentGpu f = out[i];
+    for (uint child; (child = 2 * i + 1) < n; i = child) {
+        if (child + 1 < n && before(out[child], out[child + 1])) ++child;
+        if (!before(f, out[child])) break;
+        out[i] = out[child];
+    }
+    out[i] = f;
+}
+
+/* Heapsort of a pixel's fragments in place: O(n log n) however many there are (insertion sort
+ * was quadratic: 20,000 coincident triangles took minutes). The order is total (ties by triangle
+ * index), so the result does not depend on the order the tile lists hold them in. */
+static inline void sort_fragments(__global FragmentGpu* out, uint n) {
+    for (uint i = n / 2; i-- > 0;) sift_down(out, i, n);
+    for (uint end = n; end > 1;) {
+        --end;
+        FragmentGpu top = out[0];
+        out[0] = out[end];
+        out[end] = top;
+        sift_down(out, 0, end);
+    }
+}
+
 __kernel void segments_write(__global const RasterScreenGpu* s, __global const ScreenTriangleGpu* tris,
                              __global const uint* count, __global const uint* first_chunk,
                              __global const ulong* masks, __global const uint* ids,
@@ -53,11 +78,7 @@ __kernel void segments_write(__global const RasterScreenGpu* s, __global const S
         FragmentGpu f;
         f.triangle = ids[base + k];
         f.depth = fragment_depth(tris + f.triangle, px, py, s);
-        uint j = n++; /* insertion sort in place */
-        while (j > 0 && before(f, out[j - 1])) {
-            out[j] = out[j - 1];
-            --j;
-        }
-        out[j] = f;
+        out[n++] = f;
     }
+    sort_fragments(out, n);
 }
