@@ -48,8 +48,10 @@ void write_deep_exr(const DeepShadowMap& map, const std::string& path);
 DeepShadowMap read_deep_exr(const std::string& path);
 
 // Ground truth: transmittance from world point p to light `light_index` of the scene, integrated
-// in double precision with steps of `step_voxels` of each volume's smallest voxel (midpoint rule,
-// trilinear interpolation, the transfer function evaluated directly, no table, no compression).
+// in double precision: the ray cut at the planes of voxel centres and into pieces of at most
+// `step_voxels` of each volume's smallest voxel, the value taken linear over each piece (trilinear
+// interpolation at its ends) and σ integrated over the value range in closed form from the
+// transfer function's opacity points (exact for stiff media; no table, no compression).
 // Overlapping volumes add their optical depths; every mesh triangle crossed on the way multiplies
 // the result by 1 − its mesh's opacity (brute force over all triangles). Lights at infinity
 // (directional) integrate to the far side of every volume.
