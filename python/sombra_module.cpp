@@ -32,9 +32,12 @@ std::string shape_of(const py::array& a) {
 // `value` as a C-ordered array of `ndim` dimensions of T, the sizes in `sizes` (−1: any); otherwise
 // a ValueError naming the function and the argument. Python sequences and other real dtypes convert
 // only when `convert`; with it off the array must already be T.
+// An array's shape and element count are checked before anything is copied: a zero-stride view
+// (np.broadcast_to) of 2⁴⁰ elements costs no memory until converted. At most `max_elements`.
 template <typename T>
 py::array_t<T, py::array::c_style> checked_array(const py::handle& value, const char* where, const char* name,
-                                                   std::vector<py::ssize_t> sizes, bool convert, const char* expected) {
+                                                   std::vector<py::ssize_t> sizes, bool convert, const char* expected,
+                                                   std::uint64_t max_elements = limits::kMaxVolumeVoxels) {
     auto fail = [&](const std::string& got) {
         throw py::value_error(std::string(where) + ": " + name + ": expected " + expected + ", got " + got);
     };
@@ -45,6 +48,12 @@ py::array_t<T, py::array::c_style> checked_array(const py::handle& value, const 
             fail("dtype " + std::string(py::str(array.dtype())) + " " + shape_of(array));
         if (convert && array.dtype().kind() != 'f' && array.dtype().kind() != 'i' && array.dtype().kind() != 'u')
             fail("dtype " + std::string(py::str(array.dtype())));
+        bool shaped = array.ndim() == py::ssize_t(sizes.size());
+        for (std::size_t d = 0; shaped && d < sizes.size(); ++d) shaped = sizes[d] < 0 || array.shape(py::ssize_t(d)) == sizes[d];
+        if (!shaped) fail("shape " + shape_of(array));
+        if (std::uint64_t(array.size()) > max_elements)
+            fail(std::to_string(array.size()) + " elements " + shape_of(array) + ", more than the limit of " +
+                 std::to_string(max_elements));
     } else if (!convert) {
         fail("a " + std::string(py::str(value.get_type().attr("__name__"))));
     }
@@ -108,7 +117,7 @@ RenderOptions render_options(const py::object& options, const py::kwargs& kwargs
 py::dict stats_dict(const RenderStats& stats) { return py::module_::import("json").attr("loads")(stats.to_json()); }
 
 std::vector<Vec3> points_of(const py::handle& points, const char* where) {
-    auto a = checked_array<double>(points, where, "points", {-1, 3}, true, "an (N, 3) array of world points");
+    auto a = checked_array<double>(points, where, "points", {-1, 3}, true, "an (N, 3) array of world points", limits::kMaxPoints * 3);
     std::vector<Vec3> result(std::size_t(a.shape(0)));
     for (std::size_t i = 0; i < result.size(); ++i)
         for (std::size_t k = 0; k < 3; ++k) result[i][k] = float(a.data()[i * 3 + k]);

@@ -287,3 +287,23 @@ def test_scene_values_are_checked_at_the_call_with_the_scene_files_rules(context
     with pytest.raises(sombra.Error) as raised:
         sombra.render(context, scene)
     assert "ambient_intensity: must be ≥ 0" in str(raised.value)
+
+
+def test_huge_zero_stride_views_are_refused_before_any_copy():
+    """A broadcast view of 2³³ voxels costs nothing until copied: its size is checked first (issue 25:
+    it used to be converted whole, gigabytes, before the size check)."""
+    import tracemalloc
+
+    scene = sombra.Scene()
+    huge = np.broadcast_to(np.float32(0.5), (2048, 2048, 2048))
+    assert huge.strides == (0, 0, 0)
+    tracemalloc.start()
+    with pytest.raises(ValueError) as raised:
+        scene.add_volume(huge)
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    assert "8589934592 elements (2048, 2048, 2048), more than the limit of 1073741824" in str(raised.value)
+    assert peak < 1 << 20
+    points = np.broadcast_to(np.zeros(3), (1 << 25, 3))
+    with pytest.raises(ValueError, match="more than the limit"):
+        sombra.reference_transmittance(numpy_scene(lopsided_volume()), 0, points)
