@@ -708,3 +708,58 @@ TEST_CASE("hostile input: detached data files, dimension counts, geometry fields
         require_one_line(error_of([&] { load_volume(tmp.path("unlike.tif")); }), tmp.path("unlike.tif"), "every page of a stack must match");
     }
 }
+
+// Issue 25 item 2: DICOM geometry is checked from the headers before ITK computes with it. Slices
+// of a good series are patched in place (same-length strings, so the files stay valid DICOM): a
+// position of 1e300 (aborted the process in vnl), every slice at one position, a zero orientation
+// and a zero pixel spacing (rendered with geometry ITK made up) are each one line.
+TEST_CASE("hostile input: DICOM positions, orientations and spacings are checked before ITK uses them",
+          "[volume_io][itk][dicom][hostile]") {
+    TempDir tmp;
+    const std::array<int, 3> dims{4, 3, 3};
+    std::vector<std::int16_t> stored(std::size_t(dims[0] * dims[1] * dims[2]), 7);
+    volume_io::ItkGeometry g;
+    g.spacing = {2, 2, 3};
+    g.origin = {12345, 0, 0};  // x written as "12345": patched to "1e300" below
+    const std::string folder = tmp.path("series");
+    volume_io::write_dicom_series(folder, dims, stored, g, 1.0, 0.0);
+    REQUIRE(load_volume(folder).dims == dims);
+    std::vector<std::string> slices;
+    for (const auto& entry : fs::directory_iterator(folder)) slices.push_back(entry.path().string());
+    std::sort(slices.begin(), slices.end());
+    REQUIRE(slices.size() == 3);
+    // Replaces the first `from` in the file by `to` (same length); false when absent.
+    const auto patch = [](const std::string& path, const std::string& from, const std::string& to) {
+        std::vector<char> bytes = bytes_of(path);
+        auto at = std::search(bytes.begin(), bytes.end(), from.begin(), from.end());
+        if (at == bytes.end() || from.size() != to.size()) return false;
+        std::copy(to.begin(), to.end(), at);
+        write_bytes(path, bytes.data(), bytes.size());
+        return true;
+    };
+    const auto copy_series = [&](const std::string& name) {
+        fs::copy(folder, tmp.path(name));
+        std::vector<std::string> copies;
+        for (const std::string& s : slices) copies.push_back((fs::path(tmp.path(name)) / fs::path(s).filename()).string());
+        return copies;
+    };
+
+    std::vector<std::string> far = copy_series("far");
+    REQUIRE(patch(far[0], "12345\\", "1e300\\"));
+    require_one_line(error_of([&] { load_volume(tmp.path("far")); }), far[0], "ImagePositionPatient");
+
+    std::vector<std::string> stacked = copy_series("stacked");
+    for (const std::string& s : stacked) {  // z = 0, 3, 6 → all 0
+        for (const char* z : {"\\0\\3", "\\0\\6"}) patch(s, z, "\\0\\0");
+    }
+    require_one_line(error_of([&] { load_volume(tmp.path("stacked")); }), tmp.path("stacked"), "one position");
+
+    std::vector<std::string> flat = copy_series("flat");
+    for (const std::string& s : flat) REQUIRE(patch(s, "1\\0\\0\\0\\1\\0", "0\\0\\0\\0\\0\\0"));
+    require_one_line(error_of([&] { load_volume(tmp.path("flat")); }), flat[0], "ImageOrientationPatient");
+
+    std::vector<std::string> zero = copy_series("zero");
+    for (const std::string& s : zero) REQUIRE(patch(s, "2\\2", "0\\0"));
+    require_one_line(error_of([&] { load_volume(tmp.path("zero")); }), zero[0], "PixelSpacing: must be > 0");
+    require_one_line(error_of([&] { load_volume(zero[0]); }), zero[0], "PixelSpacing: must be > 0");  // one file alone
+}

@@ -176,6 +176,80 @@ std::vector<std::string> folder_files(const std::string& dir, std::uint64_t* tot
     return files;
 }
 
+// The geometry a DICOM file's header declares, as numbers: ImagePositionPatient (0020,0032),
+// ImageOrientationPatient (0020,0037), PixelSpacing (0028,0030); empty where a tag is absent.
+struct DicomGeometry {
+    std::vector<double> position, orientation, spacing;
+};
+
+// "a\\b\\c" (DICOM's decimal strings, backslash-separated) → numbers; throws naming the tag when a
+// value is not a finite number or the count is wrong.
+std::vector<double> dicom_numbers(const itk::MetaDataDictionary& dict, const char* tag, const char* name,
+                                  std::size_t count, const std::string& file) {
+    std::string text;
+    if (!itk::ExposeMetaData<std::string>(dict, tag, text) || text.find_first_not_of(std::string(" \0", 2)) == std::string::npos) return {};
+    std::vector<double> values;
+    std::stringstream in(text);
+    for (std::string part; std::getline(in, part, '\\');) {
+        char* end = nullptr;
+        const double v = std::strtod(part.c_str(), &end);
+        while (end && *end == ' ') ++end;
+        if (part.empty() || !end || *end != '\0' || !std::isfinite(v) || std::fabs(v) > double(limits::kMaxCoordinate))
+            throw file_error(file, name, "'" + one_line(text) + "' is not " + std::to_string(count) + " finite numbers within ±1e18");
+        values.push_back(v);
+    }
+    if (values.size() != count)
+        throw file_error(file, name, "'" + one_line(text) + "' is not " + std::to_string(count) + " numbers");
+    return values;
+}
+
+DicomGeometry dicom_geometry(const itk::MetaDataDictionary& dict, const std::string& file) {
+    DicomGeometry g;
+    g.position = dicom_numbers(dict, "0020|0032", "ImagePositionPatient", 3, file);
+    g.orientation = dicom_numbers(dict, "0020|0037", "ImageOrientationPatient", 6, file);
+    g.spacing = dicom_numbers(dict, "0028|0030", "PixelSpacing", 2, file);
+    if (!g.orientation.empty()) {  // two unit vectors at a right angle
+        const double* r = g.orientation.data();
+        const double* c = r + 3;
+        const double rr = r[0] * r[0] + r[1] * r[1] + r[2] * r[2], cc = c[0] * c[0] + c[1] * c[1] + c[2] * c[2];
+        const double rc = r[0] * c[0] + r[1] * c[1] + r[2] * c[2];
+        if (!(std::fabs(rr - 1) <= 1e-3 && std::fabs(cc - 1) <= 1e-3 && std::fabs(rc) <= 1e-3))
+            throw file_error(file, "ImageOrientationPatient", "the row and column directions are not orthonormal");
+    }
+    for (double v : g.spacing)
+        if (!(v >= double(limits::kMinLength)))
+            throw file_error(file, "PixelSpacing", "must be > 0, got " + std::to_string(v));
+    return g;
+}
+
+// Every slice of a series read as headers only and checked before ITK computes with them (a
+// position of 1e300 aborted in vnl; zero orientations and spacings became made-up geometry):
+// each slice's own fields (dicom_geometry), then the positions along the slice normal distinct.
+void check_series_geometry(const std::string& dir, const std::vector<std::string>& files) {
+    std::vector<double> along;
+    for (const std::string& file : files) {
+        auto io = itk::GDCMImageIO::New();
+        io->SetFileName(file);
+        io->ReadImageInformation();
+        const DicomGeometry g = dicom_geometry(io->GetMetaDataDictionary(), file);
+        if (g.position.empty() || g.orientation.empty()) {
+            if (files.size() > 1) throw file_error(file, "ImagePositionPatient", "missing: a series needs each slice's position and orientation");
+            continue;
+        }
+        const double* r = g.orientation.data();
+        const double* c = r + 3;
+        const double n[3] = {r[1] * c[2] - r[2] * c[1], r[2] * c[0] - r[0] * c[2], r[0] * c[1] - r[1] * c[0]};
+        along.push_back(g.position[0] * n[0] + g.position[1] * n[1] + g.position[2] * n[2]);
+    }
+    if (along.size() < 2) return;
+    std::sort(along.begin(), along.end());
+    const double span = along.back() - along.front();
+    if (!(span > 0)) throw file_error(dir, "slices", "all " + std::to_string(along.size()) + " slices lie at one position");
+    for (std::size_t i = 1; i < along.size(); ++i)
+        if (!(along[i] - along[i - 1] > 1e-6 * span))
+            throw file_error(dir, "slices", "two slices lie at one position (" + std::to_string(along[i]) + " along the normal): a duplicate?");
+}
+
 // The file names of the one series in `dir`, sorted by slice position along the slice normal.
 std::vector<std::string> series_files(const std::string& dir) {
     auto names = itk::GDCMSeriesFileNames::New();
@@ -269,6 +343,7 @@ Volume read_series(const std::string& dir, const VolumeLoadOptions& options) {
     std::uint64_t total_bytes = 0;
     folder_files(dir, &total_bytes);
     const std::vector<std::string> files = series_files(dir);
+    check_series_geometry(dir, files);
     auto first = itk::GDCMImageIO::New();
     first->SetFileName(files.front());
     first->ReadImageInformation();
@@ -308,6 +383,7 @@ Volume read_file(const std::string& path, ItkFormat format, const VolumeLoadOpti
         throw file_error(path, "header", std::string("not a readable ") + format_name(format) + " file");
     io->SetFileName(path);
     io->ReadImageInformation();
+    if (format == ItkFormat::dicom) dicom_geometry(io->GetMetaDataDictionary(), path);
     check_header(path, *io, 1, input_bytes, options);
 
     auto reader = itk::ImageFileReader<Image>::New();
