@@ -1,5 +1,5 @@
 // One volume reader: the input is the whole file, named SOMBRA_FUZZ_FILE (its extension picks the
-// reader: v.nii, v.nii.gz, v.npy, v.npz, v.den, v.inr, v.vtk).
+// reader: v.nii, v.nii.gz, v.npy, v.npz, v.den, v.inr, v.vtk, and through ITK v.nrrd, v.mha, v.tif).
 #include "fuzz_support.h"
 #include "sombra/volume.h"
 

@@ -122,3 +122,35 @@ put("scene", "generators.json", """{
 }
 """)
 put("points", "points.csv", "# x,y,z\n0,0,0\n0.1;0.05;0\n  0 0.1 0.02\n\n1e3,-2.5e-3,7\n")
+
+# ITK's formats (issue 25): NRRD raw and gzip, MetaImage with attached data, a two-page TIFF stack
+float_bytes = struct.pack("<24f", *voxels)
+nrrd_head = ("NRRD0004\ntype: float\ndimension: 3\nspace: left-posterior-superior\nsizes: 2 3 4\n"
+             "space directions: (1,0,0) (0,1.5,0) (0,0,2)\nspace origin: (1,2,3)\nendian: little\n")
+put("nrrd", "raw.nrrd", (nrrd_head + "encoding: raw\n\n").encode() + float_bytes)
+put("nrrd", "gzip.nrrd", (nrrd_head + "encoding: gzip\n\n").encode() + gzip.compress(float_bytes, mtime=0))
+put("metaimage", "attached.mha", b"ObjectType = Image\nNDims = 3\nDimSize = 2 3 4\nElementSpacing = 1 1.5 2\n"
+    b"ElementType = MET_FLOAT\nElementDataFile = LOCAL\n" + float_bytes)
+
+
+def tiff_stack(pages=2, width=3, height=2):
+    """A little-endian TIFF of `pages` uint16 pages, one strip each, written by hand (TIFF 6.0)."""
+    out = bytearray(b"II*\0" + struct.pack("<I", 8))
+    for page in range(pages):
+        ifd = len(out)
+        entries = [(256, 3, width), (257, 3, height), (258, 3, 16), (259, 3, 1), (262, 3, 1), (273, 4, 0),
+                   (277, 3, 1), (278, 3, height), (279, 4, 2 * width * height)]
+        data_at = ifd + 2 + 12 * len(entries) + 4
+        out += struct.pack("<H", len(entries))
+        for tag, kind, value in entries:
+            value = data_at if tag == 273 else value
+            out += struct.pack("<HHI", tag, kind, 1) + (struct.pack("<HH", value, 0) if kind == 3 else struct.pack("<I", value))
+        next_at = data_at + 2 * width * height if page + 1 < pages else 0
+        out += struct.pack("<I", next_at)
+        out += struct.pack("<%dH" % (width * height), *[page * 100 + i for i in range(width * height)])
+    return bytes(out)
+
+
+put("tiff", "stack.tif", tiff_stack())
+put("tiff", "one_page.tif", tiff_stack(1))
+

