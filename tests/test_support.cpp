@@ -2,13 +2,19 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <unistd.h>
 
 namespace sombra::test {
 
+// The device of the whole suite: SOMBRA_DEVICE (a --device value: "cpu", "gpu", "auto" or an index
+// from `sombra devices`), PoCL's CPU device by default.
 Context& context() {
-    static Context ctx("cpu");
+    static Context ctx([] {
+        const char* chosen = std::getenv("SOMBRA_DEVICE");
+        return std::string(chosen && *chosen ? chosen : "cpu");
+    }());
     return ctx;
 }
 

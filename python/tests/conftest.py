@@ -11,4 +11,4 @@ SOURCE_DIR = pathlib.Path(os.environ.get("SOMBRA_SOURCE_DIR", pathlib.Path(__fil
 def context():
     import sombra
 
-    return sombra.Context()
+    return sombra.Context(os.environ.get("SOMBRA_DEVICE", "auto"))  # as the C++ suite: a --device value

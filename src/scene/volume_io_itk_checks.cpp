@@ -180,21 +180,54 @@ std::uint64_t check_nrrd(const std::string& header, std::uint64_t header_bytes) 
     return detached ? data_file_bytes(header, "data file", names) : header_bytes;
 }
 
+// A MetaImage header as MetaIO reads it: "Key = value" lines of text up to ElementDataFile.
+// MetaIO compares keys as C strings, so a NUL inside a line hides the rest of the key from it but
+// not from us: the header must be printable text. NDims comes before the fields sized by it and
+// DimSize (and ElementSpacing / ElementSize) hold exactly NDims values: MetaIO sizes its reads by
+// its own reading of them, ITK its buffer by its, and where they differed MetaIO wrote past the
+// buffer (found by fuzzing).
 std::uint64_t check_metaimage(const std::string& header, std::uint64_t header_bytes) {
     std::ifstream in(header, std::ios::binary);
     std::string line;
+    long long ndims = 0;
+    bool dims_seen = false;
+    const auto count_values = [&](const std::string& key, const std::string& value) {
+        if (ndims == 0) throw file_error(header, key, "comes before NDims");
+        const std::size_t n = tokens(value).size();
+        if (n != std::size_t(ndims))
+            throw file_error(header, key, std::to_string(n) + " values for NDims = " + std::to_string(ndims));
+    };
     for (std::size_t n = 0; n < kMaxHeaderLines && std::getline(in, line); ++n) {
         if (!line.empty() && line.back() == '\r') line.pop_back();
+        for (unsigned char c : line)
+            if (c < 0x20 && c != '\t')
+                throw file_error(header, "header", "line " + std::to_string(n + 1) + " is not text (a control byte)");
+        if (trim(line).empty()) continue;
+        // "Key = value" with Key an identifier of at most 64 characters and the value at most 250
+        // (MetaIO copies keys and string values into 255-byte buffers unchecked: longer ones
+        // aborted the process)
         const std::size_t eq = line.find('=');
-        if (eq == std::string::npos) continue;
-        const std::string key = trim(line.substr(0, eq)), value = trim(line.substr(eq + 1));
+        const std::string key = trim(line.substr(0, eq == std::string::npos ? 0 : eq));
+        const bool identifier = !key.empty() && key.size() <= 64 && !std::isdigit(static_cast<unsigned char>(key[0])) &&
+                                std::all_of(key.begin(), key.end(), [](unsigned char c) { return std::isalnum(c) || c == '_'; });
+        if (eq == std::string::npos || !identifier)
+            throw file_error(header, "header", "line " + std::to_string(n + 1) + " is not 'Key = value'");
+        const std::string value = trim(line.substr(eq + 1));
+        if (value.size() > 250) throw file_error(header, key, "value longer than 250 characters");
         if (key == "NDims") {
-            const long long d = parse_int(header, "NDims", value);
-            if (d < 1 || d > 4) throw file_error(header, "NDims", std::to_string(d) + " (must be 1 … 4)");
+            ndims = parse_int(header, "NDims", value);
+            if (ndims < 1 || ndims > 4) throw file_error(header, "NDims", std::to_string(ndims) + " (must be 1 … 4)");
+        } else if (key == "DimSize") {
+            count_values(key, value);
+            for (const std::string& word : tokens(value))
+                if (parse_int(header, key, word) < 1) throw file_error(header, key, "sizes must be ≥ 1, got " + word);
+            dims_seen = true;
         } else if (key == "ElementSpacing" || key == "ElementSize") {
+            count_values(key, value);
             int axis = 0;
             for (const std::string& word : tokens(value)) check_length(header, key, std::fabs(parse_number(header, key, word)), axis++);
         } else if (key == "ElementDataFile") {  // the last field: the data (or the LIST) follows
+            if (!dims_seen) throw file_error(header, "DimSize", "missing");
             if (value == "LOCAL") return header_bytes;
             return data_file_bytes(header, key, data_file_names(header, key, value, in));
         }
