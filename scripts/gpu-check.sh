@@ -1,0 +1,100 @@
+#!/usr/bin/env bash
+# The GPU check (issue 33 item 4): one command for the day a machine with a GPU is lent. Builds,
+# lists the OpenCL devices, runs the library and Python tests on the device, renders the shipped
+# scenes with every technique on the device and on PoCL and compares the images, and runs the
+# camera-pass and DSM benches; everything goes into one report file. Meant to finish within 8
+# minutes on the lent machine (each step has its own time limit). CI runs it with
+# `--device cpu --quick --no-build` on PoCL so that it cannot rot.
+#
+#   scripts/gpu-check.sh [--device gpu|cpu|N] [--quick] [--no-build] [--report FILE]
+#
+# Exit 0 when every step ran to its end (image differences are reported, not judged: no GPU has
+# been measured yet to set a tolerance), 1 otherwise.
+set -uo pipefail
+cd "$(dirname "$0")/.."
+export PATH="/usr/local/bin:/usr/bin:/bin:${PATH:-}"
+device=gpu quick=0 build=1 report=gpu-check.md
+while [ $# -gt 0 ]; do
+  case $1 in
+    --device) device=$2; shift 2 ;;
+    --quick) quick=1; shift ;;
+    --no-build) build=0; shift ;;
+    --report) report=$2; shift 2 ;;
+    *) echo "gpu-check: unknown argument $1 (--device D, --quick, --no-build, --report FILE)" >&2; exit 2 ;;
+  esac
+done
+start=$(date +%s)
+failed=0
+{
+  echo "# sombra GPU check"
+  echo
+  echo "$(date -u '+%Y-%m-%d %H:%M UTC'), commit $(git rev-parse --short HEAD 2>/dev/null || echo '?'), device '$device'$([ $quick = 1 ] && echo ', quick')"
+} >"$report"
+
+# step NAME SECONDS COMMAND…: runs it with a time limit, its output's last 60 lines into the report
+step() {
+  local name=$1 limit=$2
+  shift 2
+  local t0 out status
+  t0=$(date +%s)
+  out=$(timeout "$limit" "$@" 2>&1)
+  status=$?
+  {
+    echo
+    echo "## $name ($(( $(date +%s) - t0 )) s, exit $status)"
+    echo
+    echo '```'
+    tail -n 60 <<<"$out"
+    echo '```'
+  } >>"$report"
+  [ $status -eq 0 ] || failed=1
+  echo "gpu-check: $name: exit $status"
+}
+
+[ $build = 1 ] && step "build" 360 scripts/build.sh
+step "devices" 60 build/sombra devices
+if [ $quick = 1 ]; then
+  step "tests on $device (accuracy subset)" 300 env SOMBRA_DEVICE="$device" ctest --test-dir build -j2 --timeout 120 -R "accuracy"
+else
+  # the whole suite but what is not about the device (packages, fuzz replays, the second OpenCL
+  # implementation, the layout check); the CLI tests use the CLI's default device, auto: the GPU
+  step "tests on $device" 300 env SOMBRA_DEVICE="$device" ctest --test-dir build -j4 --timeout 120 -LE "package|slow|bench" \
+    -E "portability|fuzz-regressions|layout"
+fi
+
+# images: every shipped scene and technique on the device and on PoCL, side by side
+size=$([ $quick = 1 ] && echo 24 || echo 64)
+scenes=$([ $quick = 1 ] && echo "default smoke" || ls data/scenes/*.json | xargs -n1 basename | sed 's/\.json$//' | tr '\n' ' ')
+techniques=$([ $quick = 1 ] && echo "none dsm rays" || echo "none dsm rays shadowmap lowpass")
+step "images: $device against PoCL ($size², $techniques)" 240 env PYTHONPATH=build/python /usr/bin/python3 - "$device" "$size" "$scenes" "$techniques" <<'PY'
+import sys, numpy as np, sombra
+device, size, scenes, techniques = sys.argv[1], int(sys.argv[2]), sys.argv[3].split(), sys.argv[4].split()
+on, pocl = sombra.Context(device), sombra.Context("cpu")
+print(f"device: {on.device}; reference: {pocl.device}")
+print(f"{'scene':<18} {'technique':<10} {'max |Δ|':>9} {'mean |Δ|':>10}")
+worst = 0.0
+for name in scenes:
+    scene = sombra.load_scene(f"data/scenes/{name}.json")
+    for t in techniques:
+        try:
+            a, _ = sombra.render(on, scene, shadows=t, width=size, height=size, dsm_resolution=128)
+            b, _ = sombra.render(pocl, scene, shadows=t, width=size, height=size, dsm_resolution=128)
+        except sombra.Error as e:
+            print(f"{name:<18} {t:<10} refused: {e}")
+            continue
+        d = np.abs(a - b)
+        worst = max(worst, float(d.max()))
+        print(f"{name:<18} {t:<10} {d.max():9.2e} {d.mean():10.2e}" + ("   <- differs" if d.max() > 0.02 else ""))
+print(f"largest difference: {worst:.3g}")
+PY
+if [ $quick = 1 ]; then
+  step "camera bench" 120 build/bench/sombra_bench_camera --scene data/scenes/default.json --device "$device" --width 64 --height 64 --runs 1 --no-scalar
+  step "DSM bench" 120 build/bench/sombra_bench_dsm --scene data/scenes/default.json --device "$device" --resolutions 64 --eps 0.02 --width 32 --height 32 --runs 1 --points 20
+else
+  step "camera bench" 180 build/bench/sombra_bench_camera --scene data/scenes/default.json --device "$device" --width 512 --height 512 --runs 3 --no-scalar
+  step "DSM bench" 180 build/bench/sombra_bench_dsm --scene data/scenes/default.json --device "$device" --resolutions 256,512 --eps 0.01 --runs 3
+fi
+echo >>"$report"
+echo "Total: $(( $(date +%s) - start )) s; $([ $failed = 0 ] && echo 'every step ran to its end' || echo 'a step failed: see its exit status')." >>"$report"
+echo "gpu-check: report in $report ($(( $(date +%s) - start )) s)"
+exit $failed
