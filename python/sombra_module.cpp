@@ -325,6 +325,9 @@ PYBIND11_MODULE(sombra, m) {
         [](Context& context, const Scene& scene, int light, const py::object& points, const py::object& options,
            const py::kwargs& kwargs) {
             RenderOptions o = render_options(options, kwargs, "shadow_transmittance");
+            // a query about shadows: deep shadow maps unless a technique is named (RenderOptions'
+            // own default, none, has no shadow term to query)
+            if (options.is_none() && !kwargs.contains("shadows")) o.shadows = ShadowTechnique::Dsm;
             std::vector<Vec3> p = points_of(points, "shadow_transmittance");
             ShadowQuery query;
             {
@@ -335,7 +338,8 @@ PYBIND11_MODULE(sombra, m) {
                                   stats_dict(query.stats));
         },
         py::arg("context"), py::arg("scene"), py::arg("light"), py::arg("points"), py::arg("options") = py::none(),
-        "Transmittance to light `light` at (N, 3) world points by options.shadows ('rays' or 'dsm'); returns (T, stats).");
+        "Transmittance to light `light` at (N, 3) world points by options.shadows (default 'dsm' when neither options nor "
+        "shadows= is given; 'rays', 'shadowmap', 'lowpass', …); returns (T, stats).");
 
     m.def(
         "reference_transmittance",

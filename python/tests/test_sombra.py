@@ -86,6 +86,9 @@ def test_transmittance_against_the_reference(context):
     assert stats["dsm"]["views"] == 1
     lit = sombra.shadow_transmittance(context, scene, 0, [(0, 5, 5)], shadows="rays")[0]  # a plain list works too
     assert lit[0] == pytest.approx(1.0)
+    # no technique named: deep shadow maps (issue 26: the default used to be 'none', an error)
+    default, stats = sombra.shadow_transmittance(context, scene, 0, points[:20])
+    assert stats["dsm"]["views"] == 1 and np.abs(default - reference[:20]).mean() < 0.01
 
 
 def test_deep_shadow_maps(context, tmp_path):
