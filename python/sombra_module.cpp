@@ -277,10 +277,7 @@ PYBIND11_MODULE(sombra, m) {
                 l.cone_angle_deg = cone_angle_deg;
                 // the rules scene files obey (sombra/scene.h), at the call that received the value
                 if (auto problem = light_problem(l)) throw py::value_error("Scene.add_light: " + problem->field + ": " + problem->what);
-                if (l.type != LightType::Point) {
-                    const double length = std::hypot(double(l.direction[0]), double(l.direction[1]), double(l.direction[2]));
-                    for (float& c : l.direction) c = float(c / length);  // as scene files are read
-                }
+                normalize_light_direction(l);
                 s.lights.push_back(l);
                 return s.lights.size() - 1;
             },

@@ -109,6 +109,9 @@ struct FieldProblem {
 };
 std::optional<FieldProblem> volume_problem(const VolumeInstance& volume);  // spacing, step_voxels, opacity_unit
 std::optional<FieldProblem> light_problem(const Light& light);  // direction, color, intensity, cone, attenuation
+// Makes a directional or spot light's direction a unit vector, as scene files are read (after
+// light_problem found it non-zero).
+void normalize_light_direction(Light& light);
 
 // Checks values that make no sense (camera at its look-at point, zero-size volumes, …) and every
 // volume's and light's fields (volume_problem, light_problem): throws "WHERE: FIELD: what".

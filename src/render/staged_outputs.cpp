@@ -23,16 +23,6 @@ StagedOutputs::~StagedOutputs() {
 
 namespace {
 
-const char* kind_of(const fs::file_status& st) {
-    switch (st.type()) {
-        case fs::file_type::fifo: return "a FIFO";
-        case fs::file_type::character: return "a character device";
-        case fs::file_type::block: return "a block device";
-        case fs::file_type::socket: return "a socket";
-        default: return "not a plain file";
-    }
-}
-
 // Whether two paths name one file: the same device and inode when both exist (links resolved),
 // else the same path once made absolute and normal.
 bool same_file(const std::string& a, const std::string& b) {
@@ -46,41 +36,38 @@ bool same_file(const std::string& a, const std::string& b) {
 
 void StagedOutputs::check_target(const std::string& final_path) {
     const fs::path target(final_path), folder = target.parent_path().empty() ? fs::path(".") : target.parent_path();
-    std::error_code ec;
-    const fs::file_status st = fs::status(target, ec);  // follows links: what the name leads to
-    if (fs::is_directory(st)) throw Error(final_path + ": cannot write: is a directory");
-    if (fs::exists(st)) {
-        if (!fs::is_regular_file(st))
-            throw Error(final_path + ": cannot write: " + kind_of(st) + ", not a regular file (outputs replace only regular files)");
-        struct stat info {};
-        if (::stat(final_path.c_str(), &info) == 0) {
-            const detail::FileIdentity id{std::uint64_t(info.st_dev), std::uint64_t(info.st_ino)};
-            for (const auto& [input, input_path] : detail::inputs_read())
-                if (input == id)
-                    throw Error(final_path + ": cannot write: it is an input of this command (" + input_path +
-                                "); name another output");
-        }
+    struct stat info {};
+    if (::stat(final_path.c_str(), &info) == 0) {  // follows links: what the name leads to
+        if (S_ISDIR(info.st_mode)) throw Error(final_path + ": cannot write: is a directory");
+        if (!S_ISREG(info.st_mode))
+            throw Error(final_path + ": cannot write: " + file_kind(info.st_mode) +
+                        ", not a regular file (outputs replace only regular files)");
+        const FileIdentity id{std::uint64_t(info.st_dev), std::uint64_t(info.st_ino)};
+        for (const auto& [input, input_path] : inputs_read())
+            if (input == id)
+                throw Error(final_path + ": cannot write: it is an input of this command (" + input_path + "); name another output");
     }
+    std::error_code ec;
     if (!fs::is_directory(folder, ec)) throw Error(final_path + ": cannot write: no folder " + folder.string());
+}
+
+void StagedOutputs::check_distinct(const std::string& earlier, const std::string& final_path) {
+    if (!earlier.empty() && same_file(earlier, final_path))
+        throw Error(final_path + ": named twice as an output" + (earlier == final_path ? "" : " (also as " + earlier + ")"));
 }
 
 void StagedOutputs::check_targets(const std::vector<std::string>& final_paths) {
     for (std::size_t i = 0; i < final_paths.size(); ++i) {
         if (final_paths[i].empty()) continue;
         check_target(final_paths[i]);
-        for (std::size_t k = 0; k < i; ++k)
-            if (!final_paths[k].empty() && same_file(final_paths[k], final_paths[i]))
-                throw Error(final_paths[i] + ": named twice as an output" +
-                            (final_paths[k] == final_paths[i] ? "" : " (also as " + final_paths[k] + ")"));
+        for (std::size_t k = 0; k < i; ++k) check_distinct(final_paths[k], final_paths[i]);
     }
 }
 
 std::string StagedOutputs::stage(const std::string& final_path) {
     const fs::path target(final_path);
-    std::vector<std::string> finals;
-    for (const auto& file : files_) finals.push_back(file.second);
-    finals.push_back(final_path);
-    check_targets(finals);
+    check_target(final_path);
+    for (const auto& file : files_) check_distinct(file.second, final_path);
     // hidden, unique to this process, same extension: NAME.png → .NAME.sombra-PID-K.png
     const std::string staged = (target.parent_path() / ("." + target.stem().string() + ".sombra-" +
                                                         std::to_string(::getpid()) + "-" + std::to_string(files_.size()) +

@@ -44,6 +44,8 @@ public:
     void commit();
 
 private:
+    // Throws "FINAL: named twice as an output" when `earlier` (non-empty) names the same file.
+    static void check_distinct(const std::string& earlier, const std::string& final_path);
     [[noreturn]] static void throw_renamed(std::string message, const std::string& staged, const std::string& final_path);
     std::vector<std::pair<std::string, std::string>> files_;  // (staged, final)
 };

@@ -24,15 +24,6 @@ void note_input(const struct stat& st, const std::string& path) {
     inputs.emplace_back(id, path);
 }
 
-const char* kind_of(mode_t mode) {
-    if (S_ISDIR(mode)) return "a directory";
-    if (S_ISFIFO(mode)) return "a FIFO";
-    if (S_ISCHR(mode)) return "a character device";
-    if (S_ISBLK(mode)) return "a block device";
-    if (S_ISSOCK(mode)) return "a socket";
-    return "not a plain file";
-}
-
 // An open, regular file; closes itself.
 class RegularFile {
 public:
@@ -42,7 +33,7 @@ public:
         if (fd_ < 0) throw file_error(path, "", std::string("cannot open for reading: ") + std::strerror(errno));
         struct stat st {};
         if (::fstat(fd_, &st) != 0) fail(std::string("cannot stat: ") + std::strerror(errno));
-        if (!S_ISREG(st.st_mode)) fail(std::string("not a regular file (") + kind_of(st.st_mode) + ")");
+        if (!S_ISREG(st.st_mode)) fail(std::string("not a regular file (") + file_kind(st.st_mode) + ")");
         note_input(st, path);
         size_ = std::uint64_t(st.st_size);
     }
@@ -65,6 +56,15 @@ private:
 };
 
 }  // namespace
+
+const char* file_kind(std::uint32_t mode) {
+    if (S_ISDIR(mode)) return "a directory";
+    if (S_ISFIFO(mode)) return "a FIFO";
+    if (S_ISCHR(mode)) return "a character device";
+    if (S_ISBLK(mode)) return "a block device";
+    if (S_ISSOCK(mode)) return "a socket";
+    return "not a plain file";
+}
 
 std::vector<std::pair<FileIdentity, std::string>> inputs_read() {
     std::lock_guard<std::mutex> lock(inputs_mutex);

@@ -15,6 +15,10 @@ struct FileIdentity {
     bool operator==(const FileIdentity& o) const { return device == o.device && inode == o.inode; }
 };
 
+// What a non-regular file is, from its stat(2) mode: "a directory", "a FIFO", "a character
+// device", "a block device", "a socket" or "not a plain file".
+const char* file_kind(std::uint32_t mode);
+
 // Every file this process opened through regular_file_size / read_regular_file (every reader goes
 // through them), with the path it was opened by: outputs are checked against them so that no
 // command ever writes over one of its own inputs (render/staged_outputs.h). Thread-safe.

@@ -226,10 +226,7 @@ Light read_light(const json& j, const std::string& file, const std::string& path
         l.att_constant = a[0], l.att_linear = a[1], l.att_quadratic = a[2];
     }
     if (auto problem = light_problem(l)) f.fail(problem->field, problem->what);
-    if (l.type != LightType::Point) {
-        const double len = std::hypot(double(l.direction[0]), double(l.direction[1]), double(l.direction[2]));
-        for (float& c : l.direction) c = float(c / len);
-    }
+    normalize_light_direction(l);
     f.finish();
     return l;
 }
@@ -299,6 +296,12 @@ std::optional<FieldProblem> light_problem(const Light& l) {
             return FieldProblem{"attenuation", "constant, linear, quadratic must be ≥ 0 and not all 0"};
     }
     return std::nullopt;
+}
+
+void normalize_light_direction(Light& l) {
+    if (l.type == LightType::Point) return;
+    const double len = std::hypot(double(l.direction[0]), double(l.direction[1]), double(l.direction[2]));
+    for (float& c : l.direction) c = float(c / len);
 }
 
 void validate_scene(const Scene& scene, const std::string& where) {
