@@ -273,9 +273,9 @@ sombra::RenderOptions dsm_options(const Variant& v, int width, int height, const
     sombra::RenderOptions o;
     o.width = width, o.height = height;
     o.shadows = sombra::ShadowTechnique::Dsm;
-    o.dsm_resolution = v.resolution;
-    o.dsm_clusters = v.clusters;
-    o.dsm_storage = storage;
+    o.dsm.resolution = v.resolution;
+    o.dsm.clusters = v.clusters;
+    o.dsm.storage = storage;
     return o;
 }
 
@@ -466,7 +466,7 @@ TimingRow timing_row(const sombra::RenderOptions& options, const std::vector<som
         clustering.push_back(stats.stage_ms.count("dsm_clustering") ? stats.stage_ms.at("dsm_clustering") : 0.0);
     }
     TimingRow r;
-    r.resolution = options.dsm_resolution, r.clusters = options.dsm_clusters, r.storage = options.dsm_storage;
+    r.resolution = options.dsm.resolution, r.clusters = options.dsm.clusters, r.storage = options.dsm.storage;
     r.views = renders.back().stats.dsm_views, r.bytes = renders.back().stats.dsm_bytes_used;
     r.clustering_ms = median(clustering), r.generation_ms = median(generation), r.camera_ms = median(camera), r.wall_ms = median(wall);
     return r;
@@ -482,9 +482,9 @@ std::vector<TimingRow> measure_timing(sombra::Context& context, const sombra::Sc
         for (std::size_t v = 0; v < variants.size(); ++v) {
             renders[v].push_back(sombra::bench::fresh_renders(context, scene, variants[v], 1, false).front());
             const sombra::RenderStats& st = renders[v].back().stats;
-            std::cout << "run " << run + 1 << ", " << variants[v].dsm_resolution << "² "
-                      << (variants[v].dsm_clusters ? std::to_string(variants[v].dsm_clusters) + " clusters" : "unclustered")
-                      << " " << variants[v].dsm_storage << ": camera " << fixed(st.stage_ms.at("camera_pass"), 1) << " ms, wall "
+            std::cout << "run " << run + 1 << ", " << variants[v].dsm.resolution << "² "
+                      << (variants[v].dsm.clusters ? std::to_string(variants[v].dsm.clusters) + " clusters" : "unclustered")
+                      << " " << variants[v].dsm.storage << ": camera " << fixed(st.stage_ms.at("camera_pass"), 1) << " ms, wall "
                       << fixed(renders[v].back().wall_ms, 0) << " ms" << std::endl;
         }
     std::vector<TimingRow> rows;

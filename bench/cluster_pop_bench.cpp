@@ -70,8 +70,8 @@ int main(int argc, char** argv) {
         sombra::Context plain_context(device);
         sombra::RenderOptions plain;
         plain.shadows = sombra::ShadowTechnique::Dsm;
-        plain.dsm_resolution = 2 * resolution;  // as many texels per light view as 4 clusters
-        plain.dsm_epsilon = 0.01f;
+        plain.dsm.resolution = 2 * resolution;  // as many texels per light view as 4 clusters
+        plain.dsm.epsilon = 0.01f;
         plain.shadow_cache = sombra::ShadowCacheMode::Off;
         plain.width = width, plain.height = height;
         std::vector<sombra::Image> plain_images;
@@ -86,10 +86,10 @@ int main(int argc, char** argv) {
             sombra::Context context(device);
             sombra::RenderOptions o;
             o.shadows = sombra::ShadowTechnique::Dsm;
-            o.dsm_resolution = resolution;
-            o.dsm_epsilon = 0.01f;
-            o.dsm_clusters = clusters;
-            o.dsm_cluster_hysteresis = h;
+            o.dsm.resolution = resolution;
+            o.dsm.epsilon = 0.01f;
+            o.dsm.clusters = clusters;
+            o.dsm.cluster_hysteresis = h;
             o.shadow_cache = sombra::ShadowCacheMode::Off;
             o.width = width, o.height = height;
             sombra::Scene scene = base;  // moves as `moving` did

@@ -38,8 +38,8 @@ const std::vector<std::string> kDsmStorages = {"atlas", "chunked"};
 
 // Sets RenderOptions::dsm_storage when it exists (and takes a name); otherwise only "compact".
 template <class O>
-auto set_dsm_storage(O& options, const std::string& name, int) -> decltype(options.dsm_storage = name, void()) {
-    options.dsm_storage = name;
+auto set_dsm_storage(O& options, const std::string& name, int) -> decltype(options.dsm.storage = name, void()) {
+    options.dsm.storage = name;
 }
 template <class O>
 void set_dsm_storage(O&, const std::string& name, long) {
@@ -112,7 +112,7 @@ std::string measure_regeneration(sombra::Context& context, sombra::Scene scene, 
     for (const std::string& storage : storages) {
         sombra::RenderOptions options = base;
         options.shadows = sombra::ShadowTechnique::Dsm;
-        options.dsm_resolution = resolution, options.dsm_epsilon = epsilon;
+        options.dsm.resolution = resolution, options.dsm.epsilon = epsilon;
         set_dsm_storage(options, storage, 0);
         std::vector<double> all;
         for (int i = 0; i <= runs; ++i) {  // the first is the warm-up
@@ -218,9 +218,9 @@ std::string measure_speed(sombra::Context& context, const BenchOptions& o) {
                 if (storage == "compact" && runs.size() > 1) break;
                 sombra::RenderOptions dsm = none;
                 dsm.shadows = sombra::ShadowTechnique::Dsm;
-                dsm.dsm_resolution = resolution, dsm.dsm_epsilon = epsilon;
+                dsm.dsm.resolution = resolution, dsm.dsm.epsilon = epsilon;
                 set_dsm_storage(dsm, storage, 0);
-                dsm.dsm_lookup = lookup_name;
+                dsm.dsm.lookup = lookup_name;
                 runs.push_back(dsm);
             }
             std::vector<std::vector<double>> camera_ms(runs.size()), sums(runs.size());
@@ -238,7 +238,7 @@ std::string measure_speed(sombra::Context& context, const BenchOptions& o) {
                 }
             const double none_ms = median(camera_ms[0]);
             for (std::size_t r = 1; r < runs.size(); ++r) {
-                const std::string& lookup_name = runs[r].dsm_lookup;
+                const std::string& lookup_name = runs[r].dsm.lookup;
                 const double dsm_ms = median(camera_ms[r]);
                 lookup << "| " << name << " | " << storage << " | " << lookup_name << " | " << fixed(none_ms, 1) << " | "
                        << fixed(dsm_ms, 1) << " | " << fixed(dsm_ms / none_ms, 2) << " |\n";
@@ -425,7 +425,7 @@ int run(int argc, char** argv) {
                 r.shadows = "dsm", r.storage = storage, r.resolution = resolution, r.epsilon = epsilon;
                 sombra::RenderOptions options = base;
                 options.shadows = sombra::ShadowTechnique::Dsm;
-                options.dsm_resolution = resolution, options.dsm_epsilon = epsilon;
+                options.dsm.resolution = resolution, options.dsm.epsilon = epsilon;
                 set_dsm_storage(options, storage, 0);
                 measure_render(context, scene, options, o.runs, r);
                 measure_error(context, scene, o.light, points, reference, options, r);
@@ -449,7 +449,7 @@ int run(int argc, char** argv) {
         for (const std::string& storage : o.storages) {
             sombra::RenderOptions options = base;
             options.shadows = sombra::ShadowTechnique::Dsm;
-            options.dsm_resolution = lanes_resolution, options.dsm_epsilon = epsilon;
+            options.dsm.resolution = lanes_resolution, options.dsm.epsilon = epsilon;
             set_dsm_storage(options, storage, 0);
             std::map<int, double> ms = measure_lanes(context, scene, options, o.runs);
             lanes_table << "| " << storage << " | " << fixed(ms[1], 1) << " | " << fixed(ms[8], 1) << " | "

@@ -74,15 +74,15 @@ std::vector<Variant> make_variants(const Sweep& sweep, const RenderOptions& base
     };
     add(ShadowTechnique::None, "–", [](RenderOptions&) {});
     for (float step : sweep.ray_steps)
-        add(ShadowTechnique::Rays, "step ×" + shortest(step), [&](RenderOptions& o) { o.shadow_ray_step = step; });
+        add(ShadowTechnique::Rays, "step ×" + shortest(step), [&](RenderOptions& o) { o.rays.step = step; });
     auto add_dsm = [&](int resolution, float epsilon, const std::string& storage, const std::string& prefilter, float step) {
         std::string setting = std::to_string(resolution) + "² ε=" + shortest(epsilon);
         if (step != 1.f) setting += " step ×" + shortest(step);
         if (storage != "atlas") setting += " " + storage;
         if (prefilter != "none") setting += " prefilter " + prefilter;
         add(ShadowTechnique::Dsm, setting, [&](RenderOptions& o) {
-            o.dsm_resolution = resolution, o.dsm_epsilon = epsilon, o.dsm_storage = storage, o.dsm_prefilter = prefilter;
-            o.dsm_step = step;
+            o.dsm.resolution = resolution, o.dsm.epsilon = epsilon, o.dsm.storage = storage, o.dsm.prefilter = prefilter;
+            o.dsm.step = step;
         });
     };
     std::vector<float> all_steps{1.f};
@@ -107,16 +107,16 @@ std::vector<Variant> make_variants(const Sweep& sweep, const RenderOptions& base
             if (prefilter != "none") add_dsm(resolution, epsilon, "atlas", prefilter, 1.f);
     }
     for (int resolution : sweep.resolutions)
-        add(ShadowTechnique::ShadowMap, std::to_string(resolution) + "²", [&](RenderOptions& o) { o.dsm_resolution = resolution; });
+        add(ShadowTechnique::ShadowMap, std::to_string(resolution) + "²", [&](RenderOptions& o) { o.dsm.resolution = resolution; });
     for (const auto& [kernel, widths] : {std::pair{"box", sweep.box_widths}, std::pair{"gauss", sweep.gauss_widths}})
         for (float width : widths)
             add(ShadowTechnique::Lowpass, "W=" + shortest(width) + " " + kernel, [&](RenderOptions& o) {
-                o.lowpass_filter_width = width, o.lowpass_filter_kernel = kernel;
+                o.sat.filter_width = width, o.sat.filter_kernel = kernel;
             });
     for (float width : sweep.ao_widths)
-        add(ShadowTechnique::Ao, "W=" + shortest(width), [&](RenderOptions& o) { o.lowpass_filter_width = width; });
+        add(ShadowTechnique::Ao, "W=" + shortest(width), [&](RenderOptions& o) { o.sat.filter_width = width; });
     for (float angle : sweep.cone_angles)
-        add(ShadowTechnique::Cone, shortest(angle) + "°", [&](RenderOptions& o) { o.cone_angle_deg = angle; });
+        add(ShadowTechnique::Cone, shortest(angle) + "°", [&](RenderOptions& o) { o.sat.cone_angle_deg = angle; });
     return variants;
 }
 
@@ -243,7 +243,7 @@ sombra::Image reference_image(sombra::Context& context, const sombra::Scene& sce
         }
     }
     options.shadows = ShadowTechnique::Rays;
-    options.shadow_ray_step = step;
+    options.rays.step = step;
     options.shadow_cache = sombra::ShadowCacheMode::Off;
     sombra::RenderResult r = sombra::render(context, scene, options);
     sombra::write_image(r.image, path.string());
@@ -282,8 +282,8 @@ std::string csv_table(const std::vector<Row>& rows) {
     for (const Row& r : rows) {
         const RenderOptions& o = r.options;
         s << r.technique << ",\"" << r.setting << "\"," << (r.technique == "none" ? "" : r.cache ? "on" : "off") << ','
-          << r.cache_used << ',' << o.dsm_resolution << ',' << o.dsm_epsilon << ',' << o.dsm_storage << ',' << o.dsm_prefilter << ',' << o.dsm_step << ','
-          << o.shadow_ray_step << ',' << o.lowpass_filter_width << ',' << o.lowpass_filter_kernel << ',' << o.cone_angle_deg << ','
+          << r.cache_used << ',' << o.dsm.resolution << ',' << o.dsm.epsilon << ',' << o.dsm.storage << ',' << o.dsm.prefilter << ',' << o.dsm.step << ','
+          << o.rays.step << ',' << o.sat.filter_width << ',' << o.sat.filter_kernel << ',' << o.sat.cone_angle_deg << ','
           << r.times.build_ms << ',' << r.times.cache_fill_ms << ',' << r.times.camera_ms << ',' << r.times.first_frame_ms << ','
           << r.image.mean << ',' << r.image.tail << ',' << r.point.mean << ',' << r.point.tail << ',' << r.pareto_image << ','
           << r.pareto_point << '\n';

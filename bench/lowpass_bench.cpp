@@ -111,9 +111,9 @@ Row measure(sombra::Context& context, const sombra::Scene& scene, const BenchOpt
     sombra::RenderOptions options;
     options.width = o.width, options.height = o.height;
     options.shadows = m.technique;
-    options.lowpass_filter_width = filter;
-    options.lowpass_filter_kernel = m.kernel;
-    options.cone_angle_deg = o.cone_deg;
+    options.sat.filter_width = filter;
+    options.sat.filter_kernel = m.kernel;
+    options.sat.cone_angle_deg = o.cone_deg;
     // as in Ament Table 1: the SAT methods read the shadow cache (Alg. 1), SS marches per sample
     options.shadow_cache = m.technique == sombra::ShadowTechnique::Rays ? sombra::ShadowCacheMode::Off : sombra::ShadowCacheMode::On;
     Row row;

@@ -247,7 +247,7 @@ int run(int argc, char** argv) {
     sombra::RenderOptions base;
     base.width = o.width, base.height = o.height;
     base.shadows = sombra::ShadowTechnique::Dsm;
-    base.dsm_resolution = o.dsm_resolution, base.dsm_epsilon = o.epsilon;
+    base.dsm.resolution = o.dsm_resolution, base.dsm.epsilon = o.epsilon;
 
     std::cout << "command:  " << command << "\n"
               << "device:   " << context.device().name << " [" << context.device().platform << "]\n"
@@ -268,8 +268,8 @@ int run(int argc, char** argv) {
                 r.label = label, r.storage = storage + (m ? ", " + std::to_string(m) + " clusters" : "");
                 describe(r, scene);
                 sombra::RenderOptions options = base;
-                options.dsm_storage = storage;
-                options.dsm_clusters = m;
+                options.dsm.storage = storage;
+                options.dsm.clusters = m;
                 measure(context, scene, options, o.runs, r);
                 rows.push_back(r);
                 std::cout << label << " " << r.storage << ": gen " << fixed(r.generation_ms, 1) << " ms, raster "

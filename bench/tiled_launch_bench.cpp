@@ -63,12 +63,12 @@ int main(int argc, char** argv) {
         cases.push_back({"shadow rays, " + std::to_string(size) + "²", {"camera pass"}, o});
         o = small;
         o.shadows = sombra::ShadowTechnique::Dsm;
-        o.dsm_resolution = 512;
+        o.dsm.resolution = 512;
         cases.push_back({"DSM 512², atlas", {"deep shadow maps"}, o});
         o.shadows = sombra::ShadowTechnique::Lowpass;
-        o.lowpass_filter_width = 7;
-        o.lowpass_filter_kernel = kernel;
-        o.lowpass_max_entries = std::size_t(1) << 20;
+        o.sat.filter_width = 7;
+        o.sat.filter_kernel = kernel;
+        o.sat.max_entries = std::size_t(1) << 20;
         cases.push_back({"lowpass W 7 " + kernel + ", 2^20 entries", {"summed-area tables", "shadow cache"}, o});
     }
 

@@ -92,26 +92,70 @@ py::array_t<float> matrix_array(const std::array<float, 16>& m) {
 
 py::tuple tuple3(const Vec3& v) { return py::make_tuple(v[0], v[1], v[2]); }
 
-// Keyword options onto RenderOptions: the attributes of the bound RenderOptions class, so the
-// names and types are those of render.h; enumerated ones take their names (render_option_values).
-RenderOptions render_options(const py::object& options, const py::kwargs& kwargs, const char* where) {
-    py::object o = options.is_none() ? py::cast(RenderOptions{}) : options.attr("copy")();
-    if (!py::isinstance<RenderOptions>(o)) throw py::value_error(std::string(where) + ": options: expected a sombra.RenderOptions");
+// A Python value as an option value of the declared kind: bool, an integer (anything with
+// __index__, numpy's too), a real number, or a str; anything else is refused naming the argument.
+OptionValue option_value_of(const OptionSpec& spec, const py::handle& value, const std::string& label) {
+    if (py::isinstance<py::bool_>(value)) return OptionValue(value.cast<bool>());
+    if (py::isinstance<py::str>(value)) return OptionValue(value.cast<std::string>());
+    if (spec.kind != OptionKind::Flag && py::hasattr(value, "__index__")) {
+        py::int_ i = py::reinterpret_steal<py::int_>(PyNumber_Index(value.ptr()));
+        long long v = PyLong_AsLongLong(i.ptr());
+        if (v == -1 && PyErr_Occurred()) {
+            PyErr_Clear();
+            throw Error(label + ": must lie in " + option_range_text(spec) + ", got " + std::string(py::str(value)));
+        }
+        return OptionValue(v);
+    }
+    if (spec.kind == OptionKind::Real && (py::isinstance<py::float_>(value) || py::hasattr(value, "__float__")))
+        return OptionValue(value.cast<double>());
+    const std::string got = py::str(value.get_type().attr("__name__"));
+    static const char* expected[] = {"int", "float", "bool", "str"};
+    throw Error(label + ": expected " + expected[int(spec.kind)] + ", got " + got);
+}
+
+py::object python_value(const OptionValue& value) {
+    return std::visit([](const auto& v) { return py::object(py::cast(v)); }, value);
+}
+
+const OptionSpec& option_spec(const std::string& name, const std::string& where) {
+    const OptionSpec* spec = find_render_option(name);
+    if (!spec || spec->key != name) throw py::value_error(where + ": unknown option '" + name + "' (see sombra.RenderOptions)");
+    return *spec;
+}
+
+// Keywords onto options, each checked by its declaration and named as the caller wrote it.
+void apply_keywords(RenderOptions& options, const py::kwargs& kwargs, const std::string& where) {
     for (const auto& [key, value] : kwargs) {
         const std::string name = py::str(key);
-        if (name.empty() || name[0] == '_' || !py::hasattr(o, key) || name == "copy")
-            throw py::value_error(std::string(where) + ": unknown option '" + name + "' (see sombra.RenderOptions)");
+        const OptionSpec& spec = option_spec(name, where);
+        const std::string label = where.empty() ? name : where + ": " + name;
         try {
-            o.attr(key) = value;
-        } catch (const py::error_already_set& e) {  // a wrong type, or a name the library does not know
-            const std::string why = e.matches(PyExc_TypeError)
-                                        ? "expected " + std::string(py::str(o.attr(key).get_type().attr("__name__"))) + ", got " +
-                                              std::string(py::str(value.get_type().attr("__name__")))
-                                        : std::string(py::str(e.value()));  // the library names the option
-            throw py::value_error(std::string(where) + ": " + (e.matches(PyExc_TypeError) ? name + ": " : "") + why);
+            set_option(options, spec, option_value_of(spec, value, label), label);
+        } catch (const Error& e) {
+            throw py::value_error(e.what());
         }
     }
-    return o.cast<RenderOptions>();
+}
+
+// A call's options: the given RenderOptions, else the scene file's "render" block; then the
+// keywords. An option given as a keyword that does not apply to the technique is refused.
+RenderOptions call_options(const Scene& scene, const py::object& options, const py::kwargs& kwargs, const char* where) {
+    if (!options.is_none() && !py::isinstance<RenderOptions>(options))
+        throw py::value_error(std::string(where) + ": options: expected a sombra.RenderOptions");
+    RenderOptions o = options.is_none() ? scene_render_options(scene) : options.cast<RenderOptions>();
+    apply_keywords(o, kwargs, where);
+    return o;
+}
+
+void check_keywords_apply(const RenderOptions& o, const py::kwargs& kwargs, const char* where) {
+    for (const auto& item : kwargs) {
+        const std::string name = py::str(item.first);
+        try {
+            check_option_applies(option_spec(name, where), o.shadows, std::string(where) + ": " + name);
+        } catch (const Error& e) {
+            throw py::value_error(e.what());
+        }
+    }
 }
 
 py::dict stats_dict(const RenderStats& stats) { return py::module_::import("json").attr("loads")(stats.to_json()); }
@@ -157,47 +201,33 @@ PYBIND11_MODULE(sombra, m) {
         return devices;
     });
 
-    py::class_<RenderOptions> options(m, "RenderOptions", "render.h RenderOptions; enumerated options take names.");
-    options.def(py::init<>())
-        .def("copy", [](const RenderOptions& o) { return RenderOptions(o); })
-        .def_readwrite("width", &RenderOptions::width)
-        .def_readwrite("height", &RenderOptions::height)
-        .def_readwrite("phase_g", &RenderOptions::phase_g)
-        .def_readwrite("dsm_resolution", &RenderOptions::dsm_resolution)
-        .def_readwrite("dsm_epsilon", &RenderOptions::dsm_epsilon)
-        .def_readwrite("dsm_storage", &RenderOptions::dsm_storage)
-        .def_readwrite("dsm_lookup", &RenderOptions::dsm_lookup)
-        .def_readwrite("dsm_precompression", &RenderOptions::dsm_precompression)
-        .def_readwrite("dsm_prefilter", &RenderOptions::dsm_prefilter)
-        .def_readwrite("dsm_prefilter_jitter", &RenderOptions::dsm_prefilter_jitter)
-        .def_readwrite("dsm_prefilter_seed", &RenderOptions::dsm_prefilter_seed)
-        .def_readwrite("dsm_clusters", &RenderOptions::dsm_clusters)
-        .def_readwrite("dsm_cluster_distance", &RenderOptions::dsm_cluster_distance)
-        .def_readwrite("dsm_cluster_hysteresis", &RenderOptions::dsm_cluster_hysteresis)
-        .def_readwrite("lowpass_filter_width", &RenderOptions::lowpass_filter_width)
-        .def_readwrite("lowpass_filter_kernel", &RenderOptions::lowpass_filter_kernel)
-        .def_readwrite("cone_angle_deg", &RenderOptions::cone_angle_deg)
-        .def_readwrite("shadow_ray_step", &RenderOptions::shadow_ray_step)
-        .def_readwrite("dsm_step", &RenderOptions::dsm_step)
-        .def_readwrite("lowpass_max_entries", &RenderOptions::lowpass_max_entries)
-        .def_readwrite("empty_space_skipping", &RenderOptions::empty_space_skipping)
-        .def_readwrite("termination_transmittance", &RenderOptions::termination_transmittance)
-        .def_readwrite("jitter_seed", &RenderOptions::jitter_seed)
-        .def_readwrite("lanes", &RenderOptions::lanes);
-    // "shadows", "gradient", "shading", "storage", "shadow_cache": strings, parsed by the library
-    for (const char* name : {"shadows", "gradient", "shading", "storage", "shadow_cache"})
+    py::class_<RenderOptions> options(m, "RenderOptions",
+                                      "The render options (sombra/options.h): each an attribute and a keyword of RenderOptions(), "
+                                      "render(), shadow_transmittance() and build_deep_shadow_maps(), checked when set.");
+    options.def(py::init([](const py::kwargs& kwargs) {
+                    RenderOptions o;
+                    apply_keywords(o, kwargs, "RenderOptions");
+                    return o;
+                }))
+        .def("copy", [](const RenderOptions& o) { return RenderOptions(o); });
+    for (const OptionSpec& spec : render_option_specs()) {
+        const std::string doc = spec.help + (option_range_text(spec).empty() ? "" : " " + option_range_text(spec)) +
+                                "; default " + option_value_text(spec.default_value());
         options.def_property(
-            name, [name](const RenderOptions& o) { return render_option_value(o, name); },
-            [name](RenderOptions& o, const std::string& value) { set_render_option(o, name, value); });
-    options.def("__repr__", [](const py::object& self) {
+            spec.key.c_str(), [&spec](const RenderOptions& o) { return python_value(spec.get(o)); },
+            [&spec](RenderOptions& o, const py::object& value) {
+                try {
+                    set_option(o, spec, option_value_of(spec, value, spec.key), spec.key);
+                } catch (const Error& e) {
+                    throw py::value_error(e.what());
+                }
+            },
+            doc.c_str());
+    }
+    options.def("__repr__", [](const RenderOptions& o) {
         std::string text = "sombra.RenderOptions(";
-        bool first = true;
-        for (const py::handle& key : py::module_::import("builtins").attr("dir")(self)) {
-            const std::string name = py::str(key);
-            if (name[0] == '_' || name == "copy") continue;
-            text += (first ? "" : ", ") + name + "=" + std::string(py::repr(self.attr(key)));
-            first = false;
-        }
+        for (const OptionSpec& spec : render_option_specs())
+            text += (text.back() == '(' ? "" : ", ") + spec.key + "=" + std::string(py::repr(python_value(spec.get(o))));
         return text + ")";
     });
 
@@ -217,6 +247,9 @@ PYBIND11_MODULE(sombra, m) {
         .def_property_readonly("volume_count", [](const Scene& s) { return s.volumes.size(); })
         .def_property_readonly("light_count", [](const Scene& s) { return s.lights.size(); })
         .def_property_readonly("source", [](const Scene& s) { return s.source; })
+        .def("render_options", &scene_render_options,
+             "The scene file's \"render\" block as RenderOptions (the defaults where it is silent); what render() uses when "
+             "no options are given.")
         .def(
             "set_camera",
             [](Scene& s, const py::object& position, const py::object& look_at, const py::object& up, float fov_y_deg) {
@@ -303,7 +336,8 @@ PYBIND11_MODULE(sombra, m) {
     m.def(
         "render",
         [](Context& context, const Scene& scene, const py::object& options, const py::kwargs& kwargs) {
-            RenderOptions o = render_options(options, kwargs, "render");
+            RenderOptions o = call_options(scene, options, kwargs, "render");
+            check_keywords_apply(o, kwargs, "render");
             RenderResult result;
             {
                 py::gil_scoped_release release;
@@ -315,16 +349,18 @@ PYBIND11_MODULE(sombra, m) {
         },
         py::arg("context"), py::arg("scene"), py::arg("options") = py::none(),
         "Returns (image, stats): float32 (height, width, 4) linear RGBA, top row first, background composited; "
-        "the stats as `sombra render --stats` writes them. Options: a RenderOptions and/or its attributes as keywords.");
+        "the stats as `sombra render --stats` writes them. Options: a RenderOptions (default: the scene file's \"render\" "
+        "block) and/or its attributes as keywords; a keyword that does not apply to the technique is refused.");
 
     m.def(
         "shadow_transmittance",
         [](Context& context, const Scene& scene, int light, const py::object& points, const py::object& options,
            const py::kwargs& kwargs) {
-            RenderOptions o = render_options(options, kwargs, "shadow_transmittance");
+            RenderOptions o = call_options(scene, options, kwargs, "shadow_transmittance");
             // a query about shadows: deep shadow maps unless a technique is named (RenderOptions'
             // own default, none, has no shadow term to query)
-            if (options.is_none() && !kwargs.contains("shadows")) o.shadows = ShadowTechnique::Dsm;
+            if (options.is_none() && !kwargs.contains("shadows") && o.shadows == ShadowTechnique::None) o.shadows = ShadowTechnique::Dsm;
+            check_keywords_apply(o, kwargs, "shadow_transmittance");
             std::vector<Vec3> p = points_of(points, "shadow_transmittance");
             ShadowQuery query;
             {
@@ -382,7 +418,7 @@ PYBIND11_MODULE(sombra, m) {
     m.def(
         "build_deep_shadow_maps",
         [](Context& context, const Scene& scene, int light, const py::object& options, const py::kwargs& kwargs) {
-            RenderOptions o = render_options(options, kwargs, "build_deep_shadow_maps");
+            RenderOptions o = call_options(scene, options, kwargs, "build_deep_shadow_maps");
             RenderStats stats;
             std::vector<DeepShadowMap> maps;
             {

@@ -66,9 +66,9 @@ Errors errors_of(const std::vector<double>& got, const std::vector<double>& exac
 RenderOptions technique(ShadowTechnique t, const std::string& storage = "atlas", float eps = 0.001f, int res = 256) {
     RenderOptions o;
     o.shadows = t;
-    o.dsm_storage = storage;
-    o.dsm_epsilon = eps;
-    o.dsm_resolution = res;
+    o.dsm.storage = storage;
+    o.dsm.epsilon = eps;
+    o.dsm.resolution = res;
     return o;
 }
 
@@ -183,7 +183,7 @@ TEST_CASE("accuracy: one-voxel near-opaque wall, light along its normal", "[accu
     CHECK(dsm_fine.max <= 0.01);
     CHECK(dsm_default.max <= 0.02 + 0.005);
     RenderOptions lowpass = technique(ShadowTechnique::Lowpass);
-    lowpass.lowpass_filter_width = 1.f;
+    lowpass.sat.filter_width = 1.f;
     Errors low = errors_of(query(scene, points, lowpass), exact);
     INFO("low-pass W 1 " << low.describe());
     CHECK(low.valid);
@@ -198,7 +198,7 @@ TEST_CASE("atlas memory follows the nodes: a many-node map within 2x of compact'
     std::vector<Vec3> points = {{0.1f, 0.1f, 0.1f}};
     auto stats_of = [&](const char* storage, const char* lookup) {
         RenderOptions o = technique(ShadowTechnique::Dsm, storage, 0.001f, 256);
-        o.dsm_lookup = lookup;
+        o.dsm.lookup = lookup;
         return shadow_transmittance(test::context(), scene, 0, points, o).stats;
     };
     // the atlas's own layout (native lookups); packed lookups add a compact copy
@@ -392,7 +392,7 @@ TEST_CASE("accuracy: in-scattering of a lit homogeneous cube converges with the 
     o.width = o.height = size;
     o.shading = ShadingModel::Scattering;
     o.shadows = ShadowTechnique::Rays;
-    o.shadow_ray_step = 0.25f;
+    o.rays.step = 0.25f;
     o.shadow_cache = ShadowCacheMode::Off;
     o.termination_transmittance = 1e-6f;
     // the camera's rays through the pixel centres (cl/render.cl render_camera)

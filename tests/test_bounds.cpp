@@ -53,7 +53,7 @@ Scene bounded_scene(bool bounded) {
 RenderOptions exact_options(int lanes) {
     RenderOptions o;
     o.lanes = lanes;
-    o.storage = VolumeStorage::Buffer;
+    o.volume_storage = VolumeStorage::Buffer;
     o.termination_transmittance = 0.f;
     return o;
 }
@@ -134,11 +134,11 @@ TEST_CASE("bounds: shadow rays and deep shadow maps through a sphere-mesh bound 
     double max_ray = 0, max_dsm = 0, max_gap = 0, mean_dsm = 0;
     RenderOptions rays;
     rays.shadows = ShadowTechnique::Rays;
-    rays.storage = VolumeStorage::Buffer;
+    rays.volume_storage = VolumeStorage::Buffer;
     RenderOptions dsm = rays;
     dsm.shadows = ShadowTechnique::Dsm;
-    dsm.dsm_resolution = 128;
-    dsm.dsm_epsilon = 0.002f;
+    dsm.dsm.resolution = 128;
+    dsm.dsm.epsilon = 0.002f;
     std::vector<double> ray_t = shadow_transmittance(test::context(), s, 0, points, rays).transmittance;
     std::vector<double> dsm_t = shadow_transmittance(test::context(), s, 0, points, dsm).transmittance;
     for (std::size_t i = 0; i < points.size(); ++i) {
@@ -165,10 +165,10 @@ TEST_CASE("bounds: DSM generation with a bound in packets of 8 texels stores the
     s.lights[0].direction = {0.2f, 0.1f, -1.f};
     for (bool tables : {false, true}) {
         RenderOptions o;
-        o.dsm_resolution = 37;
-        o.dsm_epsilon = 0.01f;
-        o.dsm_precompression = tables;
-        o.storage = VolumeStorage::Buffer;
+        o.dsm.resolution = 37;
+        o.dsm.epsilon = 0.01f;
+        o.dsm.precompression = tables;
+        o.volume_storage = VolumeStorage::Buffer;
         RenderOptions one = o, eight = o;
         one.lanes = 1, eight.lanes = 8;
         auto a = build_deep_shadow_maps(test::context(), s, 0, one);
@@ -209,7 +209,7 @@ TEST_CASE("bounds: axis-aligned rays along the bound's faces and a degenerate bo
     for (ShadowTechnique shadows : {ShadowTechnique::Rays, ShadowTechnique::Dsm}) {
         RenderOptions o = exact_options(8);
         o.shadows = shadows;
-        o.dsm_resolution = 64;
+        o.dsm.resolution = 64;
         s.lights[0].direction = {0.f, 0.f, -1.f};  // shadow rays parallel to four faces too
         RenderResult r = render(test::context(), s, o);
         std::size_t non_finite = 0;

@@ -173,13 +173,13 @@ TEST_CASE("sombra render --help shows every option's default, from RenderOptions
         return run.out.substr(at, run.out.find('\n', at) - at);
     };
     const sombra::RenderOptions defaults;
-    CHECK_THAT(line_of("--dsm-res"), Catch::Contains("=" + std::to_string(defaults.dsm_resolution)));
+    CHECK_THAT(line_of("--dsm-res"), Catch::Contains("=" + std::to_string(defaults.dsm.resolution)));
     CHECK_THAT(line_of("--eps"), Catch::Contains("=0.02"));
     CHECK_THAT(line_of("--filter"), Catch::Contains("=3"));
     CHECK_THAT(line_of("--cone-angle"), Catch::Contains("=10"));
     CHECK_THAT(line_of("--shadows"), Catch::Contains("=none"));
-    CHECK_THAT(line_of("--storage"), Catch::Contains("=" + defaults.dsm_storage));
-    CHECK_THAT(line_of("--dsm-lookup"), Catch::Contains("=" + defaults.dsm_lookup));
+    CHECK_THAT(line_of("--storage"), Catch::Contains("=" + defaults.dsm.storage));
+    CHECK_THAT(line_of("--dsm-lookup"), Catch::Contains("=" + defaults.dsm.lookup));
     CHECK_THAT(line_of("--device"), Catch::Contains("=auto"));
 }
 
@@ -201,7 +201,7 @@ TEST_CASE("sombra render and dsm --stats hold the version, the scene, the option
     CHECK(o.at("dsm_resolution") == 16);
     CHECK(o.at("dsm_epsilon").get<double>() == 0.05);  // the float's shortest decimal form
     CHECK(o.at("lanes") == 4);
-    CHECK(o.at("lowpass_filter_width").get<double>() == Approx(sombra::RenderOptions{}.lowpass_filter_width));
+    CHECK(o.at("lowpass_filter_width").get<double>() == Approx(sombra::RenderOptions{}.sat.filter_width));
     CHECK(o.at("storage") == "auto");
     CHECK(j.at("width") == 8);
 

@@ -51,10 +51,10 @@ std::vector<Vec3> shadow_points(int n, unsigned seed) {
 RenderOptions dsm_options(int resolution, int clusters, float distance = 0.f) {
     RenderOptions o;
     o.shadows = ShadowTechnique::Dsm;
-    o.dsm_resolution = resolution;
-    o.dsm_epsilon = 0.01f;
-    o.dsm_clusters = clusters;
-    o.dsm_cluster_distance = distance;
+    o.dsm.resolution = resolution;
+    o.dsm.epsilon = 0.01f;
+    o.dsm.clusters = clusters;
+    o.dsm.cluster_distance = distance;
     o.shadow_cache = ShadowCacheMode::Off;
     return o;
 }
@@ -167,7 +167,7 @@ TEST_CASE("clustered DSM: every storage backend builds the same nodes", "[cluste
         REQUIRE(reference.size() >= 2);
         for (const std::string& storage : dsm_storage_names()) {
             RenderOptions o = dsm_options(24, 2);
-            o.dsm_storage = storage;
+            o.dsm.storage = storage;
             std::vector<DeepShadowMap> maps = build_deep_shadow_maps(test::context(), s, 0, o);
             REQUIRE(maps.size() == reference.size());
             for (std::size_t v = 0; v < maps.size(); ++v) {
@@ -229,7 +229,7 @@ TEST_CASE("clustered DSM: a camera that sees nothing any object could shadow lea
         INFO(storage);
         Context context("cpu");
         RenderOptions o = dsm_options(16, 4);
-        o.dsm_storage = storage;
+        o.dsm.storage = storage;
         RenderResult away = render(context, s, o);
         CHECK(away.stats.dsm_clusters.empty());
         REQUIRE(away.stats.dsm_ignored_objects.size() == 1);

@@ -67,8 +67,8 @@ Errors against_reference(const Scene& s, const std::vector<Vec3>& points, const 
 RenderOptions dsm_options(int resolution, float epsilon) {
     RenderOptions o;
     o.shadows = ShadowTechnique::Dsm;
-    o.dsm_resolution = resolution;
-    o.dsm_epsilon = epsilon;
+    o.dsm.resolution = resolution;
+    o.dsm.epsilon = epsilon;
     return o;
 }
 
@@ -333,16 +333,16 @@ TEST_CASE("every storage backend stores the same nodes and renders the same imag
     s.lights[1].position = {-1.f, 0.3f, 0.2f};
     s.lights[1].direction = {1.f, -0.3f, -0.2f};
     RenderOptions base = dsm_options(40, 0.02f);
-    base.storage = VolumeStorage::Buffer;
-    base.dsm_storage = "compact";
-    base.dsm_precompression = GENERATE(false, true);  // the tables go through every backend too
+    base.volume_storage = VolumeStorage::Buffer;
+    base.dsm.storage = "compact";
+    base.dsm.precompression = GENERATE(false, true);  // the tables go through every backend too
     auto reference_maps = build_deep_shadow_maps(test::context(), s, 0, base);
     RenderResult reference_image = render(test::context(), s, base);
     for (const char* storage : {"atlas", "chunked", "chunked-ondemand"})
         for (const char* lookup : {"packed", "native"}) {  // read back from the packed copy, or in place
             RenderOptions o = base;
-            o.dsm_storage = storage;
-            o.dsm_lookup = lookup;
+            o.dsm.storage = storage;
+            o.dsm.lookup = lookup;
             require_same_nodes(build_deep_shadow_maps(test::context(), s, 0, o), reference_maps, storage);
             RenderResult r = render(test::context(), s, o);
             auto d = test::compare(r.image, reference_image.image);
@@ -357,12 +357,12 @@ TEST_CASE("packed lookups read the same maps as native ones: identical images an
     Scene s = smoke_scene(LightType::Point);
     s.lights.push_back(smoke_scene(LightType::Directional).lights[0]);
     RenderOptions base = dsm_options(48, 0.01f);
-    base.storage = VolumeStorage::Buffer;
+    base.volume_storage = VolumeStorage::Buffer;
     for (const char* storage : {"atlas", "chunked", "chunked-ondemand"}) {
         RenderOptions native = base, packed = base;
-        native.dsm_storage = packed.dsm_storage = storage;
-        native.dsm_lookup = "native";
-        packed.dsm_lookup = "packed";
+        native.dsm.storage = packed.dsm.storage = storage;
+        native.dsm.lookup = "native";
+        packed.dsm.lookup = "packed";
         RenderResult a = render(test::context(), s, native), b = render(test::context(), s, packed);
         INFO(storage);
         // the same nodes read in the same order: not one bit differs
@@ -378,7 +378,7 @@ TEST_CASE("packed lookups read the same maps as native ones: identical images an
         else CHECK(b.stats.dsm_bytes_used >= copy + b.stats.dsm_nodes * 12);
     }
     RenderOptions bad = base;
-    bad.dsm_lookup = "sideways";
+    bad.dsm.lookup = "sideways";
     CHECK_THROWS_WITH(render(test::context(), s, bad), Catch::Contains("--dsm-lookup") && Catch::Contains("sideways"));
 }
 
@@ -391,10 +391,10 @@ TEST_CASE("DSM generation in packets of 8 texels stores the nodes of one texel p
     s.volumes.push_back(second);
     s.lights.push_back(smoke_scene(LightType::Point).lights[0]);
     RenderOptions base = dsm_options(37, 0.02f);
-    base.storage = VolumeStorage::Buffer;
-    base.dsm_precompression = GENERATE(false, true);
+    base.volume_storage = VolumeStorage::Buffer;
+    base.dsm.precompression = GENERATE(false, true);
     for (const std::string& storage : sombra::dsm_storage_names()) {
-        base.dsm_storage = storage;
+        base.dsm.storage = storage;
         RenderOptions scalar = base;
         scalar.lanes = 1;
         // every light's maps come from one preparation per lane count
@@ -408,7 +408,7 @@ TEST_CASE("DSM generation in packets of 8 texels stores the nodes of one texel p
                 for (const auto& map : reference[light]) nodes += map.nodes.size();
                 CHECK(nodes > 0);
                 require_same_nodes(build_deep_shadow_maps(test::context(), s, light, packets), reference[light],
-                                   std::string(storage) + (base.dsm_precompression ? ", tables" : "") + ", light " +
+                                   std::string(storage) + (base.dsm.precompression ? ", tables" : "") + ", light " +
                                        std::to_string(light) + ", " + std::to_string(lanes) + " lanes");
             }
         }
@@ -434,9 +434,9 @@ TEST_CASE("default packet widths: 8 in the camera pass, the native float vector 
 TEST_CASE("chunked storage with counted allocation wastes < 10 % — Knecht's on-demand chunks waste more", "[dsm][storage]") {
     Scene s = smoke_scene(LightType::Spot);
     RenderOptions o = dsm_options(64, 0.01f);
-    o.dsm_storage = "chunked";
+    o.dsm.storage = "chunked";
     RenderResult counted = render(test::context(), s, o);
-    o.dsm_storage = "chunked-ondemand";
+    o.dsm.storage = "chunked-ondemand";
     RenderResult on_demand = render(test::context(), s, o);
     INFO("counted: used " << counted.stats.dsm_bytes_used << " wasted " << counted.stats.dsm_bytes_wasted
                           << "; on demand: used " << on_demand.stats.dsm_bytes_used << " wasted " << on_demand.stats.dsm_bytes_wasted);
@@ -449,13 +449,13 @@ TEST_CASE("atlas layer cap: hit, counted and reported, never written past", "[ds
     s.volumes[0].step_voxels = 0.04f;  // ~600 samples per ray
     s.volumes[0].transfer_function = test::ramp_tf(0.0f, 1.0f, 0.02f);
     RenderOptions o = dsm_options(16, 0.f);  // ε = 0: a node per sample, past the 256-layer cap
-    o.dsm_storage = "atlas";
+    o.dsm.storage = "atlas";
     RenderResult r = render(test::context(), s, o);
     INFO("capped texels " << r.stats.dsm_capped_texels << ", max nodes " << r.stats.dsm_max_nodes_per_texel);
     CHECK(r.stats.dsm_capped_texels > 0);
     CHECK(r.stats.dsm_max_nodes_per_texel <= 256);
     for (float v : r.image.rgba) REQUIRE(std::isfinite(v));
-    o.dsm_storage = "compact";  // no cap: the same texels keep every node
+    o.dsm.storage = "compact";  // no cap: the same texels keep every node
     CHECK(render(test::context(), s, o).stats.dsm_max_nodes_per_texel > 256);
 }
 
@@ -495,8 +495,8 @@ TEST_CASE("a moved light regenerates its own maps only, and the image equals a f
             point.position = {-0.9f, 0.4f, 0.8f};
             s.lights.push_back(point);
             RenderOptions o = dsm_options(24, 0.02f);
-            o.dsm_storage = storage;
-            o.dsm_prefilter = prefilter;
+            o.dsm.storage = storage;
+            o.dsm.prefilter = prefilter;
             o.width = o.height = 48;
             CHECK(render(context, s, o).stats.dsm_views_generated == 7);
             s.lights[1].intensity = 0.5f;  // shading only: no map to regenerate
@@ -551,7 +551,7 @@ TEST_CASE("pre-compressed visibility tables remove the error of coarse sampling 
     s.lights[0].direction = {0.3f, -1.f, 0.2f};
     auto points = random_points(3000, 0.3f, 8);  // in and around the isosurface (radius ≈ 0.25)
     RenderOptions plain = dsm_options(96, 0.005f), tables = plain;
-    tables.dsm_precompression = true;
+    tables.dsm.precompression = true;
     Errors without = against_reference(s, points, shadow_transmittance(test::context(), s, 0, points, plain).transmittance);
     Errors with = against_reference(s, points, shadow_transmittance(test::context(), s, 0, points, tables).transmittance);
     INFO("mean |T − reference|: equidistant samples " << without.mean << " (max " << without.max << "), pre-compressed "
@@ -593,8 +593,8 @@ TEST_CASE("pre-filtering: each texel is the weighted sum of its taps' sub-pixel 
     for (const char* filter : {"box", "tent", "5tap"})
         for (bool jitter : {false, true}) {
             RenderOptions o = dsm_options(res, epsilon);
-            o.dsm_prefilter = filter;
-            o.dsm_prefilter_jitter = jitter;
+            o.dsm.prefilter = filter;
+            o.dsm.prefilter_jitter = jitter;
             auto lo = build_deep_shadow_maps(test::context(), s, 0, o)[0];
             auto subs = build_prefilter_sub_maps(test::context(), s, 0, o);
             auto taps = prefilter_taps(filter);
@@ -630,7 +630,7 @@ TEST_CASE("pre-filtering: each texel is the weighted sum of its taps' sub-pixel 
     auto points = random_points(300, 0.45f, 21);
     for (const char* filter : {"box", "tent", "5tap"}) {
         RenderOptions o = dsm_options(64, 0.01f);
-        o.dsm_prefilter = filter;
+        o.dsm.prefilter = filter;
         Errors e = against_reference(s, points, shadow_transmittance(test::context(), s, 0, points, o).transmittance);
         INFO(filter << ": mean " << e.mean << ", max " << e.max);
         CHECK(e.non_finite == 0);
@@ -680,8 +680,8 @@ TEST_CASE("pre-filtering: jittered sub-pixel rays stay in their cells and the ke
     // the generation kernel casts the rays at those positions: the 5-tap sub-maps against the CPU
     // reference along the same rays, |V' − V| ≤ ε/2
     RenderOptions o = dsm_options(res, 0.02f);
-    o.dsm_prefilter = "5tap";
-    o.dsm_prefilter_seed = 7;
+    o.dsm.prefilter = "5tap";
+    o.dsm.prefilter_seed = 7;
     auto maps = build_prefilter_sub_maps(test::context(), s, 0, o);
     auto sub = shadows::sub_pixel_views(views, "5tap", true, 7);
     REQUIRE(maps.size() == 2);
@@ -706,14 +706,14 @@ TEST_CASE("pre-filtering: jittered sub-pixel rays stay in their cells and the ke
 TEST_CASE("pre-filtering: jitter is deterministic per seed — 5tap renders with every storage backend", "[dsm][prefilter]") {
     Scene s = smoke_scene(LightType::Spot);
     RenderOptions o = dsm_options(24, 0.02f);
-    o.dsm_prefilter = "5tap";
+    o.dsm.prefilter = "5tap";
     auto first = build_deep_shadow_maps(test::context(), s, 0, o)[0];
-    o.dsm_prefilter_seed = 2;
+    o.dsm.prefilter_seed = 2;
     auto other_seed = build_deep_shadow_maps(test::context(), s, 0, o)[0];
-    o.dsm_prefilter_jitter = false;
+    o.dsm.prefilter_jitter = false;
     auto unjittered = build_deep_shadow_maps(test::context(), s, 0, o)[0];
-    o.dsm_prefilter_jitter = true;
-    o.dsm_prefilter_seed = 1;
+    o.dsm.prefilter_jitter = true;
+    o.dsm.prefilter_seed = 1;
     auto again = build_deep_shadow_maps(test::context(), s, 0, o)[0];  // rebuilt: the options changed in between
     CHECK(same_nodes(first, again));
     CHECK_FALSE(same_nodes(first, other_seed));
@@ -721,7 +721,7 @@ TEST_CASE("pre-filtering: jitter is deterministic per seed — 5tap renders with
 
     RenderResult reference_image;
     for (const std::string& storage : sombra::dsm_storage_names()) {
-        o.dsm_storage = storage;
+        o.dsm.storage = storage;
         auto map = build_deep_shadow_maps(test::context(), s, 0, o)[0];
         INFO(storage);
         CHECK(same_nodes(map, first));
@@ -739,7 +739,7 @@ TEST_CASE("DSM lookup kernel against a CPU lookup of the read-back map (projecti
         const int res = 32;
         for (const char* storage : {"atlas", "chunked", "compact"}) {
             RenderOptions o = dsm_options(res, 0.02f);
-            o.dsm_storage = storage;
+            o.dsm.storage = storage;
             auto map = build_deep_shadow_maps(test::context(), s, 0, o)[0];
             packing::PackedScene packed = packing::pack_scene(s);
             DsmViewGpu v = shadows::make_dsm_views(s, packed, res)[0];
@@ -818,8 +818,8 @@ TEST_CASE("pre-filtering: error near a sharp shadow edge against the point and t
             for (bool jitter : {false, true}) {
                 if (std::string(filter) == "none" && jitter) continue;
                 RenderOptions o = dsm_options(res, 0.01f);
-                o.dsm_prefilter = filter;
-                o.dsm_prefilter_jitter = jitter;
+                o.dsm.prefilter = filter;
+                o.dsm.prefilter_jitter = jitter;
                 values[std::string(filter) + (jitter ? "+jitter" : "")] = shadow_transmittance(test::context(), s, 0, points, o).transmittance;
             }
         // the penumbra: points where the reference or any map is neither lit nor shadowed
@@ -866,8 +866,8 @@ TEST_CASE("DSM generation step (dsm_step): coarser steps from the light stay wit
         Errors fine = against_reference(s, points, shadow_transmittance(test::context(), s, 0, points, base).transmittance);
         for (bool precompression : {false, true}) {
             RenderOptions coarse = base;
-            coarse.dsm_step = 2.f;
-            coarse.dsm_precompression = precompression;  // its tables follow the step
+            coarse.dsm.step = 2.f;
+            coarse.dsm.precompression = precompression;  // its tables follow the step
             ShadowQuery q = shadow_transmittance(test::context(), s, 0, points, coarse);
             Errors e = against_reference(s, points, q.transmittance);
             INFO("light type " << int(type) << ", precompression " << precompression << ": step 1 mean " << fine.mean << " max "
@@ -879,7 +879,7 @@ TEST_CASE("DSM generation step (dsm_step): coarser steps from the light stay wit
         }
         // a different step marches other points: other maps
         RenderOptions coarse = base;
-        coarse.dsm_step = 2.f;
+        coarse.dsm.step = 2.f;
         auto a = build_deep_shadow_maps(test::context(), s, 0, base), b = build_deep_shadow_maps(test::context(), s, 0, coarse);
         std::size_t nodes_a = 0, nodes_b = 0;
         for (auto& m : a) nodes_a += m.nodes.size();
@@ -889,7 +889,7 @@ TEST_CASE("DSM generation step (dsm_step): coarser steps from the light stay wit
     Scene s = smoke_scene(LightType::Spot);
     for (float step : {0.f, -1.f, 17.f, NAN}) {
         RenderOptions o = dsm_options(16, 0.01f);
-        o.dsm_step = step;
+        o.dsm.step = step;
         CHECK_THROWS_WITH(render(test::context(), s, o), Catch::Contains("--dsm-step"));
     }
 }

@@ -67,9 +67,9 @@ std::vector<double> lowpass(const Scene& scene, int light, const std::vector<Vec
                             float cone_deg = 10.f) {
     RenderOptions o;
     o.shadows = technique;
-    o.cone_angle_deg = cone_deg;
-    o.lowpass_filter_width = filter;
-    o.lowpass_filter_kernel = kernel;
+    o.sat.cone_angle_deg = cone_deg;
+    o.sat.filter_width = filter;
+    o.sat.filter_kernel = kernel;
     return shadow_transmittance(test::context(), scene, light, points, o).transmittance;
 }
 
@@ -255,7 +255,7 @@ TEST_CASE("CSAT: empty and saturated volumes give finite transmittance in [0, 1]
     RenderResult r = render(test::context(), stiff, o);
     for (float v : r.image.rgba) REQUIRE(std::isfinite(v));
     CHECK(r.stats.sat_tables == 1);
-    o.lowpass_filter_width = -1.f;
+    o.sat.filter_width = -1.f;
     CHECK_THROWS_WITH(render(test::context(), stiff, o), Catch::Contains("--filter"));
 }
 
@@ -418,7 +418,7 @@ TEST_CASE("Gaussian filter (Eq. 25): kernel vs CPU reference, homogeneous medium
     CHECK(gauss.mean[1] < box.mean[1]);
     RenderOptions o;
     o.shadows = ShadowTechnique::Lowpass;
-    o.lowpass_filter_kernel = "tent";
+    o.sat.filter_kernel = "tent";
     CHECK_THROWS_WITH(render(test::context(), blobs, o), Catch::Contains("--filter-kernel"));
 }
 
@@ -493,7 +493,7 @@ TEST_CASE("shadow cache (Ament Alg. 1): close to per-sample evaluation, kept whi
     RenderOptions o;
     o.shadows = ShadowTechnique::Lowpass;
     o.width = o.height = 40;
-    o.lowpass_filter_width = 5.f;
+    o.sat.filter_width = 5.f;
     for (ShadowTechnique technique : {ShadowTechnique::Lowpass, ShadowTechnique::Ao}) {
         o.shadows = technique;
         o.shadow_cache = ShadowCacheMode::Off;
@@ -509,7 +509,7 @@ TEST_CASE("shadow cache (Ament Alg. 1): close to per-sample evaluation, kept whi
     }
     scene.camera.position = {0.4f, 0.3f, 2.6f};  // the camera moves: the cache stays
     CHECK(render(context, scene, o).stats.stage_ms.count("shadow_cache") == 0);
-    o.lowpass_filter_width = 9.f;  // the filter changes: the cache is rebuilt, the tables are not
+    o.sat.filter_width = 9.f;  // the filter changes: the cache is rebuilt, the tables are not
     RenderResult wider = render(context, scene, o);
     CHECK(wider.stats.stage_ms.count("shadow_cache") == 1);
     CHECK(wider.stats.reused_preparation);

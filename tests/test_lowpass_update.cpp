@@ -87,7 +87,7 @@ TEST_CASE("Ament Alg. 1 first pass: a changed scene rebuilds only its changed ta
         check_step(context, fresh, scene, o, {0, 3, 0, 6}, "left cloud's colour");
         scene.lights[2].position = {-0.8f, -0.3f, 2.2f};
         check_step(context, fresh, scene, o, {1, 2, 2, 4}, "point light moved");
-        o.lowpass_filter_width = 5.f;  // the filter: no table, every entry
+        o.sat.filter_width = 5.f;  // the filter: no table, every entry
         check_step(context, fresh, scene, o, {0, 3, 6, 0}, "filter width");
     }
 }
@@ -122,7 +122,7 @@ TEST_CASE("Ament Alg. 1 first pass: which volumes reach a cache entry", "[lowpas
     CHECK_FALSE(shadows::influences(packed, sat, o, 0, 1, 2));
     CHECK(shadows::influences(packed, sat, o, 1, 0, 2));
     // a filter wide enough to span the gap reaches across
-    o.lowpass_filter_width = 20.f;
+    o.sat.filter_width = 20.f;
     CHECK(shadows::influences(packed, sat, o, 1, 0, 0));
     CHECK(shadows::influences(packed, sat, o, 0, 0, 0));
 }

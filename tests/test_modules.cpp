@@ -65,7 +65,7 @@ TEST_CASE("every registered technique renders and answers shadow queries with it
             sombra::RenderOptions o;
             o.shadows = sombra::parse_shadow_technique(name);
             o.width = o.height = 16;
-            o.dsm_resolution = 32;
+            o.dsm.resolution = 32;
             sombra::RenderResult r = sombra::render(context, scene, o);  // KernelArgs::done() throws on any mismatch
             CHECK(r.stats.samples > 0);
             if (name == "none") continue;
@@ -81,16 +81,16 @@ TEST_CASE("options with a fixed set of values: one list each, checked before any
     CHECK(sombra::render_option_values("shadows") == sombra::shadow_technique_names());
     sombra::RenderOptions o;
     sombra::set_render_option(o, "dsm_prefilter", "tent");
-    CHECK(o.dsm_prefilter == "tent");
+    CHECK(o.dsm.prefilter == "tent");
     CHECK(sombra::render_option_value(o, "dsm_prefilter") == "tent");
     REQUIRE_THROWS_WITH(sombra::set_render_option(o, "lowpass_filter_kernel", "tent"), Contains("unknown value 'tent'"));
-    o.dsm_storage = "atlass";
+    o.dsm.storage = "atlass";
     REQUIRE_THROWS_WITH(sombra::check_render_options(o), Contains("--storage: unknown value 'atlass'") && Contains("chunked-ondemand"));
-    o.dsm_storage = "atlas";
+    o.dsm.storage = "atlas";
     o.shadows = sombra::ShadowTechnique(42);
     REQUIRE_THROWS_WITH(sombra::check_render_options(o), Contains("--shadows: unknown value 42"));
     o.shadows = sombra::ShadowTechnique::Dsm;
     REQUIRE_NOTHROW(sombra::check_render_options(o));
-    o.lowpass_filter_kernel = "";
+    o.sat.filter_kernel = "";
     REQUIRE_THROWS_WITH(sombra::render(sombra::test::context(), sombra::test::sphere_scene(8), o), Contains("--filter-kernel"));
 }

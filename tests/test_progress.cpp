@@ -121,7 +121,7 @@ TEST_CASE("progress: every stage of a render reports from 0, never goes back, an
     Scene scene = test::overlapping_scene();
     RenderOptions options;
     options.width = 24, options.height = 20;
-    options.dsm_resolution = 32;
+    options.dsm.resolution = 32;
     for (ShadowTechnique t : {ShadowTechnique::Dsm, ShadowTechnique::Lowpass}) {
         options.shadows = t;
         auto reports = reports_of(scene, options);
@@ -153,7 +153,7 @@ TEST_CASE("progress: kernels run in bands write the image one launch writes, bit
     Scene scene = test::overlapping_scene();  // directional, point and spot lights
     RenderOptions options;
     options.width = 37, options.height = 29;  // bands end inside the padding of the 4×4 groups
-    options.dsm_resolution = 30;
+    options.dsm.resolution = 30;
     const auto image_with = [&](int tiles) {
         LaunchTiles bands(tiles);
         test::context().release_prepared_scenes();  // maps, tables and shadow cache built again
@@ -165,7 +165,7 @@ TEST_CASE("progress: kernels run in bands write the image one launch writes, bit
         {ShadowTechnique::Ao, "atlas"},        {ShadowTechnique::Cone, "atlas"}};
     for (const auto& [technique, storage] : cases) {
         options.shadows = technique;
-        options.dsm_storage = storage;
+        options.dsm.storage = storage;
         INFO("technique " << int(technique) << ", storage " << storage);
         Image one = image_with(1), banded = image_with(7);
         CHECK(same_bits(one, banded));

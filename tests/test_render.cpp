@@ -47,7 +47,7 @@ TEST_CASE("camera pass matches the CPU reference: overlapping rotated volumes, s
     }
     SECTION("3D image storage with the linear sampler") {
         RenderOptions o;
-        o.storage = VolumeStorage::Image;
+        o.volume_storage = VolumeStorage::Image;
         require_matches_reference(s, o, {});
     }
 }
@@ -99,7 +99,7 @@ TEST_CASE("shadow ray step: a finer step moves the rays closer to the reference,
     RenderOptions o;
     o.shadows = ShadowTechnique::Rays;
     auto mean_error = [&](float step) {
-        o.shadow_ray_step = step;
+        o.rays.step = step;
         std::vector<double> t = shadow_transmittance(test::context(), s, 0, points, o).transmittance;
         double sum = 0;
         for (std::size_t i = 0; i < t.size(); ++i) sum += std::fabs(t[i] - reference[i]);
@@ -113,9 +113,9 @@ TEST_CASE("shadow ray step: a finer step moves the rays closer to the reference,
     // the step is part of the preparation's key: the cache is refilled and the image changes
     s.width = s.height = 24;
     o.shadow_cache = ShadowCacheMode::On;
-    o.shadow_ray_step = 1.f;
+    o.rays.step = 1.f;
     Image unit_image = render_with(s, o).image;
-    o.shadow_ray_step = 8.f;
+    o.rays.step = 8.f;
     RenderResult coarse_render = render_with(s, o);
     CHECK(coarse_render.stats.shadow_cache_entries_built > 0);
     CHECK(test::compare(coarse_render.image, unit_image).max_abs > 1e-4);
@@ -124,11 +124,11 @@ TEST_CASE("shadow ray step: a finer step moves the rays closer to the reference,
 TEST_CASE("shadow ray step: zero, negative, NaN and steps above 16 are refused", "[render][shadows]") {
     RenderOptions o;
     for (float step : {1e-3f, 1.f, 16.f}) {
-        o.shadow_ray_step = step;
+        o.rays.step = step;
         CHECK_NOTHROW(check_render_options(o));
     }
     for (float step : {0.f, -1.f, 16.5f, NAN}) {
-        o.shadow_ray_step = step;
+        o.rays.step = step;
         CHECK_THAT(test::error_of([&] { check_render_options(o); }), Catch::Contains("--ray-step"));
     }
 }
@@ -281,7 +281,7 @@ TEST_CASE("scenes of up to 32 volumes render in packets (24 here) and a 33rd is 
     RenderOptions o;
     o.width = o.height = 32;
     o.shadows = ShadowTechnique::Dsm;
-    o.dsm_resolution = 32;
+    o.dsm.resolution = 32;
     o.lanes = 8;
     Image packets = render(test::context(), s, o).image;
     for (float v : packets.rgba) REQUIRE(std::isfinite(v));

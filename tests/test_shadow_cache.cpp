@@ -26,7 +26,7 @@ RenderOptions cache_options(ShadowTechnique technique, ShadowCacheMode mode) {
     RenderOptions o;
     o.shadows = technique;
     o.shadow_cache = mode;
-    o.dsm_resolution = 96;
+    o.dsm.resolution = 96;
     o.width = 40, o.height = 30;
     return o;
 }
@@ -164,7 +164,7 @@ TEST_CASE("shadow cache: kept across camera moves, refilled for the light that m
         CHECK(test::compare(lit.image, render(fresh, scene, o).image).max_abs <= 1e-6);  // as if built anew
         scene.lights[2].color = {0.2f, 0.4f, 1.f};  // colour is shading only
         CHECK(render(context, scene, o).stats.shadow_cache_entries_built == 0);
-        o.dsm_epsilon = 0.05f, o.jitter_seed = 7;  // the technique's options: every entry
+        o.dsm.epsilon = 0.05f, o.jitter_seed = 7;  // the technique's options: every entry
         CHECK(render(context, scene, o).stats.shadow_cache_entries_built == 6);
     }
 }
@@ -297,7 +297,7 @@ TEST_CASE("surface shadow cache: cached surfaces stay close to per-fragment eval
         Context context("cpu");
         RenderOptions o = cache_options(technique, ShadowCacheMode::Off);
         o.width = 80, o.height = 60;
-        o.dsm_resolution = 512;
+        o.dsm.resolution = 512;
         Image direct = render(context, scene, o).image;
         o.shadow_cache = ShadowCacheMode::On;
         RenderResult cached = render(context, scene, o);

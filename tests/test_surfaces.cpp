@@ -131,7 +131,7 @@ const float kQuadShadowExpected[] = {0, 0, 1, 1, 1, 0};  // 0: 1 − a, 1: lit
 RenderOptions dsm_options_128() {
     RenderOptions o;
     o.shadows = ShadowTechnique::Dsm;
-    o.dsm_resolution = 128;
+    o.dsm.resolution = 128;
     return o;
 }
 
@@ -241,9 +241,9 @@ TEST_CASE("surfaces in pre-filtered deep shadow maps, every backend: 1 − a ins
             for (bool jitter : {false, true}) {
                 if (std::string(filter) == "none" && jitter) continue;
                 RenderOptions o = dsm_options_128();
-                o.dsm_storage = storage;
-                o.dsm_prefilter = filter;
-                o.dsm_prefilter_jitter = jitter;
+                o.dsm.storage = storage;
+                o.dsm.prefilter = filter;
+                o.dsm.prefilter_jitter = jitter;
                 auto t = shadow_transmittance(test::context(), s, 0, points, o).transmittance;
                 INFO("storage " << storage << ", prefilter " << filter << (jitter ? ", jittered" : ""));
                 // away from the edge (≥ 5 texels): the exact step, whatever the filter
@@ -257,7 +257,7 @@ TEST_CASE("surfaces in pre-filtered deep shadow maps, every backend: 1 − a ins
                         INFO("x " << xs[i] << ", T " << (*side)[i]);
                         CHECK((*side)[i] >= 1 - a - 1e-4);
                         CHECK((*side)[i] <= 1 + 1e-4);
-                        if (i > 0) CHECK((*side)[i] >= (*side)[i - 1] - o.dsm_epsilon);
+                        if (i > 0) CHECK((*side)[i] >= (*side)[i - 1] - o.dsm.epsilon);
                     }
                 }
                 // the edge where it lies: within a texel, and (without jitter) mirror-symmetric —
@@ -290,15 +290,15 @@ TEST_CASE("surfaces inside a volume with pre-compressed tables and pre-filtering
     for (bool tables : {false, true})
         for (const char* filter : {"none", "box", "5tap"}) {
             RenderOptions o = dsm_options_128();
-            o.dsm_precompression = tables;
-            o.dsm_prefilter = filter;
+            o.dsm.precompression = tables;
+            o.dsm.prefilter = filter;
             auto t = shadow_transmittance(test::context(), with, 0, points, o).transmittance;
             auto volume_only = shadow_transmittance(test::context(), s, 0, points, o).transmittance;
             INFO("prefilter " << filter << (tables ? ", tables" : ""));
             for (std::size_t i = 0; i < kQuadShadowPoints.size(); ++i) {
                 INFO("point " << i << ": T " << t[i] << ", volume only " << volume_only[i]);
                 if (i == 4) CHECK(t[i] == Approx(1.0).margin(1e-4));  // above both
-                else CHECK(t[i] == Approx((kQuadShadowExpected[i] ? 1 : 1 - a) * volume_only[i]).margin(2 * o.dsm_epsilon));
+                else CHECK(t[i] == Approx((kQuadShadowExpected[i] ? 1 : 1 - a) * volume_only[i]).margin(2 * o.dsm.epsilon));
             }
             double error = mean_abs_difference(t, reference);
             INFO("mean |T_dsm − T_ref| = " << error);
@@ -384,7 +384,7 @@ TEST_CASE("deep shadow maps and shadow rays agree with the reference on a volume
         INFO(name << ": reference T in [" << lo << ", " << hi << "]");
         CHECK(hi - lo > 0.3);  // there is a shadow to get right
         RenderOptions o;
-        o.dsm_resolution = 256;
+        o.dsm.resolution = 256;
         o.shadows = ShadowTechnique::Dsm;
         auto dsm = shadow_transmittance(test::context(), s, 0, points, o).transmittance;
         o.shadows = ShadowTechnique::Rays;
@@ -405,7 +405,7 @@ TEST_CASE("shipped mesh scenes (Knecht Fig. 5.2–5.4, 5.12) load and render wit
         RenderOptions o;
         o.width = o.height = 24;
         o.shadows = ShadowTechnique::Dsm;
-        o.dsm_resolution = 64;
+        o.dsm.resolution = 64;
         Image im = render(test::context(), s, o).image;
         std::size_t bad = 0;
         for (float v : im.rgba) bad += !std::isfinite(v);
@@ -427,7 +427,7 @@ TEST_CASE("surfaces: per-fragment shadows darken the side of a floor that faces 
     for (ShadowTechnique technique : {ShadowTechnique::Rays, ShadowTechnique::Dsm}) {
         RenderOptions o = none;
         o.shadows = technique;
-        o.dsm_resolution = 128;
+        o.dsm.resolution = 128;
         Image shadowed = render(test::context(), s, o).image;
         float darkest = 0.f, brightest = 0.f;
         for (std::size_t i = 0; i < plain.rgba.size(); ++i) {

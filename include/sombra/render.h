@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "sombra/device.h"
+#include "sombra/options.h"
 #include "sombra/progress.h"
 #include "sombra/scene.h"
 #include "sombra/shadows.h"
@@ -16,16 +17,16 @@ enum class GradientMethod { CentralDifferences, Sobel };
 enum class VolumeStorage { Auto, Buffer, Image };  // Auto: buffer on CPU devices, image on GPUs
 // The shadow term of Knecht Eq. 3.9. None: 1 everywhere. Rays: the shadow-ray baseline, marching
 // from every visible sample to every light over the same segments as the camera rays. Dsm: deep
-// shadow maps built by ray casting from each light, compressed with error bound dsm_epsilon.
+// shadow maps built by ray casting from each light, compressed with error bound DsmOptions::epsilon.
 // ShadowMap: the binary shadow-map baseline — per texel the depth where opacity reaches 1/2,
 // lit before it and dark behind (2×2 percentage-closer filtering); taken from the same light
 // rays as the DSM, so it costs what a DSM costs to build.
 // Lowpass: low-pass filtered soft shadows (Ament et al. 2014): exp(−τ̄), τ̄ the optical depth
-// box-filtered over lowpass_filter_width × lowpass_filter_width voxels across the light, read in
+// box-filtered over SatOptions::filter_width × filter_width voxels across the light, read in
 // constant time from a light-aligned summed-area table: a Cartesian one (CSAT) per group of
 // orthodirectional directional lights, a spherical one (SSAT) per point or spot light.
 // Ao, Cone: the baselines of Ament Table 1 (Schlegel et al. 2011) on one SAT aligned with the first
-// volume: SAT ambient occlusion (mean σ in a cube of lowpass_filter_width voxels around the
+// volume: SAT ambient occlusion (mean σ in a cube of filter_width voxels around the
 // sample; no direction, the same term for every light) and cone shadows (the cone of half angle
 // cone_angle_deg towards each light as a series of growing cubes read from that SAT).
 enum class ShadowTechnique { None, Rays, Dsm, ShadowMap, Lowpass, Ao, Cone };
@@ -55,71 +56,83 @@ enum class ShadingModel { Phong, Scattering };
 enum class ShadowCacheMode { Auto, On, Off };
 
 // The deep-shadow-map storage backends ("atlas", "chunked", "chunked-ondemand", "compact"), from
-// the backend registry (src/memory/dsm_storage.cpp): the values of RenderOptions::dsm_storage.
+// the backend registry (src/memory/dsm_storage.cpp): the values of DsmOptions::storage.
 std::vector<std::string> dsm_storage_names();
 
+// The deep-shadow-map options (techniques dsm and shadowmap; declared in
+// src/techniques/deep_shadow_maps.cpp). Every one keys the maps except cluster_hysteresis.
+struct DsmOptions {
+    int resolution = 512;   // texels per side of every deep shadow map view
+    float epsilon = 0.02f;  // compression error bound (Knecht Eq. 3.1)
+    // A factor on each volume's step for the rays from the light (the pre-compressed tables follow
+    // it; the camera rays keep their step). Larger is faster and coarser along the light: on the
+    // CT at 512², ε 0.01, 2 makes generation 1.55× faster for +14 % point error and +54 % image
+    // error against the reference (bench/README.md). In (0, 16].
+    float step = 1.f;
+    // Storage backend: "atlas" (3D-texture-like atlas of layer blocks allocated per tile on
+    // demand, Hadwiger §3.4 / Knecht Eq. 4.7–4.10), "chunked" (64-node chunks per 8×8 tile with
+    // atomics and linked lists, Knecht Alg. 4.1), "chunked-ondemand" or "compact" (count, prefix
+    // sum, write).
+    std::string storage = "atlas";
+    // How lookups read the maps: "packed" (after each build, every texel's nodes are copied into
+    // one run, the compact layout; lookups of every storage then cost the same) or "native" (in
+    // the storage's own layout, as Hadwiger and Knecht read them). Identical images.
+    std::string lookup = "packed";
+    // Pre-compressed visibility tables (Hadwiger §3.2): each step of a one-volume segment is
+    // replaced by its precomputed, compressed visibility, so isosurfaces of step transfer
+    // functions cast shadows from where they lie rather than from the next sample.
+    bool precompression = false;
+    // Pre-filtering (Lokovic–Veach; Hadwiger §3.1): "none", "box" (each texel averages 2×2
+    // sub-pixel rays), "tent" (4×4 weighted 1 3 3 1 per axis) or "5tap" (the centre ½ and the 4
+    // corners ⅛ each; cl/shared/prefilter.h), combined exactly and compressed again. With
+    // prefilter_jitter, each sub-pixel ray lies at a hashed position (seeded by prefilter_seed)
+    // in its own cell instead of the cell's centre.
+    std::string prefilter = "none";
+    bool prefilter_jitter = true;
+    unsigned prefilter_seed = 1;
+    // Clustered deep shadow maps (Knecht §3.4): per light at most `clusters` clusters of objects
+    // near one another in light space (LiSPSM, Alg. 4.2), each with its own resolution² map
+    // focused on its members; a lookup multiplies the clusters' transmittances (Eq. 3.12).
+    // Objects that cannot shadow what the camera sees are left out. 0: off, else [1, 64].
+    // cluster_distance: the threshold d0 in [0, 10] (0: automatic).
+    int clusters = 0;
+    float cluster_distance = 0.f;
+    // Against popping when the clusters follow a moving camera (on a kept Context): the previous
+    // frame's clusters stay while they hold the same objects and their largest member distance is
+    // at most (1 + cluster_hysteresis) times that of the clusters found anew. In [0, 10].
+    float cluster_hysteresis = 0.25f;
+};
+
+// The summed-area-table family (lowpass, ao, cone; declared in src/techniques/sat_shadows.cpp).
+struct SatOptions {
+    // Filter width W in voxels of the scene's finest volume (Ament §4.2.1: U = V = W/2); ao: the
+    // cube side. Changing it rebuilds no table.
+    float filter_width = 3.f;
+    // "box" (Ament Eq. 11–13) or "gauss": a Gaussian with σ = W/4 over the W × W patch, as 5 × 5
+    // sub-boxes of the same tables (Ament §4.3, Eq. 25).
+    std::string filter_kernel = "box";
+    // The tables hold at most max_entries 64-bit entries (cells coarsen beyond that; the default
+    // keeps them ≤ 128 MiB).
+    std::size_t max_entries = std::size_t(1) << 24;
+    float cone_angle_deg = 10.f;  // cone: half angle of the cones
+};
+
+// The shadow-ray baseline (declared in src/techniques/rays.cpp).
+struct RayOptions {
+    // A factor on each volume's step for the shadow rays only (the camera rays keep theirs);
+    // smaller is finer and slower. In (0, 16].
+    float step = 1.f;
+};
+
+// Every option's name, range, default and help: its declaration (sombra/options.h).
 struct RenderOptions {
     int width = 0, height = 0;  // 0: the scene's size
     GradientMethod gradient = GradientMethod::CentralDifferences;
     ShadingModel shading = ShadingModel::Phong;
     float phase_g = 0.f;  // Henyey–Greenstein g in (−1, 1), ShadingModel::Scattering only
     ShadowTechnique shadows = ShadowTechnique::None;
-    int dsm_resolution = 512;   // texels per side of every deep shadow map view
-    float dsm_epsilon = 0.02f;  // compression error bound (Knecht Eq. 3.1)
-    // DSM generation: a factor on each volume's step for the rays from the light (the
-    // pre-compressed tables follow it; the camera rays keep their step). Larger is faster and
-    // coarser along the light: on the CT at 512², ε 0.01, 2 makes generation 1.55× faster for
-    // +14 % point error and +54 % image error against the reference (bench/README.md). In (0, 16].
-    float dsm_step = 1.f;
-    // DSM storage backend: "atlas" (3D-texture-like atlas of layer blocks allocated per tile on
-    // demand, Hadwiger §3.4 / Knecht Eq. 4.7–4.10), "chunked" (64-node chunks per 8×8 tile with
-    // atomics and linked lists, Knecht Alg. 4.1) or "compact" (count, prefix sum, write).
-    std::string dsm_storage = "atlas";
-    // How lookups read the maps: "packed" (after each build, every texel's nodes are copied into
-    // one run, the compact layout; lookups of every storage then cost the same) or "native" (in
-    // the storage's own layout: the atlas's layers, the chunked storage's lists, as Hadwiger and
-    // Knecht read them). Identical images; packed costs one copy per build and its memory.
-    std::string dsm_lookup = "packed";
-    // Pre-compressed visibility tables (Hadwiger §3.2): each step of a one-volume segment is
-    // replaced by its precomputed, compressed visibility, so isosurfaces of step transfer
-    // functions cast shadows from where they lie rather than from the next sample.
-    bool dsm_precompression = false;
-    // Pre-filtering (Lokovic–Veach; Hadwiger §3.1): "none", "box" (each texel averages 2×2
-    // sub-pixel rays), "tent" (4×4 sub-pixel rays weighted 1 3 3 1 per axis) or "5tap" (the
-    // centre ½ and the 4 corners ⅛ each, Hadwiger's 5-tap kernel; cl/shared/prefilter.h), combined
-    // exactly and compressed again; total error ≤ ε against the filtered visibility of the
-    // sub-pixel rays. With dsm_prefilter_jitter, each sub-pixel ray lies at a hashed position
-    // (seeded by dsm_prefilter_seed) in its own cell instead of the cell's centre.
-    std::string dsm_prefilter = "none";
-    bool dsm_prefilter_jitter = true;
-    unsigned dsm_prefilter_seed = 1;
-    // Clustered deep shadow maps (Knecht §3.4; dsm and shadowmap): per light at most dsm_clusters
-    // clusters of objects near one another in light space (LiSPSM, Alg. 4.2), each with its own
-    // dsm_resolution² map focused on its members and holding only them; a lookup multiplies the
-    // clusters' transmittances (Eq. 3.12). Objects that cannot shadow what the camera sees are
-    // left out, so the maps follow the camera. 0: off (one map per light view, fitted to the
-    // scene), else [1, 64]. dsm_cluster_distance: the threshold d0 in [0, 10] (0: automatic).
-    int dsm_clusters = 0;
-    float dsm_cluster_distance = 0.f;
-    // Against popping when the clusters follow a moving camera (on a kept Context): the previous
-    // frame's clusters stay while they hold the same objects and their largest member distance is
-    // at most (1 + dsm_cluster_hysteresis) times that of the clusters found anew. In [0, 10]; 0:
-    // the clusters of each frame, from scratch.
-    float dsm_cluster_hysteresis = 0.25f;
-    // Lowpass: filter width W in voxels of the scene's finest volume (Ament §4.2.1: U = V = W/2);
-    // changing it rebuilds no table. The tables hold at most lowpass_max_entries 64-bit entries
-    // (cells coarsen beyond that; the default keeps them ≤ 128 MiB).
-    float lowpass_filter_width = 3.f;
-    // "box" (Ament Eq. 11–13) or "gauss": a Gaussian with σ = W/4 over the W × W patch, as 5 × 5
-    // sub-boxes of the same tables (Ament §4.3, Eq. 25; 25 SAT boxes per lookup instead of one).
-    std::string lowpass_filter_kernel = "box";
-    float cone_angle_deg = 10.f;  // ShadowTechnique::Cone: half angle of the cones
-    // ShadowTechnique::Rays: a factor on each volume's step for the shadow rays only (the camera
-    // rays keep theirs); smaller is finer and slower. In (0, 16].
-    float shadow_ray_step = 1.f;
-    std::size_t lowpass_max_entries = std::size_t(1) << 24;
     ShadowCacheMode shadow_cache = ShadowCacheMode::Auto;  // every technique with a shadow term
-    VolumeStorage storage = VolumeStorage::Auto;
+    VolumeStorage volume_storage = VolumeStorage::Auto;
     bool empty_space_skipping = true;
     float termination_transmittance = 1e-3f;  // early ray termination threshold on t_acc
     unsigned jitter_seed = 1;
@@ -128,24 +141,26 @@ struct RenderOptions {
     // (PoCL runs them on the SIMD units) 8 in the camera pass and the native float vector width in
     // DSM generation (16 with AVX-512, else 8), 1 on GPUs. The maps do not depend on it.
     int lanes = 0;
+    DsmOptions dsm;
+    SatOptions sat;
+    RayOptions rays;
     // Reports of the call's long stages (sombra/progress.h); empty: silent. Must not throw.
     ProgressCallback progress;
 };
 
-// The options with a fixed set of values, by name, as the command line, --stats and the Python
-// module spell them ("dsm", "sobel", …): the one list of each (src/render/option_names.cpp; the
-// techniques' and storages' from their registries). option: "shadows", "gradient", "shading",
-// "storage" (volume storage), "dsm_storage", "dsm_lookup", "dsm_prefilter", "lowpass_filter_kernel" or
-// "shadow_cache" (auto, on, off).
-// An unknown option or value throws sombra::Error naming it and the accepted ones.
-std::vector<std::string> render_option_values(const std::string& option);  // the value names, in order
-void set_render_option(RenderOptions& options, const std::string& option, const std::string& value);
-std::string render_option_value(const RenderOptions& options, const std::string& option);
-// Throws sombra::Error naming the command-line flag of the first option whose value is not one of
-// its names, of shadow_ray_step or dsm_step outside (0, 16], or of dsm_clusters / dsm_cluster_distance out of
-// range (render, shadow_transmittance and
-// build_deep_shadow_maps call it first).
+// The options by key (sombra/options.h; "shadows", "dsm_resolution", …), values as text: the
+// names of a Choice ("dsm", "sobel"), numbers, "true"/"false". An unknown key or a value the
+// option's declaration refuses throws sombra::Error naming the key.
+std::vector<std::string> render_option_values(const std::string& key);  // a Choice's names, in order
+void set_render_option(RenderOptions& options, const std::string& key, const std::string& value);
+std::string render_option_value(const RenderOptions& options, const std::string& key);
+// Throws sombra::Error naming the key of the first option whose value its declaration refuses
+// (render, shadow_transmittance and build_deep_shadow_maps call it first).
 void check_render_options(const RenderOptions& options);
+// The options of a scene file's "render" block (Scene::render_settings) over the defaults; an
+// unknown key or a refused value throws "FILE: render.KEY: …". The CLI starts from them (its
+// flags override), as the Python module does when no options object is given.
+RenderOptions scene_render_options(const Scene& scene);
 
 // Linear RGB + alpha (coverage = 1 − t_acc), background already composited into RGB.
 struct Image {
@@ -170,7 +185,7 @@ struct RenderStats {
     unsigned long long dsm_capped_texels = 0;  // texels that hit the atlas layer cap
     int dsm_views_generated = 0;  // by this call: all views, those of the lights that moved, or none
     std::string dsm_storage;
-    // clustered deep shadow maps (RenderOptions::dsm_clusters > 0): every light's clusters, their
+    // clustered deep shadow maps (DsmOptions::clusters > 0): every light's clusters, their
     // members (object names as `sombra clusters` prints them) and focused views
     struct ClusterView {
         bool orthographic = false;
@@ -231,12 +246,12 @@ ShadowQuery shadow_transmittance(Context& context, const Scene& scene, int light
                                  const RenderOptions& options);
 
 // The deep shadow maps of one light (1 view, or 6 cube faces +x −x +y −y +z −z of a point
-// light; with options.dsm_clusters, the views of each cluster, named lights[i].cluster<k>.<j>),
-// built with options.dsm_resolution / dsm_epsilon and read back to the host.
+// light; with options.dsm.clusters, the views of each cluster, named lights[i].cluster<k>.<j>),
+// built with options.dsm.resolution / epsilon and read back to the host.
 std::vector<DeepShadowMap> build_deep_shadow_maps(Context& context, const Scene& scene, int light_index,
                                                   const RenderOptions& options, RenderStats* stats = nullptr);
 
-// The sub-pixel maps a pre-filtered DSM of one light merges (options.dsm_prefilter ≠ "none"),
+// The sub-pixel maps a pre-filtered DSM of one light merges (options.dsm.prefilter ≠ "none"),
 // each generated with ε/2: for every view of the light, its sub-maps in order (box, tent: one map
 // at twice the resolution; 5tap: centres, corners; cl/shared/prefilter.h). For tests and tools.
 std::vector<DeepShadowMap> build_prefilter_sub_maps(Context& context, const Scene& scene, int light_index,

@@ -4,6 +4,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "sombra/mesh.h"
@@ -89,6 +90,9 @@ struct Scene {
     float ambient_intensity = 1.f;  // i_a
     int width = 512, height = 512;  // default image size (the CLI can override)
     std::string source;             // file it came from
+    // The file's "render" block as written: option key → its JSON value, in file order; read by
+    // scene_render_options (render.h) against the options' declarations.
+    std::vector<std::pair<std::string, std::string>> render_settings;
 };
 
 // Loads a scene file. Volume and mesh paths are relative to the scene file's folder. Unknown keys,

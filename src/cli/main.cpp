@@ -13,7 +13,10 @@
 #include <charconv>
 #include <chrono>
 #include <cstdlib>
+#include <memory>
+#include <tuple>
 #include <unistd.h>
+#include <variant>
 
 #include <nlohmann/json.hpp>
 
@@ -25,33 +28,11 @@
 
 namespace {
 
-// The enumerated options' names: the library's list (render.h render_option_values).
-// A near miss gets a suggestion ("dms is not one of … (did you mean dsm?)").
-CLI::Validator member_of(const char* option) {
-    std::vector<std::string> names = sombra::render_option_values(option);
-    std::string list;
-    for (const std::string& n : names) list += (list.empty() ? "" : ",") + n;
-    return CLI::Validator(
-        [names, list](std::string& value) -> std::string {
-            if (std::find(names.begin(), names.end(), value) != names.end()) return "";
-            std::string close = sombra::detail::closest_name(value, names);
-            return value + " is not one of {" + list + "}" + (close.empty() ? "" : " (did you mean " + close + "?)");
-        },
-        "{" + list + "}");
-}
-
 const auto kStart = std::chrono::steady_clock::now();  // the whole command's wall clock starts here
 
 void write_text_file(const std::string& path, const std::string& text) {
     std::ofstream out(path);
     if (!(out << text << '\n') || !(out.flush())) throw sombra::Error(path + ": cannot write file");
-}
-
-// A float as the JSON number of its shortest decimal form (0.02f → 0.02, not 0.0199999996).
-double decimal(float value) {
-    char text[32];
-    const auto end = std::to_chars(text, text + sizeof text, value).ptr;
-    return std::strtod(std::string(text, end).c_str(), nullptr);
 }
 
 // "shadow cache on (auto: 1.2 M points to fill, ≈ 15.7 M samples; surfaces on: 0.3 M points to
@@ -77,36 +58,12 @@ std::string shadow_cache_note(const sombra::RenderStats& s, const sombra::Render
     return note + "; ";
 }
 
-// The effective options of the command, as --stats writes them.
-nlohmann::json options_json(const sombra::RenderOptions& o) {
-    return {{"width", o.width},
-            {"height", o.height},
-            {"shadows", sombra::render_option_value(o, "shadows")},
-            {"shading", sombra::render_option_value(o, "shading")},
-            {"gradient", sombra::render_option_value(o, "gradient")},
-            {"phase_g", decimal(o.phase_g)},
-            {"dsm_resolution", o.dsm_resolution},
-            {"dsm_epsilon", decimal(o.dsm_epsilon)},
-            {"dsm_step", decimal(o.dsm_step)},
-            {"dsm_storage", o.dsm_storage},
-            {"dsm_lookup", o.dsm_lookup},
-            {"dsm_precompression", o.dsm_precompression},
-            {"dsm_prefilter", o.dsm_prefilter},
-            {"dsm_prefilter_jitter", o.dsm_prefilter_jitter},
-            {"dsm_prefilter_seed", o.dsm_prefilter_seed},
-            {"dsm_clusters", o.dsm_clusters},
-            {"dsm_cluster_distance", decimal(o.dsm_cluster_distance)},
-            {"dsm_cluster_hysteresis", decimal(o.dsm_cluster_hysteresis)},
-            {"lowpass_filter_width", decimal(o.lowpass_filter_width)},
-            {"lowpass_filter_kernel", o.lowpass_filter_kernel},
-            {"shadow_cache", sombra::render_option_value(o, "shadow_cache")},
-            {"cone_angle_deg", decimal(o.cone_angle_deg)},
-            {"shadow_ray_step", decimal(o.shadow_ray_step)},
-            {"storage", sombra::render_option_value(o, "storage")},
-            {"empty_space_skipping", o.empty_space_skipping},
-            {"termination_transmittance", decimal(o.termination_transmittance)},
-            {"jitter_seed", o.jitter_seed},
-            {"lanes", o.lanes}};
+// The effective options of the command, as --stats writes them: every option the command has.
+nlohmann::json options_json(const sombra::RenderOptions& o, unsigned command) {
+    nlohmann::json j = nlohmann::json::object();
+    for (const sombra::OptionSpec& spec : sombra::render_option_specs())
+        if (spec.commands & command) std::visit([&](const auto& value) { j[spec.key] = value; }, spec.get(o));
+    return j;
 }
 
 // What every --stats file holds besides the library's stats: the version, the scene as given, the
@@ -114,13 +71,14 @@ nlohmann::json options_json(const sombra::RenderOptions& o) {
 struct StatsContext {
     std::string scene_path;
     sombra::RenderOptions options;
+    unsigned command = sombra::kRenderCommand;
 };
 
 nlohmann::json command_stats(const sombra::RenderStats& stats, const StatsContext& context) {
     nlohmann::json j = nlohmann::json::parse(stats.to_json());
     j["version"] = SOMBRA_VERSION;
     j["scene"] = context.scene_path;
-    j["options"] = options_json(context.options);
+    j["options"] = options_json(context.options, context.command);
     j["total_ms"] = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - kStart).count();
     return j;
 }
@@ -182,10 +140,6 @@ int write_dsm(sombra::Context& context, const sombra::Scene& scene, int light, c
     // no camera here: the stats describe this light's maps, not an image
     nlohmann::json j = command_stats(stats, stats_context);
     for (const char* camera_only : {"width", "height", "samples", "msamples_per_s"}) j.erase(camera_only);
-    for (const char* camera_only : {"width", "height", "shadows", "shading", "gradient", "phase_g", "jitter_seed",
-                                    "termination_transmittance", "lowpass_filter_width", "lowpass_filter_kernel",
-                                    "shadow_cache", "cone_angle_deg", "shadow_ray_step"})
-        j["options"].erase(camera_only);
     unsigned long long nodes = 0;
     for (const sombra::DeepShadowMap& map : maps) nodes += map.nodes.size();
     nlohmann::json& dsm_stats = j["dsm"];
@@ -240,14 +194,11 @@ int print_visibility(sombra::Context& context, const sombra::Scene& scene, int l
     std::ostringstream summary;
     summary << "sombra: " << points.size() << " points; |T − reference| mean/max:";
     for (int k = 0; k < count; ++k) summary << (k ? "," : "") << " " << techniques[k].first << " " << sum[k] / n << "/" << worst[k];
-    summary << " (lowpass W " << options.lowpass_filter_width << ")\n";
+    summary << " (lowpass W " << options.sat.filter_width << ")\n";
     if (!quiet) std::cerr << summary.str();
     sombra::ShadowQuery& dsm = queries.front();
     sombra::detail::StagedOutputs outputs;
     nlohmann::json j = command_stats(dsm.stats, stats_context);
-    // every technique was asked, at points rather than pixels: no camera options
-    for (const char* camera_only : {"width", "height", "shadows", "shading", "gradient", "phase_g", "jitter_seed"})
-        j["options"].erase(camera_only);
     stage_stats(outputs, stats_path, j);
     outputs.commit();
     return 0;
@@ -299,130 +250,195 @@ std::string unknown_option(const CLI::App& command, int argc, char** argv, std::
     return "";
 }
 
-int run(int argc, char** argv) {
+// One subcommand's render options, generated from their declarations (sombra/options.h): a flag
+// per option, checked as it is parsed; the values the user gave, applied over the scene's
+// "render" block once the scene is loaded.
+struct RenderOptionFlags {
+    unsigned command = 0;
+    struct Given {
+        const sombra::OptionSpec* spec;
+        CLI::Option* option;
+        std::string text;  // for options that take a value
+    };
+    std::vector<std::unique_ptr<Given>> options;
+};
+
+// A validator that runs the declaration's own check (CLI11 puts the flag in front of the message).
+CLI::Validator declared_check(const sombra::OptionSpec& spec) {
+    return CLI::Validator(
+        [&spec](std::string& text) {
+            try {
+                sombra::parse_option_text(spec, text, spec.flag);
+                return std::string();
+            } catch (const sombra::Error& e) {
+                return std::string(e.what()).substr(spec.flag.size() + 2);
+            }
+        },
+        sombra::option_range_text(spec));
+}
+
+void add_render_options(CLI::App& app, unsigned command, RenderOptionFlags& flags) {
+    flags.command = command;
+    for (const sombra::OptionSpec& spec : sombra::render_option_specs()) {
+        if (!(spec.commands & command)) continue;
+        auto given = std::make_unique<RenderOptionFlags::Given>(RenderOptionFlags::Given{&spec, nullptr, {}});
+        if (spec.kind == sombra::OptionKind::Flag) {  // a switch that sets the other value than the default
+            given->option = app.add_flag(spec.flag, spec.help);
+        } else {
+            const char* type = spec.kind == sombra::OptionKind::Integer ? "INT" : spec.kind == sombra::OptionKind::Real ? "NUMBER" : "NAME";
+            given->option = app.add_option(spec.flag, given->text, spec.help)
+                                ->type_name(type)
+                                ->default_str(sombra::option_value_text(spec.default_value()))
+                                ->check(declared_check(spec));
+        }
+        flags.options.push_back(std::move(given));
+    }
+}
+
+// The scene's "render" block, then the flags given. A flag that does not apply to the render's
+// technique is refused (the scene file's block may hold options for other techniques).
+sombra::RenderOptions effective_options(const RenderOptionFlags& flags, const sombra::Scene& scene) {
+    sombra::RenderOptions options = sombra::scene_render_options(scene);
+    for (const auto& given : flags.options) {
+        if (given->option->count() == 0) continue;
+        const sombra::OptionSpec& spec = *given->spec;
+        if (spec.kind == sombra::OptionKind::Flag)
+            sombra::set_option(options, spec, !std::get<bool>(spec.default_value()), spec.flag);
+        else
+            sombra::set_option(options, spec, sombra::parse_option_text(spec, given->text, spec.flag), spec.flag);
+    }
+    if (flags.command == sombra::kRenderCommand)
+        for (const auto& given : flags.options)
+            if (given->option->count() > 0) sombra::check_option_applies(*given->spec, options.shadows, given->spec->flag);
+    return options;
+}
+
+// Old spellings still accepted, each with a note: --storage (the DSM storage, now --dsm-storage)
+// and --prefilter-jitter on|off|SEED (now --no-prefilter-jitter and --prefilter-seed).
+std::vector<std::string> current_spellings(int argc, char** argv) {
+    std::vector<std::string> args(argv, argv + argc);
+    std::vector<std::string> out;
+    for (std::size_t i = 0; i < args.size(); ++i) {
+        std::string arg = args[i], value;
+        const std::size_t equals = arg.find('=');
+        const std::string name = arg.substr(0, equals);
+        if (name != "--storage" && name != "--prefilter-jitter") {
+            out.push_back(arg);
+            continue;
+        }
+        if (equals != std::string::npos) value = arg.substr(equals + 1);
+        else if (i + 1 < args.size()) value = args[++i];
+        if (name == "--storage") {
+            std::cerr << "sombra: note: --storage is now --dsm-storage (the deep shadow maps' storage)\n";
+            out.insert(out.end(), {"--dsm-storage", value});
+        } else {
+            std::cerr << "sombra: note: --prefilter-jitter is now --no-prefilter-jitter / --prefilter-seed SEED\n";
+            if (value == "off") out.push_back("--no-prefilter-jitter");
+            else if (value != "on") out.insert(out.end(), {"--prefilter-seed", value});
+        }
+    }
+    return out;
+}
+
+// A parse error: a misspelt command or option is named with the closest real one; else CLI11's line.
+int parse_error(CLI::App& app, const CLI::ParseError& e, int argc, char** argv) {
+    if (e.get_exit_code() == 0) return app.exit(e);
+    const std::string command = command_word(argc, argv);
+    std::vector<std::string> known;
+    for (const CLI::App* sub : app.get_subcommands([](CLI::App*) { return true; })) known.push_back(sub->get_name());
+    if (!command.empty() && std::find(known.begin(), known.end(), command) == known.end()) {
+        std::cerr << "sombra: error: unknown command '" << command << "'" << sombra::detail::did_you_mean(command, known) << "\n";
+        return 2;
+    }
+    known.clear();
+    const std::string option = unknown_option(command.empty() ? app : *app.get_subcommand(command), argc, argv, known);
+    if (!option.empty()) {
+        std::cerr << "sombra: error: unknown option '" << option << "'" << sombra::detail::did_you_mean(option, known) << "\n";
+        return 2;
+    }
+    std::cerr << "sombra: error: " << e.what() << "\n";
+    return 2;
+}
+
+// What the render, dsm and visibility commands share.
+struct SceneCommandArgs {
+    std::string scene_path, output, device = "auto", stats_path, non_finite = "reject", points_path;
+    int light_index = 0;
+    bool quiet = false;
+};
+
+void add_scene_command_args(CLI::App& sub, SceneCommandArgs& a) {
+    sub.add_option("scene", a.scene_path, "scene file (JSON)")->required();
+    sub.add_option("--device", a.device, "auto, cpu, gpu, or an index from `sombra devices`");
+    sub.add_option("--non-finite", a.non_finite, "NaN/Inf voxels: reject (error) or sanitize (set to 0, warn)")
+        ->check(CLI::IsMember({"reject", "sanitize"}));
+    sub.add_flag("-q,--quiet", a.quiet, "print nothing on stderr but errors (no progress, no summary)");
+}
+
+int list_devices() {
+    auto list = sombra::list_devices();
+    if (list.empty()) throw sombra::Error("no OpenCL device found (install pocl-opencl-icd: scripts/install-deps.sh)");
+    for (auto& d : list)
+        std::cout << d.index << ": " << d.name << " [" << d.platform << "] " << (d.is_gpu ? "GPU" : "CPU") << ", "
+                  << d.opencl_c_version << ", " << (d.global_memory_bytes >> 20) << " MiB\n";
+    return 0;
+}
+
+// A wrong output name fails before the work, not after it.
+void check_output_name(const std::string& output, bool image) {
+    std::string e = std::filesystem::path(output).extension().string();
+    std::transform(e.begin(), e.end(), e.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+    if (image && e != ".png" && e != ".exr") throw sombra::Error(output + ": output must end in .png or .exr");
+    if (!image && e != ".exr")
+        throw sombra::Error(output + ": a deep shadow map is written as OpenEXR: the name must end in .exr");
+}
+
+int render_image(sombra::Context& context, const sombra::Scene& scene, const StatsContext& stats_context, const SceneCommandArgs& a,
+                 const StageTimes& stages) {
+    const sombra::RenderOptions& options = stats_context.options;
+    sombra::RenderResult result = sombra::render(context, scene, options);
+    sombra::detail::StagedOutputs outputs;
+    outputs.write(a.output, [&](const std::string& staged) { sombra::write_image(result.image, staged); });
+    stage_stats(outputs, a.stats_path, command_stats(result.stats, stats_context));
+    outputs.commit();
+    if (!a.quiet)
+        std::cerr << "sombra: wrote " << a.output << " (" << result.image.width << "×" << result.image.height << ", "
+                  << result.stats.device << ", " << result.stats.msamples_per_s << " Msamples/s; "
+                  << shadow_cache_note(result.stats, options) << stages.summary() << ")\n";
+    return 0;
+}
+
+int run(int argc_given, char** argv_given) {
+    const std::vector<std::string> args = current_spellings(argc_given, argv_given);
+    std::vector<char*> argv_current;
+    for (const std::string& arg : args) argv_current.push_back(const_cast<char*>(arg.c_str()));
+    const int argc = int(argv_current.size());
+    char** argv = argv_current.data();
+
     CLI::App app{"sombra — volumetric shadows for scenes of volumes and translucent geometry"};
     app.require_subcommand(1);
-    app.option_defaults()->always_capture_default();  // --help shows every default (before the subcommands copy it)
-    const sombra::RenderOptions defaults;               // the one source of the defaults
     app.set_version_flag("--version", std::string("sombra ") + SOMBRA_VERSION, "print the version and exit");
-
-    std::string scene_path, output, device = "auto", stats_path, non_finite = "reject";
-    std::string gradient = sombra::render_option_value(defaults, "gradient"), storage = sombra::render_option_value(defaults, "storage");
-    int width = defaults.width, height = defaults.height;
-    unsigned seed = defaults.jitter_seed;
-    bool no_skip = !defaults.empty_space_skipping;
+    SceneCommandArgs a;
     CLI::App* render = app.add_subcommand("render", "render a scene to an image (PNG or EXR)");
-    render->add_option("scene", scene_path, "scene file (JSON)")->required();
-    render->add_option("-o,--output", output, "output image, .png (sRGB) or .exr (linear float)")->required();
-    const CLI::Validator image_side = in_range<int>(1, sombra::limits::kMaxImageSide);
-    render->add_option("--width", width, "image width (default: the scene's)")->check(image_side);
-    render->add_option("--height", height, "image height (default: the scene's)")->check(image_side);
-    render->add_option("--device", device, "auto, cpu, gpu, or an index from `sombra devices`");
-    render->add_option("--stats", stats_path, "write per-stage times and sample counts as JSON");
-    render->add_option("--gradient", gradient, "central or sobel")->check(member_of("gradient"));
-    std::string shading = sombra::render_option_value(defaults, "shading");
-    float phase_g = defaults.phase_g;
-    render->add_option("--shading", shading,
-                       "phong (gradient normals) or scattering (single scattering with shadows, Ament 2014 Eq. 1-3)")
-        ->check(member_of("shading"));
-    render->add_option("--phase-g", phase_g, "Henyey-Greenstein asymmetry g in (-1, 1) for --shading scattering (0: isotropic)");
-    std::string shadows = sombra::render_option_value(defaults, "shadows");
-    std::string shadows_help = "the shadow technique:";
-    for (const std::string& name : sombra::render_option_values("shadows"))
-        shadows_help += "\n  " + name + ": " + sombra::shadow_technique_summary(sombra::parse_shadow_technique(name));
-    render->add_option("--shadows", shadows, shadows_help)->check(member_of("shadows"));
-    float filter_width = defaults.lowpass_filter_width;
-    render->add_option("--filter", filter_width, "lowpass: filter width in voxels (softness of the shadows); ao: cube side")
-        ->check(in_range<float>(0, 4096));
-    float cone_angle = defaults.cone_angle_deg;
-    std::string shadow_cache = sombra::render_option_value(defaults, "shadow_cache");
-    render->add_option("--shadow-cache", shadow_cache,
-                       "the shadow term per volume and light on a lattice, filled by the technique, read trilinearly: on, off, "
-                       "or auto (on when filling it costs fewer points than the frame's samples)")
-        ->check(member_of("shadow_cache"));
-    render->add_option("--cone-angle", cone_angle, "cone: half angle of the shadow cones in degrees")->check(in_range<float>(0.01f, 60));
-    float ray_step = defaults.shadow_ray_step;
-    render->add_option("--ray-step", ray_step, "rays: factor on each volume's step for the shadow rays, in (0, 16] (< 1: finer)")
-        ->check(in_range<float>(1e-6f, 16));
-    std::string filter_kernel = defaults.lowpass_filter_kernel;
-    render->add_option("--filter-kernel", filter_kernel, "lowpass: box (one SAT box) or gauss (5×5 sub-boxes, Ament Eq. 25)")
-        ->check(member_of("lowpass_filter_kernel"));
-    int dsm_resolution = defaults.dsm_resolution;
-    float dsm_epsilon = defaults.dsm_epsilon;
-    std::string dsm_storage = defaults.dsm_storage;
-    std::string dsm_lookup = defaults.dsm_lookup;
-    const char* dsm_lookup_help = "DSM lookups: packed (each texel's nodes copied into one run after generation) or native "
-                                  "(in the storage's own layout)";
-    bool precompression = defaults.dsm_precompression;
-    std::string prefilter = defaults.dsm_prefilter;
-    render->add_option("--dsm-res", dsm_resolution, "deep shadow map texels per side")->check(in_range<int>(1, 8192));
-    render->add_option("--storage", dsm_storage, "deep shadow map storage: atlas, chunked, chunked-ondemand (Knecht) or compact")
-        ->check(member_of("dsm_storage"));
-    render->add_option("--dsm-lookup", dsm_lookup, dsm_lookup_help)->check(member_of("dsm_lookup"));
-    render->add_flag("--precompression", precompression, "pre-compressed visibility tables for DSM generation (Hadwiger §3.2)");
-    std::string prefilter_jitter = !defaults.dsm_prefilter_jitter ? "off"
-                                   : defaults.dsm_prefilter_seed == 1 ? "on"
-                                                                      : std::to_string(defaults.dsm_prefilter_seed);
-    render->add_option("--prefilter", prefilter,
-                       "DSM pre-filtering: none, box (2×2 sub-pixel rays), tent (4×4) or 5tap (centre + 4 corners)")
-        ->check(member_of("dsm_prefilter"));
-    render->add_option("--prefilter-jitter", prefilter_jitter, "jittered sub-pixel rays: on (seed 1), off, or a seed");
-    render->add_option("--eps", dsm_epsilon, "deep shadow map compression error bound ε (Knecht Eq. 3.1)")
-        ->check(in_range<float>(0, 1e6f));
-    float dsm_step = defaults.dsm_step;
-    const char* dsm_step_help = "DSM generation: factor on each volume's step for the rays from the light, in (0, 16] (> 1: faster, coarser)";
-    render->add_option("--dsm-step", dsm_step, dsm_step_help)->check(in_range<float>(1e-6f, 16));
-    int dsm_clusters = defaults.dsm_clusters;
-    float cluster_distance = defaults.dsm_cluster_distance;
-    const char* clusters_help = "clustered deep shadow maps (Knecht §3.4): at most M object clusters per light, each with its "
-                                "own --dsm-res map focused on it (0: off)";
-    const char* distance_help = "clustering threshold d0 in light space, [0, 10] (0: automatic, from the projected object sizes)";
-    render->add_option("--clusters", dsm_clusters, clusters_help)->check(in_range<int>(0, 64));
-    render->add_option("--cluster-distance", cluster_distance, distance_help)->check(in_range<float>(0, 10));
-    float cluster_hysteresis = defaults.dsm_cluster_hysteresis;
-    render->add_option("--cluster-hysteresis", cluster_hysteresis,
-                       "keep the previous frame's clusters while their spread is within 1 + H of new ones (API re-renders; 0: off)")
-        ->check(in_range<float>(0, 10));
-    render->add_option("--volume-storage", storage, "auto (buffer on CPUs, image on GPUs), buffer or image")
-        ->check(member_of("storage"));
-    render->add_option("--non-finite", non_finite, "NaN/Inf voxels: reject (error) or sanitize (set to 0, warn)")
-        ->check(CLI::IsMember({"reject", "sanitize"}));
-    render->add_flag("--no-empty-space-skipping", no_skip, "march empty bricks too (for comparisons)");
-    render->add_option("--seed", seed, "seed of the per-pixel ray jitter");
-    int lanes = defaults.lanes;
-    render->add_option("--lanes", lanes, "rays per work-item in vector types (camera pass and DSM generation): 1, 4, 8, 16 (default: on CPUs 8 in the camera pass, the native float vector width in DSM generation; 1 on GPUs)")
-        ->check(CLI::IsMember({0, 1, 4, 8, 16}));
-
     CLI::App* devices = app.add_subcommand("devices", "list OpenCL platforms and devices");
-
-    int light_index = 0;
-    std::string points_path;
     CLI::App* dsm = app.add_subcommand("dsm", "write one light's deep shadow map as a scanline deep OpenEXR");
-    dsm->add_option("scene", scene_path, "scene file (JSON)")->required();
-    dsm->add_option("--light", light_index, "light index in the scene")->required();
-    dsm->add_option("-o,--output", output, "output .exr (a point light writes NAME.+x.exr … NAME.-z.exr; clustered maps NAME.cluster<k>.<j>.exr)")->required();
     CLI::App* visibility = app.add_subcommand("visibility", "transmittance to a light at points: technique vs reference");
-    visibility->add_option("scene", scene_path, "scene file (JSON)")->required();
-    visibility->add_option("--light", light_index, "light index in the scene")->required();
-    visibility->add_option("--points", points_path, "CSV file of x,y,z world points (one per line)")->required();
-    bool quiet = false;
-    for (CLI::App* sub : {render, dsm, visibility})
-        sub->add_flag("-q,--quiet", quiet, "print nothing on stderr but errors (no progress, no summary)");
+    render->add_option("-o,--output", a.output, "output image, .png (sRGB) or .exr (linear float)")->required();
+    render->add_option("--stats", a.stats_path, "write per-stage times and sample counts as JSON");
+    dsm->add_option("-o,--output", a.output,
+                    "output .exr (a point light writes NAME.+x.exr … NAME.-z.exr; clustered maps NAME.cluster<k>.<j>.exr)")
+        ->required();
+    visibility->add_option("--points", a.points_path, "CSV file of x,y,z world points (one per line)")->required();
     for (CLI::App* sub : {dsm, visibility}) {
-        sub->add_option("--device", device, "auto, cpu, gpu, or an index from `sombra devices`");
-        sub->add_option("--dsm-res", dsm_resolution, "deep shadow map texels per side")->check(in_range<int>(1, 8192));
-        sub->add_option("--storage", dsm_storage, "deep shadow map storage: atlas, chunked, chunked-ondemand (Knecht) or compact")
-            ->check(member_of("dsm_storage"));
-        sub->add_option("--dsm-lookup", dsm_lookup, dsm_lookup_help)->check(member_of("dsm_lookup"));
-        sub->add_flag("--precompression", precompression, "pre-compressed visibility tables (Hadwiger §3.2)");
-        sub->add_option("--prefilter", prefilter, "DSM pre-filtering: none, box, tent or 5tap")
-            ->check(member_of("dsm_prefilter"));
-        sub->add_option("--prefilter-jitter", prefilter_jitter, "jittered sub-pixel rays: on (seed 1), off, or a seed");
-        sub->add_option("--eps", dsm_epsilon, "compression error bound ε")->check(in_range<float>(0, 1e6f));
-        sub->add_option("--dsm-step", dsm_step, dsm_step_help)->check(in_range<float>(1e-6f, 16));
-        sub->add_option("--clusters", dsm_clusters, clusters_help)->check(in_range<int>(0, 64));
-        sub->add_option("--cluster-distance", cluster_distance, distance_help)->check(in_range<float>(0, 10));
-        sub->add_option("--stats", stats_path, "write build times and DSM sizes as JSON");
+        sub->add_option("--light", a.light_index, "light index in the scene")->required();
+        sub->add_option("--stats", a.stats_path, "write build times and DSM sizes as JSON");
+    }
+    RenderOptionFlags render_flags, dsm_flags, visibility_flags;
+    for (auto [sub, command, flags] : {std::tuple{render, sombra::kRenderCommand, &render_flags},
+                                       std::tuple{dsm, sombra::kDsmCommand, &dsm_flags},
+                                       std::tuple{visibility, sombra::kVisibilityCommand, &visibility_flags}}) {
+        add_scene_command_args(*sub, a);
+        add_render_options(*sub, command, *flags);
     }
     sombra::cli::ClustersCommand clusters;
     sombra::cli::add_clusters_command(app, clusters);
@@ -430,114 +446,35 @@ int run(int argc, char** argv) {
     clusters.app->get_option("--cluster-distance")->check(in_range<double>(0, 10));
     for (const char* size : {"--width", "--height"}) clusters.app->get_option(size)->check(in_range<int>(1, 16384));
     clusters.app->get_option("--light")->check(in_range<int>(0, 1 << 20));
-    visibility->add_option("--filter", filter_width, "low-pass filter width W in voxels (Ament §4.2.1)")
-        ->check(in_range<float>(0, 4096));
-    visibility->add_option("--filter-kernel", filter_kernel, "low-pass filter kernel: box or gauss")
-        ->check(member_of("lowpass_filter_kernel"));
 
     try {
         app.parse(argc, argv);
     } catch (const CLI::CallForHelp& e) {
         return app.exit(e);
     } catch (const CLI::ParseError& e) {
-        if (e.get_exit_code() == 0) return app.exit(e);
-        // a misspelt command or option is named, with the closest real one, before anything else
-        const std::string command = command_word(argc, argv);
-        std::vector<std::string> known;
-        for (const CLI::App* sub : app.get_subcommands([](CLI::App*) { return true; })) known.push_back(sub->get_name());
-        if (!command.empty() && std::find(known.begin(), known.end(), command) == known.end()) {
-            std::cerr << "sombra: error: unknown command '" << command << "'" << sombra::detail::did_you_mean(command, known) << "\n";
-            return 2;
-        }
-        known.clear();
-        {
-            const std::string option = unknown_option(command.empty() ? app : *app.get_subcommand(command), argc, argv, known);
-            if (!option.empty()) {
-                std::cerr << "sombra: error: unknown option '" << option << "'" << sombra::detail::did_you_mean(option, known) << "\n";
-                return 2;
-            }
-        }
-        std::cerr << "sombra: error: " << e.what() << "\n";
-        return 2;
+        return parse_error(app, e, argc, argv);
     }
-
-    if (devices->parsed()) {
-        auto list = sombra::list_devices();
-        if (list.empty()) throw sombra::Error("no OpenCL device found (install pocl-opencl-icd: scripts/install-deps.sh)");
-        for (auto& d : list)
-            std::cout << d.index << ": " << d.name << " [" << d.platform << "] " << (d.is_gpu ? "GPU" : "CPU") << ", "
-                      << d.opencl_c_version << ", " << (d.global_memory_bytes >> 20) << " MiB\n";
-        return 0;
-    }
-
+    if (devices->parsed()) return list_devices();
     if (clusters.app->parsed()) return sombra::cli::run_clusters_command(clusters, sombra::load_scene(clusters.scene_path));
 
-    // a wrong output name fails before the work, not after it
-    const std::string output_extension = [&] {
-        std::string e = std::filesystem::path(output).extension().string();
-        std::transform(e.begin(), e.end(), e.begin(), [](unsigned char c) { return char(std::tolower(c)); });
-        return e;
-    }();
-    if (render->parsed() && output_extension != ".png" && output_extension != ".exr")
-        throw sombra::Error(output + ": output must end in .png or .exr");
-    if (dsm->parsed() && output_extension != ".exr")
-        throw sombra::Error(output + ": a deep shadow map is written as OpenEXR: the name must end in .exr");
-    auto check_outputs = [&] { sombra::detail::StagedOutputs::check_targets({output, stats_path}); };
+    const RenderOptionFlags& flags = render->parsed() ? render_flags : dsm->parsed() ? dsm_flags : visibility_flags;
+    if (!visibility->parsed()) check_output_name(a.output, render->parsed());
+    auto check_outputs = [&] { sombra::detail::StagedOutputs::check_targets({a.output, a.stats_path}); };
     check_outputs();
-
     sombra::VolumeLoadOptions load;
-    load.non_finite = non_finite == "sanitize" ? sombra::NonFinitePolicy::Sanitize : sombra::NonFinitePolicy::Reject;
-    sombra::Scene scene = sombra::load_scene(scene_path, load);
-    if (visibility->parsed()) sombra::detail::regular_file_size(points_path);  // an input, read below
+    load.non_finite = a.non_finite == "sanitize" ? sombra::NonFinitePolicy::Sanitize : sombra::NonFinitePolicy::Reject;
+    sombra::Scene scene = sombra::load_scene(a.scene_path, load);
+    if (visibility->parsed()) sombra::detail::regular_file_size(a.points_path);  // an input, read below
     check_outputs();  // again, now that the inputs are known: no output may name one (before any work)
-    sombra::Context context(device);
-    sombra::RenderOptions options;
-    options.width = width, options.height = height;
-    sombra::set_render_option(options, "gradient", gradient);
-    sombra::set_render_option(options, "shading", shading);
-    options.phase_g = phase_g;
-    sombra::set_render_option(options, "storage", storage);
-    options.empty_space_skipping = !no_skip;
-    options.jitter_seed = seed;
-    options.lanes = lanes;
-    sombra::set_render_option(options, "shadows", shadows);
-    options.lowpass_filter_width = filter_width;
-    options.lowpass_filter_kernel = filter_kernel;
-    options.cone_angle_deg = cone_angle;
-    options.shadow_ray_step = ray_step;
-    sombra::set_render_option(options, "shadow_cache", shadow_cache);
-    options.dsm_resolution = dsm_resolution;
-    options.dsm_epsilon = dsm_epsilon;
-    options.dsm_storage = dsm_storage;
-    options.dsm_lookup = dsm_lookup;
-    options.dsm_precompression = precompression;
-    options.dsm_prefilter = prefilter;
-    options.dsm_step = dsm_step;
-    options.dsm_clusters = dsm_clusters;
-    options.dsm_cluster_distance = cluster_distance;
-    options.dsm_cluster_hysteresis = cluster_hysteresis;
-    options.dsm_prefilter_jitter = prefilter_jitter != "off";
-    if (prefilter_jitter != "on" && prefilter_jitter != "off") {
-        bool digits = !prefilter_jitter.empty() && prefilter_jitter.size() <= 9 &&
-                      std::all_of(prefilter_jitter.begin(), prefilter_jitter.end(), [](char c) { return c >= '0' && c <= '9'; });
-        if (!digits) throw sombra::Error("--prefilter-jitter: expected on, off or a seed (0 … 999999999), got '" + prefilter_jitter + "'");
-        options.dsm_prefilter_seed = unsigned(std::stoul(prefilter_jitter));
-    }
+    sombra::RenderOptions options = effective_options(flags, scene);
+    sombra::Context context(a.device);
     StageTimes stages;
-    options.progress = stages.callback(quiet);
-    const StatsContext stats_context{scene_path, options};
-    if (dsm->parsed()) return write_dsm(context, scene, light_index, stats_context, output, stats_path, quiet);
-    if (visibility->parsed()) return print_visibility(context, scene, light_index, stats_context, points_path, stats_path, quiet);
-    sombra::RenderResult result = sombra::render(context, scene, options);
-    sombra::detail::StagedOutputs outputs;
-    outputs.write(output, [&](const std::string& staged) { sombra::write_image(result.image, staged); });
-    stage_stats(outputs, stats_path, command_stats(result.stats, stats_context));
-    outputs.commit();
-    if (!quiet)
-        std::cerr << "sombra: wrote " << output << " (" << result.image.width << "×" << result.image.height << ", "
-                  << result.stats.device << ", " << result.stats.msamples_per_s << " Msamples/s; " << shadow_cache_note(result.stats, options)
-                  << stages.summary() << ")\n";
-    return 0;
+    options.progress = stages.callback(a.quiet);
+    const StatsContext stats_context{a.scene_path, options, flags.command};
+    if (dsm->parsed()) return write_dsm(context, scene, a.light_index, stats_context, a.output, a.stats_path, a.quiet);
+    if (visibility->parsed())
+        return print_visibility(context, scene, a.light_index, stats_context, a.points_path, a.stats_path, a.quiet);
+    return render_image(context, scene, stats_context, a, stages);
 }
 
 }  // namespace

@@ -26,7 +26,7 @@ std::vector<DeepShadowMap> build_deep_shadow_maps(Context& context, const Scene&
     for (cl_uint v = 0; v < light.view_count; ++v) {
         const DsmViewGpu& view = dsm.views[light.view_first + v];
         std::string name = "lights[" + std::to_string(light_index) + "]";
-        if (options.dsm_clusters > 0) {
+        if (options.dsm.clusters > 0) {
             in_cluster = v > 0 && dsm.views[light.view_first + v - 1].cluster == view.cluster ? in_cluster + 1 : 0;
             name += ".cluster" + std::to_string(view.cluster) + "." + std::to_string(in_cluster);
         } else if (light.view_count == 6) {
@@ -50,9 +50,9 @@ std::vector<DeepShadowMap> build_prefilter_sub_maps(Context& context, const Scen
     RenderStats stats;
     const pipeline::PreparedScene& prepared = pipeline::prepare(context, scene, scene_only, stats).scene;
     packing::PackedScene packed = prepared.packed;
-    std::vector<DsmViewGpu> views = shadows::make_dsm_views(scene, packed, options.dsm_resolution);
+    std::vector<DsmViewGpu> views = shadows::make_dsm_views(scene, packed, options.dsm.resolution);
     shadows::SubPixelDsm sub =
-        shadows::build_sub_pixel_maps(runtime, scene, packed, prepared.device, views, techniques::dsm_build_options(options));
+        shadows::build_sub_pixel_maps(runtime, scene, packed, prepared.device, views, options.dsm, options.lanes);
     const LightGpu& light = packed.lights[std::size_t(light_index)];
     std::vector<DeepShadowMap> maps;
     for (cl_uint v = light.view_first * sub.layout.maps; v < (light.view_first + light.view_count) * sub.layout.maps; ++v) {

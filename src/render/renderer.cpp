@@ -149,8 +149,8 @@ Prepared prepare(Context& context, const Scene& scene, const RenderOptions& opti
     detail::KeptScenes& kept = context.kept_scenes();
     check_render_options(options);
     validate_scene(scene, scene.source);
-    bool use_images = options.storage == VolumeStorage::Image ||
-                      (options.storage == VolumeStorage::Auto && runtime.info().is_gpu);
+    bool use_images = options.volume_storage == VolumeStorage::Image ||
+                      (options.volume_storage == VolumeStorage::Auto && runtime.info().is_gpu);
     auto family = scene.lights.empty() ? techniques::make_no_shadows : techniques::entry(options.shadows).make;
     if (kept.technique_family != family || !kept.technique) {  // free the old device data before allocating the new
         kept = detail::KeptScenes();
@@ -276,7 +276,6 @@ RenderResult render(Context& context, const Scene& scene, const RenderOptions& o
     int height = options.height > 0 ? options.height : scene.height;
     if (width < 1 || height < 1 || width > 16384 || height > 16384)
         throw Error("--width/--height: must lie in [1, 16384]");
-    if (!(options.phase_g > -1.f && options.phase_g < 1.f)) throw Error("--phase-g: must lie in (-1, 1)");
     int lanes = host::packet_lanes(runtime, options.lanes);
 
     host::ProgressScope progress(runtime.progress(), options.progress);

@@ -114,7 +114,7 @@ std::vector<std::string> generic_keys(const Scene& scene, const PreparedScene& p
             const LightGpu& light = p.packed.lights[m];
             double reach = light_reach(all, light);  // a positional light's map spans its distance to the farthest corner
             // a texel of a view of ≤ 90° fitted to the scene spans ≤ (π/2)·reach / resolution
-            double margin = 4 * 1.6 * reach / std::max(options.dsm_resolution, 1) + 2 * step;
+            double margin = 4 * 1.6 * reach / std::max(options.dsm.resolution, 1) + 2 * step;
             std::string key = common + " | light " + p.light_keys[m] + " " + technique.light_data_key(m) + " | volume " + std::to_string(i) + " " + k.volume_content[i];
             for (std::size_t j = 0; j < scene.volumes.size(); ++j)
                 if (j != i && shadows::between_light_and(boxes[i], boxes[j].grown(margin), light))

@@ -406,6 +406,11 @@ Scene load_scene(const std::string& path, const VolumeLoadOptions& options) {
         for (std::size_t i = 0; i < lights.size(); ++i)
             scene.lights.push_back(read_light(lights[i], path, "lights[" + std::to_string(i) + "]"));
     }
+    if (f.has("render")) {  // checked against the options' declarations by scene_render_options
+        const json& block = f.at("render");
+        if (!block.is_object()) f.fail("render", "must be an object of render options");
+        for (auto it = block.begin(); it != block.end(); ++it) scene.render_settings.emplace_back(it.key(), it.value().dump());
+    }
     f.finish();
     validate_scene(scene, path);
     return scene;

@@ -22,7 +22,7 @@ std::vector<std::string> volume_pass_defines(const Scene& scene, bool use_images
 namespace {
 
 // A DSM set about to be generated: its backend and its views on the device.
-DeviceDsm start_dsm(host::Runtime& runtime, const std::vector<DsmViewGpu>& views, const DsmBuildOptions& options) {
+DeviceDsm start_dsm(host::Runtime& runtime, const std::vector<DsmViewGpu>& views, const DsmOptions& options) {
     DeviceDsm dsm;
     dsm.storage = memory::make_dsm_storage(options.storage, options.lookup);
     dsm.stats.views = int(views.size());
@@ -89,15 +89,15 @@ DevicePrecompression upload_precompression(host::Runtime& runtime, const Scene& 
 }
 
 void generate(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
-              const packing::DeviceScene& device_scene, std::vector<DsmViewGpu> views, const DsmBuildOptions& options,
+              const packing::DeviceScene& device_scene, std::vector<DsmViewGpu> views, const DsmOptions& options, int lanes,
               DeviceDsm& dsm, const std::vector<bool>& regenerate, const ViewMeshes& meshes);
 
 // The sub-pixel maps of the `regenerate` views (empty: all); the others' stay empty.
 SubPixelDsm generate_sub_pixel_maps(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
                                     const packing::DeviceScene& device_scene, const std::vector<DsmViewGpu>& views,
-                                    const DsmBuildOptions& options, const std::vector<bool>& regenerate, const ViewMeshes& meshes) {
+                                    const DsmOptions& options, int lanes, const std::vector<bool>& regenerate, const ViewMeshes& meshes) {
     SubPixelDsm sub{sub_pixel_views(views, options.prefilter, options.prefilter_jitter, options.prefilter_seed), {}};
-    DsmBuildOptions sub_options = options;
+    DsmOptions sub_options = options;
     sub_options.resolution = sub.layout.resolution;
     sub_options.epsilon = 0.5f * options.epsilon;
     sub_options.storage = "compact";
@@ -108,7 +108,7 @@ SubPixelDsm generate_sub_pixel_maps(host::Runtime& runtime, const Scene& scene, 
     for (const auto& m : meshes) sub_meshes.insert(sub_meshes.end(), std::size_t(sub.layout.maps), m);
     sub.dsm = start_dsm(runtime, sub.layout.views, sub_options);
     runtime.progress().extend(generation_launches(sub.dsm, sub_regenerate));
-    generate(runtime, scene, packed, device_scene, sub.layout.views, sub_options, sub.dsm, sub_regenerate, sub_meshes);
+    generate(runtime, scene, packed, device_scene, sub.layout.views, sub_options, lanes, sub.dsm, sub_regenerate, sub_meshes);
     return sub;
 }
 
@@ -116,9 +116,9 @@ SubPixelDsm generate_sub_pixel_maps(host::Runtime& runtime, const Scene& scene, 
 // merges each texel's taps under the filter kernel and compresses the sum (ε/2) into the chosen
 // backend.
 void generate_prefiltered(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
-                          const packing::DeviceScene& device_scene, std::vector<DsmViewGpu> views, const DsmBuildOptions& options,
+                          const packing::DeviceScene& device_scene, std::vector<DsmViewGpu> views, const DsmOptions& options, int lanes,
                           DeviceDsm& dsm, const std::vector<bool>& regenerate, const ViewMeshes& meshes) {
-    SubPixelDsm sub = generate_sub_pixel_maps(runtime, scene, packed, device_scene, views, options, regenerate, meshes);
+    SubPixelDsm sub = generate_sub_pixel_maps(runtime, scene, packed, device_scene, views, options, lanes, regenerate, meshes);
     std::vector<std::string> defines{"SOMBRA_LANES=1"};
     if (options.prefilter == "tent") defines.push_back("SOMBRA_PREFILTER_TENT");
     if (options.prefilter == "5tap") defines.push_back("SOMBRA_PREFILTER_5TAP");
@@ -143,20 +143,18 @@ void generate_prefiltered(host::Runtime& runtime, const Scene& scene, const pack
 
 // Generates the `regenerate` views (empty: all) of `dsm` into its storage.
 void generate(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
-              const packing::DeviceScene& device_scene, std::vector<DsmViewGpu> views, const DsmBuildOptions& options,
+              const packing::DeviceScene& device_scene, std::vector<DsmViewGpu> views, const DsmOptions& options, int lanes,
               DeviceDsm& dsm, const std::vector<bool>& regenerate, const ViewMeshes& meshes) {
-    if (!(options.epsilon >= 0.f) || !std::isfinite(options.epsilon)) throw Error("--eps: must be ≥ 0");
-    if (!(options.step_scale > 0.f && options.step_scale <= 16.f)) throw Error("--dsm-step: must lie in (0, 16]");
     if (options.prefilter != "none")
-        return generate_prefiltered(runtime, scene, packed, device_scene, views, options, dsm, regenerate, meshes);
+        return generate_prefiltered(runtime, scene, packed, device_scene, views, options, lanes, dsm, regenerate, meshes);
 
     auto defines = volume_pass_defines(scene, device_scene.uses_images, true);
-    int lanes = host::generation_lanes(runtime, options.lanes);  // packets of texels of a row
-    defines.push_back("SOMBRA_LANES=" + std::to_string(lanes));
+    const int packet = host::generation_lanes(runtime, lanes);  // texels of a row per work-item
+    defines.push_back("SOMBRA_LANES=" + std::to_string(packet));
     for (auto& d : dsm.storage->defines()) defines.push_back(d);
     DevicePrecompression precompression;
     if (options.precompression) {
-        precompression = upload_precompression(runtime, scene, packed, options.epsilon, options.step_scale, dsm.stats);
+        precompression = upload_precompression(runtime, scene, packed, options.epsilon, options.step, dsm.stats);
         defines.push_back("SOMBRA_DSM_PRECOMPRESSED");
     }
     surfaces::DeviceSurfaces surface_data;  // meshes: their fragments in each view become steps (Knecht §3.2)
@@ -176,7 +174,7 @@ void generate(host::Runtime& runtime, const Scene& scene, const packing::PackedS
         else args("volume_data", device_scene.voxel_buffer);
         args("occupancy", device_scene.occupancy)("tf_tables", device_scene.tf_tables)("volumes", device_scene.volumes);
         args("volume_count", cl_uint(scene.volumes.size()))("views", dsm.views_buffer)("view_index", view)("epsilon", options.epsilon);
-        args("step_scale", options.step_scale);
+        args("step_scale", options.step);
         if (options.precompression) {
             args("precompression", precompression.params)("precompressed_fraction", precompression.fraction);
             args("precompressed_opacity", precompression.opacity)("precompressed_count", precompression.count);
@@ -193,7 +191,7 @@ void generate(host::Runtime& runtime, const Scene& scene, const packing::PackedS
         }
         bind(args);
         args.done();
-        return host::run_packets(runtime, kernel, options.resolution, options.resolution, lanes);
+        return host::run_packets(runtime, kernel, options.resolution, options.resolution, packet);
     };
     finish_dsm(runtime, dsm, context);
 }
@@ -202,28 +200,28 @@ void generate(host::Runtime& runtime, const Scene& scene, const packing::PackedS
 
 SubPixelDsm build_sub_pixel_maps(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
                                  const packing::DeviceScene& device_scene, const std::vector<DsmViewGpu>& views,
-                                 const DsmBuildOptions& options, const ViewMeshes& meshes) {
-    return generate_sub_pixel_maps(runtime, scene, packed, device_scene, views, options, {}, meshes);
+                                 const DsmOptions& options, int lanes, const ViewMeshes& meshes) {
+    return generate_sub_pixel_maps(runtime, scene, packed, device_scene, views, options, lanes, {}, meshes);
 }
 
 DeviceDsm build_deep_shadow_maps(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
                                  const packing::DeviceScene& device_scene, std::vector<DsmViewGpu> views,
-                                 const DsmBuildOptions& options, const ViewMeshes& meshes) {
+                                 const DsmOptions& options, int lanes, const ViewMeshes& meshes) {
     DeviceDsm dsm = start_dsm(runtime, views, options);
     host::ProgressStage stage(runtime.progress(), "deep shadow maps", generation_launches(dsm, {}));
-    generate(runtime, scene, packed, device_scene, views, options, dsm, {}, meshes);
+    generate(runtime, scene, packed, device_scene, views, options, lanes, dsm, {}, meshes);
     return dsm;
 }
 
 void regenerate_deep_shadow_maps(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
                                  const packing::DeviceScene& device_scene, std::vector<DsmViewGpu> views,
-                                 const DsmBuildOptions& options, DeviceDsm& dsm, const std::vector<bool>& regenerate,
+                                 const DsmOptions& options, int lanes, DeviceDsm& dsm, const std::vector<bool>& regenerate,
                                  const ViewMeshes& meshes) {
     if (views.size() != dsm.views.size() || regenerate.size() != views.size())
         throw Error("deep shadow maps: the views of a regeneration must match the maps built (internal error)");
     runtime.queue().enqueueWriteBuffer(dsm.views_buffer, CL_TRUE, 0, views.size() * sizeof(DsmViewGpu), views.data());
     host::ProgressStage stage(runtime.progress(), "deep shadow maps", generation_launches(dsm, regenerate));
-    generate(runtime, scene, packed, device_scene, views, options, dsm, regenerate, meshes);
+    generate(runtime, scene, packed, device_scene, views, options, lanes, dsm, regenerate, meshes);
 }
 
 }  // namespace sombra::shadows

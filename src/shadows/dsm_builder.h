@@ -9,22 +9,11 @@
 #include "memory/dsm_storage.h"
 #include "geometry/scene_upload.h"
 #include "shadows/dsm_views.h"
+#include "sombra/render.h"
 #include "sombra/shadows.h"
 
 namespace sombra::shadows {
 
-struct DsmBuildOptions {
-    int resolution = 512;
-    float epsilon = 0.02f;          // Knecht Eq. 3.1
-    float step_scale = 1.f;         // on each volume's step, for the rays from the light (RenderOptions::dsm_step)
-    std::string storage = "atlas";  // atlas, chunked, chunked-ondemand, compact
-    std::string lookup = "packed";  // packed or native (RenderOptions::dsm_lookup)
-    bool precompression = false;    // pre-compressed visibility tables (Hadwiger §3.2)
-    std::string prefilter = "none"; // none, box, tent or 5tap (cl/shared/prefilter.h)
-    bool prefilter_jitter = true;   // stratified jitter of the sub-pixel rays
-    unsigned prefilter_seed = 1;
-    int lanes = 0;                  // texels per work-item of dsm_build.cl (host::packet_lanes; 0: auto)
-};
 
 struct DeviceDsm {
     std::vector<DsmViewGpu> views;
@@ -35,13 +24,13 @@ struct DeviceDsm {
 
 DeviceDsm build_deep_shadow_maps(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
                                  const packing::DeviceScene& device_scene, std::vector<DsmViewGpu> views,
-                                 const DsmBuildOptions& options, const ViewMeshes& meshes = {});
+                                 const DsmOptions& options, int lanes, const ViewMeshes& meshes = {});
 
 // Regenerates the views marked in `regenerate` (those of changed lights) in `dsm`, built before
 // by build_deep_shadow_maps with the same options and as many views; the others keep their nodes.
 void regenerate_deep_shadow_maps(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
                                  const packing::DeviceScene& device_scene, std::vector<DsmViewGpu> views,
-                                 const DsmBuildOptions& options, DeviceDsm& dsm, const std::vector<bool>& regenerate,
+                                 const DsmOptions& options, int lanes, DeviceDsm& dsm, const std::vector<bool>& regenerate,
                                  const ViewMeshes& meshes = {});
 
 // The sub-pixel maps of a pre-filtered build (options.prefilter ≠ "none"): each ray generated with
@@ -52,7 +41,7 @@ struct SubPixelDsm {
 };
 SubPixelDsm build_sub_pixel_maps(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
                                  const packing::DeviceScene& device_scene, const std::vector<DsmViewGpu>& views,
-                                 const DsmBuildOptions& options, const ViewMeshes& meshes = {});
+                                 const DsmOptions& options, int lanes, const ViewMeshes& meshes = {});
 
 // -D defines of every pass over the scene's volumes.
 std::vector<std::string> volume_pass_defines(const Scene& scene, bool use_images, bool skip_empty);

@@ -144,7 +144,7 @@ bool influences(const packing::PackedScene& packed, const DeviceSat& sat, const 
     if (i == j) return true;
     if (options.shadows == ShadowTechnique::Cone) return true;  // cones widen towards the light
     std::vector<WorldBox> boxes = volume_boxes(packed);
-    double width = std::max(double(options.lowpass_filter_width), 1.0) * sat.voxel_size;  // the whole patch (≥ its half diagonal)
+    double width = std::max(double(options.sat.filter_width), 1.0) * sat.voxel_size;  // the whole patch (≥ its half diagonal)
     double cell = 0;
     if (options.shadows == ShadowTechnique::Ao || sat.light_frame[m] >= 0) {
         cell = sat.frames[std::size_t(std::max(sat.light_frame[m], 0))].cell_size;
@@ -165,8 +165,8 @@ std::vector<std::string> shadow_cache_keys(const Scene& scene, const packing::Pa
                                            const std::vector<std::string>& extinction, const RenderOptions& options) {
     std::ostringstream common;
     common.precision(9);
-    common << int(options.shadows) << ' ' << options.lowpass_filter_width << ' ' << options.lowpass_filter_kernel << ' '
-           << options.cone_angle_deg << ' ' << options.jitter_seed << ' ' << hash_of(sat.voxel_size);
+    common << int(options.shadows) << ' ' << options.sat.filter_width << ' ' << options.sat.filter_kernel << ' '
+           << options.sat.cone_angle_deg << ' ' << options.jitter_seed << ' ' << hash_of(sat.voxel_size);
     std::vector<std::string> keys;
     for (std::size_t i = 0; i < packed.volumes.size(); ++i)
         for (std::size_t m = 0; m < scene.lights.size(); ++m) {

@@ -6,31 +6,79 @@
 #include <ostream>
 
 #include "shadows/dsm_views.h"
+#include "techniques/option_declarations.h"
 
 namespace sombra::techniques {
 
-shadows::DsmBuildOptions dsm_build_options(const RenderOptions& o) {
-    return {o.dsm_resolution, o.dsm_epsilon, o.dsm_step, o.dsm_storage, o.dsm_lookup, o.dsm_precompression, o.dsm_prefilter,
-            o.dsm_prefilter_jitter, o.dsm_prefilter_seed, o.lanes};
+const std::vector<ShadowTechnique>& dsm_techniques() {
+    static const std::vector<ShadowTechnique> techniques{ShadowTechnique::Dsm, ShadowTechnique::ShadowMap};
+    return techniques;
+}
+
+// The options of DsmOptions (render.h): every one keys the maps (dsm and shadowmap read the same
+// maps: the technique does not), except the hysteresis, which only decides which clusters stay.
+const std::vector<OptionSpec>& dsm_option_specs() {
+    constexpr unsigned every_command = kRenderCommand | kDsmCommand | kVisibilityCommand;
+    static const std::vector<OptionSpec> specs = [] {
+        std::vector<Declaration> d = {
+            declare("dsm_resolution", "--dsm-res", [](auto& o) -> auto& { return o.dsm.resolution; },
+                    "deep shadow map texels per side")
+                .range(1, 8192).unit("texels"),
+            declare("dsm_epsilon", "--eps", [](auto& o) -> auto& { return o.dsm.epsilon; },
+                    "deep shadow map compression error bound ε (Knecht Eq. 3.1)")
+                .range(0, 1),
+            declare("dsm_step", "--dsm-step", [](auto& o) -> auto& { return o.dsm.step; },
+                    "DSM generation: factor on each volume's step for the rays from the light (> 1: faster, coarser)")
+                .range(0, 16).open_min(),
+            declare("dsm_storage", "--dsm-storage", [](auto& o) -> auto& { return o.dsm.storage; },
+                    "deep shadow map storage: atlas, chunked, chunked-ondemand (Knecht) or compact")
+                .choices(dsm_storage_names()),
+            declare("dsm_lookup", "--dsm-lookup", [](auto& o) -> auto& { return o.dsm.lookup; },
+                    "DSM lookups: packed (each texel's nodes copied into one run after generation) or native "
+                    "(in the storage's own layout)")
+                .choices({"packed", "native"}),
+            declare("dsm_precompression", "--precompression", [](auto& o) -> auto& { return o.dsm.precompression; },
+                    "pre-compressed visibility tables for DSM generation (Hadwiger §3.2)"),
+            declare("dsm_prefilter", "--prefilter", [](auto& o) -> auto& { return o.dsm.prefilter; },
+                    "DSM pre-filtering: none, box (2×2 sub-pixel rays), tent (4×4) or 5tap (centre + 4 corners)")
+                .choices({"none", "box", "tent", "5tap"}),
+            declare("dsm_prefilter_jitter", "--no-prefilter-jitter", [](auto& o) -> auto& { return o.dsm.prefilter_jitter; },
+                    "pre-filtering: sub-pixel rays at the centres of their cells, not jittered"),
+            declare("dsm_prefilter_seed", "--prefilter-seed", [](auto& o) -> auto& { return o.dsm.prefilter_seed; },
+                    "pre-filtering: seed of the sub-pixel rays' jitter")
+                .range(0, 999999999),
+            declare("dsm_clusters", "--clusters", [](auto& o) -> auto& { return o.dsm.clusters; },
+                    "clustered deep shadow maps (Knecht §3.4): at most M object clusters per light, each with its own "
+                    "--dsm-res map focused on it")
+                .range(0, 64).special("0: off"),
+            declare("dsm_cluster_distance", "--cluster-distance", [](auto& o) -> auto& { return o.dsm.cluster_distance; },
+                    "clustering threshold d0 in light space")
+                .range(0, 10).special("0: automatic, from the projected object sizes"),
+        };
+        for (Declaration& option : d) option.only(dsm_techniques()).keys().commands(every_command);
+        d.push_back(declare("dsm_cluster_hysteresis", "--cluster-hysteresis", [](auto& o) -> auto& { return o.dsm.cluster_hysteresis; },
+                            "keep the previous frame's clusters while their spread is within 1 + H of new ones (API re-renders)")
+                        .range(0, 10).special("0: off").only(dsm_techniques()));
+        return std::vector<OptionSpec>(d.begin(), d.end());
+    }();
+    return specs;
 }
 
 void DeepShadowMaps::add_defines(const Scene&, const RenderOptions& options, std::vector<std::string>& defines) const {
     defines.push_back(options.shadows == ShadowTechnique::ShadowMap ? "SOMBRA_TECHNIQUE_SHADOWMAP" : "SOMBRA_TECHNIQUE_DSM");
-    for (auto& d : memory::make_dsm_storage(options.dsm_storage, options.dsm_lookup)->lookup_defines()) defines.push_back(d);
+    for (auto& d : memory::make_dsm_storage(options.dsm.storage, options.dsm.lookup)->lookup_defines()) defines.push_back(d);
 }
 
-// dsm and shadowmap read the same maps: the technique is not part of the key
 void DeepShadowMaps::add_key(const RenderOptions& o, int lanes, std::ostream& key) const {
-    key << o.dsm_resolution << ' ' << o.dsm_epsilon << ' ' << o.dsm_step << ' ' << o.dsm_storage << ' ' << o.dsm_lookup << ' ' << o.dsm_precompression << ' ' << o.dsm_prefilter
-        << ' ' << o.dsm_prefilter_jitter << ' ' << o.dsm_prefilter_seed << ' ' << lanes  // other packets build other maps
-        << " clusters " << o.dsm_clusters << ' ' << o.dsm_cluster_distance;
+    add_option_keys(dsm_option_specs(), o, key);
+    key << " lanes " << lanes;  // other packets build other maps
 }
 
 void DeepShadowMaps::plan_lights(const Scene& scene, packing::PackedScene& packed, const RenderOptions& options) {
-    if (options.dsm_clusters > 0) {
+    if (options.dsm.clusters > 0) {
         auto start = std::chrono::steady_clock::now();
-        clustering::ClusterOptions cluster_options{options.dsm_clusters, options.dsm_cluster_distance, nullptr,
-                                                   options.dsm_cluster_hysteresis};
+        clustering::ClusterOptions cluster_options{options.dsm.clusters, options.dsm.cluster_distance, nullptr,
+                                                   options.dsm.cluster_hysteresis};
         std::vector<std::vector<std::vector<std::size_t>>> previous;  // last frame's members, same m and d0
         if (clusters_ && clusters_->options.max_clusters == cluster_options.max_clusters &&
             clusters_->options.distance == cluster_options.distance) {
@@ -40,13 +88,13 @@ void DeepShadowMaps::plan_lights(const Scene& scene, packing::PackedScene& packe
             }
             cluster_options.previous = &previous;
         }
-        clusters_ = make_clustered_views(scene, packed, options.dsm_resolution, cluster_options);
+        clusters_ = make_clustered_views(scene, packed, options.dsm.resolution, cluster_options);
         clustering_ms_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
         views_ = clusters_->views;
         meshes_ = clusters_->meshes;
     } else {
         clusters_.reset();
-        views_ = shadows::make_dsm_views(scene, packed, options.dsm_resolution);
+        views_ = shadows::make_dsm_views(scene, packed, options.dsm.resolution);
         meshes_.clear();
     }
     light_views_.clear();
@@ -55,7 +103,7 @@ void DeepShadowMaps::plan_lights(const Scene& scene, packing::PackedScene& packe
 
 void DeepShadowMaps::prepare(const SceneOnDevice& s, RenderStats& stats) {
     dsm_ = shadows::DeviceDsm();  // the previous scene's maps go before the new ones are allocated
-    dsm_ = shadows::build_deep_shadow_maps(s.runtime, s.scene, s.packed, s.device, views_, dsm_build_options(s.options), meshes_);
+    dsm_ = shadows::build_deep_shadow_maps(s.runtime, s.scene, s.packed, s.device, views_, s.options.dsm, s.options.lanes, meshes_);
     built_views_ = views_, built_meshes_ = meshes_;
     for (auto& [stage, ms] : dsm_.stats.stage_ms) stats.stage_ms[stage] = ms;
     views_generated_ = dsm_.stats.views_generated;
@@ -97,9 +145,9 @@ void DeepShadowMaps::update_lights(const SceneOnDevice& s, const std::vector<boo
     // superseded nodes stay in the pools of the on-demand backends until the set is built anew
     if (anew || dsm_.storage->garbage_fraction() > 0.5) {
         dsm_ = shadows::DeviceDsm();
-        dsm_ = shadows::build_deep_shadow_maps(s.runtime, s.scene, s.packed, s.device, views_, dsm_build_options(s.options), meshes_);
+        dsm_ = shadows::build_deep_shadow_maps(s.runtime, s.scene, s.packed, s.device, views_, s.options.dsm, s.options.lanes, meshes_);
     } else {
-        shadows::regenerate_deep_shadow_maps(s.runtime, s.scene, s.packed, s.device, views_, dsm_build_options(s.options), dsm_,
+        shadows::regenerate_deep_shadow_maps(s.runtime, s.scene, s.packed, s.device, views_, s.options.dsm, s.options.lanes, dsm_,
                                              regenerate, meshes_);
     }
     built_views_ = views_, built_meshes_ = meshes_;

@@ -1,7 +1,7 @@
 // sombra — shadow techniques "dsm" and "shadowmap" (cl/techniques/dsm.h, shadowmap.h): the deep
 // shadow maps of every light, built from the light (src/shadows/dsm_builder.h) into the chosen
 // storage backend (src/memory/), regenerated per light when it moves (Knecht §3.2). With
-// RenderOptions::dsm_clusters, one map per object cluster (clustered_views.h, Knecht §3.4),
+// DsmOptions::clusters, one map per object cluster (clustered_views.h, Knecht §3.4),
 // planned anew each frame and regenerated only where a cluster's members or focus changed.
 #pragma once
 #include <optional>
@@ -38,7 +38,5 @@ private:
     shadows::DeviceDsm dsm_;
     int views_generated_ = 0;  // by the last prepare or update
 };
-
-shadows::DsmBuildOptions dsm_build_options(const RenderOptions& options);
 
 }  // namespace sombra::techniques

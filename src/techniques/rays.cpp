@@ -1,15 +1,28 @@
 // sombra — shadow technique "rays" (cl/techniques/rays.h): in scenes with meshes, the BVH of the
 // world-space triangles the shadow rays cross, and of the polyhedral volume bounds; the rays' step
-// factor (RenderOptions::shadow_ray_step) as a define.
+// factor (RayOptions::step) as a define.
 #include <charconv>
 #include <chrono>
 #include <ostream>
 #include <string>
 
 #include "geometry/surfaces.h"
+#include "techniques/option_declarations.h"
 #include "techniques/technique.h"
 
 namespace sombra::techniques {
+
+// The options of RayOptions (render.h); the step keys the preparation, so the shadow cache's
+// entries (keyed by it) are refilled when it changes.
+const std::vector<OptionSpec>& ray_option_specs() {
+    static const std::vector<OptionSpec> specs = {
+        declare("shadow_ray_step", "--ray-step", [](auto& o) -> auto& { return o.rays.step; },
+                "rays: factor on each volume's step for the shadow rays (< 1: finer)")
+            .range(0, 16).open_min().only({ShadowTechnique::Rays}).keys().commands(kRenderCommand | kVisibilityCommand),
+    };
+    return specs;
+}
+
 namespace {
 
 // The shortest decimal that reads back as `value`, as an OpenCL float literal ("0.25f", "2.0f").
@@ -26,11 +39,12 @@ public:
         defines.push_back("SOMBRA_TECHNIQUE_RAYS");
         // shadow rays cross the bounds (the other passes see their fragments)
         if (surfaces::has_bounds(scene)) defines.push_back("SOMBRA_HAS_BOUNDS");
-        if (options.shadow_ray_step != 1.f) defines.push_back("SOMBRA_SHADOW_RAY_STEP=" + float_literal(options.shadow_ray_step));
+        if (options.rays.step != 1.f) defines.push_back("SOMBRA_SHADOW_RAY_STEP=" + float_literal(options.rays.step));
     }
 
-    // the shadow cache's entries are keyed by the preparation: a changed step refills them
-    void add_key(const RenderOptions& options, int, std::ostream& key) const override { key << float_literal(options.shadow_ray_step); }
+    void add_key(const RenderOptions& options, int, std::ostream& key) const override {
+        add_option_keys(ray_option_specs(), options, key);
+    }
 
     void prepare(const SceneOnDevice& s, RenderStats& stats) override {
         *this = ShadowRays();  // a module outlives preparations: nothing of the previous scene stays

@@ -3,12 +3,18 @@
 
 #include "scene/suggest.h"
 #include "sombra/error.h"
+#include "techniques/option_declarations.h"
 #include "techniques/technique.h"
 
 namespace sombra {
 namespace techniques {
 
 void ShadowModule::add_key(const RenderOptions&, int, std::ostream&) const {}
+
+void add_option_keys(const std::vector<OptionSpec>& specs, const RenderOptions& options, std::ostream& key) {
+    for (const OptionSpec& spec : specs)
+        if (spec.keys_data) key << ' ' << spec.key << '=' << option_value_text(spec.get(options));
+}
 void ShadowModule::plan_lights(const Scene&, packing::PackedScene&, const RenderOptions&) {}
 void ShadowModule::prepare(const SceneOnDevice&, RenderStats&) {}
 void ShadowModule::update_lights(const SceneOnDevice&, const std::vector<bool>&, RenderStats&) {}

@@ -8,9 +8,37 @@
 
 #include "shadows/sat_update.h"
 #include "sombra/error.h"
+#include "techniques/option_declarations.h"
 #include "techniques/technique.h"
 
 namespace sombra::techniques {
+
+// The options of SatOptions (render.h). Only the tables' size limit keys the tables; the filter
+// width, kernel and cone angle are read per lookup (the shadow cache keys its entries by them).
+const std::vector<OptionSpec>& sat_option_specs() {
+    static const std::vector<OptionSpec> specs = [] {
+        using T = ShadowTechnique;
+        const std::vector<T> family{T::Lowpass, T::Ao, T::Cone};
+        const std::vector<Declaration> d = {
+            declare("lowpass_filter_width", "--filter", [](auto& o) -> auto& { return o.sat.filter_width; },
+                    "lowpass: filter width W (the softness of the shadows); ao: the cube's side")
+                .range(0, 4096).unit("voxels").only(family).commands(kRenderCommand | kVisibilityCommand),
+            declare("lowpass_filter_kernel", "--filter-kernel", [](auto& o) -> auto& { return o.sat.filter_kernel; },
+                    "lowpass: box (one SAT box) or gauss (5×5 sub-boxes, Ament Eq. 25)")
+                .choices({"box", "gauss"}).only({T::Lowpass}).commands(kRenderCommand | kVisibilityCommand),
+            declare("lowpass_max_entries", "--sat-max-entries", [](auto& o) -> auto& { return o.sat.max_entries; },
+                    "summed-area tables: at most this many 64-bit entries (cells coarsen beyond)")
+                .range(1 << 12, double(SOMBRA_SAT_MAX_ENTRIES)).unit("entries").only(family).keys()
+                .commands(kRenderCommand | kVisibilityCommand),
+            declare("cone_angle_deg", "--cone-angle", [](auto& o) -> auto& { return o.sat.cone_angle_deg; },
+                    "cone: half angle of the shadow cones")
+                .range(0, 60).open_min().unit("degrees").only({T::Cone}),
+        };
+        return std::vector<OptionSpec>(d.begin(), d.end());
+    }();
+    return specs;
+}
+
 namespace {
 
 class SatShadows final : public ShadowModule {
@@ -19,12 +47,12 @@ public:
         defines.push_back(std::string("SOMBRA_TECHNIQUE_") + (options.shadows == ShadowTechnique::Ao     ? "AO"
                                                               : options.shadows == ShadowTechnique::Cone ? "CONE"
                                                                                                          : "LOWPASS"));
-        if (options.lowpass_filter_kernel == "gauss") defines.push_back("SOMBRA_LOWPASS_GAUSS");
-        else if (options.lowpass_filter_kernel != "box")
-            throw Error("--filter-kernel: must be box or gauss, got '" + options.lowpass_filter_kernel + "'");
+        if (options.sat.filter_kernel == "gauss") defines.push_back("SOMBRA_LOWPASS_GAUSS");
     }
 
-    void add_key(const RenderOptions& options, int, std::ostream& key) const override { key << options.lowpass_max_entries; }
+    void add_key(const RenderOptions& options, int, std::ostream& key) const override {
+        add_option_keys(sat_option_specs(), options, key);
+    }
 
     void prepare(const SceneOnDevice& s, RenderStats&) override {
         // the tables are built over boxes: polyhedral bounds are not in them
@@ -40,7 +68,7 @@ public:
     void refresh(const SceneOnDevice& s, RenderStats& stats) override {
         shadows::SatUpdateCounts counts;
         sat_ = shadows::update_sats(s.runtime, s.scene, s.packed, s.device, s.options.shadows == ShadowTechnique::Lowpass,
-                                    s.options.lowpass_max_entries, pool_, counts);
+                                    s.options.sat.max_entries, pool_, counts);
         for (auto& [stage, ms] : sat_.stage_ms) stats.stage_ms[stage] = ms;
         stats.sat_tables_built = counts.built, stats.sat_tables_reused = counts.reused;
     }
@@ -48,10 +76,7 @@ public:
     // SHADOW_PARAMS of cl/techniques/sat_tables.h: the tables and their per-light grids for this
     // call's filter width and cone angle
     void bind(host::KernelArgs& args, host::Runtime& runtime, const RenderOptions& o) const override {
-        if (!(o.lowpass_filter_width >= 0.f && o.lowpass_filter_width <= 4096.f))
-            throw Error("--filter: the filter width must lie in [0, 4096] voxels");
-        if (!(o.cone_angle_deg > 0.f && o.cone_angle_deg <= 60.f)) throw Error("--cone-angle: must lie in (0, 60] degrees");
-        grids_ = shadows::upload_sat_grids(runtime, sat_, o.lowpass_filter_width, o.cone_angle_deg);
+        grids_ = shadows::upload_sat_grids(runtime, sat_, o.sat.filter_width, o.sat.cone_angle_deg);
         args("sat", sat_.data)("sat_grids", grids_.cartesian)("ssat_grids", grids_.spherical);
     }
 
