@@ -16,7 +16,7 @@ ap = argparse.ArgumentParser()
 ap.add_argument('--sombra', default=os.path.join(root, 'build', 'sombra'))
 ap.add_argument('--dsm-res', default='512')
 ap.add_argument('--eps', default='0.001')
-ap.add_argument('--storage', default='atlas')
+ap.add_argument('--dsm-storage', default='atlas')
 a = ap.parse_args()
 env = dict(os.environ, PATH='/usr/local/bin:/usr/bin:/bin:' + os.environ.get('PATH', ''))
 rng = random.Random(1)
@@ -90,7 +90,7 @@ with tempfile.TemporaryDirectory() as tmp:
         with open(pp, 'w') as f:
             for p in pts: f.write('%.6f,%.6f,%.6f\n' % p)
         out = subprocess.run([a.sombra, 'visibility', sp, '--light', '0', '--points', pp, '--dsm-res', a.dsm_res, '--eps', a.eps,
-                              '--storage', a.storage, '--filter', '1', '--stats', st], capture_output=True, text=True, env=env)
+                              '--dsm-storage', a.storage, '--filter', '1', '--stats', st], capture_output=True, text=True, env=env)
         if out.returncode != 0:
             print(f"| {name} | failed: {out.stderr.strip()} |")
             continue

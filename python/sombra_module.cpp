@@ -95,22 +95,32 @@ py::tuple tuple3(const Vec3& v) { return py::make_tuple(v[0], v[1], v[2]); }
 // A Python value as an option value of the declared kind: bool, an integer (anything with
 // __index__, numpy's too), a real number, or a str; anything else is refused naming the argument.
 OptionValue option_value_of(const OptionSpec& spec, const py::handle& value, const std::string& label) {
-    if (py::isinstance<py::bool_>(value)) return OptionValue(value.cast<bool>());
-    if (py::isinstance<py::str>(value)) return OptionValue(value.cast<std::string>());
-    if (spec.kind != OptionKind::Flag && py::hasattr(value, "__index__")) {
-        py::int_ i = py::reinterpret_steal<py::int_>(PyNumber_Index(value.ptr()));
-        long long v = PyLong_AsLongLong(i.ptr());
-        if (v == -1 && PyErr_Occurred()) {
-            PyErr_Clear();
-            throw Error(label + ": must lie in " + option_range_text(spec) + ", got " + std::string(py::str(value)));
-        }
-        return OptionValue(v);
+    const bool is_bool = py::isinstance<py::bool_>(value);
+    const bool is_integer = !is_bool && py::hasattr(value, "__index__");
+    const bool is_number = !is_bool && !py::isinstance<py::str>(value) && py::hasattr(value, "__float__");
+    switch (spec.kind) {
+        case OptionKind::Flag:
+            if (is_bool) return OptionValue(value.cast<bool>());
+            break;
+        case OptionKind::Choice:
+            if (py::isinstance<py::str>(value)) return OptionValue(value.cast<std::string>());
+            break;
+        case OptionKind::Integer:
+            if (is_integer) {
+                long long v = PyLong_AsLongLong(py::int_(py::reinterpret_borrow<py::object>(value)).ptr());
+                if (v == -1 && PyErr_Occurred()) {  // beyond 64 bits: out of every range
+                    PyErr_Clear();
+                    throw Error(label + ": must lie in " + option_range_text(spec) + ", got " + std::string(py::str(value)));
+                }
+                return OptionValue(v);
+            }
+            break;
+        case OptionKind::Real:
+            if (is_number) return OptionValue(value.cast<double>());
+            break;
     }
-    if (spec.kind == OptionKind::Real && (py::isinstance<py::float_>(value) || py::hasattr(value, "__float__")))
-        return OptionValue(value.cast<double>());
-    const std::string got = py::str(value.get_type().attr("__name__"));
     static const char* expected[] = {"int", "float", "bool", "str"};
-    throw Error(label + ": expected " + expected[int(spec.kind)] + ", got " + got);
+    throw Error(label + ": expected " + expected[int(spec.kind)] + ", got " + std::string(py::str(value.get_type().attr("__name__"))));
 }
 
 py::object python_value(const OptionValue& value) {
@@ -224,6 +234,24 @@ PYBIND11_MODULE(sombra, m) {
             },
             doc.c_str());
     }
+    m.def(
+        "render_option_declarations",
+        [] {
+            py::list list;
+            static const char* kinds[] = {"int", "float", "bool", "str"};
+            for (const OptionSpec& spec : render_option_specs()) {
+                py::list techniques;
+                for (ShadowTechnique t : spec.techniques) techniques.append(shadow_technique_name(t));
+                list.append(py::dict(py::arg("key") = spec.key, py::arg("flag") = spec.flag, py::arg("type") = kinds[int(spec.kind)],
+                                     py::arg("default") = python_value(spec.default_value()),
+                                     py::arg("range") = option_range_text(spec), py::arg("choices") = spec.choices,
+                                     py::arg("help") = spec.help, py::arg("unit") = spec.unit, py::arg("techniques") = techniques,
+                                     py::arg("keys_data") = spec.keys_data));
+            }
+            return list;
+        },
+        "Every render option's declaration (sombra/options.h): key, flag, type, default, range, choices, help, unit, the "
+        "techniques it applies to (empty: all) and whether changing it rebuilds prepared data.");
     options.def("__repr__", [](const RenderOptions& o) {
         std::string text = "sombra.RenderOptions(";
         for (const OptionSpec& spec : render_option_specs())

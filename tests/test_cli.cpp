@@ -178,9 +178,19 @@ TEST_CASE("sombra render --help shows every option's default, from RenderOptions
     CHECK_THAT(line_of("--filter"), Catch::Contains("=3"));
     CHECK_THAT(line_of("--cone-angle"), Catch::Contains("=10"));
     CHECK_THAT(line_of("--shadows"), Catch::Contains("=none"));
-    CHECK_THAT(line_of("--storage"), Catch::Contains("=" + defaults.dsm.storage));
+    CHECK_THAT(line_of("--dsm-storage"), Catch::Contains("=" + defaults.dsm.storage));
     CHECK_THAT(line_of("--dsm-lookup"), Catch::Contains("=" + defaults.dsm.lookup));
     CHECK_THAT(line_of("--device"), Catch::Contains("=auto"));
+    // generated: every declared option of the command has its flag, its default inside its own range
+    for (const sombra::OptionSpec& spec : sombra::render_option_specs()) {
+        if (!(spec.commands & sombra::kRenderCommand)) continue;
+        INFO(spec.key);
+        CHECK_NOTHROW(sombra::check_option_value(spec, spec.default_value(), spec.key));
+        if (spec.kind != sombra::OptionKind::Flag)
+            CHECK_THAT(line_of(spec.flag), Catch::Contains("=" + sombra::option_value_text(spec.default_value())));
+        else
+            CHECK_THAT(line_of(spec.flag), Catch::Contains(spec.help));
+    }
 }
 
 TEST_CASE("sombra render and dsm --stats hold the version, the scene, the options and the whole command time", "[cli]") {
@@ -202,7 +212,9 @@ TEST_CASE("sombra render and dsm --stats hold the version, the scene, the option
     CHECK(o.at("dsm_epsilon").get<double>() == 0.05);  // the float's shortest decimal form
     CHECK(o.at("lanes") == 4);
     CHECK(o.at("lowpass_filter_width").get<double>() == Approx(sombra::RenderOptions{}.sat.filter_width));
-    CHECK(o.at("storage") == "auto");
+    CHECK(o.at("volume_storage") == "auto");
+    for (const sombra::OptionSpec& spec : sombra::render_option_specs())  // every option of the command, none other
+        CHECK(o.contains(spec.key) == bool(spec.commands & sombra::kRenderCommand));
     CHECK(j.at("width") == 8);
 
     // sombra dsm: the maps' sizes, no camera fields
@@ -321,17 +333,22 @@ TEST_CASE("bad scenes fail with one line naming the file and the field", "[cli]"
     }
     SECTION("impossible image size") {
         std::string f = scene_file("size.json", nlohmann::json::object());
-        require_clean_failure(run_cli("render " + f + " -o " + out + " --width 20000"), "--width", "[1, 16384]", out);
+        require_clean_failure(run_cli("render " + f + " -o " + out + " --width 20000"), "--width", "[0, 16384]", out);
     }
     SECTION("unknown pre-filter options") {
         std::string f = scene_file("prefilter.json", nlohmann::json::object());
         std::string dsm = " --shadows dsm --dsm-res 16";
         require_clean_failure(run_cli("render " + f + " -o " + out + dsm + " --prefilter gauss"), "--prefilter", "gauss", out);
-        require_clean_failure(run_cli("render " + f + " -o " + out + dsm + " --prefilter 5tap --prefilter-jitter maybe"),
-                              "--prefilter-jitter", "maybe", out);
-        CliRun ok = run_cli("render " + f + " -o " + out + dsm + " --prefilter 5tap --prefilter-jitter 3");
+        require_clean_failure(run_cli("render " + f + " -o " + out + dsm + " --prefilter 5tap --prefilter-seed maybe"),
+                              "--prefilter-seed", "maybe", out);
+        CliRun ok = run_cli("render " + f + " -o " + out + dsm + " --prefilter 5tap --prefilter-jitter 3");  // the old spelling
         INFO(ok.stderr_text);
         CHECK(ok.exit_code == 0);
+        CHECK_THAT(ok.stderr_text, Catch::Contains("note: --prefilter-jitter is now"));
+        std::filesystem::remove(out);
+        ok = run_cli("render " + f + " -o " + out + dsm + " --storage chunked");  // the old spelling of --dsm-storage
+        CHECK(ok.exit_code == 0);
+        CHECK_THAT(ok.stderr_text, Catch::Contains("note: --storage is now --dsm-storage"));
         CHECK(std::filesystem::exists(out));
         std::filesystem::remove(out);
     }
@@ -393,7 +410,7 @@ TEST_CASE("hostile arguments and outputs: exit 2 for bad sizes, nothing left aft
     std::string f = scene_file("outputs.json", {{"image", {{"width", 8}, {"height", 8}}}});
     std::string out = dir + "/kept.png";
     std::remove(out.c_str());
-    for (const char* option : {"--width 0", "--width -7", "--width 4294967304", "--filter nan", "--cone-angle nan",
+    for (const char* option : {"--width -7", "--width 4294967304", "--filter nan", "--cone-angle nan",
                                "--eps nan", "--dsm-res 8193"}) {  // NaN passes CLI::Range; ints would wrap
         CliRun run = run_cli("render " + f + " -o " + out + " " + option);
         require_clean_failure(run, std::string(option).substr(0, std::string(option).find(' ')), "must lie in", out);
@@ -448,7 +465,7 @@ TEST_CASE("hostile volume, scene and points files through the CLI: one line, exi
 
 TEST_CASE("enumerated render options by name: every name round-trips, unknown ones name the accepted", "[cli]") {
     using namespace sombra;
-    for (const char* option : {"shadows", "gradient", "shading", "storage", "shadow_cache"}) {
+    for (const char* option : {"shadows", "gradient", "shading", "volume_storage", "shadow_cache", "dsm_storage"}) {
         const std::vector<std::string> names = render_option_values(option);
         REQUIRE(names.size() >= 2);
         for (const std::string& name : names) {
@@ -462,9 +479,10 @@ TEST_CASE("enumerated render options by name: every name round-trips, unknown on
     CHECK(o.shadows == ShadowTechnique::Dsm);
     CHECK(render_option_value(RenderOptions{}, "shadows") == "none");  // the defaults have names too
     CHECK(test::error_of([&] { set_render_option(o, "shadows", "dsmm"); }) ==
-          "shadows: unknown value 'dsmm' (none, rays, dsm, shadowmap, lowpass, ao, cone)");
+          "shadows: unknown value 'dsmm' (none, rays, dsm, shadowmap, lowpass, ao, cone) (did you mean 'dsm'?)");
     CHECK(test::error_of([] { render_option_values("shadow"); }) ==
-          "unknown enumerated render option 'shadow' (shadows, gradient, shading, storage, dsm_storage, dsm_lookup, dsm_prefilter, lowpass_filter_kernel, shadow_cache)");
+          "unknown enumerated render option 'shadow' (shadows, shading, gradient, shadow_cache, volume_storage, dsm_storage, "
+          "dsm_lookup, dsm_prefilter, lowpass_filter_kernel) (did you mean 'shadows'?)");
     CHECK(parse_light_type("omni") == LightType::Point);
     CHECK(test::error_of([] { parse_light_type("sun"); }) == "unknown light type 'sun' (directional, spot, point)");
 }

@@ -213,12 +213,12 @@ TEST_CASE("clustered DSM: a camera move that keeps the clusters regenerates noth
     CHECK(test::compare(turned.image, render(fresh, s, o).image).max_abs < 1e-6);
 }
 
-TEST_CASE("clustered DSM: options out of range name their flag", "[clustered_dsm]") {
+TEST_CASE("clustered DSM: options out of range name their key", "[clustered_dsm]") {
     Scene s = two_smokes(LightType::Spot);
     for (int clusters : {-1, 65})
-        CHECK_THROWS_WITH(render(test::context(), s, dsm_options(16, clusters)), Catch::Contains("--clusters"));
+        CHECK_THROWS_WITH(render(test::context(), s, dsm_options(16, clusters)), Catch::Contains("dsm_clusters"));
     for (float distance : {-1.f, 11.f, NAN})
-        CHECK_THROWS_WITH(render(test::context(), s, dsm_options(16, 2, distance)), Catch::Contains("--cluster-distance"));
+        CHECK_THROWS_WITH(render(test::context(), s, dsm_options(16, 2, distance)), Catch::Contains("dsm_cluster_distance"));
 }
 
 TEST_CASE("clustered DSM: a camera that sees nothing any object could shadow leaves every light without maps", "[clustered_dsm]") {

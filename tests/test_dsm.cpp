@@ -379,7 +379,7 @@ TEST_CASE("packed lookups read the same maps as native ones: identical images an
     }
     RenderOptions bad = base;
     bad.dsm.lookup = "sideways";
-    CHECK_THROWS_WITH(render(test::context(), s, bad), Catch::Contains("--dsm-lookup") && Catch::Contains("sideways"));
+    CHECK_THROWS_WITH(render(test::context(), s, bad), Catch::Contains("dsm_lookup") && Catch::Contains("sideways"));
 }
 
 TEST_CASE("DSM generation in packets of 8 texels stores the nodes of one texel per work-item", "[dsm][storage][lanes]") {
@@ -890,6 +890,6 @@ TEST_CASE("DSM generation step (dsm_step): coarser steps from the light stay wit
     for (float step : {0.f, -1.f, 17.f, NAN}) {
         RenderOptions o = dsm_options(16, 0.01f);
         o.dsm.step = step;
-        CHECK_THROWS_WITH(render(test::context(), s, o), Catch::Contains("--dsm-step"));
+        CHECK_THROWS_WITH(render(test::context(), s, o), Catch::Contains("dsm_step"));
     }
 }

@@ -256,7 +256,7 @@ TEST_CASE("CSAT: empty and saturated volumes give finite transmittance in [0, 1]
     for (float v : r.image.rgba) REQUIRE(std::isfinite(v));
     CHECK(r.stats.sat_tables == 1);
     o.sat.filter_width = -1.f;
-    CHECK_THROWS_WITH(render(test::context(), stiff, o), Catch::Contains("--filter"));
+    CHECK_THROWS_WITH(render(test::context(), stiff, o), Catch::Contains("lowpass_filter_width"));
 }
 
 TEST_CASE("CSAT: six orthodirectional lights share one table and stay close to separately built ones", "[lowpass]") {
@@ -419,7 +419,7 @@ TEST_CASE("Gaussian filter (Eq. 25): kernel vs CPU reference, homogeneous medium
     RenderOptions o;
     o.shadows = ShadowTechnique::Lowpass;
     o.sat.filter_kernel = "tent";
-    CHECK_THROWS_WITH(render(test::context(), blobs, o), Catch::Contains("--filter-kernel"));
+    CHECK_THROWS_WITH(render(test::context(), blobs, o), Catch::Contains("lowpass_filter_kernel"));
 }
 
 TEST_CASE("Baselines: SAT ambient occlusion and cone shadows vs CPU reference, homogeneous medium, shadow rays", "[lowpass]") {

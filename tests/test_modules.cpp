@@ -1,6 +1,8 @@
 // The technique modules and the host/kernel argument contract (src/techniques/, src/host/kernel_args.h).
 #include <algorithm>
 #include <cctype>
+#include <iterator>
+#include <variant>
 
 #include "host/kernel_args.h"
 #include "host/runtime.h"
@@ -85,12 +87,79 @@ TEST_CASE("options with a fixed set of values: one list each, checked before any
     CHECK(sombra::render_option_value(o, "dsm_prefilter") == "tent");
     REQUIRE_THROWS_WITH(sombra::set_render_option(o, "lowpass_filter_kernel", "tent"), Contains("unknown value 'tent'"));
     o.dsm.storage = "atlass";
-    REQUIRE_THROWS_WITH(sombra::check_render_options(o), Contains("--storage: unknown value 'atlass'") && Contains("chunked-ondemand"));
+    REQUIRE_THROWS_WITH(sombra::check_render_options(o), Contains("dsm_storage: unknown value 'atlass'") && Contains("chunked-ondemand"));
     o.dsm.storage = "atlas";
     o.shadows = sombra::ShadowTechnique(42);
-    REQUIRE_THROWS_WITH(sombra::check_render_options(o), Contains("--shadows: unknown value 42"));
+    REQUIRE_THROWS_WITH(sombra::check_render_options(o), Contains("shadows: unknown value '42' (none, rays"));
     o.shadows = sombra::ShadowTechnique::Dsm;
     REQUIRE_NOTHROW(sombra::check_render_options(o));
     o.sat.filter_kernel = "";
-    REQUIRE_THROWS_WITH(sombra::render(sombra::test::context(), sombra::test::sphere_scene(8), o), Contains("--filter-kernel"));
+    REQUIRE_THROWS_WITH(sombra::render(sombra::test::context(), sombra::test::sphere_scene(8), o), Contains("lowpass_filter_kernel"));
+}
+
+namespace {
+// Another valid value of an option (its declaration's kind and range), near the current one.
+sombra::OptionValue other_value(const sombra::OptionSpec& spec, const sombra::OptionValue& current) {
+    using sombra::OptionKind;
+    if (spec.kind == OptionKind::Flag) return !std::get<bool>(current);
+    if (spec.kind == OptionKind::Choice) {
+        for (auto it = spec.choices.rbegin(); it != spec.choices.rend(); ++it)
+            if (*it != std::get<std::string>(current)) return *it;
+    }
+    if (spec.kind == OptionKind::Integer) {
+        if (!spec.choices.empty()) return std::stoll(spec.choices[1]);  // lanes: 1 (auto is 8 or 16 here)
+        return std::get<long long>(current) + 1;
+    }
+    const double v = std::get<double>(current), doubled = 2 * v;
+    if (v != 0 && doubled < spec.max) return doubled;
+    return spec.min + (spec.max - spec.min) / 4;
+}
+}  // namespace
+
+TEST_CASE("every option that keys prepared data rebuilds it when changed, and no other option does", "[modules][options]") {
+    sombra::Scene scene = sombra::test::sphere_scene(12);
+    sombra::Context& context = sombra::test::context();
+    int checked = 0;
+    for (const sombra::OptionSpec& spec : sombra::render_option_specs()) {
+        if (spec.key == "shadows") continue;  // selects the module itself (dsm and shadowmap share their maps)
+        sombra::RenderOptions base;
+        base.shadows = spec.techniques.empty() ? sombra::ShadowTechnique::Dsm : spec.techniques.front();
+        base.width = base.height = 8;
+        base.dsm.resolution = 16;
+        sombra::RenderOptions changed = base;
+        const sombra::OptionValue value = other_value(spec, spec.get(base));
+        sombra::set_option(changed, spec, value, spec.key);
+        INFO(spec.key << ": " << sombra::option_value_text(spec.get(base)) << " → " << sombra::option_value_text(value) << " under "
+                      << sombra::shadow_technique_name(base.shadows));
+        REQUIRE(sombra::option_value_text(spec.get(changed)) != sombra::option_value_text(spec.get(base)));
+        sombra::render(context, scene, base);
+        const sombra::RenderStats stats = sombra::render(context, scene, changed).stats;
+        CHECK(stats.reused_preparation == !spec.keys_data);
+        ++checked;
+    }
+    CHECK(checked + 1 == int(sombra::render_option_specs().size()));
+}
+
+TEST_CASE("render options: the scene file's \"render\" block, checked like the flags and named by its key", "[modules][options]") {
+    sombra::Scene scene = sombra::test::sphere_scene(8);
+    scene.source = "block.json";
+    scene.render_settings = {{"shadows", "\"lowpass\""}, {"lowpass_filter_width", "5"}, {"dsm_precompression", "true"}};
+    const sombra::RenderOptions o = sombra::scene_render_options(scene);
+    CHECK(o.shadows == sombra::ShadowTechnique::Lowpass);
+    CHECK(o.sat.filter_width == 5.f);
+    CHECK(o.dsm.precompression);
+    const std::vector<std::pair<std::string, std::string>> refused[] = {
+        {{"dsm_resolution", "0"}}, {{"dsm_resolution", "1.5"}}, {{"dsm_epsilon", "\"small\""}}, {{"shadows", "[1]"}},
+        {{"dsm_precompression", "1"}}, {{"shadow", "\"dsm\""}}, {{"--dsm-res", "16"}}};
+    const char* messages[] = {"block.json: render.dsm_resolution: must lie in [1, 8192], got 0",
+                              "block.json: render.dsm_resolution: expected an integer, got 1.5",
+                              "block.json: render.dsm_epsilon: expected a number, got 'small'",
+                              "block.json: render.shadows: expected a name, got array",
+                              "block.json: render.dsm_precompression: expected true or false, got 1",
+                              "block.json: render: unknown key 'shadow' (did you mean 'shadows'?)",
+                              "block.json: render: unknown key '--dsm-res'"};
+    for (std::size_t i = 0; i < std::size(refused); ++i) {
+        scene.render_settings = refused[i];
+        CHECK(sombra::test::error_of([&] { sombra::scene_render_options(scene); }) == messages[i]);
+    }
 }

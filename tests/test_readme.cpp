@@ -44,3 +44,18 @@ TEST_CASE("README quick start: the scene block is valid JSON and renders with de
     CHECK(fs::exists(image));
     CHECK(fs::exists(dir / "head.json"));
 }
+
+TEST_CASE("docs/options.md lists every declared option with its flag and default", "[readme][options]") {
+    std::ifstream in(std::filesystem::path(SOMBRA_DATA_DIR).parent_path() / "docs" / "options.md");
+    REQUIRE(in);
+    std::stringstream text;
+    text << in.rdbuf();
+    for (const sombra::OptionSpec& spec : sombra::render_option_specs()) {
+        INFO(spec.key);
+        const std::string row_start = "| `" + spec.key + "` | `" + spec.flag + "` |";
+        const std::size_t at = text.str().find(row_start);
+        REQUIRE(at != std::string::npos);
+        const std::string row = text.str().substr(at, text.str().find('\n', at) - at);
+        CHECK_THAT(row, Catch::Contains(sombra::option_range_text(spec).empty() ? "—" : sombra::option_range_text(spec)));
+    }
+}

@@ -129,7 +129,7 @@ TEST_CASE("shadow ray step: zero, negative, NaN and steps above 16 are refused",
     }
     for (float step : {0.f, -1.f, 16.5f, NAN}) {
         o.rays.step = step;
-        CHECK_THAT(test::error_of([&] { check_render_options(o); }), Catch::Contains("--ray-step"));
+        CHECK_THAT(test::error_of([&] { check_render_options(o); }), Catch::Contains("shadow_ray_step"));
     }
 }
 
@@ -260,7 +260,7 @@ TEST_CASE("single scattering: isotropic equals head-on Phong in a homogeneous me
     CHECK(forward > 1.5f * centre(isotropic));
     CHECK(centre(isotropic) > 1.5f * backward);
     o.phase_g = 1.f;
-    CHECK_THROWS_WITH(render(test::context(), s, o), Catch::Contains("--phase-g"));
+    CHECK_THROWS_WITH(render(test::context(), s, o), Catch::Contains("phase_g"));
 }
 
 TEST_CASE("scenes of up to 32 volumes render in packets (24 here) and a 33rd is refused", "[render]") {

@@ -227,7 +227,7 @@ TEST_CASE("shadow cache auto: on when filling costs fewer evaluations than the f
     CHECK_FALSE(render(context, scene, o).stats.shadow_cache_used);
 }
 
-TEST_CASE("shadow cache option: names round-trip and a wrong one is refused naming the flag", "[shadow_cache]") {
+TEST_CASE("shadow cache option: names round-trip and a wrong one is refused naming the key", "[shadow_cache]") {
     RenderOptions o;
     CHECK(render_option_values("shadow_cache") == std::vector<std::string>{"auto", "on", "off"});
     CHECK(render_option_value(o, "shadow_cache") == "auto");
@@ -235,7 +235,7 @@ TEST_CASE("shadow cache option: names round-trip and a wrong one is refused nami
     CHECK(o.shadow_cache == ShadowCacheMode::Off);
     CHECK_THROWS_WITH(set_render_option(o, "shadow_cache", "maybe"), Catch::Contains("auto, on, off"));
     o.shadow_cache = ShadowCacheMode(7);
-    CHECK_THROWS_WITH(check_render_options(o), Catch::Contains("--shadow-cache"));
+    CHECK_THROWS_WITH(check_render_options(o), Catch::Contains("shadow_cache"));
 }
 
 TEST_CASE("surface shadow cache: each corner holds the technique's term where a fragment there looks it up", "[shadow_cache]") {

@@ -57,9 +57,9 @@ def file_scene(voxels, folder):
 def test_numpy_scene_renders_like_the_same_scene_from_files(context, tmp_path):
     voxels = lopsided_volume()
     from_numpy, from_files = numpy_scene(voxels), file_scene(voxels, tmp_path)
-    for shadows in ("dsm", "rays"):
-        a, stats = sombra.render(context, from_numpy, shadows=shadows, dsm_resolution=48)
-        b, _ = sombra.render(context, from_files, shadows=shadows, dsm_resolution=48)
+    for shadows, options in (("dsm", dict(dsm_resolution=48)), ("rays", {})):
+        a, stats = sombra.render(context, from_numpy, shadows=shadows, **options)
+        b, _ = sombra.render(context, from_files, shadows=shadows, **options)
         assert a.shape == (40, 40, 4) and a.dtype == np.float32
         assert np.isfinite(a).all()
         assert a[..., 3].max() > 0.3  # the volume is in view
@@ -155,11 +155,25 @@ def test_bad_arguments_name_the_argument(context, tmp_path):
     assert error(ValueError, lambda: scene.add_light("sun")) == (
         "Scene.add_light: type: unknown light type 'sun' (directional, spot, point)")
     assert error(ValueError, lambda: sombra.render(context, scene, shadows="dsmm")) == (
-        "render: shadows: unknown value 'dsmm' (none, rays, dsm, shadowmap, lowpass, ao, cone)")
+        "render: shadows: unknown value 'dsmm' (none, rays, dsm, shadowmap, lowpass, ao, cone) (did you mean 'dsm'?)")
     assert error(ValueError, lambda: sombra.render(context, scene, bogus=1)) == (
         "render: unknown option 'bogus' (see sombra.RenderOptions)")
     assert error(ValueError, lambda: sombra.render(context, scene, dsm_resolution="x")) == (
         "render: dsm_resolution: expected int, got str")
+    # every option is checked at the call by its declaration, named as the caller wrote it
+    assert error(ValueError, lambda: sombra.render(context, scene, width=-5)) == (
+        "render: width: must lie in [0, 16384], got -5")
+    assert error(ValueError, lambda: sombra.render(context, scene, shadows="rays", shadow_ray_step=1e-30 * 0)) == (
+        "render: shadow_ray_step: must lie in (0, 16], got 0")
+    assert error(ValueError, lambda: sombra.render(context, scene, shadows="lowpass", lowpass_max_entries=0)).startswith(
+        "render: lowpass_max_entries: must lie in [4096, ")
+    assert error(ValueError, lambda: sombra.render(context, scene, shadows="rays", dsm_epsilon=0.1)) == (
+        "render: dsm_epsilon: applies to --shadows dsm, shadowmap, not rays")
+    assert error(ValueError, lambda: sombra.RenderOptions(phase_g=float("nan"))) == (
+        "RenderOptions: phase_g: must lie in (-1, 1), got nan")
+    options = sombra.RenderOptions()
+    assert error(ValueError, lambda: setattr(options, "dsm_clusters", 65)) == "dsm_clusters: must lie in [0, 64], got 65"
+    assert error(ValueError, lambda: setattr(options, "dsm_precompression", 1)) == "dsm_precompression: expected bool, got int"
     assert error(ValueError, lambda: sombra.shadow_transmittance(context, scene, 0, np.zeros((4, 2)), shadows="dsm")) == (
         "shadow_transmittance: points: expected an (N, 3) array of world points, got shape (4, 2)")
     assert error(ValueError, lambda: sombra.reference_transmittance(scene, 0, ["a", "b", "c"])).startswith(
@@ -168,6 +182,35 @@ def test_bad_arguments_name_the_argument(context, tmp_path):
     missing = str(tmp_path / "missing.json")
     assert error(sombra.Error, lambda: sombra.load_scene(missing)).startswith(missing + ": ")
     assert "light index" in error(sombra.Error, lambda: sombra.reference_transmittance(scene, 7, np.zeros((1, 3))))
+
+
+def test_options_are_generated_from_their_declarations(context, tmp_path):
+    options = sombra.RenderOptions(shadows="dsm", dsm_resolution=64, dsm_epsilon=np.float32(0.05), lanes=np.int64(4))
+    assert (options.shadows, options.dsm_resolution, options.dsm_epsilon, options.lanes) == ("dsm", 64, 0.05, 4)
+    text = repr(options)
+    assert text.startswith("sombra.RenderOptions(width=0, height=0, shadows='dsm'") and "dsm_resolution=64" in text
+    assert sombra.RenderOptions.dsm_resolution.__doc__.startswith("deep shadow map texels per side [1, 8192] texels")
+    # the scene file's "render" block is what render() starts from when no options are given
+    volume = {"generator": {"type": "sphere", "size": 16}, "transform": {"scale": 0.06},
+              "transfer_function": {"rgb_points": [0, 1, 1, 1, 1, 1, 0.5, 0.2], "opacity_points": [0, 0, 1, 0.5]}}
+    scene_file = tmp_path / "block.json"
+    scene_file.write_text(json.dumps({
+        "camera": {"position": [0, 0, 3], "look_at": [0, 0, 0]}, "image": {"width": 16, "height": 12},
+        "render": {"shadows": "dsm", "dsm_resolution": 32, "dsm_epsilon": 0.04},
+        "volumes": [volume], "lights": [{"type": "directional", "direction": [0, -1, -1]}]}))
+    scene = sombra.load_scene(str(scene_file))
+    block = scene.render_options()
+    assert (block.shadows, block.dsm_resolution, block.dsm_epsilon) == ("dsm", 32, 0.04)
+    _, stats = sombra.render(context, scene)
+    assert stats["dsm"]["views"] == 1  # the block's technique
+    maps, _ = sombra.build_deep_shadow_maps(context, scene, 0)
+    assert maps[0].width == 32
+    maps, _ = sombra.build_deep_shadow_maps(context, scene, 0, dsm_resolution=24)  # keywords override the block
+    assert maps[0].width == 24
+    scene_file.write_text(json.dumps({"render": {"dsm_resolutio": 32}, "volumes": [volume]}))
+    with pytest.raises(sombra.Error) as raised:
+        sombra.load_scene(str(scene_file)).render_options()
+    assert str(raised.value) == f"{scene_file}: render: unknown key 'dsm_resolutio' (did you mean 'dsm_resolution'?)"
 
 
 def test_docs_example_runs():

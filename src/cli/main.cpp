@@ -417,6 +417,7 @@ int run(int argc_given, char** argv_given) {
 
     CLI::App app{"sombra — volumetric shadows for scenes of volumes and translucent geometry"};
     app.require_subcommand(1);
+    app.option_defaults()->always_capture_default();  // --help shows every default
     app.set_version_flag("--version", std::string("sombra ") + SOMBRA_VERSION, "print the version and exit");
     SceneCommandArgs a;
     CLI::App* render = app.add_subcommand("render", "render a scene to an image (PNG or EXR)");

@@ -1,6 +1,7 @@
 // sombra — the render options as data (sombra/options.h): the generic options' declarations, every
 // module's gathered into one list, and the one place values are checked, parsed and shown.
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdlib>
 #include <sstream>
@@ -116,7 +117,9 @@ const char* kind_name(OptionKind kind) {
 
 void check_choice(const OptionSpec& spec, const std::string& name, const std::string& label) {
     if (std::find(spec.choices.begin(), spec.choices.end(), name) != spec.choices.end()) return;
-    throw Error(label + ": unknown value '" + name + "' (" + list_text(spec.choices) + ")" + detail::did_you_mean(name, spec.choices));
+    const bool word = std::any_of(name.begin(), name.end(), [](unsigned char c) { return std::isalpha(c); });
+    throw Error(label + ": unknown value '" + name + "' (" + list_text(spec.choices) + ")" +
+                (word ? detail::did_you_mean(name, spec.choices) : ""));
 }
 
 }  // namespace
@@ -228,8 +231,11 @@ void check_option_applies(const OptionSpec& spec, ShadowTechnique technique, con
 
 std::vector<std::string> render_option_values(const std::string& key) {
     const OptionSpec* spec = find_render_option(key);
-    if (!spec || spec->choices.empty()) throw Error("no render option '" + key + "' with named values");
-    return spec->choices;
+    if (spec && spec->kind == OptionKind::Choice) return spec->choices;
+    std::vector<std::string> named;
+    for (const OptionSpec& s : render_option_specs())
+        if (s.kind == OptionKind::Choice) named.push_back(s.key);
+    throw Error("unknown enumerated render option '" + key + "' (" + list_text(named) + ")" + detail::did_you_mean(key, named));
 }
 
 namespace {

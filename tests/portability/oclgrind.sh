@@ -35,7 +35,7 @@ run() {  # one render; any line that is not sombra's own is an Oclgrind report
 }
 run none --shadows none
 for storage in atlas chunked chunked-ondemand compact; do
-    run "dsm-$storage" --shadows dsm --dsm-res 16 --storage "$storage" --shadow-cache off
+    run "dsm-$storage" --shadows dsm --dsm-res 16 --dsm-storage "$storage" --shadow-cache off
 done
 run dsm-native --shadows dsm --dsm-res 16 --dsm-lookup native --shadow-cache off
 run cache-fill --shadows dsm --dsm-res 16 --shadow-cache on
