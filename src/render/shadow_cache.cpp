@@ -255,145 +255,191 @@ std::vector<float> surface_bias_distances(const PreparedScene& p) {
     return distances;
 }
 
+namespace {
+
+// What one frame does with the volume lattices: the layout, each entry's key and whether it is
+// stale (its key changed or the layout did), and whether the cache is used at all.
+struct VolumePlan {
+    std::vector<ShadowCacheGpu> layout;
+    std::vector<std::string> keys;
+    std::vector<bool> stale;
+    bool same_layout = false, use = false;
+};
+
+// Auto: a lattice point costs one evaluation of the technique, as a shaded sample does per light;
+// both happen only near possibly visible bricks (the fill skips the other points).
+VolumePlan plan_volume_entries(host::Runtime& runtime, const Scene& scene, const Prepared& prepared, const RenderOptions& options,
+                               const CameraGpu& camera, const ShadowCache& cache, RenderStats& stats) {
+    const PreparedScene& p = prepared.scene;
+    const std::size_t lights = scene.lights.size();
+    VolumePlan plan;
+    plan.layout = cache_layout(scene, p.packed);
+    plan.keys = prepared.technique.shadow_cache_keys({runtime, scene, p.packed, p.packed_surfaces, p.device, options, p.use_images});
+    if (plan.keys.empty()) plan.keys = generic_keys(scene, p, prepared.technique, options);
+    plan.same_layout = cache.layout.size() == plan.layout.size() &&
+                       std::equal(plan.layout.begin(), plan.layout.end(), cache.layout.begin(),
+                                  [](const ShadowCacheGpu& a, const ShadowCacheGpu& b) { return std::memcmp(&a, &b, sizeof a) == 0; });
+    plan.stale.assign(plan.layout.size(), true);
+    for (std::size_t e = 0; e < plan.layout.size(); ++e) plan.stale[e] = !plan.same_layout || cache.keys[e] != plan.keys[e];
+    double to_fill = 0, samples = 0, voxel_size = 0;
+    std::vector<shadows::D3> corners = shadows::scene_corners(p.packed, voxel_size);
+    for (std::size_t i = 0; i < scene.volumes.size(); ++i) {
+        double visible = visible_brick_fraction(p.packed, i);
+        for (std::size_t m = 0; m < lights; ++m)
+            if (plan.stale[i * lights + m]) to_fill += visible * double(lattice_points(plan.layout[i * lights + m]));
+        samples += visible * double(lights) * estimated_samples(camera, &corners[8 * i], p.packed.volumes[i].step);
+    }
+    stats.shadow_cache_points_to_fill = static_cast<unsigned long long>(to_fill);
+    stats.shadow_cache_estimated_samples = static_cast<unsigned long long>(std::min(samples, 1.8e19));
+    plan.use = options.shadow_cache == ShadowCacheMode::On || to_fill < samples;
+    return plan;
+}
+
+// The surface points: a light's entry is stale when its key changed or the meshes did. Auto: a
+// point costs one evaluation per light, as a shaded surface fragment does.
+struct SurfacePlan {
+    std::vector<std::string> keys;
+    std::vector<bool> stale;
+    bool use = false;
+};
+
+SurfacePlan plan_surface_entries(const Scene& scene, const Prepared& prepared, const RenderOptions& options,
+                                 std::size_t surface_fragments, SurfaceShadowCache& sc, RenderStats& stats) {
+    const PreparedScene& p = prepared.scene;
+    const std::size_t lights = scene.lights.size();
+    if (sc.points_key != p.keys.meshes || sc.triangles.size() != 2 * p.packed_surfaces.triangles.size()) {
+        sc = SurfaceShadowCache();
+        make_surface_points(sc, p.packed_surfaces.triangles, surface_spacing(p.packed_surfaces.triangles));
+        sc.points_key = p.keys.meshes;
+    }
+    SurfacePlan plan;
+    plan.keys = surface_keys(scene, p, prepared.technique, options);
+    plan.stale.assign(lights, true);
+    for (std::size_t m = 0; m < lights && sc.keys.size() == lights; ++m) plan.stale[m] = sc.keys[m] != plan.keys[m];
+    const double stale_lights = double(std::count(plan.stale.begin(), plan.stale.end(), true));
+    stats.shadow_cache_surface_points = sc.point_count();
+    stats.shadow_cache_surface_points_to_fill = static_cast<unsigned long long>(stale_lights * double(sc.point_count()));
+    stats.shadow_cache_estimated_fragments = static_cast<unsigned long long>(double(surface_fragments) * double(lights));
+    plan.use = options.shadow_cache == ShadowCacheMode::On ||
+               stale_lights * double(sc.point_count()) < double(surface_fragments) * double(lights);
+    return plan;
+}
+
+// How the fills launch: the camera pass's program (the fills read no cache), the camera, the
+// scene and the technique's parameters.
+struct FillLaunch {
+    host::Runtime& runtime;
+    const Prepared& prepared;
+    const RenderOptions& options;
+    cl::Program& program;
+    cl::Buffer camera;
+    int lanes;
+};
+
+// Fills the stale lattices (new ones first when the layout changed); returns the kernel time.
+double fill_volume_entries(const FillLaunch& launch, ShadowCache& cache, const VolumePlan& plan, std::size_t lights, RenderStats& stats) {
+    host::Runtime& runtime = launch.runtime;
+    if (!plan.same_layout) {  // other volumes or lights: new lattices
+        cache.values = cl::Buffer(), cache.table = cl::Buffer(), cache.bytes = 0;
+        cache.layout = plan.layout;
+        cache.keys.assign(plan.layout.size(), std::string());
+        std::size_t total = plan.layout.back().offset + lattice_points(plan.layout.back());
+        cache.values = host::make_buffer(runtime, CL_MEM_READ_WRITE, total * sizeof(float), nullptr, "shadow cache");
+        cache.table = host::make_buffer(runtime, CL_MEM_READ_ONLY, plan.layout.size() * sizeof(ShadowCacheGpu), plan.layout.data(),
+                                        "shadow cache table");
+        cache.bytes = total * sizeof(float);
+    }
+    const std::size_t stale_entries = std::size_t(std::count(plan.stale.begin(), plan.stale.end(), true));
+    stats.shadow_cache_entries_reused += int(plan.layout.size() - stale_entries);
+    if (stale_entries == 0) return 0;
+    double ms = 0;
+    cl::Kernel kernel(launch.program, "shadow_cache_fill");
+    host::ProgressStage stage(runtime.progress(), "shadow cache", double(stale_entries));
+    for (std::size_t e = 0; e < plan.layout.size(); ++e) {
+        if (!plan.stale[e]) continue;
+        cache.keys[e].clear();  // an entry half filled when a launch throws is not kept
+        host::KernelArgs args{kernel};
+        bind_scene(args, launch.prepared.scene, launch.camera);
+        args("light_index", cl_uint(e % lights))("cache_entry", cl_uint(e))("shadow_cache_table", cache.table)("shadow_cache", cache.values);
+        launch.prepared.technique.bind(args, runtime, launch.options);
+        args.done();
+        const ShadowCacheGpu& c = plan.layout[e];
+        ms += host::run_packets(runtime, kernel, c.dims.s[0], c.dims.s[1] * c.dims.s[2], launch.lanes);
+        cache.keys[e] = plan.keys[e];
+        ++stats.shadow_cache_entries_built;
+    }
+    return ms;
+}
+
+// Fills the stale lights' values at the surface points (new buffers when the lights changed).
+double fill_surface_entries(const FillLaunch& launch, SurfaceShadowCache& sc, const SurfacePlan& plan, std::size_t lights,
+                            RenderStats& stats) {
+    host::Runtime& runtime = launch.runtime;
+    const std::size_t n = sc.point_count();
+    if (sc.keys.size() != lights) {  // other lights: new values
+        sc.keys.assign(lights, std::string());
+        sc.point_buffer = host::make_buffer(runtime, CL_MEM_READ_ONLY, sc.points.size() * sizeof(cl_float4), sc.points.data(),
+                                            "surface shadow cache points");
+        sc.triangle_buffer = host::make_buffer(runtime, CL_MEM_READ_ONLY, sc.triangles.size() * sizeof(cl_uint), sc.triangles.data(),
+                                               "surface shadow cache triangles");
+        sc.values = host::make_buffer(runtime, CL_MEM_READ_WRITE, n * lights * sizeof(float), nullptr, "surface shadow cache");
+        sc.bytes = n * lights * sizeof(float) + sc.points.size() * sizeof(cl_float4) + sc.triangles.size() * sizeof(cl_uint);
+    }
+    const std::size_t stale_lights = std::size_t(std::count(plan.stale.begin(), plan.stale.end(), true));
+    stats.shadow_cache_surface_entries_reused += int(lights - stale_lights);
+    if (stale_lights == 0) return 0;
+    double ms = 0;
+    cl::Kernel kernel(launch.program, "surface_shadow_cache_fill");
+    host::ProgressStage stage(runtime.progress(), "surface shadow cache", double(stale_lights));
+    const int rows = int((n + kSurfaceRowPoints - 1) / kSurfaceRowPoints);
+    for (std::size_t m = 0; m < lights; ++m) {
+        if (!plan.stale[m]) continue;
+        sc.keys[m].clear();
+        host::KernelArgs args{kernel};
+        bind_scene(args, launch.prepared.scene, launch.camera);
+        args("light_index", cl_uint(m))("surface_points", sc.point_buffer)("point_count", cl_uint(n));
+        args("row_points", cl_uint(kSurfaceRowPoints))("surface_bias", launch.prepared.scene.surface_bias)("surface_shadow_cache", sc.values);
+        launch.prepared.technique.bind(args, runtime, launch.options);
+        args.done();
+        ms += host::run_packets(runtime, kernel, kSurfaceRowPoints, rows, launch.lanes);
+        sc.keys[m] = plan.keys[m];
+        ++stats.shadow_cache_surface_entries_built;
+    }
+    return ms;
+}
+
+}  // namespace
+
 const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, const Prepared& prepared,
                                           const RenderOptions& options, int width, int height, int lanes,
                                           std::size_t surface_fragments, RenderStats& stats) {
     const PreparedScene& p = prepared.scene;
-    bool has_surfaces = !p.packed_surfaces.triangles.empty();
+    const bool has_surfaces = !p.packed_surfaces.triangles.empty();
     if (options.shadow_cache == ShadowCacheMode::Off || !prepared.technique.has_shadow_term() ||
         (scene.volumes.empty() && !has_surfaces) || scene.lights.empty())
         return nullptr;
     host::Runtime& runtime = context.runtime();
     std::unique_ptr<ShadowCache>& cache = context.kept_scenes().shadow_cache;
     if (!cache) cache = std::make_unique<ShadowCache>();
-    std::size_t lights = scene.lights.size();
+    const std::size_t lights = scene.lights.size();
     CameraGpu camera = packing::pack_camera(scene, width, height);
-
-    // The lattices: an entry is stale when its key changed or the layout did
-    std::vector<ShadowCacheGpu> layout;
-    std::vector<std::string> keys;
-    std::vector<bool> stale;
-    bool use_volumes = false, same_layout = false;
-    if (!scene.volumes.empty()) {
-        layout = cache_layout(scene, p.packed);
-        keys = prepared.technique.shadow_cache_keys({runtime, scene, p.packed, p.packed_surfaces, p.device, options, p.use_images});
-        if (keys.empty()) keys = generic_keys(scene, p, prepared.technique, options);
-        same_layout = cache->layout.size() == layout.size() &&
-                      std::equal(layout.begin(), layout.end(), cache->layout.begin(), [](const ShadowCacheGpu& a, const ShadowCacheGpu& b) {
-                          return std::memcmp(&a, &b, sizeof(ShadowCacheGpu)) == 0;
-                      });
-        stale.assign(layout.size(), true);
-        for (std::size_t e = 0; e < layout.size(); ++e) stale[e] = !same_layout || cache->keys[e] != keys[e];
-        // Auto: a lattice point costs one evaluation of the technique, as a shaded sample does per
-        // light; both happen only near possibly visible bricks (the fill skips the other points)
-        double to_fill = 0, samples = 0;
-        double voxel_size = 0;
-        std::vector<shadows::D3> corners = shadows::scene_corners(p.packed, voxel_size);
-        for (std::size_t i = 0; i < scene.volumes.size(); ++i) {
-            double visible = visible_brick_fraction(p.packed, i);
-            for (std::size_t m = 0; m < lights; ++m)
-                if (stale[i * lights + m]) to_fill += visible * double(lattice_points(layout[i * lights + m]));
-            samples += visible * double(lights) * estimated_samples(camera, &corners[8 * i], p.packed.volumes[i].step);
-        }
-        stats.shadow_cache_points_to_fill = static_cast<unsigned long long>(to_fill);
-        stats.shadow_cache_estimated_samples = static_cast<unsigned long long>(std::min(samples, 1.8e19));
-        use_volumes = options.shadow_cache == ShadowCacheMode::On || to_fill < samples;
-    }
-
-    // The surface points: a light's entry is stale when its key changed or the meshes did. Auto:
-    // a point costs one evaluation per light, as a shaded surface fragment does
-    SurfaceShadowCache& sc = cache->surfaces;
-    std::vector<std::string> surface_key_list;
-    std::vector<bool> surface_stale;
-    bool use_surfaces = false;
-    if (has_surfaces) {
-        if (sc.points_key != p.keys.meshes || sc.triangles.size() != 2 * p.packed_surfaces.triangles.size()) {
-            sc = SurfaceShadowCache();
-            make_surface_points(sc, p.packed_surfaces.triangles, surface_spacing(p.packed_surfaces.triangles));
-            sc.points_key = p.keys.meshes;
-        }
-        surface_key_list = surface_keys(scene, p, prepared.technique, options);
-        surface_stale.assign(lights, true);
-        for (std::size_t m = 0; m < lights && sc.keys.size() == lights; ++m) surface_stale[m] = sc.keys[m] != surface_key_list[m];
-        double stale_lights = double(std::count(surface_stale.begin(), surface_stale.end(), true));
-        stats.shadow_cache_surface_points = sc.point_count();
-        stats.shadow_cache_surface_points_to_fill = static_cast<unsigned long long>(stale_lights * double(sc.point_count()));
-        stats.shadow_cache_estimated_fragments = static_cast<unsigned long long>(double(surface_fragments) * double(lights));
-        use_surfaces = options.shadow_cache == ShadowCacheMode::On ||
-                       stale_lights * double(sc.point_count()) < double(surface_fragments) * double(lights);
-    }
-    cache->volumes_used = use_volumes, cache->surfaces_used = use_surfaces;
-    if (!use_volumes && !use_surfaces) return nullptr;
+    const VolumePlan volumes = scene.volumes.empty() ? VolumePlan() : plan_volume_entries(runtime, scene, prepared, options, camera, *cache, stats);
+    const SurfacePlan surfaces = has_surfaces ? plan_surface_entries(scene, prepared, options, surface_fragments, cache->surfaces, stats)
+                                              : SurfacePlan();
+    cache->volumes_used = volumes.use, cache->surfaces_used = surfaces.use;
+    if (!volumes.use && !surfaces.use) return nullptr;
 
     camera.jitter_seed = options.jitter_seed;  // the fills' shadow rays start where the camera pass's would
-    cl::Buffer camera_buffer = host::make_buffer(runtime, CL_MEM_READ_ONLY, sizeof(CameraGpu), &camera, "camera");
-    // the camera pass's own program (one build): the fills read no cache
-    cl::Program& program = runtime.program("render.cl", camera_pass_defines(scene, options, prepared, lanes, use_volumes, use_surfaces));
+    const FillLaunch launch{runtime, prepared, options,
+                            runtime.program("render.cl", camera_pass_defines(scene, options, prepared, lanes, volumes.use, surfaces.use)),
+                            host::make_buffer(runtime, CL_MEM_READ_ONLY, sizeof(CameraGpu), &camera, "camera"), lanes};
     double ms = 0;
-    if (use_volumes) {
-        if (!same_layout) {  // other volumes or lights: new lattices
-            cache->values = cl::Buffer(), cache->table = cl::Buffer(), cache->bytes = 0;
-            cache->layout = layout;
-            cache->keys.assign(layout.size(), std::string());
-            std::size_t total = layout.back().offset + lattice_points(layout.back());
-            cache->values = host::make_buffer(runtime, CL_MEM_READ_WRITE, total * sizeof(float), nullptr, "shadow cache");
-            cache->table = host::make_buffer(runtime, CL_MEM_READ_ONLY, layout.size() * sizeof(ShadowCacheGpu), layout.data(), "shadow cache table");
-            cache->bytes = total * sizeof(float);
-        }
-        std::size_t stale_entries = std::size_t(std::count(stale.begin(), stale.end(), true));
-        stats.shadow_cache_entries_reused += int(layout.size() - stale_entries);
-        if (stale_entries > 0) {
-            cl::Kernel kernel(program, "shadow_cache_fill");
-            host::ProgressStage stage(runtime.progress(), "shadow cache", double(stale_entries));
-            for (std::size_t e = 0; e < layout.size(); ++e) {
-                if (!stale[e]) continue;
-                cache->keys[e].clear();  // an entry half filled when a launch throws is not kept
-                host::KernelArgs args{kernel};
-                bind_scene(args, p, camera_buffer);
-                args("light_index", cl_uint(e % lights))("cache_entry", cl_uint(e))("shadow_cache_table", cache->table)("shadow_cache", cache->values);
-                prepared.technique.bind(args, runtime, options);
-                args.done();
-                const ShadowCacheGpu& c = layout[e];
-                ms += host::run_packets(runtime, kernel, c.dims.s[0], c.dims.s[1] * c.dims.s[2], lanes);
-                cache->keys[e] = keys[e];
-                ++stats.shadow_cache_entries_built;
-            }
-        }
-    }
-    if (use_surfaces) {
-        std::size_t n = sc.point_count();
-        if (sc.keys.size() != lights) {  // other lights: new values
-            sc.keys.assign(lights, std::string());
-            sc.point_buffer = host::make_buffer(runtime, CL_MEM_READ_ONLY, sc.points.size() * sizeof(cl_float4), sc.points.data(), "surface shadow cache points");
-            sc.triangle_buffer = host::make_buffer(runtime, CL_MEM_READ_ONLY, sc.triangles.size() * sizeof(cl_uint), sc.triangles.data(), "surface shadow cache triangles");
-            sc.values = host::make_buffer(runtime, CL_MEM_READ_WRITE, n * lights * sizeof(float), nullptr, "surface shadow cache");
-            sc.bytes = n * lights * sizeof(float) + sc.points.size() * sizeof(cl_float4) + sc.triangles.size() * sizeof(cl_uint);
-        }
-        std::size_t stale_lights = std::size_t(std::count(surface_stale.begin(), surface_stale.end(), true));
-        stats.shadow_cache_surface_entries_reused += int(lights - stale_lights);
-        if (stale_lights > 0) {
-            cl::Kernel kernel(program, "surface_shadow_cache_fill");
-            host::ProgressStage stage(runtime.progress(), "surface shadow cache", double(stale_lights));
-            int rows = int((n + kSurfaceRowPoints - 1) / kSurfaceRowPoints);
-            for (std::size_t m = 0; m < lights; ++m) {
-                if (!surface_stale[m]) continue;
-                sc.keys[m].clear();
-                host::KernelArgs args{kernel};
-                bind_scene(args, p, camera_buffer);
-                args("light_index", cl_uint(m))("surface_points", sc.point_buffer)("point_count", cl_uint(n));
-                args("row_points", cl_uint(kSurfaceRowPoints))("surface_bias", p.surface_bias)("surface_shadow_cache", sc.values);
-                prepared.technique.bind(args, runtime, options);
-                args.done();
-                ms += host::run_packets(runtime, kernel, kSurfaceRowPoints, rows, lanes);
-                sc.keys[m] = surface_key_list[m];
-                ++stats.shadow_cache_surface_entries_built;
-            }
-        }
-    }
+    if (volumes.use) ms += fill_volume_entries(launch, *cache, volumes, lights, stats);
+    if (surfaces.use) ms += fill_surface_entries(launch, cache->surfaces, surfaces, lights, stats);
     if (stats.shadow_cache_entries_built + stats.shadow_cache_surface_entries_built > 0) stats.stage_ms["shadow_cache"] = ms;
     stats.shadow_cache_used = true;
-    stats.shadow_cache_surfaces_used = use_surfaces;
-    stats.shadow_cache_bytes = (use_volumes ? cache->bytes : 0) + (use_surfaces ? sc.bytes : 0);
+    stats.shadow_cache_surfaces_used = surfaces.use;
+    stats.shadow_cache_bytes = (volumes.use ? cache->bytes : 0) + (surfaces.use ? cache->surfaces.bytes : 0);
     return cache.get();
 }
 
