@@ -154,3 +154,12 @@ def tiff_stack(pages=2, width=3, height=2):
 put("tiff", "stack.tif", tiff_stack())
 put("tiff", "one_page.tif", tiff_stack(1))
 
+
+# OpenVDB (issue 25): one-leaf grids written by hand (fuzz/vdb_bytes.py), raw and zlib, and sombra's
+# smoke plume (Blosc, half floats, two grids)
+import sys
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import vdb_bytes
+put("vdb", "leaf_raw.vdb", vdb_bytes.vdb([vdb_bytes.grid(vdb_bytes.ramp(), compression=2)]))
+put("vdb", "leaf_zip.vdb", vdb_bytes.vdb([vdb_bytes.grid(vdb_bytes.ramp(), compression=1)]))
+shutil.copy(os.path.join(DATA, "volumes", "smoke_plume.vdb"), os.path.join(CORPUS, "vdb", "smoke_plume.vdb"))

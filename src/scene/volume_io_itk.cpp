@@ -8,6 +8,7 @@
 #include "scene/volume_io_common.h"
 
 #include "scene/input_file.h"
+#include "scene/stderr_capture.h"
 #include "scene/volume_io_itk_checks.h"
 
 #if defined(__clang__)
@@ -293,53 +294,8 @@ Volume to_volume(const std::string& path, const Image& image, ItkFormat format) 
     return volume;
 }
 
-// Everything written to the process's stderr while it lives (std::cerr, and what C libraries print
-// with fprintf: libtiff's warnings, libjpeg's and OpenJPEG's messages), captured at the file
-// descriptor into a temporary file instead of reaching the user before sombra's own one line.
-// One at a time (a process has one fd 2): readers hold the lock for their whole read.
-class StderrCapture {
-public:
-    StderrCapture() : lock_(mutex()) {
-        std::cerr.flush();
-        std::fflush(stderr);
-        file_ = std::tmpfile();
-        saved_ = file_ ? ::dup(2) : -1;
-        if (saved_ < 0 || ::dup2(::fileno(file_), 2) < 0) restore();
-    }
-    ~StderrCapture() { restore(); }
-    StderrCapture(const StderrCapture&) = delete;
-    StderrCapture& operator=(const StderrCapture&) = delete;
-    // What was written so far.
-    std::string text() {
-        if (!file_) return "";
-        std::cerr.flush();
-        std::fflush(stderr);
-        std::string out;
-        std::rewind(file_);
-        char buffer[4096];
-        for (std::size_t n; (n = std::fread(buffer, 1, sizeof buffer, file_)) > 0 && out.size() < (1u << 20);) out.append(buffer, n);
-        std::fseek(file_, 0, SEEK_END);
-        return out;
-    }
-
-private:
-    static std::mutex& mutex() {
-        static std::mutex m;
-        return m;
-    }
-    void restore() {
-        std::cerr.flush();
-        std::fflush(stderr);
-        if (saved_ >= 0) ::dup2(saved_, 2), ::close(saved_), saved_ = -1;
-        if (file_) std::fclose(file_), file_ = nullptr;
-    }
-    std::unique_lock<std::mutex> lock_;
-    std::FILE* file_ = nullptr;
-    int saved_ = -1;
-};
-
 Volume read_series(const std::string& dir, const VolumeLoadOptions& options) {
-    StderrCapture capture;  // GDCM, libjpeg and OpenJPEG print to stderr: kept from the user
+    detail::StderrCapture capture;  // GDCM, libjpeg and OpenJPEG print to stderr: kept from the user
     std::uint64_t total_bytes = 0;
     folder_files(dir, &total_bytes);
     const std::vector<std::string> files = series_files(dir);
@@ -371,7 +327,7 @@ Volume read_file(const std::string& path, ItkFormat format, const VolumeLoadOpti
     // MetaIO prints to std::cerr what it cannot parse (ITK's exception says it again), and reports a
     // short compressed stream only there, carrying on with a part-filled buffer: caught and made
     // the error. libtiff, libjpeg and OpenJPEG print to stderr: kept from the user too.
-    StderrCapture capture;
+    detail::StderrCapture capture;
     if (format == ItkFormat::dicom) check_dicom_meta(path, file_bytes);
     if (format == ItkFormat::tiff) check_tiff_pages(path);
     // the bytes the voxels can come from: this file, or the data files a detached header names
