@@ -47,3 +47,18 @@ put("vdb", "leaf-chunk-overflow.vdb", vdb_bytes.vdb([vdb_bytes.grid(
 # a root child at an origin that is not a multiple of 4096, and a bool grid
 put("vdb", "unaligned-root-child.vdb", patch(good, struct.pack("<II3i", 0, 1, 0, 0, 0), struct.pack("<II3i", 0, 1, 8, 0, 0)))
 put("vdb", "bool-grid.vdb", vdb_bytes.vdb([vdb_bytes.grid(ramp, grid_type="Tree_bool_5_4_3")]))
+
+# --- DICOM ---
+import dicom_bytes  # noqa: E402
+# an element (Modality) whose length says 2 GiB
+good_dcm = dicom_bytes.image(syntax=dicom_bytes.IMPLICIT)
+put("dicom", "length-2gib.dcm", patch(good_dcm, struct.pack("<HHI", 8, 0x60, 2) + b"OT",
+                                       struct.pack("<HHI", 8, 0x60, 0x80000000) + b"OT"))
+# garbage as JPEG baseline and JPEG 2000 pixel data (encapsulated: an offset table item, one fragment)
+garbage = bytes((i * 37 + 11) % 256 for i in range(64))
+fragments = (struct.pack("<HHI", 0xFFFE, 0xE000, 0) + struct.pack("<HHI", 0xFFFE, 0xE000, len(garbage)) + garbage +
+             struct.pack("<HHI", 0xFFFE, 0xE0DD, 0))
+for name, syntax in (("jpeg-garbage.dcm", "1.2.840.10008.1.2.4.50"), ("jpeg2000-garbage.dcm", "1.2.840.10008.1.2.4.90")):
+    put("dicom", name, dicom_bytes.image(syntax=syntax, pixels=fragments, pixel_length=0xFFFFFFFF))
+# pixel data of 4 bytes for a 3 x 4 16-bit image (24 bytes)
+put("dicom", "short-pixels.dcm", dicom_bytes.image(pixels=b"\1\0\2\0"))

@@ -132,27 +132,6 @@ void check_header(const std::string& path, itk::ImageIOBase& io, std::size_t sli
                                            " bytes of input can hold");
 }
 
-// GDCM (as Debian builds it) asserts, and so aborts the process, on a Part 10 file cut inside its
-// file meta information. Checked first: a file with the "DICM" magic must hold the whole meta group
-// its (0002,0000) group length declares. Files without the magic are left to GDCM.
-void check_dicom_meta(const std::string& path, std::uint64_t size) {
-    std::ifstream in(path, std::ios::binary);
-    unsigned char head[144] = {};
-    in.read(reinterpret_cast<char*>(head), sizeof head);
-    const std::size_t got = std::size_t(in.gcount());
-    if (got < 132 || std::memcmp(head + 128, "DICM", 4) != 0) return;
-    // (0002,0000) UL, explicit VR little endian: 02 00 00 00 'U' 'L' 04 00, then the length
-    const unsigned char tag[8] = {2, 0, 0, 0, 'U', 'L', 4, 0};
-    if (got < 144 || std::memcmp(head + 132, tag, 8) != 0)
-        throw file_error(path, "meta", "truncated or malformed DICOM file meta information (no group length)");
-    const std::uint64_t length = std::uint64_t(head[140]) | std::uint64_t(head[141]) << 8 |
-                                 std::uint64_t(head[142]) << 16 | std::uint64_t(head[143]) << 24;
-    // GDCM also asserts when the file ends at (or in the first tag after) the meta group's end
-    if (size < 144 + length + 8)
-        throw file_error(path, "meta", "truncated: the DICOM file meta information and a first data element need " +
-                                           std::to_string(144 + length + 8) + " bytes, the file has " + std::to_string(size));
-}
-
 // The regular files of a series folder; refuses anything else that could block or mislead.
 std::vector<std::string> folder_files(const std::string& dir, std::uint64_t* total_bytes) {
     std::vector<std::string> files;
@@ -170,7 +149,7 @@ std::vector<std::string> folder_files(const std::string& dir, std::uint64_t* tot
         files.push_back(it->path().string());
         const std::uint64_t size = it->file_size(ec);
         *total_bytes += size;
-        if (!ec) check_dicom_meta(files.back(), size);
+        check_dicom_file(files.back());  // before GDCM's series scan parses it
     }
     if (ec) throw file_error(dir, "", "cannot list the folder: " + ec.message());
     if (files.empty()) throw file_error(dir, "", "an empty folder (expected the files of one DICOM series)");
@@ -328,7 +307,7 @@ Volume read_file(const std::string& path, ItkFormat format, const VolumeLoadOpti
     // short compressed stream only there, carrying on with a part-filled buffer: caught and made
     // the error. libtiff, libjpeg and OpenJPEG print to stderr: kept from the user too.
     detail::StderrCapture capture;
-    if (format == ItkFormat::dicom) check_dicom_meta(path, file_bytes);
+    if (format == ItkFormat::dicom) check_dicom_file(path);
     if (format == ItkFormat::tiff) check_tiff_pages(path);
     // the bytes the voxels can come from: this file, or the data files a detached header names
     const std::uint64_t input_bytes = format == ItkFormat::nrrd || format == ItkFormat::metaimage

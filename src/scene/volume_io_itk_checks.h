@@ -20,4 +20,13 @@ std::uint64_t check_detached_header(const std::string& header, bool nrrd);
 // size, samples, bits or sample format differ from the first page's.
 void check_tiff_pages(const std::string& path);
 
+// Walks a DICOM Part 10 file's data elements before GDCM parses it (volume_io_dicom_checks.cpp):
+// the "DICM" preamble and file meta group, an uncompressed transfer syntax (implicit or explicit VR
+// little endian; compressed ones are refused: GDCM's codecs abort on garbage), every element's and
+// item's length inside the file and its enclosing item, undefined lengths only for sequences with
+// their delimiters inside the file, and the image: Rows, Columns, BitsAllocated 8/16/32,
+// SamplesPerPixel 1, NumberOfFrames, and PixelData at least rows × columns × frames × bytes long.
+// Throws "FILE: FIELD: …".
+void check_dicom_file(const std::string& path);
+
 }  // namespace sombra::volume_io

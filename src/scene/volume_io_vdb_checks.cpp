@@ -3,6 +3,7 @@
 // tree/InternalNode.h, tree/LeafNode.h, io/Compression.h): little endian, as OpenVDB writes on x86.
 #include "scene/volume_io_vdb_checks.h"
 
+#include "scene/byte_cursor.h"
 #include "scene/input_file.h"
 #include "sombra/error.h"
 
@@ -21,58 +22,13 @@
 namespace sombra::volume_io {
 namespace {
 
+using Cursor = detail::ByteCursor;
 constexpr std::int64_t kMagic = 0x56444220;  // "VDB " (OPENVDB_MAGIC)
 constexpr std::uint32_t kOldestFormat = 222, kNewestFormat = 224;  // OpenVDB 3 … 10
 constexpr std::uint32_t kZip = 1, kActiveMask = 2, kBlosc = 4;     // io::COMPRESS_*
-constexpr std::uint32_t kMaxName = 1 << 16;                        // names and type names
 constexpr std::uint64_t kMaxTreeBytes = std::uint64_t(4) << 30;    // the sparse tree in memory
+constexpr std::uint32_t kMaxName = 1 << 16;                        // names and type names
 constexpr std::int32_t kRootChildSide = 4096;                      // voxels a root child spans
-
-// The file, read forward; every read first checks the bytes left. `where` prefixes fields in errors.
-class Cursor {
-public:
-    Cursor(const std::string& path, std::uint64_t size) : in_(path, std::ios::binary), path_(path), size_(size) {
-        if (!in_) throw file_error(path, "", "cannot open the file");
-    }
-    std::uint64_t left() const { return size_ - at_; }
-    [[noreturn]] void fail(const std::string& field, const std::string& what) const {
-        throw file_error(path_, where + field, what);
-    }
-    void need(std::uint64_t n, const std::string& field) const {
-        if (n > left())
-            fail(field, "needs " + std::to_string(n) + " bytes, the file has " + std::to_string(left()) + " left (truncated or corrupt)");
-    }
-    void read(void* out, std::size_t n, const char* field) {
-        need(n, field);
-        in_.read(static_cast<char*>(out), std::streamsize(n));
-        if (!in_) fail(field, "a read came back short");
-        at_ += n;
-    }
-    void skip(std::uint64_t n, const char* field) {
-        need(n, field);
-        in_.seekg(std::streamoff(n), std::ios::cur);
-        at_ += n;
-    }
-    template <typename T>
-    T get(const char* field) {
-        T value;
-        read(&value, sizeof value, field);
-        return value;
-    }
-    std::string string(const char* field) {
-        const std::uint32_t n = get<std::uint32_t>(field);
-        if (n > kMaxName) fail(field, "a length of " + std::to_string(n) + " bytes (at most " + std::to_string(kMaxName) + ")");
-        std::string s(n, '\0');
-        read(s.data(), n, field);
-        return s;
-    }
-    std::string where;
-
-private:
-    std::ifstream in_;
-    std::string path_;
-    std::uint64_t size_, at_ = 0;
-};
 
 // A grid's value type as stored: full size, and the size of values saved as half floats.
 struct ValueType {
@@ -128,8 +84,8 @@ void walk_metadata(Cursor& c) {
     const std::uint32_t count = c.get<std::uint32_t>("metadata count");
     c.need(std::uint64_t(count) * 12, "metadata count");  // two empty names and a size at least
     for (std::uint32_t i = 0; i < count; ++i) {
-        const std::string name = c.string("metadata name");
-        const std::string type = c.string("metadata type");
+        const std::string name = c.string(kMaxName, "metadata name");
+        const std::string type = c.string(kMaxName, "metadata type");
         const std::uint32_t size = c.get<std::uint32_t>("metadata size");
         const std::uint32_t fixed = metadata_size(type);
         if (fixed && size != fixed)
@@ -145,7 +101,7 @@ void walk_metadata(Cursor& c) {
 
 // Transform: a map type name, then that map's fixed fields (doubles).
 void walk_transform(Cursor& c) {
-    const std::string type = c.string("transform type");
+    const std::string type = c.string(kMaxName, "transform type");
     static const struct { const char* name; std::uint32_t bytes; } kMaps[] = {
         {"AffineMap", 128}, {"UnitaryMap", 128}, {"ScaleMap", 120}, {"UniformScaleMap", 120},
         {"ScaleTranslateMap", 144}, {"UniformScaleTranslateMap", 144}, {"TranslationMap", 24}};
@@ -277,9 +233,9 @@ struct Descriptor {
 
 Descriptor walk_descriptor(Cursor& c) {
     Descriptor d;
-    d.name = c.string("grid name");
-    d.type = c.string("grid type");
-    d.parent = c.string("instance parent");
+    d.name = c.string(kMaxName, "grid name");
+    d.type = c.string(kMaxName, "grid type");
+    d.parent = c.string(kMaxName, "instance parent");
     c.skip(24, "grid offsets");
     return d;
 }
