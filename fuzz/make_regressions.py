@@ -62,3 +62,10 @@ for name, syntax in (("jpeg-garbage.dcm", "1.2.840.10008.1.2.4.50"), ("jpeg2000-
     put("dicom", name, dicom_bytes.image(syntax=syntax, pixels=fragments, pixel_length=0xFFFFFFFF))
 # pixel data of 4 bytes for a 3 x 4 16-bit image (24 bytes)
 put("dicom", "short-pixels.dcm", dicom_bytes.image(pixels=b"\1\0\2\0"))
+
+# --- deep EXR: sombra's own 8 x 8 map (fuzz/corpus/deep_exr) cut inside its sample data ---
+seed = os.path.join(ROOT, "fuzz", "corpus", "deep_exr", "dsm_8x8.exr")
+if os.path.exists(seed):
+    with open(seed, "rb") as f:
+        whole = f.read()
+    put("deep_exr", "cut-in-samples.exr", whole[: len(whole) * 2 // 3])

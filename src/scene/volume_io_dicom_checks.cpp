@@ -10,6 +10,7 @@
 #include <cctype>
 #include <cstdio>
 #include <cstring>
+#include <fstream>
 #include <string>
 
 namespace sombra::volume_io {
@@ -219,10 +220,18 @@ void check_image(Cursor& c, const ImageFields& f) {
                                             std::to_string(f.bits / 8) + " bytes)");
 }
 
+bool has_part10_magic(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    char head[132] = {};
+    in.read(head, sizeof head);
+    return in.gcount() == 132 && std::memcmp(head + 128, "DICM", 4) == 0;
+}
+
 }  // namespace
 
-void check_dicom_file(const std::string& path) {
+void check_dicom_file(const std::string& path, bool part10_only) {
     Cursor c(path, detail::regular_file_size(path));
+    if (part10_only && !has_part10_magic(path)) return;
     const std::string syntax = walk_meta(c);
     check_transfer_syntax(c, syntax);
     ImageFields image;

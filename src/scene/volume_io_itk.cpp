@@ -149,7 +149,7 @@ std::vector<std::string> folder_files(const std::string& dir, std::uint64_t* tot
         files.push_back(it->path().string());
         const std::uint64_t size = it->file_size(ec);
         *total_bytes += size;
-        check_dicom_file(files.back());  // before GDCM's series scan parses it
+        check_dicom_file(files.back(), true);  // before GDCM's series scan parses it
     }
     if (ec) throw file_error(dir, "", "cannot list the folder: " + ec.message());
     if (files.empty()) throw file_error(dir, "", "an empty folder (expected the files of one DICOM series)");

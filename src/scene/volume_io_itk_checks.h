@@ -26,7 +26,8 @@ void check_tiff_pages(const std::string& path);
 // item's length inside the file and its enclosing item, undefined lengths only for sequences with
 // their delimiters inside the file, and the image: Rows, Columns, BitsAllocated 8/16/32,
 // SamplesPerPixel 1, NumberOfFrames, and PixelData at least rows × columns × frames × bytes long.
-// Throws "FILE: FIELD: …".
-void check_dicom_file(const std::string& path);
+// Throws "FILE: FIELD: …". part10_only (a series folder's files): files without the "DICM" magic
+// are left to GDCM's series scan, which skips what is not DICOM.
+void check_dicom_file(const std::string& path, bool part10_only = false);
 
 }  // namespace sombra::volume_io
