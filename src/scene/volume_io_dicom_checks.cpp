@@ -7,7 +7,6 @@
 #include "scene/byte_cursor.h"
 #include "scene/input_file.h"
 
-#include <cctype>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
@@ -54,6 +53,15 @@ bool long_vr(const char vr[2]) {  // VRs with 2 reserved bytes and a 32-bit leng
     return false;
 }
 
+bool known_vr(const char vr[2]) {  // PS3.5 §6.2
+    static const char* kVrs[] = {"AE", "AS", "AT", "CS", "DA", "DS", "DT", "FD", "FL", "IS", "LO", "LT", "OB", "OD",
+                                 "OF", "OL", "OV", "OW", "PN", "SH", "SL", "SQ", "SS", "ST", "SV", "TM", "UC", "UI",
+                                 "UL", "UN", "UR", "US", "UT", "UV"};
+    for (const char* v : kVrs)
+        if (vr[0] == v[0] && vr[1] == v[1]) return true;
+    return false;
+}
+
 Element read_element(Cursor& c, bool explicit_vr) {
     Element e;
     e.tag.group = c.get<std::uint16_t>("tag");
@@ -63,8 +71,8 @@ Element read_element(Cursor& c, bool explicit_vr) {
         return e;
     }
     c.read(e.vr, 2, "VR");
-    if (!std::isupper(static_cast<unsigned char>(e.vr[0])) || !std::isupper(static_cast<unsigned char>(e.vr[1])))
-        c.fail(tag_name(e.tag), "not a value representation (two capital letters)");
+    if (!known_vr(e.vr))  // GDCM asserts on a VR it does not know
+        c.fail(tag_name(e.tag), std::string("'") + e.vr[0] + e.vr[1] + "' is not a DICOM value representation");
     if (long_vr(e.vr)) {
         c.skip(2, "reserved");
         e.length = c.get<std::uint32_t>("length");
@@ -106,6 +114,26 @@ std::uint64_t read_frames(Cursor& c, const Element& e) {
     return std::stoull(digits);
 }
 
+// Elements GDCM's image readers read through gdcm::Attribute, which asserts when the VR (explicit
+// files) or a US value's length differs from its dictionary's. Not the whole dictionary (yet).
+void check_image_vr(Cursor& c, const Element& e, bool explicit_vr) {
+    static const struct { std::uint16_t group, element; const char* vr; } kRead[] = {
+        {0x0008, 0x0016, "UI"}, {0x0008, 0x0060, "CS"}, {0x0018, 0x0050, "DS"}, {0x0018, 0x0088, "DS"},
+        {0x0020, 0x000D, "UI"}, {0x0020, 0x000E, "UI"}, {0x0020, 0x0013, "IS"}, {0x0020, 0x0032, "DS"},
+        {0x0020, 0x0037, "DS"}, {0x0028, 0x0002, "US"}, {0x0028, 0x0004, "CS"}, {0x0028, 0x0006, "US"},
+        {0x0028, 0x0008, "IS"}, {0x0028, 0x0010, "US"}, {0x0028, 0x0011, "US"}, {0x0028, 0x0030, "DS"},
+        {0x0028, 0x0100, "US"}, {0x0028, 0x0101, "US"}, {0x0028, 0x0102, "US"}, {0x0028, 0x0103, "US"},
+        {0x0028, 0x1050, "DS"}, {0x0028, 0x1051, "DS"}, {0x0028, 0x1052, "DS"}, {0x0028, 0x1053, "DS"},
+        {0x0028, 0x1054, "LO"}};
+    for (const auto& k : kRead) {
+        if (!e.tag.is(k.group, k.element)) continue;
+        if (explicit_vr && !e.vr_is(k.vr))
+            c.fail(tag_name(e.tag), std::string("VR ") + e.vr[0] + e.vr[1] + " where DICOM defines " + k.vr);
+        if (k.vr[0] == 'U' && k.vr[1] == 'S' && e.length != 2)
+            c.fail(tag_name(e.tag), "a US value of " + std::to_string(e.length) + " bytes (expected 2)");
+    }
+}
+
 // One element of the top-level data set: the image fields read, the rest skipped.
 void read_top_level(Cursor& c, const Element& e, ImageFields* image) {
     if (e.tag.is(0x0028, 0x0010)) image->rows = read_us(c, e, "Rows");
@@ -121,6 +149,7 @@ void read_top_level(Cursor& c, const Element& e, ImageFields* image) {
 
 void walk_value(Cursor& c, const Element& e, bool explicit_vr, std::uint64_t end, int depth, ImageFields* image) {
     const std::string name = tag_name(e.tag);
+    check_image_vr(c, e, explicit_vr);
     if (e.length == kUndefined) {
         if (e.tag.is(0x7FE0, 0x0010))
             c.fail(name + " PixelData", "encapsulated (compressed) pixel data in an uncompressed transfer syntax");
