@@ -8,6 +8,8 @@
 #pragma once
 #include <cstddef>
 #include <cstdint>
+#include <cstdio>
+#include <cstdlib>
 #include <string>
 
 #include "sombra/error.h"
@@ -18,12 +20,16 @@ namespace sombra::fuzz {
 // returns the path; the file replaces the previous input of the same name.
 std::string input_file(const std::string& name, const std::uint8_t* data, std::size_t size);
 
-// Runs f; a sombra::Error is the expected answer to bad input and is swallowed.
+// Runs f; a sombra::Error is the expected answer to bad input and is swallowed (printed when the
+// environment sets SOMBRA_FUZZ_VERBOSE, as "error: …", or "loaded" when f returned).
 template <typename F>
 void expect_clean(F&& f) {
+    const bool verbose = std::getenv("SOMBRA_FUZZ_VERBOSE") != nullptr;
     try {
         f();
-    } catch (const sombra::Error&) {
+        if (verbose) std::fprintf(stderr, "loaded\n");
+    } catch (const sombra::Error& e) {
+        if (verbose) std::fprintf(stderr, "error: %s\n", e.what());
     }
 }
 

@@ -154,3 +154,27 @@ def tiff_stack(pages=2, width=3, height=2):
 put("tiff", "stack.tif", tiff_stack())
 put("tiff", "one_page.tif", tiff_stack(1))
 
+
+# OpenVDB (issue 25): one-leaf grids written by hand (fuzz/vdb_bytes.py), raw and zlib, and sombra's
+# smoke plume (Blosc, half floats, two grids)
+import sys
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import vdb_bytes
+put("vdb", "leaf_raw.vdb", vdb_bytes.vdb([vdb_bytes.grid(vdb_bytes.ramp(), compression=2)]))
+put("vdb", "leaf_zip.vdb", vdb_bytes.vdb([vdb_bytes.grid(vdb_bytes.ramp(), compression=1)]))
+shutil.copy(os.path.join(DATA, "volumes", "smoke_plume.vdb"), os.path.join(CORPUS, "vdb", "smoke_plume.vdb"))
+
+# DICOM (issue 25): one 16-bit image by hand (fuzz/dicom_bytes.py), explicit and implicit VR, one
+# with a sequence
+import dicom_bytes
+put("dicom", "explicit.dcm", dicom_bytes.image())
+put("dicom", "implicit.dcm", dicom_bytes.image(syntax=dicom_bytes.IMPLICIT))
+put("dicom", "sequence.dcm", dicom_bytes.image(extra=dicom_bytes.sequence(
+    [dicom_bytes.element(0x0008, 0x1150, "UI", b"1.2.3\0")])))
+# deep EXR: an 8 x 8 deep shadow map written by sombra itself, when the build is there
+sombra = os.path.join(ROOT, "build", "sombra")
+if os.path.exists(sombra):
+    import subprocess
+    os.makedirs(os.path.join(CORPUS, "deep_exr"), exist_ok=True)
+    subprocess.run([sombra, "dsm", os.path.join(DATA, "scenes", "default.json"), "--light", "0", "--dsm-res", "8", "-q",
+                    "-o", os.path.join(CORPUS, "deep_exr", "dsm_8x8.exr")], check=True)

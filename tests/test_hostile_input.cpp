@@ -320,3 +320,28 @@ TEST_CASE("hostile input: scenes built in code are held to the scene file rules 
     s.lights[0].att_constant = 0.f;
     CHECK_THAT(render_error(s), Catch::Contains("lights[0].attenuation"));
 }
+
+// Issue 25 items 1 and 2: OpenVDB and DICOM files are walked by us before the library reads them.
+// The inputs (fuzz/make_regressions.py) each crashed, aborted or allocated gigabytes before: a
+// leaf chunk longer than the leaf (heap overflow, glibc abort), names and metadata strings of 512 MiB
+// (3.2 GB and 1.7 GB resident), two active voxels densified to 2.2 GB, a DICOM length of 2 GiB
+// (2.2 GB), compressed pixel data (GDCM's codecs assert), pixel data shorter than the image (loaded).
+TEST_CASE("hostile input: VDB and DICOM files are walked before OpenVDB and GDCM read them", "[hostile][vdb][dicom]") {
+    const struct { const char* file; const char* field; } cases[] = {
+        {"vdb/leaf-chunk-overflow.vdb", "grid 'density': chunk size: an uncompressed chunk of 4096 bytes where the node holds 2048"},
+        {"vdb/name-512mib.vdb", "grid name: a length of 536870912 bytes"},
+        {"vdb/metadata-512mib.vdb", "grid 'density': metadata 'class': needs 536870912 bytes"},
+        {"vdb/sparse-two-voxels.vdb", "grid 'density': its active box holds 545338513 voxels for 2 active ones"},
+        {"vdb/unaligned-root-child.vdb", "root child origin: not a multiple of 4096"},
+        {"vdb/bool-grid.vdb", "type: 'Tree_bool_5_4_3'"},
+        {"dicom/length-2gib.dcm", "(0008,0060): a length of 2147483648 bytes"},
+        {"dicom/jpeg-garbage.dcm", "(0002,0010) TransferSyntaxUID: '1.2.840.10008.1.2.4.50' (compressed"},
+        {"dicom/jpeg2000-garbage.dcm", "sombra reads uncompressed DICOM only"},
+        {"dicom/short-pixels.dcm", "(7FE0,0010) PixelData: 4 bytes, the image needs 24"},
+    };
+    for (const auto& c : cases) {
+        const std::string f = test::data_path(std::string("../tests/fuzz-regressions/") + c.file);
+        INFO(f);
+        require_error(error_of([&] { load_volume(f); }), f, c.field);
+    }
+}

@@ -8,6 +8,7 @@
 #include "scene/volume_io_common.h"
 
 #include "scene/input_file.h"
+#include "scene/stderr_capture.h"
 #include "scene/volume_io_itk_checks.h"
 
 #if defined(__clang__)
@@ -131,27 +132,6 @@ void check_header(const std::string& path, itk::ImageIOBase& io, std::size_t sli
                                            " bytes of input can hold");
 }
 
-// GDCM (as Debian builds it) asserts, and so aborts the process, on a Part 10 file cut inside its
-// file meta information. Checked first: a file with the "DICM" magic must hold the whole meta group
-// its (0002,0000) group length declares. Files without the magic are left to GDCM.
-void check_dicom_meta(const std::string& path, std::uint64_t size) {
-    std::ifstream in(path, std::ios::binary);
-    unsigned char head[144] = {};
-    in.read(reinterpret_cast<char*>(head), sizeof head);
-    const std::size_t got = std::size_t(in.gcount());
-    if (got < 132 || std::memcmp(head + 128, "DICM", 4) != 0) return;
-    // (0002,0000) UL, explicit VR little endian: 02 00 00 00 'U' 'L' 04 00, then the length
-    const unsigned char tag[8] = {2, 0, 0, 0, 'U', 'L', 4, 0};
-    if (got < 144 || std::memcmp(head + 132, tag, 8) != 0)
-        throw file_error(path, "meta", "truncated or malformed DICOM file meta information (no group length)");
-    const std::uint64_t length = std::uint64_t(head[140]) | std::uint64_t(head[141]) << 8 |
-                                 std::uint64_t(head[142]) << 16 | std::uint64_t(head[143]) << 24;
-    // GDCM also asserts when the file ends at (or in the first tag after) the meta group's end
-    if (size < 144 + length + 8)
-        throw file_error(path, "meta", "truncated: the DICOM file meta information and a first data element need " +
-                                           std::to_string(144 + length + 8) + " bytes, the file has " + std::to_string(size));
-}
-
 // The regular files of a series folder; refuses anything else that could block or mislead.
 std::vector<std::string> folder_files(const std::string& dir, std::uint64_t* total_bytes) {
     std::vector<std::string> files;
@@ -169,7 +149,7 @@ std::vector<std::string> folder_files(const std::string& dir, std::uint64_t* tot
         files.push_back(it->path().string());
         const std::uint64_t size = it->file_size(ec);
         *total_bytes += size;
-        if (!ec) check_dicom_meta(files.back(), size);
+        check_dicom_file(files.back(), true);  // before GDCM's series scan parses it
     }
     if (ec) throw file_error(dir, "", "cannot list the folder: " + ec.message());
     if (files.empty()) throw file_error(dir, "", "an empty folder (expected the files of one DICOM series)");
@@ -293,53 +273,8 @@ Volume to_volume(const std::string& path, const Image& image, ItkFormat format) 
     return volume;
 }
 
-// Everything written to the process's stderr while it lives (std::cerr, and what C libraries print
-// with fprintf: libtiff's warnings, libjpeg's and OpenJPEG's messages), captured at the file
-// descriptor into a temporary file instead of reaching the user before sombra's own one line.
-// One at a time (a process has one fd 2): readers hold the lock for their whole read.
-class StderrCapture {
-public:
-    StderrCapture() : lock_(mutex()) {
-        std::cerr.flush();
-        std::fflush(stderr);
-        file_ = std::tmpfile();
-        saved_ = file_ ? ::dup(2) : -1;
-        if (saved_ < 0 || ::dup2(::fileno(file_), 2) < 0) restore();
-    }
-    ~StderrCapture() { restore(); }
-    StderrCapture(const StderrCapture&) = delete;
-    StderrCapture& operator=(const StderrCapture&) = delete;
-    // What was written so far.
-    std::string text() {
-        if (!file_) return "";
-        std::cerr.flush();
-        std::fflush(stderr);
-        std::string out;
-        std::rewind(file_);
-        char buffer[4096];
-        for (std::size_t n; (n = std::fread(buffer, 1, sizeof buffer, file_)) > 0 && out.size() < (1u << 20);) out.append(buffer, n);
-        std::fseek(file_, 0, SEEK_END);
-        return out;
-    }
-
-private:
-    static std::mutex& mutex() {
-        static std::mutex m;
-        return m;
-    }
-    void restore() {
-        std::cerr.flush();
-        std::fflush(stderr);
-        if (saved_ >= 0) ::dup2(saved_, 2), ::close(saved_), saved_ = -1;
-        if (file_) std::fclose(file_), file_ = nullptr;
-    }
-    std::unique_lock<std::mutex> lock_;
-    std::FILE* file_ = nullptr;
-    int saved_ = -1;
-};
-
 Volume read_series(const std::string& dir, const VolumeLoadOptions& options) {
-    StderrCapture capture;  // GDCM, libjpeg and OpenJPEG print to stderr: kept from the user
+    detail::StderrCapture capture;  // GDCM, libjpeg and OpenJPEG print to stderr: kept from the user
     std::uint64_t total_bytes = 0;
     folder_files(dir, &total_bytes);
     const std::vector<std::string> files = series_files(dir);
@@ -371,8 +306,8 @@ Volume read_file(const std::string& path, ItkFormat format, const VolumeLoadOpti
     // MetaIO prints to std::cerr what it cannot parse (ITK's exception says it again), and reports a
     // short compressed stream only there, carrying on with a part-filled buffer: caught and made
     // the error. libtiff, libjpeg and OpenJPEG print to stderr: kept from the user too.
-    StderrCapture capture;
-    if (format == ItkFormat::dicom) check_dicom_meta(path, file_bytes);
+    detail::StderrCapture capture;
+    if (format == ItkFormat::dicom) check_dicom_file(path);
     if (format == ItkFormat::tiff) check_tiff_pages(path);
     // the bytes the voxels can come from: this file, or the data files a detached header names
     const std::uint64_t input_bytes = format == ItkFormat::nrrd || format == ItkFormat::metaimage

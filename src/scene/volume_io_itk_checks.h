@@ -20,4 +20,14 @@ std::uint64_t check_detached_header(const std::string& header, bool nrrd);
 // size, samples, bits or sample format differ from the first page's.
 void check_tiff_pages(const std::string& path);
 
+// Walks a DICOM Part 10 file's data elements before GDCM parses it (volume_io_dicom_checks.cpp):
+// the "DICM" preamble and file meta group, an uncompressed transfer syntax (implicit or explicit VR
+// little endian; compressed ones are refused: GDCM's codecs abort on garbage), every element's and
+// item's length inside the file and its enclosing item, undefined lengths only for sequences with
+// their delimiters inside the file, and the image: Rows, Columns, BitsAllocated 8/16/32,
+// SamplesPerPixel 1, NumberOfFrames, and PixelData at least rows × columns × frames × bytes long.
+// Throws "FILE: FIELD: …". part10_only (a series folder's files): files without the "DICM" magic
+// are left to GDCM's series scan, which skips what is not DICOM.
+void check_dicom_file(const std::string& path, bool part10_only = false);
+
 }  // namespace sombra::volume_io

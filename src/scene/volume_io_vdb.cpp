@@ -7,6 +7,8 @@
 #include "scene/volume_io_common.h"
 
 #include "scene/input_file.h"
+#include "scene/stderr_capture.h"
+#include "scene/volume_io_vdb_checks.h"
 
 #include <openvdb/io/File.h>
 #include <openvdb/io/Stream.h>
@@ -23,7 +25,12 @@ namespace {
 
 void initialize_once() {
     static std::once_flag flag;
-    std::call_once(flag, [] { openvdb::initialize(); });
+    std::call_once(flag, [] {
+        openvdb::initialize();
+        // Delayed-load metadata (an index for memory-mapped reading, which sombra does not use) is
+        // parsed by OpenVDB from lengths it does not check: unregistered, it is skipped as bytes.
+        openvdb::Metadata::unregisterType("__delayedload");
+    });
 }
 
 bool is_scalar(const openvdb::GridBase& grid) {
@@ -32,6 +39,19 @@ bool is_scalar(const openvdb::GridBase& grid) {
 
 std::string describe(const openvdb::GridBase& grid) {
     return "'" + grid.getName() + "' (" + grid.valueType() + ")";
+}
+
+// A grid made dense may hold at most kMaxSparseness voxels per active voxel (tiles count as their
+// voxels) once it is over kSparseFreeVoxels: two active voxels far apart are not a 2 GB volume.
+constexpr std::uint64_t kMaxSparseness = 4096;
+constexpr std::uint64_t kSparseFreeVoxels = std::uint64_t(1) << 24;
+
+void check_sparseness(const std::string& path, const std::string& grid, std::uint64_t box, std::uint64_t active) {
+    if (box > kSparseFreeVoxels && box / kMaxSparseness > active)
+        throw file_error(path, "grid '" + grid + "'",
+                         "its active box holds " + std::to_string(box) + " voxels for " + std::to_string(active) +
+                             " active ones: too sparse to make dense (at most " + std::to_string(kMaxSparseness) +
+                             " voxels per active voxel above " + std::to_string(kSparseFreeVoxels) + ")");
 }
 
 template <typename GridT>
@@ -46,6 +66,7 @@ Volume dense_volume(const std::string& path, const GridT& grid, const VolumeLoad
                                            " x " + std::to_string(size.y()) + " x " + std::to_string(size.z()) + ", " +
                                            std::to_string(count) + " voxels) exceeds the limit of " +
                                            std::to_string(options.max_voxels));
+    check_sparseness(path, grid.getName(), count, grid.activeVoxelCount());
     volume.dims = {size.x(), size.y(), size.z()};
 
     const openvdb::math::Transform& xf = grid.transform();
@@ -88,7 +109,8 @@ Volume dense_volume(const std::string& path, const GridT& grid, const VolumeLoad
 
 Volume read_vdb(const std::string& path, const VolumeLoadOptions& options, VolumeLoadReport& report) {
     initialize_once();
-    detail::regular_file_size(path);
+    check_vdb_file(path);  // every length and count OpenVDB will trust, before it reads anything
+    detail::StderrCapture capture;  // OpenVDB's warnings (and its libraries') are not the user's
     try {
         // The whole file through io::Stream, reading from a stream we own: OpenVDB does not check
         // its reads for length, so a file cut short would load with the missing voxels made up;
