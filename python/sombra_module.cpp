@@ -291,8 +291,10 @@ PYBIND11_MODULE(sombra, m) {
             "add_volume",
             [](Scene& s, const py::object& voxels, const py::object& spacing, const py::object& transform,
                const py::object& opacity, const py::object& color, float step_voxels, float opacity_unit, const std::string& name) {
-                auto a = checked_array<float>(voxels, "Scene.add_volume", "voxels", {-1, -1, -1}, false,
-                                              "a float32 array of shape (z, y, x)");
+                // any real dtype and memory order (uint8 and int16 CT, float64, Fortran order, views), as
+                // float32 in C order: the values as they are (no rescaling, as the CLI reads .npy)
+                auto a = checked_array<float>(voxels, "Scene.add_volume", "voxels", {-1, -1, -1}, true,
+                                              "a real array of shape (z, y, x)");
                 if (a.size() == 0) throw py::value_error("Scene.add_volume: voxels: empty array " + shape_of(a));
                 auto volume = std::make_shared<Volume>();
                 volume->dims = {int(a.shape(2)), int(a.shape(1)), int(a.shape(0))};  // x fastest: C order (z, y, x)
@@ -321,6 +323,49 @@ PYBIND11_MODULE(sombra, m) {
             py::arg("opacity_unit") = 0.f, py::arg("name") = "",
             "voxels: float32 (z, y, x) in C order, voxel (x, y, z) at ((x − (nx−1)/2)·spacing, …) of the object "
             "frame, then `transform` (4×4, row-major, column vectors). Returns the volume's index.")
+        .def(
+            "add_mesh",
+            [](Scene& s, const py::object& vertices, const py::object& triangles, const py::object& color, float opacity,
+               const py::object& transform, const std::string& name) {
+                if (s.meshes.size() >= std::size_t(limits::kMaxMeshes))
+                    throw py::value_error("Scene.add_mesh: at most " + std::to_string(limits::kMaxMeshes) + " meshes per scene");
+                auto v = checked_array<float>(vertices, "Scene.add_mesh", "vertices", {-1, 3}, true, "an (N, 3) array of positions",
+                                              limits::kMaxMeshVertices * 3);
+                if (py::isinstance<py::array>(triangles) && py::reinterpret_borrow<py::array>(triangles).dtype().kind() == 'f')
+                    throw py::value_error("Scene.add_mesh: triangles: expected integer vertex indices, got dtype " +
+                                          std::string(py::str(py::reinterpret_borrow<py::array>(triangles).dtype())));
+                auto t = checked_array<std::int64_t>(triangles, "Scene.add_mesh", "triangles", {-1, 3}, true,
+                                                     "an (M, 3) array of vertex indices", limits::kMaxMeshTriangles * 3);
+                auto mesh = std::make_shared<Mesh>();
+                mesh->source = name.empty() ? "numpy mesh" : name;
+                for (py::ssize_t i = 0; i < v.shape(0); ++i) mesh->positions.push_back({v.at(i, 0), v.at(i, 1), v.at(i, 2)});
+                for (py::ssize_t i = 0; i < t.shape(0); ++i) {
+                    std::array<std::uint32_t, 3> tri{};
+                    for (int k = 0; k < 3; ++k) {
+                        const std::int64_t index = t.at(i, k);
+                        if (index < 0 || index >= v.shape(0))
+                            throw py::value_error("Scene.add_mesh: triangles: index " + std::to_string(index) + " in row " +
+                                                  std::to_string(i) + " is not a vertex (0 … " + std::to_string(v.shape(0) - 1) + ")");
+                        tri[std::size_t(k)] = std::uint32_t(index);
+                    }
+                    mesh->triangles.push_back(tri);
+                }
+                if (mesh->triangles.empty()) throw py::value_error("Scene.add_mesh: triangles: needs at least one triangle");
+                MeshInstance mi;
+                mi.mesh = mesh;
+                mi.material.color = vec3(color, "Scene.add_mesh", "color");
+                if (!(opacity >= 0.f && opacity <= 1.f))
+                    throw py::value_error("Scene.add_mesh: opacity: must lie in [0, 1], got " + std::to_string(opacity));
+                mi.material.opacity = opacity;
+                if (!transform.is_none()) mi.transform = matrix4(transform, "Scene.add_mesh", "transform");
+                mi.name = mesh->source;
+                s.meshes.push_back(mi);
+                return s.meshes.size() - 1;
+            },
+            py::arg("vertices"), py::arg("triangles"), py::arg("color") = py::make_tuple(0.8, 0.8, 0.8), py::arg("opacity") = 1.f,
+            py::arg("transform") = py::none(), py::arg("name") = "",
+            "A translucent triangle mesh (meshes.md): vertices (N, 3) in object space, triangles (M, 3) indices, its color "
+            "and the opacity of one surface crossing, object → world transform (4×4, default identity); returns its index.")
         .def(
             "add_light",
             [](Scene& s, const std::string& type, const py::object& position, const py::object& direction,
@@ -442,6 +487,24 @@ PYBIND11_MODULE(sombra, m) {
                    ", " + std::to_string(d.nodes.size()) + " nodes)";
         });
     m.def("read_deep_exr", &read_deep_exr, py::arg("path"));
+
+    m.def(
+        "write_image",
+        [](const std::string& path, const py::object& image, const py::object& background) {
+            auto a = checked_array<float>(image, "write_image", "image", {-1, -1, 4}, true, "a (height, width, 4) RGBA array",
+                                          std::uint64_t(limits::kMaxImageSide) * limits::kMaxImageSide * 4);
+            Image out;
+            out.height = int(a.shape(0)), out.width = int(a.shape(1));
+            if (out.width < 1 || out.height < 1) throw py::value_error("write_image: image: empty image " + shape_of(a));
+            out.rgba.assign(a.data(), a.data() + a.size());
+            out.background = vec3(background, "write_image", "background");
+            py::gil_scoped_release release;
+            write_image(out, path);
+        },
+        py::arg("path"), py::arg("image"), py::arg("background") = py::make_tuple(0, 0, 0),
+        "Writes render()'s image as `sombra render -o` does: .png (8-bit sRGB) or .exr (linear float, premultiplied: "
+        "the background composited into the image is taken out again; pass the scene's). No partial file on failure.");
+    m.attr("__version__") = SOMBRA_VERSION;
 
     m.def(
         "build_deep_shadow_maps",

@@ -81,9 +81,15 @@ typedef struct {
     float att_constant;   /* distance attenuation 1 / (c + l·d + q·d²) (course slides) */
     float att_linear;
     float att_quadratic;
-    sb_uint view_first;   /* its deep shadow map views: [view_first, view_first + view_count) */
-    sb_uint view_count;   /* 1 for spot and directional lights, 6 for point lights, 0 if none */
 } LightGpu;
+
+/* One light's deep shadow map views (the dsm module's own per-light data, techniques/dsm.h):
+ * [first, first + count) of the views, 1 for a spot or directional light, 6 for a point light,
+ * those of its clusters when clustered, 0 if none. */
+typedef struct {
+    sb_uint first;
+    sb_uint count;
+} DsmLightViews;
 
 /* One deep shadow map view: a spot light, one cube face of a point light (90°), or a
  * directional light's orthographic box fitted to the scene. Depth convention (docs/architecture.md): the

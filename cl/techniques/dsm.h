@@ -11,9 +11,10 @@
 #include "dsm_view.h"
 #include "dsm_storage.h"
 
-#define SHADOW_PARAMS , __global const DsmViewGpu *views, DSM_READ_PARAMS
+#define SHADOW_PARAMS , __global const DsmViewGpu *views, __global const DsmLightViews *light_views, DSM_READ_PARAMS
 typedef struct {
     __global const DsmViewGpu* views;
+    __global const DsmLightViews* light_views; /* per light: its views */
     DSM_READ_STATE_FIELDS
     /* per light, bilinear corner and lane: where the previous lookup found its node */
     DsmSearchHint hints[SOMBRA_LIGHT_SLOTS * 4][SOMBRA_LANES];
@@ -23,7 +24,7 @@ static inline void dsm_state_init(ShadowState* s) {
     for (int i = 0; i < SOMBRA_LIGHT_SLOTS * 4; ++i)
         for (int lane = 0; lane < SOMBRA_LANES; ++lane) s->hints[i][lane].texel = -1, s->hints[i][lane].node = 0;
 }
-#define SHADOW_STATE_INIT(s) (s).views = views; DSM_READ_STATE_INIT(s); dsm_state_init(&(s));
+#define SHADOW_STATE_INIT(s) (s).views = views; (s).light_views = light_views; DSM_READ_STATE_INIT(s); dsm_state_init(&(s));
 
 /* α of one texel at depth z: V'(z) (Knecht Eq. 3.7), or with DSM_BINARY_LOOKUP the binary
  * shadow-map baseline: fully shadowed behind the depth where the texel's opacity reaches 1/2
@@ -38,13 +39,13 @@ static inline float texel_attenuation(DSM_READ_PARAMS, __global const DsmViewGpu
 
 static inline lfloat shadow_transmittance(VOLUME_DATA_PARAM, const SceneRefs* scene, ShadowState* s, uint light_index, lfloat3 p,
                                    lmask lanes) {
-    __global const LightGpu* light = &scene->lights[light_index];
+    const DsmLightViews light = s->light_views[light_index];
     DsmSearchHint (*hints)[SOMBRA_LANES] = &s->hints[4 * light_index];
     lfloat transmittance = (lfloat)(1.0f), alpha = (lfloat)(0.0f); /* alpha: of the current cluster */
     lmask done = !lanes;                                                 /* lanes the cluster's views covered */
-    uint cluster = light->view_count > 0 ? s->views[light->view_first].cluster : 0u;
-    for (uint i = 0; i < light->view_count; ++i) {
-        __global const DsmViewGpu* v = &s->views[light->view_first + i];
+    uint cluster = light.count > 0 ? s->views[light.first].cluster : 0u;
+    for (uint i = 0; i < light.count; ++i) {
+        __global const DsmViewGpu* v = &s->views[light.first + i];
         if (v->cluster != cluster) { /* the next cluster: Eq. 3.12, T = Π (1 − α_cluster) */
             transmittance *= 1.0f - alpha;
             alpha = (lfloat)(0.0f);

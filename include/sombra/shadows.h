@@ -26,7 +26,12 @@ struct DeepShadowMap {
     int width = 0, height = 0;
     std::vector<std::uint32_t> first;  // width·height + 1 offsets
     std::vector<DsmNode> nodes;
-    std::string light_name;  // e.g. "lights[0]", "lights[1].+x"
+    std::string light_name;  // e.g. "lights[0]", "lights[1].+x", "lights[0].cluster1.0"
+    // Which map it is: the light's index, and the view among the light's maps ("+x" … "-z" for a
+    // point light's cube faces, "cluster<k>.<j>" for view j of cluster k, "" for a light's one
+    // view). Unknown (−1, "") for a map read from a file.
+    int light = -1;
+    std::string view_name;
     // Where the map lies in the world, in OpenEXR's (and RenderMan's) conventions; row-major,
     // column vectors (p' = M·p, like VolumeInstance::transform). world_to_camera: to the light's
     // left-handed camera space (x right, y up in the map, z along the light; origin at the light,

@@ -140,14 +140,13 @@ def test_bad_arguments_name_the_argument(context, tmp_path):
             call()
         return str(raised.value)
 
-    assert error(ValueError, lambda: scene.add_volume(volume.astype(np.float64))) == (
-        "Scene.add_volume: voxels: expected a float32 array of shape (z, y, x), got dtype float64 (20, 16, 12)")
-    assert "voxels: expected a float32 array of shape (z, y, x), got shape (16, 12)" in error(
+    assert error(ValueError, lambda: scene.add_volume(np.full((2, 2, 2), "a"))) == (
+        "Scene.add_volume: voxels: expected a real array of shape (z, y, x), got dtype <U1")
+    assert "voxels: expected a real array of shape (z, y, x), got shape (16, 12)" in error(
         ValueError, lambda: scene.add_volume(volume[0]))
-    assert "got a list" in error(ValueError, lambda: scene.add_volume([[[1.0]]]))
     bad = volume.copy()
     bad[1, 2, 3] = np.nan
-    assert "voxels: expected a float32 array of shape (z, y, x), got a non-finite value" in error(
+    assert "voxels: expected a real array of shape (z, y, x), got a non-finite value" in error(
         ValueError, lambda: scene.add_volume(bad))
     assert "transform: expected a 4×4 matrix, got shape (3, 3)" in error(
         ValueError, lambda: scene.add_volume(volume, transform=np.eye(3)))
@@ -211,6 +210,50 @@ def test_options_are_generated_from_their_declarations(context, tmp_path):
     with pytest.raises(sombra.Error) as raised:
         sombra.load_scene(str(scene_file)).render_options()
     assert str(raised.value) == f"{scene_file}: render: unknown key 'dsm_resolutio' (did you mean 'dsm_resolution'?)"
+
+
+def test_voxels_of_every_real_dtype_and_order_render_as_their_float32_values(context):
+    ramp = (np.arange(20 * 16 * 12).reshape(20, 16, 12) % 8).astype(np.float32) / 8  # eighths: exact in every dtype
+    reference, _ = sombra.render(context, numpy_scene(ramp), shadows="rays")
+    assert reference[..., 3].max() > 0.2  # the volume is in view
+    variants = {"float64": ramp.astype(np.float64), "Fortran order": np.asfortranarray(ramp),
+                "strided view": np.repeat(ramp, 2, axis=2)[:, :, ::2], "float16": ramp.astype(np.float16)}
+    for name, voxels in variants.items():
+        image, _ = sombra.render(context, numpy_scene(voxels), shadows="rays")
+        assert np.array_equal(image, reference), name
+    counts = (ramp * 8).astype(np.uint8)  # CT-like integers: the values as they are, as the CLI reads .npy
+    from_uint8, _ = sombra.render(context, numpy_scene(counts), shadows="rays")
+    from_int16, _ = sombra.render(context, numpy_scene(counts.astype(np.int16)), shadows="rays")
+    from_float, _ = sombra.render(context, numpy_scene(counts.astype(np.float32)), shadows="rays")
+    assert np.array_equal(from_uint8, from_float) and np.array_equal(from_int16, from_float)
+
+
+def test_meshes_from_numpy_cast_shadows_and_images_are_written(context, tmp_path):
+    scene = numpy_scene(lopsided_volume())
+    plain, _ = sombra.render(context, scene, shadows="rays")
+    # an opaque square between the spot light and the volume
+    square = np.array([[-1, 0, -1], [1, 0, -1], [1, 0, 1], [-1, 0, 1]], dtype=np.float64) * 0.4
+    transform = np.eye(4)
+    transform[:3, 3] = (0.28, 0.9, 0.35)  # on the light's way, above the volume
+    index = scene.add_mesh(square, np.array([[0, 1, 2], [0, 2, 3]]), color=(0.2, 0.2, 0.2), opacity=1.0, transform=transform)
+    assert index == 0
+    shadowed, _ = sombra.render(context, scene, shadows="rays")
+    assert shadowed[..., :3].sum() < plain[..., :3].sum()  # the volume lies in the square's shadow
+    with pytest.raises(ValueError) as raised:
+        scene.add_mesh(square, [[0, 1, 4]])
+    assert str(raised.value) == "Scene.add_mesh: triangles: index 4 in row 0 is not a vertex (0 … 3)"
+    with pytest.raises(ValueError) as raised:
+        scene.add_mesh(square, np.array([[0, 1, 2.5]]))
+    assert str(raised.value) == "Scene.add_mesh: triangles: expected integer vertex indices, got dtype float64"
+    # images as `sombra render -o` writes them
+    png, exr = tmp_path / "out.png", tmp_path / "out.exr"
+    sombra.write_image(str(png), shadowed)
+    sombra.write_image(str(exr), shadowed, background=scene.background)
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and exr.read_bytes()[:4] == b"\x76\x2f\x31\x01"
+    with pytest.raises(sombra.Error):
+        sombra.write_image(str(tmp_path / "out.bmp"), shadowed)
+    assert not (tmp_path / "out.bmp").exists()
+    assert re.fullmatch(r"\d+\.\d+\.\d+", sombra.__version__)
 
 
 def test_docs_example_runs():

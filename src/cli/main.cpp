@@ -129,10 +129,8 @@ int write_dsm(sombra::Context& context, const sombra::Scene& scene, int light, c
     std::vector<std::string> written;
     for (const sombra::DeepShadowMap& map : maps) {
         std::string path = output;
-        if (maps.size() > 1) {  // NAME.exr → NAME.+x.exr …, or NAME.cluster0.0.exr … (lights[i].<view>)
-            std::string face = map.light_name.substr(map.light_name.find("].") + 2);
-            path = (out.parent_path() / (out.stem().string() + "." + face + out.extension().string())).string();
-        }
+        if (maps.size() > 1)  // NAME.exr → NAME.+x.exr …, or NAME.cluster0.0.exr …
+            path = (out.parent_path() / (out.stem().string() + "." + map.view_name + out.extension().string())).string();
         outputs.write(path, [&](const std::string& staged) { sombra::write_deep_exr(map, staged); });
         written.push_back(path + " (" + std::to_string(map.width) + "×" + std::to_string(map.height) + ", " +
                           std::to_string(map.nodes.size()) + " nodes)");

@@ -1,9 +1,9 @@
 // sombra — the deep-shadow-map entry points of the API (render.h): one light's maps, built as the
-// renderer builds them (the dsm module, src/techniques/deep_shadow_maps.h), read back to the host.
+// renderer builds them (the dsm module, src/techniques/deep_shadow_maps.h), read back by the module.
 #include "host/progress.h"
 #include "render/preparation.h"
+#include "shadows/dsm_builder.h"
 #include "shadows/dsm_views.h"
-#include "techniques/deep_shadow_maps.h"
 
 namespace sombra {
 
@@ -18,24 +18,7 @@ std::vector<DeepShadowMap> build_deep_shadow_maps(Context& context, const Scene&
     RenderStats stats;
     stats.device = runtime.info().name;
     pipeline::Prepared prepared = pipeline::prepare(context, scene, dsm_options, stats);
-    const shadows::DeviceDsm& dsm = dynamic_cast<const techniques::DeepShadowMaps&>(prepared.technique).maps();
-    const LightGpu& light = prepared.scene.packed.lights[std::size_t(light_index)];
-    static const char* faces[6] = {"+x", "-x", "+y", "-y", "+z", "-z"};
-    std::vector<DeepShadowMap> maps;
-    cl_uint in_cluster = 0;  // clustered maps: the view's index within its cluster
-    for (cl_uint v = 0; v < light.view_count; ++v) {
-        const DsmViewGpu& view = dsm.views[light.view_first + v];
-        std::string name = "lights[" + std::to_string(light_index) + "]";
-        if (options.dsm.clusters > 0) {
-            in_cluster = v > 0 && dsm.views[light.view_first + v - 1].cluster == view.cluster ? in_cluster + 1 : 0;
-            name += ".cluster" + std::to_string(view.cluster) + "." + std::to_string(in_cluster);
-        } else if (light.view_count == 6) {
-            name += std::string(".") + faces[v];
-        }
-        maps.push_back(dsm.storage->read_back(runtime, view, light.view_first + v));
-        maps.back().light_name = name;
-        shadows::place_map(view, maps.back());
-    }
+    std::vector<DeepShadowMap> maps = prepared.technique.read_back_maps(runtime, std::size_t(light_index));
     if (stats_out) *stats_out = stats;
     return maps;
 }
@@ -49,13 +32,14 @@ std::vector<DeepShadowMap> build_prefilter_sub_maps(Context& context, const Scen
     scene_only.shadows = ShadowTechnique::None;  // the scene on the device, no maps
     RenderStats stats;
     const pipeline::PreparedScene& prepared = pipeline::prepare(context, scene, scene_only, stats).scene;
-    packing::PackedScene packed = prepared.packed;
-    std::vector<DsmViewGpu> views = shadows::make_dsm_views(scene, packed, options.dsm.resolution);
+    const packing::PackedScene& packed = prepared.packed;
+    std::vector<DsmLightViews> light_views;
+    std::vector<DsmViewGpu> views = shadows::make_dsm_views(scene, packed, options.dsm.resolution, &light_views);
     shadows::SubPixelDsm sub =
         shadows::build_sub_pixel_maps(runtime, scene, packed, prepared.device, views, options.dsm, options.lanes);
-    const LightGpu& light = packed.lights[std::size_t(light_index)];
+    const DsmLightViews& light = light_views[std::size_t(light_index)];
     std::vector<DeepShadowMap> maps;
-    for (cl_uint v = light.view_first * sub.layout.maps; v < (light.view_first + light.view_count) * sub.layout.maps; ++v) {
+    for (cl_uint v = light.first * sub.layout.maps; v < (light.first + light.count) * sub.layout.maps; ++v) {
         maps.push_back(sub.dsm.storage->read_back(runtime, sub.dsm.views[v], v));
         maps.back().light_name = "lights[" + std::to_string(light_index) + "].sub" + std::to_string(v);
     }

@@ -68,14 +68,14 @@ std::vector<std::array<float, 3>> scene_box_corners(const packing::PackedScene& 
     return corners;
 }
 
-std::vector<DsmViewGpu> make_dsm_views(const Scene& scene, packing::PackedScene& packed, int resolution) {
+std::vector<DsmViewGpu> make_dsm_views(const Scene& scene, const packing::PackedScene& packed, int resolution,
+                                       std::vector<DsmLightViews>* light_views) {
     if (resolution < 1 || resolution > 8192) throw Error("--dsm-res: must lie in [1, 8192]");
     auto corners = scene_box_corners(packed, scene);
     std::vector<DsmViewGpu> views;
     for (std::size_t li = 0; li < scene.lights.size(); ++li) {
         const Light& l = scene.lights[li];
-        LightGpu& gpu = packed.lights[li];
-        gpu.view_first = cl_uint(views.size());
+        DsmLightViews range{cl_uint(views.size()), 0};
         glm::vec3 position(l.position[0], l.position[1], l.position[2]);
         glm::vec3 direction(l.direction[0], l.direction[1], l.direction[2]);
         if (l.type == LightType::Spot) {
@@ -107,7 +107,8 @@ std::vector<DsmViewGpu> make_dsm_views(const Scene& scene, packing::PackedScene&
             v.near_depth = 0.f, v.far_depth = hi.z - lo.z;
             views.push_back(v);
         }
-        gpu.view_count = cl_uint(views.size()) - gpu.view_first;
+        range.count = cl_uint(views.size()) - range.first;
+        if (light_views) light_views->push_back(range);
     }
     for (std::size_t i = 0; i < views.size(); ++i) {
         views[i].first_texel = cl_uint(i * std::size_t(resolution) * resolution);

@@ -17,10 +17,11 @@ std::vector<std::array<float, 3>> scene_box_corners(const packing::PackedScene& 
 // §3.4.3; its volumes are DsmViewGpu.volume_mask). No entry, or an empty one: every mesh.
 using ViewMeshes = std::vector<std::vector<bool>>;
 
-// Views for every light, in light order; sets packed.lights[i].view_first / view_count.
-// first_texel of each view is laid out consecutively (resolution² texels per view). Every view
-// holds every object (one cluster per light).
-std::vector<DsmViewGpu> make_dsm_views(const Scene& scene, packing::PackedScene& packed, int resolution);
+// Views for every light, in light order, and (when asked) each light's range of them. first_texel
+// of each view is laid out consecutively (resolution² texels per view). Every view holds every
+// object (one cluster per light).
+std::vector<DsmViewGpu> make_dsm_views(const Scene& scene, const packing::PackedScene& packed, int resolution,
+                                       std::vector<DsmLightViews>* light_views = nullptr);
 
 // Sets map.world_to_camera and map.world_to_ndc from the view (DeepShadowMap's conventions:
 // OpenEXR's camera and NDC spaces; texel rows go along axis_y, which is camera −y).

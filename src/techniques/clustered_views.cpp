@@ -44,7 +44,7 @@ DsmViewGpu focused_dsm_view(const clustering::FocusedView& f, int resolution) {
     return v;
 }
 
-ClusteredViews make_clustered_views(const Scene& scene, packing::PackedScene& packed, int resolution,
+ClusteredViews make_clustered_views(const Scene& scene, int resolution,
                                     const clustering::ClusterOptions& options) {
     if (resolution < 1 || resolution > 8192) throw Error("--dsm-res: must lie in [1, 8192]");
     ClusteredViews out;
@@ -53,8 +53,7 @@ ClusteredViews make_clustered_views(const Scene& scene, packing::PackedScene& pa
     out.options = options;
     out.options.previous = nullptr;
     for (std::size_t li = 0; li < out.lights.size(); ++li) {
-        LightGpu& gpu = packed.lights[li];
-        gpu.view_first = cl_uint(out.views.size());
+        DsmLightViews range{cl_uint(out.views.size()), 0};
         const std::vector<clustering::Cluster>& clusters = out.lights[li].clusters;
         for (std::size_t c = 0; c < clusters.size(); ++c) {
             cl_uint volume_mask = 0;
@@ -72,7 +71,8 @@ ClusteredViews make_clustered_views(const Scene& scene, packing::PackedScene& pa
                 out.meshes.push_back(meshes);
             }
         }
-        gpu.view_count = cl_uint(out.views.size()) - gpu.view_first;
+        range.count = cl_uint(out.views.size()) - range.first;
+        out.light_views.push_back(range);
     }
     if (out.views.empty()) {
         // every object misses B for every light: no light has a view, but the storage backends

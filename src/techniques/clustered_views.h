@@ -18,12 +18,13 @@ struct ClusteredViews {
     std::vector<clustering::SceneObject> objects;
     std::vector<clustering::LightClusters> lights;
     clustering::ClusterOptions options;  // as clustered (previous: none)
+    std::vector<DsmLightViews> light_views;  // per light: its clusters' views
 };
 
-// The clustered views of the scene's lights at `resolution` texels per side; sets
-// packed.lights[i].view_first / view_count (a light whose objects all miss B gets none: lit; when
+// The clustered views of the scene's lights at `resolution` texels per side, and each light's range
+// of them (a light whose objects all miss B gets none: lit; when
 // no light has a view, one placeholder view that holds nothing keeps the backends' buffers).
-ClusteredViews make_clustered_views(const Scene& scene, packing::PackedScene& packed, int resolution,
+ClusteredViews make_clustered_views(const Scene& scene, int resolution,
                                     const clustering::ClusterOptions& options);
 
 // A focused view as a deep shadow map view (DsmViewGpu's depth conventions), widened by one

@@ -74,7 +74,7 @@ void DeepShadowMaps::add_key(const RenderOptions& o, int lanes, std::ostream& ke
     key << " lanes " << lanes;  // other packets build other maps
 }
 
-void DeepShadowMaps::plan_lights(const Scene& scene, packing::PackedScene& packed, const RenderOptions& options) {
+void DeepShadowMaps::plan_lights(const Scene& scene, const packing::PackedScene& packed, const RenderOptions& options) {
     if (options.dsm.clusters > 0) {
         auto start = std::chrono::steady_clock::now();
         clustering::ClusterOptions cluster_options{options.dsm.clusters, options.dsm.cluster_distance, nullptr,
@@ -88,17 +88,19 @@ void DeepShadowMaps::plan_lights(const Scene& scene, packing::PackedScene& packe
             }
             cluster_options.previous = &previous;
         }
-        clusters_ = make_clustered_views(scene, packed, options.dsm.resolution, cluster_options);
+        clusters_ = make_clustered_views(scene, options.dsm.resolution, cluster_options);
         clustering_ms_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
         views_ = clusters_->views;
         meshes_ = clusters_->meshes;
+        light_views_ = clusters_->light_views;
+        light_views_buffer_ = cl::Buffer();
     } else {
         clusters_.reset();
-        views_ = shadows::make_dsm_views(scene, packed, options.dsm.resolution);
+        light_views_.clear();
+        light_views_buffer_ = cl::Buffer();
+        views_ = shadows::make_dsm_views(scene, packed, options.dsm.resolution, &light_views_);
         meshes_.clear();
     }
-    light_views_.clear();
-    for (const LightGpu& l : packed.lights) light_views_.emplace_back(l.view_first, l.view_count);
 }
 
 void DeepShadowMaps::prepare(const SceneOnDevice& s, RenderStats& stats) {
@@ -133,8 +135,8 @@ void DeepShadowMaps::update_lights(const SceneOnDevice& s, const std::vector<boo
     std::vector<bool> regenerate(views_.size(), false);
     bool any = false;
     for (std::size_t i = 0; i < moved.size(); ++i) {
-        const LightGpu& l = s.packed.lights[i];
-        for (cl_uint v = l.view_first; v < l.view_first + l.view_count; ++v) {
+        const DsmLightViews& l = light_views_[i];
+        for (cl_uint v = l.first; v < l.first + l.count; ++v) {
             regenerate[v] = moved[i] || v >= built_views_.size() ||
                             !same_map(views_[v], built_views_[v], meshes_of(meshes_, v), meshes_of(built_meshes_, v));
             any = any || regenerate[v];
@@ -168,10 +170,36 @@ std::string DeepShadowMaps::light_data_key(std::size_t light) const {
     return key;
 }
 
-// SHADOW_PARAMS of cl/techniques/dsm.h: the views, then the backend's DSM_READ_PARAMS
-void DeepShadowMaps::bind(host::KernelArgs& args, host::Runtime&, const RenderOptions&) const {
-    args("views", dsm_.views_buffer);
+// SHADOW_PARAMS of cl/techniques/dsm.h: the views, each light's range of them (uploaded once per
+// plan), then the backend's DSM_READ_PARAMS
+void DeepShadowMaps::bind(host::KernelArgs& args, host::Runtime& runtime, const RenderOptions&) const {
+    if (light_views_buffer_() == nullptr)
+        light_views_buffer_ = host::make_buffer(runtime, CL_MEM_READ_ONLY, light_views_.size() * sizeof(DsmLightViews),
+                                                light_views_.data(), "DSM light views");
+    args("views", dsm_.views_buffer)("light_views", light_views_buffer_);
     dsm_.storage->bind_for_reading(args);
+}
+
+std::vector<DeepShadowMap> DeepShadowMaps::read_back_maps(host::Runtime& runtime, std::size_t light) const {
+    static const char* faces[6] = {"+x", "-x", "+y", "-y", "+z", "-z"};
+    const DsmLightViews range = light_views_.at(light);
+    std::vector<DeepShadowMap> maps;
+    cl_uint in_cluster = 0;  // clustered maps: the view's index within its cluster
+    for (cl_uint v = 0; v < range.count; ++v) {
+        const DsmViewGpu& view = dsm_.views[range.first + v];
+        DeepShadowMap map = dsm_.storage->read_back(runtime, view, range.first + v);
+        map.light = int(light);
+        if (clusters_) {
+            in_cluster = v > 0 && dsm_.views[range.first + v - 1].cluster == view.cluster ? in_cluster + 1 : 0;
+            map.view_name = "cluster" + std::to_string(view.cluster) + "." + std::to_string(in_cluster);
+        } else if (range.count == 6) {
+            map.view_name = faces[v];
+        }
+        map.light_name = "lights[" + std::to_string(light) + "]" + (map.view_name.empty() ? "" : "." + map.view_name);
+        shadows::place_map(view, map);
+        maps.push_back(std::move(map));
+    }
+    return maps;
 }
 
 void DeepShadowMaps::add_stats(RenderStats& stats) const {

@@ -16,20 +16,20 @@ class DeepShadowMaps final : public ShadowModule {
 public:
     void add_defines(const Scene& scene, const RenderOptions& options, std::vector<std::string>& defines) const override;
     void add_key(const RenderOptions& options, int lanes, std::ostream& key) const override;
-    void plan_lights(const Scene& scene, packing::PackedScene& packed, const RenderOptions& options) override;
+    void plan_lights(const Scene& scene, const packing::PackedScene& packed, const RenderOptions& options) override;
     void prepare(const SceneOnDevice& on_device, RenderStats& stats) override;
     void update_lights(const SceneOnDevice& on_device, const std::vector<bool>& moved, RenderStats& stats) override;
     void bind(host::KernelArgs& args, host::Runtime& runtime, const RenderOptions& options) const override;
     void add_stats(RenderStats& stats) const override;
     std::string light_data_key(std::size_t light) const override;
-
-    const shadows::DeviceDsm& maps() const { return dsm_; }  // for build_deep_shadow_maps (API)
+    std::vector<DeepShadowMap> read_back_maps(host::Runtime& runtime, std::size_t light) const override;
 
 private:
     // planned for the lights (and, clustered, the camera) as they are now
     std::vector<DsmViewGpu> views_;
     shadows::ViewMeshes meshes_;                    // clustered: the meshes of each view's map
-    std::vector<std::pair<cl_uint, cl_uint>> light_views_;  // per light: view_first, view_count
+    std::vector<DsmLightViews> light_views_;  // per light: its views
+    mutable cl::Buffer light_views_buffer_;   // light_views_ on the device, uploaded at the first bind
     std::optional<ClusteredViews> clusters_;
     double clustering_ms_ = 0;
     // what the maps in dsm_ were generated from

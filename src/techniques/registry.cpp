@@ -15,7 +15,7 @@ void add_option_keys(const std::vector<OptionSpec>& specs, const RenderOptions& 
     for (const OptionSpec& spec : specs)
         if (spec.keys_data) key << ' ' << spec.key << '=' << option_value_text(spec.get(options));
 }
-void ShadowModule::plan_lights(const Scene&, packing::PackedScene&, const RenderOptions&) {}
+void ShadowModule::plan_lights(const Scene&, const packing::PackedScene&, const RenderOptions&) {}
 void ShadowModule::prepare(const SceneOnDevice&, RenderStats&) {}
 void ShadowModule::update_lights(const SceneOnDevice&, const std::vector<bool>&, RenderStats&) {}
 void ShadowModule::refresh(const SceneOnDevice&, RenderStats&) {}
@@ -23,6 +23,9 @@ void ShadowModule::bind(host::KernelArgs&, host::Runtime&, const RenderOptions&)
 void ShadowModule::add_stats(RenderStats&) const {}
 std::vector<std::string> ShadowModule::shadow_cache_keys(const SceneOnDevice&) const { return {}; }
 std::string ShadowModule::light_data_key(std::size_t) const { return {}; }
+std::vector<DeepShadowMap> ShadowModule::read_back_maps(host::Runtime&, std::size_t) const {
+    throw Error("--shadows: this technique has no deep shadow maps to read back (internal error)");
+}
 
 const std::vector<TechniqueEntry>& registry() {
     static const std::vector<TechniqueEntry> entries = {

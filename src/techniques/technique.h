@@ -39,10 +39,9 @@ public:
     // Appends what the module's device data depend on among the options (the renderer keys the
     // scene's preparation by it; the volumes, meshes and light count are keyed already).
     virtual void add_key(const RenderOptions& options, int lanes, std::ostream& key) const;
-    // Called after the scene's lights are packed, before they are uploaded (a new preparation,
-    // or lights changed): the module may lay out per-light data in them (the deep shadow maps'
-    // views: LightGpu.view_first, view_count).
-    virtual void plan_lights(const Scene& scene, packing::PackedScene& packed, const RenderOptions& options);
+    // Called after the scene's lights are packed (a new preparation, or lights changed): the
+    // module plans its per-light data (the deep shadow maps' views of each light).
+    virtual void plan_lights(const Scene& scene, const packing::PackedScene& packed, const RenderOptions& options);
     // Builds the device data for a newly prepared scene.
     virtual void prepare(const SceneOnDevice& on_device, RenderStats& stats);
     // Lights marked in `moved` changed their view (position, direction, type, cone): rebuilds what
@@ -63,6 +62,9 @@ public:
     // view (the generic shadow cache keys add it): the clustered deep shadow maps' views, which
     // follow the camera. Empty by default.
     virtual std::string light_data_key(std::size_t light) const;
+    // The maps of one light read back to the host, each named by its light and view (the API's
+    // build_deep_shadow_maps); throws for a technique without maps.
+    virtual std::vector<DeepShadowMap> read_back_maps(host::Runtime& runtime, std::size_t light) const;
 };
 
 // One row of the registry: the technique, its name on the command line and in scene files, what
