@@ -14,9 +14,12 @@ no_cache() {  # BIN -> its flag for per-sample lookups (--shadow-cache off; buil
     if grep -q -- '--shadow-cache' <<<"$help"; then echo "--shadow-cache off"; else echo "--no-shadow-cache"; fi
 }
 render() {  # BIN SCENE STORAGE SHADOWS -> "camera_pass_ms dsm_stages_sum_ms dsm_build_ms dsm_count_ms"
+    # DSM flags only for dsm (sombra refuses options that do not apply); --storage: the spelling every build knows
+    local dsm=()
+    [ "$4" = dsm ] && dsm=(--dsm-res 512 --eps 0.01 --storage "$3")
     # shellcheck disable=SC2046
-    "$1" render "$ROOT/data/scenes/$2.json" -o "$TMP/o.png" --width 256 --height 256 --shadows "$4" --dsm-res 512 \
-        --eps 0.01 --dsm-storage "$3" $(no_cache "$1") --stats "$TMP/s.json" -q >/dev/null 2>&1
+    "$1" render "$ROOT/data/scenes/$2.json" -o "$TMP/o.png" --width 256 --height 256 --shadows "$4" "${dsm[@]}" \
+        $(no_cache "$1") --stats "$TMP/s.json" -q >/dev/null 2>&1
     python3 -c "import json,sys; s=json.load(open(sys.argv[1]))['stage_ms']
 print(s['camera_pass'], sum(v for k, v in s.items() if k.startswith('dsm_')), s.get('dsm_build', 0), s.get('dsm_count', 0))" "$TMP/s.json"
 }

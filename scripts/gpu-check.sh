@@ -77,8 +77,9 @@ for name in scenes:
     scene = sombra.load_scene(f"data/scenes/{name}.json")
     for t in techniques:
         try:
-            a, _ = sombra.render(on, scene, shadows=t, width=size, height=size, dsm_resolution=128)
-            b, _ = sombra.render(pocl, scene, shadows=t, width=size, height=size, dsm_resolution=128)
+            options = dict(shadows=t, width=size, height=size, **({"dsm_resolution": 128} if t in ("dsm", "shadowmap") else {}))
+            a, _ = sombra.render(on, scene, **options)
+            b, _ = sombra.render(pocl, scene, **options)
         except sombra.Error as e:
             print(f"{name:<18} {t:<10} refused: {e}")
             continue

@@ -397,6 +397,11 @@ TEST_CASE("sombra visibility prints every technique against the reference, and r
         ++rows;
     }
     CHECK(rows == 3);
+    // --shadows: only the techniques named, in the usual order
+    CliOutput some = run_cli_output("visibility " + scene + " --light 0 --points " + points + " --shadows rays,dsm -q");
+    REQUIRE(some.exit_code == 0);
+    CHECK(some.out.substr(0, some.out.find('\n')) == "x,y,z,reference,dsm,shadow_ray,dsm_error,shadow_ray_error");
+    CHECK(run_cli("visibility " + scene + " --light 0 --points " + points + " --shadows ao").exit_code == 2);
     std::string bad = write_file("bad_points.csv", "0,0,0\n0.1,zero,0\n");
     CliRun run = run_cli("visibility " + scene + " --light 0 --points " + bad);
     INFO("stderr: " << run.stderr_text);

@@ -121,13 +121,13 @@ TEST_CASE("shadow ray step: a finer step moves the rays closer to the reference,
     CHECK(test::compare(coarse_render.image, unit_image).max_abs > 1e-4);
 }
 
-TEST_CASE("shadow ray step: zero, negative, NaN and steps above 16 are refused", "[render][shadows]") {
+TEST_CASE("shadow ray step: zero, negative, NaN, steps below 0.01 and above 16 are refused", "[render][shadows]") {
     RenderOptions o;
-    for (float step : {1e-3f, 1.f, 16.f}) {
+    for (float step : {0.01f, 1.f, 16.f}) {
         o.rays.step = step;
         CHECK_NOTHROW(check_render_options(o));
     }
-    for (float step : {0.f, -1.f, 16.5f, NAN}) {
+    for (float step : {0.f, -1.f, 1e-30f, 0.009f, 16.5f, NAN}) {  // 1e-30 would march forever
         o.rays.step = step;
         CHECK_THAT(test::error_of([&] { check_render_options(o); }), Catch::Contains("shadow_ray_step"));
     }

@@ -67,7 +67,7 @@ struct DsmOptions {
     // A factor on each volume's step for the rays from the light (the pre-compressed tables follow
     // it; the camera rays keep their step). Larger is faster and coarser along the light: on the
     // CT at 512², ε 0.01, 2 makes generation 1.55× faster for +14 % point error and +54 % image
-    // error against the reference (bench/README.md). In (0, 16].
+    // error against the reference (bench/README.md). In [0.01, 16].
     float step = 1.f;
     // Storage backend: "atlas" (3D-texture-like atlas of layer blocks allocated per tile on
     // demand, Hadwiger §3.4 / Knecht Eq. 4.7–4.10), "chunked" (64-node chunks per 8×8 tile with
@@ -120,7 +120,7 @@ struct SatOptions {
 // The shadow-ray baseline (declared in src/techniques/rays.cpp).
 struct RayOptions {
     // A factor on each volume's step for the shadow rays only (the camera rays keep theirs);
-    // smaller is finer and slower. In (0, 16].
+    // smaller is finer and slower. In [0.01, 16].
     float step = 1.f;
 };
 

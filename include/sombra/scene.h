@@ -42,8 +42,8 @@ struct VolumeInstance {
     std::string name;
 };
 
-// A mesh placed in the scene: translucent geometry (issue 4). Its triangles cast and receive shadows
-// once the raster stage is wired into the camera pass and DSM generation (not yet: see README).
+// A mesh placed in the scene: translucent geometry. Its triangles are rasterized into the camera
+// pass and into every light's deep shadow maps (docs/meshes.md): they cast and receive shadows.
 struct MeshMaterial {
     Vec3 color{0.8f, 0.8f, 0.8f};
     float opacity = 1.f;  // of one surface crossing, in [0, 1]

@@ -157,15 +157,25 @@ int write_dsm(sombra::Context& context, const sombra::Scene& scene, int light, c
 // sombra visibility: per point, each technique's transmittance (deep shadow map, shadow ray,
 // binary shadow map, low-pass filtered with --filter W), the brute-force reference, and their
 // differences; then the mean and max error of each.
+// The techniques `sombra visibility` compares, by their --shadows names, with their CSV columns.
+const std::vector<std::tuple<std::string, const char*, sombra::ShadowTechnique>>& visibility_techniques() {
+    static const std::vector<std::tuple<std::string, const char*, sombra::ShadowTechnique>> all = {
+        {"dsm", "dsm", sombra::ShadowTechnique::Dsm},
+        {"rays", "shadow_ray", sombra::ShadowTechnique::Rays},
+        {"shadowmap", "shadow_map", sombra::ShadowTechnique::ShadowMap},
+        {"lowpass", "lowpass", sombra::ShadowTechnique::Lowpass}};
+    return all;
+}
+
 int print_visibility(sombra::Context& context, const sombra::Scene& scene, int light, const StatsContext& stats_context,
-                     const std::string& points_path, const std::string& stats_path, bool quiet) {
+                     const std::vector<std::string>& asked, const std::string& points_path, const std::string& stats_path,
+                     bool quiet) {
     const sombra::RenderOptions& options = stats_context.options;
     auto points = sombra::load_points_csv(points_path);
-    const std::pair<const char*, sombra::ShadowTechnique> techniques[] = {{"dsm", sombra::ShadowTechnique::Dsm},
-                                                                          {"shadow_ray", sombra::ShadowTechnique::Rays},
-                                                                          {"shadow_map", sombra::ShadowTechnique::ShadowMap},
-                                                                          {"lowpass", sombra::ShadowTechnique::Lowpass}};
-    constexpr int count = 4;
+    std::vector<std::pair<const char*, sombra::ShadowTechnique>> techniques;  // those asked (all by default), in order
+    for (const auto& [name, column, technique] : visibility_techniques())
+        if (asked.empty() || std::find(asked.begin(), asked.end(), name) != asked.end()) techniques.emplace_back(column, technique);
+    const int count = int(techniques.size());
     std::vector<sombra::ShadowQuery> queries;
     for (const auto& [name, technique] : techniques) {
         sombra::RenderOptions technique_options = options;
@@ -176,14 +186,14 @@ int print_visibility(sombra::Context& context, const sombra::Scene& scene, int l
     for (const auto& t : techniques) std::cout << "," << t.first;
     for (const auto& t : techniques) std::cout << "," << t.first << "_error";
     std::cout << "\n";
-    double sum[count] = {}, worst[count] = {};
+    std::vector<double> sum(std::size_t(count), 0.0), worst(std::size_t(count), 0.0);
     for (std::size_t i = 0; i < points.size(); ++i) {
         double reference = sombra::reference_transmittance(scene, light, points[i]);
         std::cout << points[i][0] << "," << points[i][1] << "," << points[i][2] << "," << reference;
         for (const auto& q : queries) std::cout << "," << q.transmittance[i];
         for (int k = 0; k < count; ++k) {
             double e = std::fabs(queries[std::size_t(k)].transmittance[i] - reference);
-            sum[k] += e, worst[k] = std::max(worst[k], e);
+            sum[std::size_t(k)] += e, worst[std::size_t(k)] = std::max(worst[std::size_t(k)], e);
             std::cout << "," << e;
         }
         std::cout << "\n";
@@ -191,12 +201,12 @@ int print_visibility(sombra::Context& context, const sombra::Scene& scene, int l
     double n = double(std::max<std::size_t>(points.size(), 1));
     std::ostringstream summary;
     summary << "sombra: " << points.size() << " points; |T − reference| mean/max:";
-    for (int k = 0; k < count; ++k) summary << (k ? "," : "") << " " << techniques[k].first << " " << sum[k] / n << "/" << worst[k];
+    for (std::size_t k = 0; k < techniques.size(); ++k)
+        summary << (k ? "," : "") << " " << techniques[k].first << " " << sum[k] / n << "/" << worst[k];
     summary << " (lowpass W " << options.sat.filter_width << ")\n";
     if (!quiet) std::cerr << summary.str();
-    sombra::ShadowQuery& dsm = queries.front();
     sombra::detail::StagedOutputs outputs;
-    nlohmann::json j = command_stats(dsm.stats, stats_context);
+    nlohmann::json j = command_stats(queries.front().stats, stats_context);  // the first technique's build
     stage_stats(outputs, stats_path, j);
     outputs.commit();
     return 0;
@@ -428,8 +438,14 @@ int run(int argc_given, char** argv_given) {
                     "output .exr (a point light writes NAME.+x.exr … NAME.-z.exr; clustered maps NAME.cluster<k>.<j>.exr)")
         ->required();
     visibility->add_option("--points", a.points_path, "CSV file of x,y,z world points (one per line)")->required();
+    std::vector<std::string> visibility_shadows;
+    std::vector<std::string> visibility_names;
+    for (const auto& technique : visibility_techniques()) visibility_names.push_back(std::get<0>(technique));
+    visibility->add_option("--shadows", visibility_shadows, "the techniques to compare, comma-separated (default: all)")
+        ->delimiter(',')
+        ->check(CLI::IsMember(visibility_names));
     for (CLI::App* sub : {dsm, visibility}) {
-        sub->add_option("--light", a.light_index, "light index in the scene")->required();
+        sub->add_option("--light", a.light_index, "light index in the scene")->required()->default_str("");  // no default to show
         sub->add_option("--stats", a.stats_path, "write build times and DSM sizes as JSON");
     }
     RenderOptionFlags render_flags, dsm_flags, visibility_flags;
@@ -472,7 +488,7 @@ int run(int argc_given, char** argv_given) {
     const StatsContext stats_context{a.scene_path, options, flags.command};
     if (dsm->parsed()) return write_dsm(context, scene, a.light_index, stats_context, a.output, a.stats_path, a.quiet);
     if (visibility->parsed())
-        return print_visibility(context, scene, a.light_index, stats_context, a.points_path, a.stats_path, a.quiet);
+        return print_visibility(context, scene, a.light_index, stats_context, visibility_shadows, a.points_path, a.stats_path, a.quiet);
     return render_image(context, scene, stats_context, a, stages);
 }
 

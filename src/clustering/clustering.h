@@ -1,6 +1,7 @@
 // sombra — object clustering for clustered deep shadow maps (Knecht §3.4, Alg. 4.2), the geometric
 // half: which objects share a deep shadow map, and the light view focused on each cluster.
-// Generating one DSM per cluster and combining them in the lookup (Eq. 3.12) are not built yet.
+// One DSM per cluster and their product in the lookup (Eq. 3.12): src/techniques/clustered_views.h
+// and cl/techniques/dsm.h.
 #pragma once
 #include <string>
 #include <vector>

@@ -29,7 +29,7 @@ const std::vector<OptionSpec>& dsm_option_specs() {
                 .range(0, 1),
             declare("dsm_step", "--dsm-step", [](auto& o) -> auto& { return o.dsm.step; },
                     "DSM generation: factor on each volume's step for the rays from the light (> 1: faster, coarser)")
-                .range(0, 16).open_min(),
+                .range(0.01, 16),  // 100× finer at most: a ray of the finest volume then takes ≤ 100× its voxels
             declare("dsm_storage", "--dsm-storage", [](auto& o) -> auto& { return o.dsm.storage; },
                     "deep shadow map storage: atlas, chunked, chunked-ondemand (Knecht) or compact")
                 .choices(dsm_storage_names()),

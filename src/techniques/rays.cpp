@@ -18,7 +18,10 @@ const std::vector<OptionSpec>& ray_option_specs() {
     static const std::vector<OptionSpec> specs = {
         declare("shadow_ray_step", "--ray-step", [](auto& o) -> auto& { return o.rays.step; },
                 "rays: factor on each volume's step for the shadow rays (< 1: finer)")
-            .range(0, 16).open_min().only({ShadowTechnique::Rays}).keys().commands(kRenderCommand | kVisibilityCommand),
+            .range(0.01, 16)  // 100× finer at most (1e-30 would never end)
+            .only({ShadowTechnique::Rays})
+            .keys()
+            .commands(kRenderCommand | kVisibilityCommand),
     };
     return specs;
 }
