@@ -37,6 +37,9 @@ struct Element {
 // What the top-level data set says about the image.
 struct ImageFields {
     std::uint64_t rows = 0, columns = 0, bits = 0, samples = 1, frames = 1, pixel_bytes = 0;
+    std::uint64_t bits_stored = 0, high_bit = 0;  // 0: absent (GDCM then assumes BitsAllocated)
+    bool has_bits_stored = false, has_high_bit = false;
+    std::string photometric;  // (0028,0004), trimmed; "" when absent
     bool pixels = false;
 };
 
@@ -103,6 +106,15 @@ std::uint64_t read_us(Cursor& c, const Element& e, const char* name) {
     return c.get<std::uint16_t>(name);
 }
 
+// A short code string (CS), its padding trimmed.
+std::string read_code(Cursor& c, const Element& e, const char* name) {
+    if (e.length > 64) c.fail(tag_name(e.tag) + " " + name, "longer than a code string");
+    std::string s(e.length, '\0');
+    c.read(s.data(), s.size(), name);
+    const std::size_t a = s.find_first_not_of(" \0", 0, 2), b = s.find_last_not_of(" \0", std::string::npos, 2);
+    return a == std::string::npos ? "" : s.substr(a, b - a + 1);
+}
+
 std::uint64_t read_frames(Cursor& c, const Element& e) {
     if (e.length > 16) c.fail(tag_name(e.tag) + " NumberOfFrames", "longer than an integer string");
     std::string s(e.length, '\0');
@@ -141,6 +153,9 @@ void read_top_level(Cursor& c, const Element& e, ImageFields* image) {
     else if (e.tag.is(0x0028, 0x0100)) image->bits = read_us(c, e, "BitsAllocated");
     else if (e.tag.is(0x0028, 0x0002)) image->samples = read_us(c, e, "SamplesPerPixel");
     else if (e.tag.is(0x0028, 0x0008)) image->frames = read_frames(c, e);
+    else if (e.tag.is(0x0028, 0x0004)) image->photometric = read_code(c, e, "PhotometricInterpretation");
+    else if (e.tag.is(0x0028, 0x0101)) image->bits_stored = read_us(c, e, "BitsStored"), image->has_bits_stored = true;
+    else if (e.tag.is(0x0028, 0x0102)) image->high_bit = read_us(c, e, "HighBit"), image->has_high_bit = true;
     else {
         if (e.tag.is(0x7FE0, 0x0010)) image->pixels = true, image->pixel_bytes = e.length;
         c.skip(e.length, "value");
@@ -238,6 +253,13 @@ void check_image(Cursor& c, const ImageFields& f) {
     if (f.bits != 8 && f.bits != 16 && f.bits != 32)
         c.fail("(0028,0100) BitsAllocated", std::to_string(f.bits) + " (sombra reads 8, 16 or 32)");
     if (f.samples != 1) c.fail("(0028,0002) SamplesPerPixel", std::to_string(f.samples) + " (expected 1: grey)");
+    // grey values only: a palette's indices are no densities (and GDCM asserts on a missing palette)
+    if (!f.photometric.empty() && f.photometric != "MONOCHROME1" && f.photometric != "MONOCHROME2")
+        c.fail("(0028,0004) PhotometricInterpretation", "'" + f.photometric + "' (sombra reads MONOCHROME1 or MONOCHROME2)");
+    if (f.has_bits_stored && (f.bits_stored < 1 || f.bits_stored > f.bits))
+        c.fail("(0028,0101) BitsStored", std::to_string(f.bits_stored) + " (1 … BitsAllocated " + std::to_string(f.bits) + ")");
+    if (f.has_high_bit && f.high_bit >= f.bits)
+        c.fail("(0028,0102) HighBit", std::to_string(f.high_bit) + " (below BitsAllocated " + std::to_string(f.bits) + ")");
     if (f.frames < 1 || f.frames > kMaxFrames)
         c.fail("(0028,0008) NumberOfFrames", std::to_string(f.frames) + " (1 … " + std::to_string(kMaxFrames) + ")");
     if (!f.pixels) c.fail("(7FE0,0010) PixelData", "missing");

@@ -19,12 +19,52 @@
 #include <string>
 #include <vector>
 
+#include "scene/byte_cursor.h"
 #include "scene/input_file.h"
 #include "sombra/error.h"
 #include "sombra/shadows.h"
 
 namespace sombra {
 namespace {
+
+// A NUL-terminated attribute or type name of an OpenEXR header, at most `max` characters.
+std::string exr_name(detail::ByteCursor& c, std::size_t max, const char* field) {
+    std::string name;
+    for (char ch = c.get<char>(field); ch != '\0'; ch = c.get<char>(field)) {
+        if (name.size() == max) c.fail(field, "a name longer than " + std::to_string(max) + " characters");
+        name += ch;
+    }
+    return name;
+}
+
+// OpenEXR's header walked before OpenEXR reads it (its attribute sizes come from the file, and
+// OpenEXR allocates them as given): the magic number, then each header's attributes — name, type,
+// a size that fits in the bytes left — up to the NUL that ends it (OpenEXR file layout, "Header").
+void check_exr_header(const std::string& path, std::uint64_t size) {
+    detail::ByteCursor c(path, size);
+    c.where = "OpenEXR header: ";
+    if (c.get<std::uint32_t>("magic number") != 20000630u) c.fail("magic number", "not a deep OpenEXR file (not OpenEXR at all)");
+    const std::uint32_t version = c.get<std::uint32_t>("version");
+    const std::size_t max_name = (version & 0x400u) ? 255 : 31;  // bit 10: long names
+    const bool multipart = (version & 0x1000u) != 0;
+    for (int header = 0; header < 1024; ++header) {
+        std::string name = exr_name(c, max_name, "attribute name");
+        if (name.empty()) {  // the end of this header; a multi-part file ends its list with an empty header
+            if (!multipart || header > 0) return;
+            c.fail("header", "a multi-part file with no part");
+        }
+        for (int attribute = 0; !name.empty(); ++attribute) {
+            if (attribute == 4096) c.fail("attributes", "more than 4096 in one header");
+            exr_name(c, max_name, ("attribute " + name + " type").c_str());
+            const std::int32_t length = c.get<std::int32_t>("attribute size");
+            if (length < 0) c.fail("attribute " + name, "a negative size");
+            c.skip(std::uint64_t(length), ("attribute " + name).c_str());
+            name = exr_name(c, max_name, "attribute name");
+        }
+        if (!multipart) return;
+    }
+    c.fail("headers", "more than 1024 parts");
+}
 
 constexpr const char* kLightAttribute = "sombra:light";
 constexpr const char* kFormatAttribute = "sombra:format";
@@ -162,7 +202,8 @@ void write_deep_exr(const DeepShadowMap& map, const std::string& path) {
 }
 
 DeepShadowMap read_deep_exr(const std::string& path) {
-    detail::regular_file_size(path);  // a regular file (never a FIFO or device, which would block), noted as an input
+    // a regular file (never a FIFO or device, which would block), noted as an input
+    check_exr_header(path, detail::regular_file_size(path));
     auto in = OIIO::ImageInput::open(path);
     if (!in) {
         std::string why = OIIO::geterror();
