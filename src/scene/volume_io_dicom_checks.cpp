@@ -136,7 +136,11 @@ void check_image_vr(Cursor& c, const Element& e, bool explicit_vr) {
         {0x0028, 0x0008, "IS"}, {0x0028, 0x0010, "US"}, {0x0028, 0x0011, "US"}, {0x0028, 0x0030, "DS"},
         {0x0028, 0x0100, "US"}, {0x0028, 0x0101, "US"}, {0x0028, 0x0102, "US"}, {0x0028, 0x0103, "US"},
         {0x0028, 0x1050, "DS"}, {0x0028, 0x1051, "DS"}, {0x0028, 0x1052, "DS"}, {0x0028, 0x1053, "DS"},
-        {0x0028, 0x1054, "LO"}};
+        {0x0028, 0x1054, "LO"},
+        // read for the spacing and the frames (gdcm::ImageHelper::GetSpacingValue, the fuzzer's finding)
+        {0x0028, 0x0009, "AT"}, {0x0028, 0x0034, "IS"}, {0x0018, 0x1164, "DS"}, {0x0018, 0x2010, "DS"},
+        {0x3002, 0x0011, "DS"}, {0x0054, 0x0081, "US"}, {0x0018, 0x602C, "FD"}, {0x0018, 0x602E, "FD"},
+        {0x0020, 0x0030, "DS"}, {0x0020, 0x0035, "DS"}};
     for (const auto& k : kRead) {
         if (!e.tag.is(k.group, k.element)) continue;
         if (explicit_vr && !e.vr_is(k.vr))

@@ -37,9 +37,49 @@ std::string exr_name(detail::ByteCursor& c, std::size_t max, const char* field) 
     return name;
 }
 
+// The bytes OpenEXR 3.1 reads for an attribute of a known fixed-size type (it reads them whatever
+// size the file declares, so a size that differs desynchronises the header); 0: not a fixed type.
+std::uint64_t exr_fixed_size(const std::string& type) {
+    static const std::pair<const char*, std::uint64_t> kSizes[] = {
+        {"int", 4},         {"float", 4},      {"double", 8},    {"box2i", 16},         {"box2f", 16},    {"v2i", 8},
+        {"v2f", 8},         {"v2d", 16},       {"v3i", 12},      {"v3f", 12},           {"v3d", 24},      {"m33f", 36},
+        {"m33d", 72},       {"m44f", 64},      {"m44d", 128},    {"compression", 1},    {"lineOrder", 1}, {"envmap", 1},
+        {"deepImageState", 1}, {"chromaticities", 32}, {"keycode", 28}, {"rational", 8}, {"tiledesc", 9},  {"timecode", 8}};
+    for (const auto& [name, bytes] : kSizes)
+        if (type == name) return bytes;
+    return 0;
+}
+
+// One attribute's value, read as OpenEXR reads its type: fixed types their size, a channel list
+// entry by entry up to its NUL, a preview its width × height pixels; every other type (string,
+// opaque, …) exactly the declared size. The declared size must be what OpenEXR will consume.
+void check_exr_value(detail::ByteCursor& c, const std::string& name, const std::string& type, std::uint64_t size,
+                     std::size_t max_name) {
+    const std::string field = "attribute " + name + " (" + type + ")";
+    const std::uint64_t start = c.at();
+    if (const std::uint64_t fixed = exr_fixed_size(type)) {
+        if (size != fixed) c.fail(field, "a size of " + std::to_string(size) + " bytes (the type has " + std::to_string(fixed) + ")");
+        c.skip(size, field.c_str());
+    } else if (type == "chlist") {
+        for (std::string channel = exr_name(c, max_name, field.c_str()); !channel.empty();
+             channel = exr_name(c, max_name, field.c_str()))
+            c.skip(16, field.c_str());  // pixel type, pLinear, 3 reserved, x and y sampling
+    } else if (type == "preview") {
+        const std::uint64_t width = c.get<std::uint32_t>(field.c_str()), height = c.get<std::uint32_t>(field.c_str());
+        if (8 + width * height * 4 != size)
+            c.fail(field, std::to_string(width) + " × " + std::to_string(height) + " pixels in " + std::to_string(size) + " bytes");
+        c.skip(width * height * 4, field.c_str());
+    } else {
+        c.skip(size, field.c_str());
+    }
+    if (c.at() - start != size)
+        c.fail(field, "a value of " + std::to_string(c.at() - start) + " bytes, declared " + std::to_string(size));
+}
+
 // OpenEXR's header walked before OpenEXR reads it (its attribute sizes come from the file, and
 // OpenEXR allocates them as given): the magic number, then each header's attributes — name, type,
-// a size that fits in the bytes left — up to the NUL that ends it (OpenEXR file layout, "Header").
+// a value of its declared size, read as OpenEXR reads its type — up to the NUL that ends it
+// (OpenEXR file layout, "Header").
 void check_exr_header(const std::string& path, std::uint64_t size) {
     detail::ByteCursor c(path, size);
     c.where = "OpenEXR header: ";
@@ -55,10 +95,11 @@ void check_exr_header(const std::string& path, std::uint64_t size) {
         }
         for (int attribute = 0; !name.empty(); ++attribute) {
             if (attribute == 4096) c.fail("attributes", "more than 4096 in one header");
-            exr_name(c, max_name, ("attribute " + name + " type").c_str());
+            const std::string type = exr_name(c, max_name, ("attribute " + name + " type").c_str());
             const std::int32_t length = c.get<std::int32_t>("attribute size");
             if (length < 0) c.fail("attribute " + name, "a negative size");
-            c.skip(std::uint64_t(length), ("attribute " + name).c_str());
+            c.need(std::uint64_t(length), "attribute " + name);
+            check_exr_value(c, name, type, std::uint64_t(length), max_name);
             name = exr_name(c, max_name, "attribute name");
         }
         if (!multipart) return;
