@@ -62,8 +62,14 @@ void check_exr_value(detail::ByteCursor& c, const std::string& name, const std::
         c.skip(size, field.c_str());
     } else if (type == "chlist") {
         for (std::string channel = exr_name(c, max_name, field.c_str()); !channel.empty();
-             channel = exr_name(c, max_name, field.c_str()))
-            c.skip(16, field.c_str());  // pixel type, pLinear, 3 reserved, x and y sampling
+             channel = exr_name(c, max_name, field.c_str())) {
+            // pixel type (UINT, HALF, FLOAT), pLinear, 3 reserved bytes, x and y sampling (≥ 1)
+            const std::int32_t type_code = c.get<std::int32_t>(field.c_str());
+            c.skip(4, field.c_str());
+            const std::int32_t x_sampling = c.get<std::int32_t>(field.c_str()), y_sampling = c.get<std::int32_t>(field.c_str());
+            if (type_code < 0 || type_code > 2) c.fail(field, "channel " + channel + ": pixel type " + std::to_string(type_code));
+            if (x_sampling < 1 || y_sampling < 1) c.fail(field, "channel " + channel + ": sampling below 1");
+        }
     } else if (type == "preview") {
         const std::uint64_t width = c.get<std::uint32_t>(field.c_str()), height = c.get<std::uint32_t>(field.c_str());
         if (8 + width * height * 4 != size)
