@@ -30,32 +30,27 @@ std::string shape_of(const py::array& a) {
 }
 
 // `value` as a C-ordered array of `ndim` dimensions of T, the sizes in `sizes` (−1: any); otherwise
-// a ValueError naming the function and the argument. Python sequences and other real dtypes convert
-// only when `convert`; with it off the array must already be T.
+// a ValueError naming the function and the argument. Arrays of the dtype kinds in `kinds` (numpy's
+// 'f', 'i', 'u') and Python sequences convert to T.
 // An array's shape and element count are checked before anything is copied: a zero-stride view
 // (np.broadcast_to) of 2⁴⁰ elements costs no memory until converted. At most `max_elements`.
 template <typename T>
 py::array_t<T, py::array::c_style> checked_array(const py::handle& value, const char* where, const char* name,
-                                                   std::vector<py::ssize_t> sizes, bool convert, const char* expected,
-                                                   std::uint64_t max_elements = limits::kMaxVolumeVoxels) {
+                                                   std::vector<py::ssize_t> sizes, const char* expected,
+                                                   std::uint64_t max_elements = limits::kMaxVolumeVoxels,
+                                                   const std::string& kinds = "fiu") {
     auto fail = [&](const std::string& got) {
         throw py::value_error(std::string(where) + ": " + name + ": expected " + expected + ", got " + got);
     };
-    py::array array;
     if (py::isinstance<py::array>(value)) {
-        array = py::reinterpret_borrow<py::array>(value);
-        if (!convert && !array.dtype().is(py::dtype::of<T>()))
-            fail("dtype " + std::string(py::str(array.dtype())) + " " + shape_of(array));
-        if (convert && array.dtype().kind() != 'f' && array.dtype().kind() != 'i' && array.dtype().kind() != 'u')
-            fail("dtype " + std::string(py::str(array.dtype())));
+        const auto array = py::reinterpret_borrow<py::array>(value);
+        if (kinds.find(array.dtype().kind()) == std::string::npos) fail("dtype " + std::string(py::str(array.dtype())));
         bool shaped = array.ndim() == py::ssize_t(sizes.size());
         for (std::size_t d = 0; shaped && d < sizes.size(); ++d) shaped = sizes[d] < 0 || array.shape(py::ssize_t(d)) == sizes[d];
         if (!shaped) fail("shape " + shape_of(array));
         if (std::uint64_t(array.size()) > max_elements)
             fail(std::to_string(array.size()) + " elements " + shape_of(array) + ", more than the limit of " +
                  std::to_string(max_elements));
-    } else if (!convert) {
-        fail("a " + std::string(py::str(value.get_type().attr("__name__"))));
     }
     py::array_t<T, py::array::c_style> typed;
     try {
@@ -73,12 +68,12 @@ py::array_t<T, py::array::c_style> checked_array(const py::handle& value, const 
 }
 
 Vec3 vec3(const py::handle& value, const char* where, const char* name) {
-    auto a = checked_array<float>(value, where, name, {3}, true, "3 numbers");
+    auto a = checked_array<float>(value, where, name, {3}, "3 numbers");
     return {a.at(0), a.at(1), a.at(2)};
 }
 
 std::array<float, 16> matrix4(const py::handle& value, const char* where, const char* name) {
-    auto a = checked_array<float>(value, where, name, {4, 4}, true, "a 4×4 matrix");
+    auto a = checked_array<float>(value, where, name, {4, 4}, "a 4×4 matrix");
     std::array<float, 16> m{};
     std::copy_n(a.data(), 16, m.begin());
     return m;
@@ -171,7 +166,7 @@ void check_keywords_apply(const RenderOptions& o, const py::kwargs& kwargs, cons
 py::dict stats_dict(const RenderStats& stats) { return py::module_::import("json").attr("loads")(stats.to_json()); }
 
 std::vector<Vec3> points_of(const py::handle& points, const char* where) {
-    auto a = checked_array<double>(points, where, "points", {-1, 3}, true, "an (N, 3) array of world points", limits::kMaxPoints * 3);
+    auto a = checked_array<double>(points, where, "points", {-1, 3}, "an (N, 3) array of world points", limits::kMaxPoints * 3);
     std::vector<Vec3> result(std::size_t(a.shape(0)));
     for (std::size_t i = 0; i < result.size(); ++i)
         for (std::size_t k = 0; k < 3; ++k) result[i][k] = float(a.data()[i * 3 + k]);
@@ -181,7 +176,7 @@ std::vector<Vec3> points_of(const py::handle& points, const char* where) {
 // Transfer function points as an (N, columns) array: x first, sorted, at least one row.
 template <typename Point>
 std::vector<Point> tf_points(const py::handle& value, const char* name, py::ssize_t columns, const char* expected) {
-    auto a = checked_array<float>(value, "Scene.add_volume", name, {-1, columns}, true, expected);
+    auto a = checked_array<float>(value, "Scene.add_volume", name, {-1, columns}, expected);
     if (a.shape(0) < 1) throw py::value_error(std::string("Scene.add_volume: ") + name + ": needs at least one point");
     std::vector<Point> points(std::size_t(a.shape(0)));
     for (std::size_t i = 0; i < points.size(); ++i) {
@@ -293,8 +288,7 @@ PYBIND11_MODULE(sombra, m) {
                const py::object& opacity, const py::object& color, float step_voxels, float opacity_unit, const std::string& name) {
                 // any real dtype and memory order (uint8 and int16 CT, float64, Fortran order, views), as
                 // float32 in C order: the values as they are (no rescaling, as the CLI reads .npy)
-                auto a = checked_array<float>(voxels, "Scene.add_volume", "voxels", {-1, -1, -1}, true,
-                                              "a real array of shape (z, y, x)");
+                auto a = checked_array<float>(voxels, "Scene.add_volume", "voxels", {-1, -1, -1}, "a real array of shape (z, y, x)");
                 if (a.size() == 0) throw py::value_error("Scene.add_volume: voxels: empty array " + shape_of(a));
                 auto volume = std::make_shared<Volume>();
                 volume->dims = {int(a.shape(2)), int(a.shape(1)), int(a.shape(0))};  // x fastest: C order (z, y, x)
@@ -329,13 +323,10 @@ PYBIND11_MODULE(sombra, m) {
                const py::object& transform, const std::string& name) {
                 if (s.meshes.size() >= std::size_t(limits::kMaxMeshes))
                     throw py::value_error("Scene.add_mesh: at most " + std::to_string(limits::kMaxMeshes) + " meshes per scene");
-                auto v = checked_array<float>(vertices, "Scene.add_mesh", "vertices", {-1, 3}, true, "an (N, 3) array of positions",
+                auto v = checked_array<float>(vertices, "Scene.add_mesh", "vertices", {-1, 3}, "an (N, 3) array of positions",
                                               limits::kMaxMeshVertices * 3);
-                if (py::isinstance<py::array>(triangles) && py::reinterpret_borrow<py::array>(triangles).dtype().kind() == 'f')
-                    throw py::value_error("Scene.add_mesh: triangles: expected integer vertex indices, got dtype " +
-                                          std::string(py::str(py::reinterpret_borrow<py::array>(triangles).dtype())));
-                auto t = checked_array<std::int64_t>(triangles, "Scene.add_mesh", "triangles", {-1, 3}, true,
-                                                     "an (M, 3) array of vertex indices", limits::kMaxMeshTriangles * 3);
+                auto t = checked_array<std::int64_t>(triangles, "Scene.add_mesh", "triangles", {-1, 3}, "integer vertex indices",
+                                                     limits::kMaxMeshTriangles * 3, "iu");
                 auto mesh = std::make_shared<Mesh>();
                 mesh->source = name.empty() ? "numpy mesh" : name;
                 for (py::ssize_t i = 0; i < v.shape(0); ++i) mesh->positions.push_back({v.at(i, 0), v.at(i, 1), v.at(i, 2)});
@@ -491,7 +482,7 @@ PYBIND11_MODULE(sombra, m) {
     m.def(
         "write_image",
         [](const std::string& path, const py::object& image, const py::object& background) {
-            auto a = checked_array<float>(image, "write_image", "image", {-1, -1, 4}, true, "a (height, width, 4) RGBA array",
+            auto a = checked_array<float>(image, "write_image", "image", {-1, -1, 4}, "a (height, width, 4) RGBA array",
                                           std::uint64_t(limits::kMaxImageSide) * limits::kMaxImageSide * 4);
             Image out;
             out.height = int(a.shape(0)), out.width = int(a.shape(1));

@@ -239,11 +239,16 @@ std::vector<std::string> render_option_values(const std::string& key) {
 }
 
 namespace {
-const OptionSpec& spec_of(const std::string& key) {
-    if (const OptionSpec* spec = find_render_option(key)) return *spec;
+// " (did you mean 'dsm_resolution'?)" for a misspelt key, "" when no key is close.
+std::string closest_key(const std::string& key) {
     std::vector<std::string> keys;
     for (const OptionSpec& s : render_option_specs()) keys.push_back(s.key);
-    throw Error("unknown render option '" + key + "'" + detail::did_you_mean(key, keys));
+    return detail::did_you_mean(key, keys);
+}
+
+const OptionSpec& spec_of(const std::string& key) {
+    if (const OptionSpec* spec = find_render_option(key)) return *spec;
+    throw Error("unknown render option '" + key + "'" + closest_key(key));
 }
 }  // namespace
 
@@ -265,11 +270,7 @@ RenderOptions scene_render_options(const Scene& scene) {
     for (const auto& [key, text] : scene.render_settings) {
         const std::string label = scene.source + ": render." + key;
         const OptionSpec* spec = find_render_option(key);
-        if (!spec || spec->key != key) {
-            std::vector<std::string> keys;
-            for (const OptionSpec& s : render_option_specs()) keys.push_back(s.key);
-            throw Error(scene.source + ": render: unknown key '" + key + "'" + detail::did_you_mean(key, keys));
-        }
+        if (!spec || spec->key != key) throw Error(scene.source + ": render: unknown key '" + key + "'" + closest_key(key));
         const nlohmann::json v = nlohmann::json::parse(text);
         OptionValue value;
         if (v.is_boolean()) value = v.get<bool>();

@@ -106,7 +106,7 @@ std::uint64_t read_us(Cursor& c, const Element& e, const char* name) {
     return c.get<std::uint16_t>(name);
 }
 
-// A short code string (CS), its padding trimmed.
+// A short string value (CS, IS), its padding trimmed.
 std::string read_code(Cursor& c, const Element& e, const char* name) {
     if (e.length > 64) c.fail(tag_name(e.tag) + " " + name, "longer than a code string");
     std::string s(e.length, '\0');
@@ -117,10 +117,7 @@ std::string read_code(Cursor& c, const Element& e, const char* name) {
 
 std::uint64_t read_frames(Cursor& c, const Element& e) {
     if (e.length > 16) c.fail(tag_name(e.tag) + " NumberOfFrames", "longer than an integer string");
-    std::string s(e.length, '\0');
-    c.read(s.data(), s.size(), "NumberOfFrames");
-    const std::size_t a = s.find_first_not_of(" \0", 0, 2), b = s.find_last_not_of(" \0", std::string::npos, 2);
-    const std::string digits = a == std::string::npos ? "" : s.substr(a, b - a + 1);
+    const std::string digits = read_code(c, e, "NumberOfFrames");
     if (digits.empty() || digits.find_first_not_of("0123456789") != std::string::npos || digits.size() > 9)
         c.fail("(0028,0008) NumberOfFrames", "'" + digits + "' is not a positive integer");
     return std::stoull(digits);

@@ -70,7 +70,6 @@ std::vector<std::array<float, 3>> scene_box_corners(const packing::PackedScene& 
 
 std::vector<DsmViewGpu> make_dsm_views(const Scene& scene, const packing::PackedScene& packed, int resolution,
                                        std::vector<DsmLightViews>* light_views) {
-    if (resolution < 1 || resolution > 8192) throw Error("--dsm-res: must lie in [1, 8192]");
     auto corners = scene_box_corners(packed, scene);
     std::vector<DsmViewGpu> views;
     for (std::size_t li = 0; li < scene.lights.size(); ++li) {

@@ -46,7 +46,6 @@ DsmViewGpu focused_dsm_view(const clustering::FocusedView& f, int resolution) {
 
 ClusteredViews make_clustered_views(const Scene& scene, int resolution,
                                     const clustering::ClusterOptions& options) {
-    if (resolution < 1 || resolution > 8192) throw Error("--dsm-res: must lie in [1, 8192]");
     ClusteredViews out;
     out.objects = clustering::scene_objects(scene);
     out.lights = clustering::cluster_lights(scene, options);

@@ -10,10 +10,12 @@
 
 namespace sombra::techniques {
 
-const std::vector<ShadowTechnique>& dsm_techniques() {
+namespace {
+const std::vector<ShadowTechnique>& dsm_techniques() {  // the techniques that read the maps
     static const std::vector<ShadowTechnique> techniques{ShadowTechnique::Dsm, ShadowTechnique::ShadowMap};
     return techniques;
 }
+}  // namespace
 
 // The options of DsmOptions (render.h): every one keys the maps (dsm and shadowmap read the same
 // maps: the technique does not), except the hysteresis, which only decides which clusters stay.
@@ -93,14 +95,13 @@ void DeepShadowMaps::plan_lights(const Scene& scene, const packing::PackedScene&
         views_ = clusters_->views;
         meshes_ = clusters_->meshes;
         light_views_ = clusters_->light_views;
-        light_views_buffer_ = cl::Buffer();
     } else {
         clusters_.reset();
         light_views_.clear();
-        light_views_buffer_ = cl::Buffer();
         views_ = shadows::make_dsm_views(scene, packed, options.dsm.resolution, &light_views_);
         meshes_.clear();
     }
+    light_views_buffer_ = cl::Buffer();  // uploaded anew at the next bind
 }
 
 void DeepShadowMaps::prepare(const SceneOnDevice& s, RenderStats& stats) {

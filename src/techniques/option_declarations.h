@@ -89,6 +89,5 @@ void add_option_keys(const std::vector<OptionSpec>& specs, const RenderOptions& 
 const std::vector<OptionSpec>& dsm_option_specs();
 const std::vector<OptionSpec>& sat_option_specs();
 const std::vector<OptionSpec>& ray_option_specs();
-const std::vector<ShadowTechnique>& dsm_techniques();  // dsm, shadowmap
 
 }  // namespace sombra::techniques
