@@ -335,9 +335,13 @@ void check_tiff_pages(const std::string& path) {
             throw file_error(path, "pages", "page " + std::to_string(page) + " declares " + std::to_string(entries) +
                                                 " entries, more than the file holds");
         TiffPage p;
+        // one entry per tag (TIFF 6.0 §2): of a BitsPerSample given twice, libtiff and ITK took different ones
+        std::set<std::uint64_t> tags;
         for (std::uint64_t e = 0; e < entries; ++e) {
             const std::uint64_t at = next + std::uint64_t(count_bytes) + e * std::uint64_t(entry_bytes);
             const std::uint64_t tag = f.read(at, 2, "a tag"), type = f.read(at + 2, 2, "a tag type");
+            if (!tags.insert(tag).second)
+                throw file_error(path, "pages", "page " + std::to_string(page) + " gives tag " + std::to_string(tag) + " twice");
             if (!tiff_type_allowed(tag, type))
                 throw file_error(path, "pages", "page " + std::to_string(page) + " tag " + std::to_string(tag) +
                                                     " has type " + std::to_string(type) + ", which TIFF 6.0 does not allow for it");
