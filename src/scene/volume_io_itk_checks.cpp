@@ -20,6 +20,7 @@
 #include <sstream>
 
 #include "scene/input_file.h"
+#include "sombra/limits.h"
 
 namespace sombra::volume_io {
 namespace {
@@ -374,6 +375,13 @@ void check_tiff_pages(const std::string& path) {
             else if (tag == 277) p.samples = value;
             else if (tag == 339) p.format = value;
         }
+        // sizes within the voxel limit before libtiff sizes its strip tables by them (an ImageLength of
+        // 4·10⁹ had it allocate one entry per strip of 2 rows)
+        if (p.width == 0 || p.length == 0 || p.width > limits::kMaxVolumeVoxels || p.length > limits::kMaxVolumeVoxels ||
+            p.width * p.length > limits::kMaxVolumeVoxels / (page + 1))
+            throw file_error(path, "pages", "page " + std::to_string(page) + " is " + p.describe() + ": " +
+                                                std::to_string(page + 1) + " such pages pass the limit of " +
+                                                std::to_string(limits::kMaxVolumeVoxels) + " voxels (or a size is 0)");
         if (page == 0) first = p;
         else if (!(p == first))
             throw file_error(path, "pages", "page " + std::to_string(page) + " is " + p.describe() + ", page 0 " +
