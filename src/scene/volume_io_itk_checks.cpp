@@ -338,6 +338,7 @@ void check_tiff_pages(const std::string& path) {
         TiffPage p;
         // one entry per tag (TIFF 6.0 §2): of a BitsPerSample given twice, libtiff and ITK took different ones
         std::set<std::uint64_t> tags;
+        std::uint64_t offsets = 0, byte_counts = 0, compression = 1;  // strips or tiles, and how they are packed
         for (std::uint64_t e = 0; e < entries; ++e) {
             const std::uint64_t at = next + std::uint64_t(count_bytes) + e * std::uint64_t(entry_bytes);
             const std::uint64_t tag = f.read(at, 2, "a tag"), type = f.read(at + 2, 2, "a tag type");
@@ -369,12 +370,24 @@ void check_tiff_pages(const std::string& path) {
             const int value_bytes = type == 3 ? 2 : type == 4 ? 4 : type == 16 ? 8 : offset_bytes;  // SHORT, LONG, LONG8
             std::uint64_t value = f.read(at + 4 + std::uint64_t(big ? 8 : 4), value_bytes, "a tag value");
             if (count != 1) value = (std::uint64_t(1) << 63) | count;  // a list (one per sample): compared by its length
+            if (tag == 273 || tag == 324) offsets = count;
+            else if (tag == 279 || tag == 325) byte_counts = count;
+            else if (tag == 259) compression = value;
             if (tag == 256) p.width = value;
             else if (tag == 257) p.length = value;
             else if (tag == 258) p.bits = value;
             else if (tag == 277) p.samples = value;
             else if (tag == 339) p.format = value;
         }
+        // where the pixels are: libtiff read a page without StripOffsets through a null table; and
+        // only the lossless codecs of baseline TIFF and its common extensions (none, LZW, Deflate,
+        // PackBits), not old-style JPEG and the rest, whose decoders fuzzers keep breaking
+        if (offsets == 0 || offsets != byte_counts)
+            throw file_error(path, "pages", "page " + std::to_string(page) + " has " + std::to_string(offsets) + " strip offsets and " +
+                                                std::to_string(byte_counts) + " byte counts (needs as many, at least one)");
+        if (compression != 1 && compression != 5 && compression != 8 && compression != 32773 && compression != 32946)
+            throw file_error(path, "pages", "page " + std::to_string(page) + " has compression " + std::to_string(compression) +
+                                                " (sombra reads none, LZW, Deflate and PackBits)");
         // sizes within the voxel limit before libtiff sizes its strip tables by them (an ImageLength of
         // 4·10⁹ had it allocate one entry per strip of 2 rows)
         if (p.width == 0 || p.length == 0 || p.width > limits::kMaxVolumeVoxels || p.length > limits::kMaxVolumeVoxels ||
