@@ -308,7 +308,7 @@ Volume read_file(const std::string& path, ItkFormat format, const VolumeLoadOpti
     // the error. libtiff, libjpeg and OpenJPEG print to stderr: kept from the user too.
     detail::StderrCapture capture;
     if (format == ItkFormat::dicom) check_dicom_file(path);
-    if (format == ItkFormat::tiff) check_tiff_pages(path);
+    if (format == ItkFormat::tiff) check_tiff_pages(path, options.max_voxels);
     // the bytes the voxels can come from: this file, or the data files a detached header names
     const std::uint64_t input_bytes = format == ItkFormat::nrrd || format == ItkFormat::metaimage
                                           ? check_detached_header(path, format == ItkFormat::nrrd)

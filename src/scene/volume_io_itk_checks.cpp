@@ -20,7 +20,6 @@
 #include <sstream>
 
 #include "scene/input_file.h"
-#include "sombra/limits.h"
 
 namespace sombra::volume_io {
 namespace {
@@ -315,7 +314,7 @@ std::uint64_t check_detached_header(const std::string& header, bool nrrd) {
     return nrrd ? check_nrrd(header, bytes) : check_metaimage(header, bytes);
 }
 
-void check_tiff_pages(const std::string& path) {
+void check_tiff_pages(const std::string& path, std::uint64_t max_voxels) {
     TiffBytes f(path, detail::regular_file_size(path));
     const std::uint64_t order = f.read(0, 2, "the byte-order mark");
     if (order != 0x4949 && order != 0x4d4d) throw file_error(path, "header", "not a TIFF file (no II or MM byte-order mark)");
@@ -388,13 +387,17 @@ void check_tiff_pages(const std::string& path) {
         if (compression != 1 && compression != 5 && compression != 8 && compression != 32773 && compression != 32946)
             throw file_error(path, "pages", "page " + std::to_string(page) + " has compression " + std::to_string(compression) +
                                                 " (sombra reads none, LZW, Deflate and PackBits)");
+        // grey: ITK sized its scanline buffers by SamplesPerPixel (30,977 of them asked for gigabytes)
+        if (p.samples != 1)
+            throw file_error(path, "pages", "page " + std::to_string(page) + " has " + std::to_string(p.samples & ~(std::uint64_t(1) << 63)) +
+                                                " samples per pixel (colour or vector data); expected one (grey)");
         // sizes within the voxel limit before libtiff sizes its strip tables by them (an ImageLength of
         // 4·10⁹ had it allocate one entry per strip of 2 rows)
-        if (p.width == 0 || p.length == 0 || p.width > limits::kMaxVolumeVoxels || p.length > limits::kMaxVolumeVoxels ||
-            p.width * p.length > limits::kMaxVolumeVoxels / (page + 1))
+        if (p.width == 0 || p.length == 0 || p.width > max_voxels || p.length > max_voxels ||
+            p.width * p.length > max_voxels / (page + 1))
             throw file_error(path, "pages", "page " + std::to_string(page) + " is " + p.describe() + ": " +
                                                 std::to_string(page + 1) + " such pages pass the limit of " +
-                                                std::to_string(limits::kMaxVolumeVoxels) + " voxels (or a size is 0)");
+                                                std::to_string(max_voxels) + " voxels (or a size is 0)");
         if (page == 0) first = p;
         else if (!(p == first))
             throw file_error(path, "pages", "page " + std::to_string(page) + " is " + p.describe() + ", page 0 " +

@@ -16,9 +16,11 @@ namespace sombra::volume_io {
 std::uint64_t check_detached_header(const std::string& header, bool nrrd);
 
 // Walks a TIFF's (or BigTIFF's) chain of image directories: throws "FILE: pages: …" for a loop,
-// an offset or entry table past the end of the file, more than 65,536 pages, or a page whose
+// an offset or entry table past the end of the file, more than 65,536 pages, a tag given twice,
+// a page without strips, with a codec other than none/LZW/Deflate/PackBits, with more than one
+// sample per pixel or more voxels (with the pages before it) than max_voxels, or a page whose
 // size, samples, bits or sample format differ from the first page's.
-void check_tiff_pages(const std::string& path);
+void check_tiff_pages(const std::string& path, std::uint64_t max_voxels);
 
 // Walks a DICOM Part 10 file's data elements before GDCM parses it (volume_io_dicom_checks.cpp):
 // the "DICM" preamble and file meta group, an uncompressed transfer syntax (implicit or explicit VR
