@@ -29,19 +29,21 @@ def meta(syntax):
     return b"\0" * 128 + b"DICM" + element(2, 0x0000, "UL", struct.pack("<I", len(body))) + body
 
 
-def image(rows=3, columns=4, syntax=EXPLICIT, pixels=None, pixel_length=None, extra=b""):
-    """A 16-bit grey image, rows x columns; `pixels` replaces the pixel bytes, `pixel_length` their length."""
+def image(rows=3, columns=4, syntax=EXPLICIT, pixels=None, pixel_length=None, extra=b"", photometric=b"MONOCHROME2 ",
+          bits_stored=16):
+    """A 16-bit grey image, rows x columns; `pixels` replaces the pixel bytes, `pixel_length` their length;
+    `photometric` and `bits_stored` the values of (0028,0004) and (0028,0101)."""
     x = syntax != IMPLICIT
     data = pixels if pixels is not None else struct.pack("<%dh" % (rows * columns), *range(rows * columns))
     body = element(0x0008, 0x0060, "CS", b"OT", x)
+    body += extra  # elements of group 0008 after (0008,0060), in tag order
     body += element(0x0020, 0x0032, "DS", b"0\\0\\0 ", x) + element(0x0020, 0x0037, "DS", b"1\\0\\0\\0\\1\\0 ", x)
-    body += extra
     body += element(0x0028, 0x0002, "US", struct.pack("<H", 1), x)
-    body += element(0x0028, 0x0004, "CS", b"MONOCHROME2 ", x)
+    body += element(0x0028, 0x0004, "CS", photometric, x)
     body += element(0x0028, 0x0010, "US", struct.pack("<H", rows), x)
     body += element(0x0028, 0x0011, "US", struct.pack("<H", columns), x)
     body += element(0x0028, 0x0030, "DS", b"1\\1 ", x)
-    body += element(0x0028, 0x0100, "US", struct.pack("<H", 16), x) + element(0x0028, 0x0101, "US", struct.pack("<H", 16), x)
+    body += element(0x0028, 0x0100, "US", struct.pack("<H", 16), x) + element(0x0028, 0x0101, "US", struct.pack("<H", bits_stored), x)
     body += element(0x0028, 0x0102, "US", struct.pack("<H", 15), x) + element(0x0028, 0x0103, "US", struct.pack("<H", 1), x)
     body += element(0x7FE0, 0x0010, "OW", data, x, pixel_length)
     return meta(syntax) + body

@@ -62,6 +62,13 @@ for name, syntax in (("jpeg-garbage.dcm", "1.2.840.10008.1.2.4.50"), ("jpeg2000-
     put("dicom", name, dicom_bytes.image(syntax=syntax, pixels=fragments, pixel_length=0xFFFFFFFF))
 # pixel data of 4 bytes for a 3 x 4 16-bit image (24 bytes)
 put("dicom", "short-pixels.dcm", dicom_bytes.image(pixels=b"\1\0\2\0"))
+# 8-bit pixels with 1 bit stored, MONOCHROME1 (GDCM's general decoder asserts that 8-bit pixels store
+# all 8 bits; the fuzzer found it with an empty PhotometricInterpretation: bits-stored-1-of-8.dcm)
+eight_bit = patch(dicom_bytes.image(photometric=b"MONOCHROME1 ", bits_stored=1), struct.pack("<HH", 0x28, 0x100) + b"US" +
+                  struct.pack("<HH", 2, 16), struct.pack("<HH", 0x28, 0x100) + b"US" + struct.pack("<HH", 2, 8))
+eight_bit = patch(eight_bit, struct.pack("<HH", 0x28, 0x102) + b"US" + struct.pack("<HH", 2, 15),
+                  struct.pack("<HH", 0x28, 0x102) + b"US" + struct.pack("<HH", 2, 0))
+put("dicom", "monochrome1-bits-stored-1-of-8.dcm", eight_bit)
 
 # --- deep EXR: sombra's own 8 x 8 map (fuzz/corpus/deep_exr) cut inside its sample data ---
 seed = os.path.join(ROOT, "fuzz", "corpus", "deep_exr", "dsm_8x8.exr")

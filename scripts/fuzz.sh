@@ -10,10 +10,7 @@ cd "$(dirname "$0")/.."
 seconds=${1:-60}
 shift || true
 names=("$@")
-# dicom and deep_exr are left out of the default run (CI's): GDCM's codecs and OpenImageIO's EXR
-# header code still abort on inputs our walks let through (fuzz/known-crashes/); name them to run
-# them (scripts/fuzz.sh 600 dicom deep_exr). Their regressions are replayed by ctest as the others.
-[ ${#names[@]} -gt 0 ] || names=(nifti nifti_gz npy npz den inr vtk raw mesh_ply mesh_obj scene points nrrd metaimage tiff vdb)
+[ ${#names[@]} -gt 0 ] || names=(nifti nifti_gz npy npz den inr vtk raw mesh_ply mesh_obj scene points nrrd metaimage tiff vdb dicom deep_exr)
 # Harnesses that run ITK's readers: ITK 5.2 leaks on its own error paths (NrrdIO's gzip reader,
 # TIFFImageIO's strip buffer: a few hundred bytes per refused file, found in the first seconds), so
 # for them leaks are not findings; crashes, sanitizer reports, hangs and big allocations still are.

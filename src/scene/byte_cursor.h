@@ -35,6 +35,12 @@ public:
         in_.seekg(std::streamoff(n), std::ios::cur);
         at_ += n;
     }
+    void seek(std::uint64_t offset, const char* field) {  // to an absolute offset inside the file
+        if (offset > size_) fail(field, "an offset of " + std::to_string(offset) + " past the file's end (" + std::to_string(size_) + " bytes)");
+        in_.clear();
+        in_.seekg(std::streamoff(offset), std::ios::beg);
+        at_ = offset;
+    }
     void rewind(std::uint64_t n) {  // back over bytes just read
         in_.seekg(-std::streamoff(n), std::ios::cur);
         at_ -= n;

@@ -181,13 +181,22 @@ void walk_value(Cursor& c, const Element& e, bool explicit_vr, std::uint64_t end
     c.skip(e.length, "value");
 }
 
+// A data set's elements, in increasing tag order, each once (PS3.5 §7.1): GDCM keeps the first of
+// a repeated tag, a walk that read the last would check another value than GDCM uses.
 void walk_elements(Cursor& c, bool explicit_vr, std::uint64_t end, int depth, bool delimited, ImageFields* image) {
-    while (delimited || c.at() < end) {
+    std::uint32_t previous = 0;
+    for (bool first = true; delimited || c.at() < end; first = false) {
         const Element e = read_element(c, explicit_vr);
         if (e.tag.group == 0xFFFE) {
             if (delimited && e.tag.is(0xFFFE, 0xE00D) && e.length == 0) return;
             c.fail(tag_name(e.tag), "an item or delimiter where a data element belongs");
         }
+        const std::uint32_t tag = std::uint32_t(e.tag.group) << 16 | e.tag.element;
+        if (!first && tag <= previous)
+            c.fail(tag_name(e.tag), "after " + tag_name(Tag{std::uint16_t(previous >> 16), std::uint16_t(previous & 0xFFFF)}) +
+                                        ": elements must appear once each, in increasing tag order");
+        if (depth == 0 && e.tag.group == 0x0002) c.fail(tag_name(e.tag), "a file meta element inside the data set");
+        previous = tag;
         walk_value(c, e, explicit_vr, end, depth, image);
     }
     if (c.at() != end) c.fail("item", "its elements overrun its length");
@@ -255,10 +264,17 @@ void check_image(Cursor& c, const ImageFields& f) {
         c.fail("(0028,0100) BitsAllocated", std::to_string(f.bits) + " (sombra reads 8, 16 or 32)");
     if (f.samples != 1) c.fail("(0028,0002) SamplesPerPixel", std::to_string(f.samples) + " (expected 1: grey)");
     // grey values only: a palette's indices are no densities (and GDCM asserts on a missing palette)
-    if (!f.photometric.empty() && f.photometric != "MONOCHROME1" && f.photometric != "MONOCHROME2")
-        c.fail("(0028,0004) PhotometricInterpretation", "'" + f.photometric + "' (sombra reads MONOCHROME1 or MONOCHROME2)");
+    // (GDCM asserts on a missing or empty one: its decoders start from a known interpretation)
+    if (f.photometric != "MONOCHROME1" && f.photometric != "MONOCHROME2")
+        c.fail("(0028,0004) PhotometricInterpretation",
+               (f.photometric.empty() ? std::string("missing or empty") : "'" + f.photometric + "'") +
+                   " (sombra reads MONOCHROME1 or MONOCHROME2)");
     if (f.has_bits_stored && (f.bits_stored < 1 || f.bits_stored > f.bits))
         c.fail("(0028,0101) BitsStored", std::to_string(f.bits_stored) + " (1 … BitsAllocated " + std::to_string(f.bits) + ")");
+    // GDCM clears unused high bits of 16- and 32-bit pixels only; for 8-bit ones it asserts that all
+    // 8 are stored (ImageCodec::DecodeByStreams)
+    if (f.has_bits_stored && f.bits == 8 && f.bits_stored != 8)
+        c.fail("(0028,0101) BitsStored", std::to_string(f.bits_stored) + " of BitsAllocated 8 (8-bit pixels must store all 8 bits)");
     if (f.has_high_bit && f.high_bit >= f.bits)
         c.fail("(0028,0102) HighBit", std::to_string(f.high_bit) + " (below BitsAllocated " + std::to_string(f.bits) + ")");
     if (f.frames < 1 || f.frames > kMaxFrames)

@@ -15,6 +15,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -22,6 +23,7 @@
 #include "scene/byte_cursor.h"
 #include "scene/input_file.h"
 #include "sombra/error.h"
+#include "sombra/limits.h"
 #include "sombra/shadows.h"
 
 namespace sombra {
@@ -82,35 +84,132 @@ void check_exr_value(detail::ByteCursor& c, const std::string& name, const std::
         c.fail(field, "a value of " + std::to_string(c.at() - start) + " bytes, declared " + std::to_string(size));
 }
 
+// The header values the chunk walk needs, kept as the header walk passes them.
+struct ExrLayout {
+    std::string type;                    // "deepscanline", "deeptile", "scanlineimage", … ("" if absent)
+    int compression = -1;                // 0 none, 1 rle, 2 zips, …
+    std::int32_t box[4] = {0, 0, -1, -1};  // dataWindow: xmin, ymin, xmax, ymax
+    std::int64_t chunk_count = -1;       // -1: not given
+    std::uint64_t sample_bytes = 0;      // bytes per deep sample: the channels' sizes summed
+    bool has_data_window = false;
+};
+
+// Keeps the values of the attributes the chunk walk needs (their bytes were just checked).
+void keep_exr_value(detail::ByteCursor& c, const std::string& name, const std::string& type, std::uint64_t size,
+                    ExrLayout& layout) {
+    static const std::pair<const char*, const char*> kKept[] = {
+        {"type", "string"}, {"compression", "compression"}, {"dataWindow", "box2i"}, {"chunkCount", "int"}, {"channels", "chlist"}};
+    const auto kept = std::find_if(std::begin(kKept), std::end(kKept), [&](const auto& k) { return name == k.first; });
+    if (kept == std::end(kKept)) return;
+    if (type != kept->second) c.fail("attribute " + name, "of type " + type + " (OpenEXR's is " + kept->second + ")");
+    c.rewind(size);
+    std::string bytes(size, '\0');
+    c.read(bytes.data(), size, name.c_str());
+    auto int32_at = [&](std::size_t at) {
+        std::int32_t v;
+        std::memcpy(&v, bytes.data() + at, 4);
+        return v;
+    };
+    if (name == "type") layout.type = bytes.substr(0, bytes.find('\0'));
+    if (name == "compression") layout.compression = static_cast<unsigned char>(bytes[0]);
+    if (name == "chunkCount" && size == 4) layout.chunk_count = int32_at(0);
+    if (name == "dataWindow" && size == 16) {
+        for (int i = 0; i < 4; ++i) layout.box[i] = int32_at(std::size_t(i) * 4);
+        layout.has_data_window = true;
+    }
+    if (name == "channels")  // name NUL, pixel type, pLinear + 3 reserved, x and y sampling (walked already)
+        for (std::size_t at = 0; at < bytes.size() && bytes[at] != '\0';) {
+            at = bytes.find('\0', at) + 1;
+            if (at == 0 || at + 16 > bytes.size()) c.fail("attribute channels", "a channel cut short");
+            layout.sample_bytes += int32_at(at) == 1 ? 2 : 4;  // HALF 2 bytes; UINT and FLOAT 4
+            at += 16;
+        }
+}
+
 // OpenEXR's header walked before OpenEXR reads it (its attribute sizes come from the file, and
 // OpenEXR allocates them as given): the magic number, then each header's attributes — name, type,
 // a value of its declared size, read as OpenEXR reads its type — up to the NUL that ends it
-// (OpenEXR file layout, "Header").
-void check_exr_header(const std::string& path, std::uint64_t size) {
-    detail::ByteCursor c(path, size);
+// (OpenEXR file layout, "Header"). Returns the values the chunk walk needs; the cursor stands at
+// the offset table.
+ExrLayout check_exr_header(detail::ByteCursor& c) {
     c.where = "OpenEXR header: ";
     if (c.get<std::uint32_t>("magic number") != 20000630u) c.fail("magic number", "not a deep OpenEXR file (not OpenEXR at all)");
     const std::uint32_t version = c.get<std::uint32_t>("version");
     const std::size_t max_name = (version & 0x400u) ? 255 : 31;  // bit 10: long names
-    const bool multipart = (version & 0x1000u) != 0;
-    for (int header = 0; header < 1024; ++header) {
-        std::string name = exr_name(c, max_name, "attribute name");
-        if (name.empty()) {  // the end of this header; a multi-part file ends its list with an empty header
-            if (!multipart || header > 0) return;
-            c.fail("header", "a multi-part file with no part");
-        }
-        for (int attribute = 0; !name.empty(); ++attribute) {
-            if (attribute == 4096) c.fail("attributes", "more than 4096 in one header");
-            const std::string type = exr_name(c, max_name, ("attribute " + name + " type").c_str());
-            const std::int32_t length = c.get<std::int32_t>("attribute size");
-            if (length < 0) c.fail("attribute " + name, "a negative size");
-            c.need(std::uint64_t(length), "attribute " + name);
-            check_exr_value(c, name, type, std::uint64_t(length), max_name);
-            name = exr_name(c, max_name, "attribute name");
-        }
-        if (!multipart) return;
+    if (version & 0x1000u)  // bit 12: multi-part
+        c.fail("version", "a multi-part file: sombra reads single-part scanline deep OpenEXR (what it writes)");
+    ExrLayout layout;
+    std::string name = exr_name(c, max_name, "attribute name");
+    for (int attribute = 0; !name.empty(); ++attribute) {
+        if (attribute == 4096) c.fail("attributes", "more than 4096 in one header");
+        const std::string type = exr_name(c, max_name, ("attribute " + name + " type").c_str());
+        const std::int32_t length = c.get<std::int32_t>("attribute size");
+        if (length < 0) c.fail("attribute " + name, "a negative size");
+        c.need(std::uint64_t(length), "attribute " + name);
+        check_exr_value(c, name, type, std::uint64_t(length), max_name);
+        keep_exr_value(c, name, type, std::uint64_t(length), layout);
+        name = exr_name(c, max_name, "attribute name");
     }
-    c.fail("headers", "more than 1024 parts");
+    return layout;
+}
+
+// The most a compressed block can expand: zlib's deflate (zips) at most 1032:1; OpenEXR's RLE
+// 64:1 (a run of up to 128 bytes in 2); none: stored as is.
+std::uint64_t max_expansion(int compression) { return compression == 2 ? 1032 : compression == 1 ? 64 : 1; }
+
+// The chunks of a single-part scanline deep file walked before OpenEXR reads them (OpenEXR
+// allocates each chunk's packed sizes as the chunk declares them): the offset table, then at each
+// offset the chunk's line, its packed sample-count table, packed and unpacked data sizes — inside
+// the file, each line once, and no more data than its codec can give (OpenEXR file layout,
+// "Deep Scan Line Chunk").
+void check_exr_chunks(detail::ByteCursor& c, const ExrLayout& layout) {
+    c.where = "OpenEXR chunks: ";
+    if (layout.type != "deepscanline")
+        c.fail("type", layout.type == "deeptile"
+                           ? std::string("deep tiled: sombra reads scanline deep OpenEXR (what it writes, and what Nuke reads)")
+                           : "not a deep OpenEXR file (type \"" + layout.type + "\")");
+    if (layout.compression < 0 || layout.compression > 2)
+        c.fail("compression", "deep OpenEXR allows none, rle and zips, got code " + std::to_string(layout.compression));
+    if (!layout.has_data_window) c.fail("dataWindow", "missing");
+    const std::int64_t width = std::int64_t(layout.box[2]) - layout.box[0] + 1, height = std::int64_t(layout.box[3]) - layout.box[1] + 1;
+    if (width < 1 || height < 1 || width > limits::kMaxImageSide || height > limits::kMaxImageSide)
+        c.fail("dataWindow", std::to_string(width) + " × " + std::to_string(height) + " pixels (each side in [1, " +
+                                 std::to_string(limits::kMaxImageSide) + "])");
+    if (layout.chunk_count >= 0 && layout.chunk_count != height)
+        c.fail("chunkCount", std::to_string(layout.chunk_count) + ", the data window has " + std::to_string(height) + " lines");
+    if (layout.sample_bytes == 0) c.fail("channels", "none");
+
+    std::vector<std::uint64_t> offsets(std::size_t(height), 0);
+    c.read(offsets.data(), offsets.size() * sizeof(std::uint64_t), "offset table");
+    const std::uint64_t table_end = c.at(), file_size = c.at() + c.left();
+    const std::uint64_t count_table_bytes = std::uint64_t(width) * 4;  // one line per chunk
+    std::vector<bool> line_seen(std::size_t(height), false);
+    for (std::size_t chunk = 0; chunk < offsets.size(); ++chunk) {
+        const std::string field = "chunk " + std::to_string(chunk);
+        const std::uint64_t offset = offsets[chunk];
+        if (offset < table_end || offset > file_size || file_size - offset < 28)
+            c.fail(field, "offset " + std::to_string(offset) + " outside the file's data (" + std::to_string(table_end) + " to " +
+                              std::to_string(file_size) + " bytes)");
+        c.seek(offset, field.c_str());
+        const std::int32_t y = c.get<std::int32_t>(field.c_str());
+        const std::uint64_t packed_table = c.get<std::uint64_t>(field.c_str()), packed_data = c.get<std::uint64_t>(field.c_str()),
+                            unpacked_data = c.get<std::uint64_t>(field.c_str());
+        if (y < layout.box[1] || y > layout.box[3] || line_seen[std::size_t(std::int64_t(y) - layout.box[1])])
+            c.fail(field, "line " + std::to_string(y) + " outside the data window or given twice");
+        line_seen[std::size_t(std::int64_t(y) - layout.box[1])] = true;
+        if (packed_table > count_table_bytes)
+            c.fail(field, "a sample-count table of " + std::to_string(packed_table) + " bytes (a line has " +
+                              std::to_string(count_table_bytes) + ")");
+        c.need(packed_table, field + " sample-count table");
+        c.skip(packed_table, field.c_str());
+        c.need(packed_data, field + " data");
+        if (packed_data > unpacked_data || unpacked_data > packed_data * max_expansion(layout.compression))
+            c.fail(field, std::to_string(packed_data) + " packed bytes cannot give " + std::to_string(unpacked_data) +
+                              " unpacked ones with this compression");
+        if (unpacked_data % layout.sample_bytes != 0)
+            c.fail(field, "unpacked data of " + std::to_string(unpacked_data) + " bytes, not whole samples of " +
+                              std::to_string(layout.sample_bytes) + " bytes");
+    }
 }
 
 constexpr const char* kLightAttribute = "sombra:light";
@@ -250,7 +349,10 @@ void write_deep_exr(const DeepShadowMap& map, const std::string& path) {
 
 DeepShadowMap read_deep_exr(const std::string& path) {
     // a regular file (never a FIFO or device, which would block), noted as an input
-    check_exr_header(path, detail::regular_file_size(path));
+    {
+        detail::ByteCursor c(path, detail::regular_file_size(path));
+        check_exr_chunks(c, check_exr_header(c));
+    }
     auto in = OIIO::ImageInput::open(path);
     if (!in) {
         std::string why = OIIO::geterror();
