@@ -13,6 +13,7 @@
 #include "shared/types.h"
 #include "shared/hash.h"
 #include "shared/compress.h"
+#include "shared/dsm_value.h"
 #include "lanes.h"
 #include "volume_sample.h"
 #include "traversal.h"
@@ -22,6 +23,13 @@
 /* A ray stops once its transmittance falls below this: V(z) is then within 10⁻⁴ of 1. */
 #define DSM_TERMINATION_TRANSMITTANCE 1e-4f
 
+/* What a lane's compressor is fed (shared/dsm_value.h): its accumulated opacity, or its optical depth. */
+#ifdef SOMBRA_DSM_OPTICAL_DEPTH
+#define DSM_LANE_VALUE(lane) optical_depth[lane]
+#else
+#define DSM_LANE_VALUE(lane) (1.0f - transmittance[lane])
+#endif
+
 #ifdef SOMBRA_HAS_MESHES
 /* A surface fragment the cursor handed over at its depth (traversal.h), in depth order with the
  * volume samples: a vertical step of its opacity a, α_acc += a (1 − α_acc), two nodes at its depth
@@ -30,10 +38,11 @@
     do {                                                                                                   \
         float a = surface_materials[screen_triangles[(f).triangle].mesh].color.w;                          \
         if (!(a > 0.0f)) break;                                                                            \
-        float before = 1.0f - transmittance[lane];                                                         \
+        float before = DSM_LANE_VALUE(lane);                                                               \
         transmittance[lane] *= 1.0f - a;                                                                   \
+        optical_depth[lane] = fmin(optical_depth[lane] + dsm_optical_depth_of(a), SOMBRA_DSM_MAX_OPTICAL_DEPTH); \
         STORE_NODES(lane, compressor_flush(&compressor[lane]));                                            \
-        STORE_NODES(lane, compressor_step(&compressor[lane], (f).depth, before, 1.0f - transmittance[lane])); \
+        STORE_NODES(lane, compressor_step(&compressor[lane], (f).depth, before, DSM_LANE_VALUE(lane)));    \
         previous_t[lane] = (f).depth;                                                                      \
     } while (0)
 #endif
@@ -84,10 +93,11 @@ DSM_GENERATION_KERNEL(VOLUME_DATA_PARAM, __global const uchar* occupancy, __glob
 
     /* per lane: the compressor, the transmittance and the previous sample's depth */
     VisibilityCompressor compressor[SOMBRA_LANES];
-    float transmittance[SOMBRA_LANES], previous_t[SOMBRA_LANES];
+    float transmittance[SOMBRA_LANES], optical_depth[SOMBRA_LANES], previous_t[SOMBRA_LANES];
     for (uint lane = 0; lane < SOMBRA_LANES; ++lane) {
         compressor_init(&compressor[lane], epsilon);
         transmittance[lane] = 1.0f;
+        optical_depth[lane] = 0.0f;
         previous_t[lane] = -INFINITY;
     }
     lfloat front[SOMBRA_VOLUME_SLOTS]; /* each volume's density at the previous point */
@@ -149,12 +159,14 @@ DSM_GENERATION_KERNEL(VOLUME_DATA_PARAM, __global const uchar* occupancy, __glob
                 uint back = (uint)rint(clamp((back_lane[lane] - table->domain_min) * table->domain_scale, 0.0f, last));
                 uint entry = table->entry_offset + front * table->size + back;
                 uint node_count = precompressed_count[entry];
-                float start_transmittance = transmittance[lane], start_t = t - step, fed_z = previous_t[lane];
+                float start_transmittance = transmittance[lane], start_depth = optical_depth[lane];
+                float start_t = t - step, fed_z = previous_t[lane];
                 for (uint j = 0; j < node_count; ++j) {
                     float z = start_t + precompressed_fraction[4 * entry + j] * step;
                     float step_alpha = precompressed_opacity[4 * entry + j];
                     transmittance[lane] = start_transmittance * (1.0f - step_alpha);
-                    STORE_NODES(lane, compressor_add(&compressor[lane], z, 1.0f - transmittance[lane], fed_z));
+                    optical_depth[lane] = fmin(start_depth + dsm_optical_depth_of(step_alpha), SOMBRA_DSM_MAX_OPTICAL_DEPTH);
+                    STORE_NODES(lane, compressor_add(&compressor[lane], z, DSM_LANE_VALUE(lane), fed_z));
                     fed_z = z;
                 }
                 previous_t[lane] = t;
@@ -165,11 +177,14 @@ DSM_GENERATION_KERNEL(VOLUME_DATA_PARAM, __global const uchar* occupancy, __glob
              * (scalar exp: the same bits as 1 lane); the opacity starts to rise at the previous point */
             float first_z = previous_t[lane];
             previous_t[lane] = t;
-            if (depth_lane[lane] != 0.0f) transmittance[lane] *= exp(-depth_lane[lane]);
-            float alpha = 1.0f - transmittance[lane];
+            if (depth_lane[lane] != 0.0f) {
+                transmittance[lane] *= exp(-depth_lane[lane]);
+                optical_depth[lane] = fmin(optical_depth[lane] + depth_lane[lane], SOMBRA_DSM_MAX_OPTICAL_DEPTH);
+            }
+            float value = DSM_LANE_VALUE(lane);
             /* empty space before the first opacity changes nothing in a compressor (compress.h) */
-            if (compressor[lane].started || alpha > 0.0f)
-                STORE_NODES(lane, compressor_add(&compressor[lane], t, alpha, first_z));
+            if (compressor[lane].started || value > 0.0f)
+                STORE_NODES(lane, compressor_add(&compressor[lane], t, value, first_z));
         }
         cursor.alive &= !(LLOAD(transmittance) < DSM_TERMINATION_TRANSMITTANCE);
     }

@@ -11,6 +11,7 @@
  * Defines: SOMBRA_PREFILTER_TENT or SOMBRA_PREFILTER_5TAP select the taps (else the 2×2 box). */
 #include "shared/types.h"
 #include "shared/prefilter.h"
+#include "shared/dsm_value.h"
 #include "lanes.h"
 #include "dsm_generation.h"
 
@@ -24,7 +25,8 @@ __constant int prefilter_taps[][4] = SOMBRA_PREFILTER_BOX_TAPS;
 #define PREFILTER_TAPS ((int)(sizeof(prefilter_taps) / sizeof(prefilter_taps[0])))
 
 /* A tap's V at depth z ≥ its last passed node (z0, a0) (z0 = −∞: none passed, V = 0), linear
- * towards its next node (fine_nodes[next], if next < end), clamped to [0, 1]. */
+ * towards its next node (fine_nodes[next], if next < end), as an opacity in [0, 1] (the nodes'
+ * values are opacities or optical depths: shared/dsm_value.h). */
 static inline float prefilter_tap_value(__global const float* fine_nodes, uint next, uint end, float z0, float a0, float z) {
     float value = a0;
     if (z0 == -INFINITY) value = 0.0f;
@@ -32,7 +34,7 @@ static inline float prefilter_tap_value(__global const float* fine_nodes, uint n
         float z1 = fine_nodes[2 * next], a1 = fine_nodes[2 * next + 1];
         value = mix(a0, a1, clamp((z - z0) / fmax(z1 - z0, 1e-30f), 0.0f, 1.0f));
     }
-    return clamp(value, 0.0f, 1.0f);
+    return DSM_NODE_OPACITY(value);
 }
 
 
@@ -86,9 +88,9 @@ DSM_GENERATION_KERNEL(__global const DsmViewGpu* views, uint view_index, float e
         }
         if (jump) { /* a vertical step, never smoothed away (as in generation) */
             STORE_NODES(0, compressor_flush(&compressor));
-            STORE_NODES(0, compressor_step(&compressor, z, before_sum / total, after_sum / total));
+            STORE_NODES(0, compressor_step(&compressor, z, DSM_NODE_VALUE(before_sum / total), DSM_NODE_VALUE(after_sum / total)));
         } else {
-            STORE_NODES(0, compressor_add(&compressor, z, after_sum / total,
+            STORE_NODES(0, compressor_add(&compressor, z, DSM_NODE_VALUE(after_sum / total),
                                           previous_z == -INFINITY ? z - fmax(fabs(z) * 1e-6f, 1e-6f) : previous_z));
         }
         previous_z = z;

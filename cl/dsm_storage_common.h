@@ -8,6 +8,7 @@
 #ifndef SOMBRA_DSM_STORAGE_COMMON_H
 #define SOMBRA_DSM_STORAGE_COMMON_H
 #include "shared/types.h"
+#include "shared/dsm_value.h"
 #include "lanes.h"
 
 #define DSM_TILE_SIZE 8 /* texels per side of a tile (Knecht §4.1.1, Hadwiger Fig. 1) */
@@ -107,7 +108,7 @@ typedef struct {
         float r_ = mix(n0_.y, n1_.y, clamp(((z) - n0_.x) / fmax(n1_.x - n0_.x, 1e-30f), 0.0f, 1.0f)); \
         r_ = lo_ == (count) ? n0_.y : r_; /* after the last node (none: 0) */                        \
         r_ = lo_ == 0 ? 0.0f : r_;        /* before the first */                                      \
-        (result) = clamp(r_, 0.0f, 1.0f);                                                              \
+        (result) = DSM_NODE_OPACITY(r_); /* shared/dsm_value.h: α, or 1 − exp(−τ) */                   \
     } while (0)
 
 #endif

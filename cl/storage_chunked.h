@@ -138,7 +138,7 @@ static inline float dsm_texel_opacity(DSM_READ_PARAMS, __global const DsmViewGpu
     }
     hint->texel = texel;
     hint->node = (int)slot;
-    return clamp(alpha, 0.0f, 1.0f);
+    return DSM_NODE_OPACITY(alpha);
 }
 
 #endif

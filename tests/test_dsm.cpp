@@ -1,5 +1,6 @@
 // Deep shadow maps: generation against a CPU reference, transmittance against the brute-force
 // reference for every light type, ε extremes, stiff cases, deep EXR export.
+#include <functional>
 #include <OpenImageIO/imagebuf.h>
 #include <OpenImageIO/imagebufalgo.h>
 #include <catch2/catch.hpp>
@@ -114,9 +115,40 @@ TEST_CASE("DSM and shadow-ray transmittance against the brute-force reference, e
     }
 }
 
+TEST_CASE("relative DSM bound with every storage, pre-filter and pre-compression: near the reference, never darker by ε", "[dsm]") {
+    auto points = random_points(300, 0.45f, 23);
+    for (LightType type : {LightType::Spot, LightType::Point}) {
+        Scene s = smoke_scene(type);
+        RenderOptions absolute = dsm_options(64, 0.01f);
+        const Errors a = against_reference(s, points, shadow_transmittance(test::context(), s, 0, points, absolute).transmittance);
+        struct Variant {
+            const char* name;
+            std::function<void(RenderOptions&)> set;
+        };
+        const Variant variants[] = {{"atlas", [](RenderOptions&) {}},
+                                    {"chunked", [](RenderOptions& o) { o.dsm.storage = "chunked"; }},
+                                    {"compact native", [](RenderOptions& o) { o.dsm.storage = "compact", o.dsm.lookup = "native"; }},
+                                    {"box pre-filter", [](RenderOptions& o) { o.dsm.prefilter = "box"; }},
+                                    {"pre-compression", [](RenderOptions& o) { o.dsm.precompression = true; }}};
+        for (const Variant& v : variants) {
+            RenderOptions o = absolute;
+            o.dsm.error = "relative";
+            v.set(o);
+            const Errors r = against_reference(s, points, shadow_transmittance(test::context(), s, 0, points, o).transmittance);
+            INFO("light type " << int(type) << ", " << v.name << ": relative mean " << r.mean << " max " << r.max
+                               << "; absolute (atlas) mean " << a.mean << " max " << a.max);
+            CHECK(r.non_finite == 0);
+            // measured: relative 0.6–1.1× the absolute bound's mean error at ε 0.01, 64²
+            CHECK(r.mean < 1.5 * a.mean + 1e-3);
+            CHECK(r.max < 0.08);
+        }
+    }
+}
+
 namespace {
 
-// V'(z) of one texel (Knecht Eq. 3.7), clamped like the kernel's lookup.
+// V'(z) of one texel (Knecht Eq. 3.7), clamped like the kernel's lookup; for maps of optical
+// depth (DsmOptions::error "relative") τ = −ln(1 − opacity) is what is linear between nodes.
 double texel_opacity(const DeepShadowMap& map, std::size_t texel, double z) {
     std::uint32_t begin = map.first[texel], end = map.first[texel + 1];
     if (begin == end || z < map.nodes[begin].depth) return 0;
@@ -125,6 +157,10 @@ double texel_opacity(const DeepShadowMap& map, std::size_t texel, double z) {
     while (map.nodes[i + 1].depth <= z) ++i;
     const DsmNode &a = map.nodes[i], &b = map.nodes[i + 1];
     double f = b.depth > a.depth ? (z - a.depth) / (b.depth - a.depth) : 1;
+    if (map.interpolation == DeepShadowMap::Interpolation::OpticalDepth) {
+        auto depth_of = [](double opacity) { return -std::log1p(-std::clamp(opacity, 0.0, 1.0 - 1e-12)); };
+        return -std::expm1(-(depth_of(a.opacity) + f * (depth_of(b.opacity) - depth_of(a.opacity))));
+    }
     return std::clamp(a.opacity + f * (b.opacity - a.opacity), 0.0, 1.0);
 }
 
@@ -141,12 +177,17 @@ void texel_ray(const DsmViewGpu& v, float nx, float ny, Vec3& origin, Vec3& dir)
 }  // namespace
 
 TEST_CASE("DSM generation kernel against the CPU reference: |V' − V| ≤ ε at every sample", "[dsm]") {
+    for (const char* bound : {"absolute", "relative"})
     for (LightType type : {LightType::Directional, LightType::Spot}) {
         Scene s = smoke_scene(type);
         const int res = 24;
+        const bool relative = std::string(bound) == "relative";
         for (float epsilon : {0.f, 0.01f, 0.05f}) {
-            auto maps = build_deep_shadow_maps(test::context(), s, 0, dsm_options(res, epsilon));
+            RenderOptions o = dsm_options(res, epsilon);
+            o.dsm.error = bound;
+            auto maps = build_deep_shadow_maps(test::context(), s, 0, o);
             REQUIRE(maps.size() == 1);
+            CHECK((maps[0].interpolation == DeepShadowMap::Interpolation::OpticalDepth) == relative);
             packing::PackedScene packed = packing::pack_scene(s);
             DsmViewGpu v = shadows::make_dsm_views(s, packed, res)[0];
             double worst = 0;
@@ -157,13 +198,18 @@ TEST_CASE("DSM generation kernel against the CPU reference: |V' − V| ≤ ε at
                     texel_ray(v, ((x + 0.5f) / res) * 2 - 1, ((y + 0.5f) / res) * 2 - 1, origin, dir);
                     auto reference = reference::visibility_samples(s, origin, dir, sombra_pixel_jitter(x, y, 0));
                     std::size_t texel = std::size_t(y) * res + x;
-                    for (auto& r : reference) worst = std::max(worst, std::fabs(texel_opacity(maps[0], texel, r.t) - r.alpha));
+                    for (auto& r : reference) {
+                        // relative: |τ' − τ| ≤ ε where the kernel kept marching (T ≥ its termination 10⁻⁴)
+                        const double got = texel_opacity(maps[0], texel, r.t);
+                        if (!relative) worst = std::max(worst, std::fabs(got - r.alpha));
+                        else if (r.alpha < 1 - 2e-4) worst = std::max(worst, std::fabs(std::log1p(-got) - std::log1p(-double(r.alpha))));
+                    }
                     samples += reference.size();
                     nodes += maps[0].first[texel + 1] - maps[0].first[texel];
                 }
-            INFO("light " << int(type) << ", ε = " << epsilon << ": max |V' − V| " << worst << ", " << nodes << " nodes for "
-                          << samples << " samples");
-            CHECK(worst <= epsilon + 2e-4);  // float kernel vs double reference
+            INFO(bound << ", light " << int(type) << ", ε = " << epsilon << ": max |V' − V| (relative: |τ' − τ|) " << worst
+                       << ", " << nodes << " nodes for " << samples << " samples");
+            CHECK(worst <= epsilon + (relative ? 5e-4 : 2e-4));  // float kernel vs double reference
             CHECK(nodes <= samples + res * res);
         }
     }
@@ -259,6 +305,23 @@ TEST_CASE("sombra dsm writes a deep EXR that reads back as the built map", "[dsm
     CHECK(mismatches == 0);
     CHECK(read.light_name == "lights[0]");
     CHECK(read.world_to_ndc == built[0].world_to_ndc);
+    CHECK(read.interpolation == DeepShadowMap::Interpolation::Opacity);
+
+    // a map of optical depth (--dsm-error relative) says so in the file and reads back the same
+    const std::string relative_out = dir + "/relative.exr";
+    command = std::string(SOMBRA_CLI) + " dsm " + scene + " --light 0 --dsm-res 32 --eps 0.05 --dsm-error relative -o " +
+              relative_out + " 2>/dev/null";
+    REQUIRE(std::system(command.c_str()) == 0);
+    RenderOptions relative = dsm_options(32, 0.05f);
+    relative.dsm.error = "relative";
+    auto relative_built = build_deep_shadow_maps(test::context(), load_scene(scene), 0, relative);
+    DeepShadowMap relative_read = read_deep_exr(relative_out);
+    CHECK(relative_read.interpolation == DeepShadowMap::Interpolation::OpticalDepth);
+    REQUIRE(relative_read.nodes.size() == relative_built[0].nodes.size());
+    double worst_node = 0;
+    for (std::size_t i = 0; i < relative_read.nodes.size(); ++i)
+        worst_node = std::max(worst_node, double(std::fabs(relative_read.nodes[i].opacity - relative_built[0].nodes[i].opacity)));
+    CHECK(worst_node <= 1e-6);
 
     // OpenImageIO's flatten (oiiotool --flatten) of every texel: the DSM's opacity at the far end
     OIIO::ImageBuf deep(out);
@@ -734,12 +797,14 @@ TEST_CASE("pre-filtering: jitter is deterministic per seed — 5tap renders with
 }
 
 TEST_CASE("DSM lookup kernel against a CPU lookup of the read-back map (projection, Eq. 3.7, bilinear)", "[dsm]") {
+    for (const char* bound : {"absolute", "relative"})
     for (LightType type : {LightType::Directional, LightType::Spot}) {
         Scene s = smoke_scene(type);
         const int res = 32;
         for (const char* storage : {"atlas", "chunked", "compact"}) {
             RenderOptions o = dsm_options(res, 0.02f);
             o.dsm.storage = storage;
+            o.dsm.error = bound;
             auto map = build_deep_shadow_maps(test::context(), s, 0, o)[0];
             packing::PackedScene packed = packing::pack_scene(s);
             DsmViewGpu v = shadows::make_dsm_views(s, packed, res)[0];
@@ -770,7 +835,7 @@ TEST_CASE("DSM lookup kernel against a CPU lookup of the read-back map (projecti
                 }
                 worst = std::max(worst, std::fabs(kernel[i] - (1 - alpha)));
             }
-            INFO(storage << ", light " << int(type) << ": max |kernel − CPU| " << worst);
+            INFO(bound << ", " << storage << ", light " << int(type) << ": max |kernel − CPU| " << worst);
             CHECK(worst < 1e-4);
         }
     }

@@ -26,6 +26,9 @@ struct DeepShadowMap {
     int width = 0, height = 0;
     std::vector<std::uint32_t> first;  // width·height + 1 offsets
     std::vector<DsmNode> nodes;
+    // Between two nodes the opacity is linear (Knecht Eq. 3.7), or, for maps built with
+    // DsmOptions::error "relative", 1 − exp(−τ) with the optical depth τ = −ln(1 − opacity) linear.
+    enum class Interpolation { Opacity, OpticalDepth } interpolation = Interpolation::Opacity;
     std::string light_name;  // e.g. "lights[0]", "lights[1].+x", "lights[0].cluster1.0"
     // Which map it is: the light's index, and the view among the light's maps ("+x" … "-z" for a
     // point light's cube faces, "cluster<k>.<j>" for view j of cluster k, "" for a light's one

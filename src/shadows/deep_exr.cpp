@@ -216,6 +216,9 @@ constexpr const char* kLightAttribute = "sombra:light";
 constexpr const char* kFormatAttribute = "sombra:format";
 constexpr int kFormat = 2;  // 2: per-sample alpha; sombra's older files (no attribute): accumulated
 constexpr const char* kDepthAttribute = "sombra:depth";
+// How opacity goes between two nodes: absent or "opacity": linearly (Knecht Eq. 3.7); "optical
+// depth": τ = −ln(1 − opacity) linearly (maps built with DsmOptions::error "relative").
+constexpr const char* kInterpolationAttribute = "sombra:interpolation";
 constexpr const char* kDepthConvention =
     "Z = ZBack: distance from the light along the texel's ray (directional lights: camera-space z, from the near plane)";
 // OpenImageIO's names of OpenEXR's worldToCamera and worldToNDC (Imath order: row vectors)
@@ -305,6 +308,8 @@ void write_deep_exr(const DeepShadowMap& map, const std::string& path) {
     spec.attribute(kLightAttribute, map.light_name);
     spec.attribute(kFormatAttribute, kFormat);
     spec.attribute(kDepthAttribute, kDepthConvention);
+    spec.attribute(kInterpolationAttribute,
+                   map.interpolation == DeepShadowMap::Interpolation::OpticalDepth ? "optical depth" : "opacity");
     const std::array<float, 16>* matrices[2] = {&map.world_to_camera, &map.world_to_ndc};
     for (int m = 0; m < 2; ++m) {
         const std::array<float, 16> imath = transposed(*matrices[m]);
@@ -375,6 +380,10 @@ DeepShadowMap read_deep_exr(const std::string& path) {
     map.width = spec.width;
     map.height = spec.height;
     map.light_name = spec.get_string_attribute(kLightAttribute);
+    const std::string interpolation = spec.get_string_attribute(kInterpolationAttribute, "opacity");
+    if (interpolation != "opacity" && interpolation != "optical depth")
+        throw file_error(path, kInterpolationAttribute, "'" + interpolation + "' (opacity or optical depth)");
+    if (interpolation == "optical depth") map.interpolation = DeepShadowMap::Interpolation::OpticalDepth;
     std::array<float, 16>* matrices[2] = {&map.world_to_camera, &map.world_to_ndc};
     for (int m = 0; m < 2; ++m)
         if (const OIIO::ParamValue* p = spec.find_attribute(kMatrixAttributes[m], OIIO::TypeMatrix)) {

@@ -19,12 +19,17 @@ std::vector<std::string> volume_pass_defines(const Scene& scene, bool use_images
     return defines;
 }
 
+void add_dsm_value_define(const DsmOptions& options, std::vector<std::string>& defines) {
+    if (options.error == "relative") defines.push_back("SOMBRA_DSM_OPTICAL_DEPTH");
+}
+
 namespace {
 
 // A DSM set about to be generated: its backend and its views on the device.
 DeviceDsm start_dsm(host::Runtime& runtime, const std::vector<DsmViewGpu>& views, const DsmOptions& options) {
     DeviceDsm dsm;
     dsm.storage = memory::make_dsm_storage(options.storage, options.lookup);
+    dsm.optical_depth = options.error == "relative";
     dsm.stats.views = int(views.size());
     dsm.stats.resolution = options.resolution;
     dsm.views_buffer = host::make_buffer(runtime, CL_MEM_READ_ONLY, views.size() * sizeof(DsmViewGpu), views.data(),
@@ -123,6 +128,7 @@ void generate_prefiltered(host::Runtime& runtime, const Scene& scene, const pack
     if (options.prefilter == "tent") defines.push_back("SOMBRA_PREFILTER_TENT");
     if (options.prefilter == "5tap") defines.push_back("SOMBRA_PREFILTER_5TAP");
     for (auto& d : dsm.storage->defines()) defines.push_back(d);
+    add_dsm_value_define(options, defines);
     memory::BuildContext context{runtime, views, defines, std::size_t(options.resolution) * std::size_t(options.resolution),
                                  "dsm_prefilter.cl", regenerate, {}};
     float merge_epsilon = 0.5f * options.epsilon;
@@ -152,6 +158,7 @@ void generate(host::Runtime& runtime, const Scene& scene, const packing::PackedS
     const int packet = host::generation_lanes(runtime, lanes);  // texels of a row per work-item
     defines.push_back("SOMBRA_LANES=" + std::to_string(packet));
     for (auto& d : dsm.storage->defines()) defines.push_back(d);
+    add_dsm_value_define(options, defines);
     DevicePrecompression precompression;
     if (options.precompression) {
         precompression = upload_precompression(runtime, scene, packed, options.epsilon, options.step, dsm.stats);

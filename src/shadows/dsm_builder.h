@@ -20,7 +20,12 @@ struct DeviceDsm {
     cl::Buffer views_buffer;
     std::unique_ptr<memory::DsmStorage> storage;
     memory::DsmStats stats;
+    bool optical_depth = false;  // the nodes hold optical depth τ (DsmOptions::error "relative"), not opacity
 };
+
+// The define that makes the DSM kernels store and read optical depth (cl/shared/dsm_value.h) when
+// options.error is "relative".
+void add_dsm_value_define(const DsmOptions& options, std::vector<std::string>& defines);
 
 DeviceDsm build_deep_shadow_maps(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
                                  const packing::DeviceScene& device_scene, std::vector<DsmViewGpu> views,

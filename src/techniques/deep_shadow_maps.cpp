@@ -6,6 +6,7 @@
 #include <ostream>
 
 #include "shadows/dsm_views.h"
+#include "shared/dsm_value.h"
 #include "techniques/option_declarations.h"
 
 namespace sombra::techniques {
@@ -29,6 +30,10 @@ const std::vector<OptionSpec>& dsm_option_specs() {
             declare("dsm_epsilon", "--eps", [](auto& o) -> auto& { return o.dsm.epsilon; },
                     "deep shadow map compression error bound ε (Knecht Eq. 3.1)")
                 .range(0, 1),
+            declare("dsm_error", "--dsm-error", [](auto& o) -> auto& { return o.dsm.error; },
+                    "what ε bounds: absolute (opacity, |α' − α| ≤ ε) or relative (optical depth, |τ' − τ| ≤ ε: "
+                    "the light that is left within a factor e^±ε, dim regions kept)")
+                .choices({"absolute", "relative"}),
             declare("dsm_step", "--dsm-step", [](auto& o) -> auto& { return o.dsm.step; },
                     "DSM generation: factor on each volume's step for the rays from the light (> 1: faster, coarser)")
                 .range(0.01, 16),  // 100× finer at most: a ray of the finest volume then takes ≤ 100× its voxels
@@ -69,6 +74,7 @@ const std::vector<OptionSpec>& dsm_option_specs() {
 void DeepShadowMaps::add_defines(const Scene&, const RenderOptions& options, std::vector<std::string>& defines) const {
     defines.push_back(options.shadows == ShadowTechnique::ShadowMap ? "SOMBRA_TECHNIQUE_SHADOWMAP" : "SOMBRA_TECHNIQUE_DSM");
     for (auto& d : memory::make_dsm_storage(options.dsm.storage, options.dsm.lookup)->lookup_defines()) defines.push_back(d);
+    shadows::add_dsm_value_define(options.dsm, defines);
 }
 
 void DeepShadowMaps::add_key(const RenderOptions& o, int lanes, std::ostream& key) const {
@@ -189,6 +195,10 @@ std::vector<DeepShadowMap> DeepShadowMaps::read_back_maps(host::Runtime& runtime
     for (cl_uint v = 0; v < range.count; ++v) {
         const DsmViewGpu& view = dsm_.views[range.first + v];
         DeepShadowMap map = dsm_.storage->read_back(runtime, view, range.first + v);
+        if (dsm_.optical_depth) {  // the API's maps hold opacities at the nodes (cl/shared/dsm_value.h)
+            for (DsmNode& node : map.nodes) node.opacity = dsm_opacity_of_optical_depth(node.opacity);
+            map.interpolation = DeepShadowMap::Interpolation::OpticalDepth;
+        }
         map.light = int(light);
         if (clusters_) {
             in_cluster = v > 0 && dsm_.views[range.first + v - 1].cluster == view.cluster ? in_cluster + 1 : 0;
