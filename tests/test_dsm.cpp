@@ -543,6 +543,35 @@ TEST_CASE("deep shadow maps are rebuilt only when the light, the scene or the tr
     CHECK(render(context, s, o).stats.reused_preparation);
 }
 
+TEST_CASE("one light's maps build that light's views only, the same maps as a build of all, and the rest when a render needs them", "[dsm]") {
+    Scene s = smoke_scene(LightType::Spot);
+    Light point = s.lights[0];
+    point.type = LightType::Point;
+    point.position = {0.9f, -0.4f, 0.6f};
+    s.lights.push_back(point);  // light 1: 6 views after light 0's one
+    const RenderOptions o = dsm_options(32, 0.02f);
+    Context partial("cpu"), whole("cpu"), fresh("cpu");  // each its own kept state
+    RenderStats only_stats;
+    const auto only = build_deep_shadow_maps(partial, s, 1, o, &only_stats);
+    CHECK(only.size() == 6);
+    CHECK(only_stats.dsm_views_generated == 6);  // not light 0's
+    const RenderResult all = render(whole, s, o);
+    CHECK(all.stats.dsm_views_generated == 7);
+    RenderStats kept_stats;
+    const auto kept = build_deep_shadow_maps(whole, s, 1, o, &kept_stats);
+    CHECK(kept_stats.dsm_views_generated == 0);
+    require_same_nodes(only, kept, "light 1 alone vs in a build of all");
+    // a render on the context that built light 1 alone builds light 0's view then, and nothing else
+    const RenderResult after = render(partial, s, o);
+    CHECK(after.stats.reused_preparation);
+    CHECK(after.stats.dsm_views_generated == 1);
+    CHECK(after.image.rgba == render(fresh, s, o).image.rgba);
+    // the light-0 query on it now builds nothing
+    RenderStats again;
+    build_deep_shadow_maps(partial, s, 0, o, &again);
+    CHECK(again.dsm_views_generated == 0);
+}
+
 TEST_CASE("a moved light regenerates its own maps only, and the image equals a fresh build's", "[dsm]") {
     for (const std::string& storage : sombra::dsm_storage_names()) {
         for (const char* prefilter : {"none", "box", "5tap"}) {

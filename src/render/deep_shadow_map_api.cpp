@@ -17,7 +17,7 @@ std::vector<DeepShadowMap> build_deep_shadow_maps(Context& context, const Scene&
     dsm_options.shadows = ShadowTechnique::Dsm;
     RenderStats stats;
     stats.device = runtime.info().name;
-    pipeline::Prepared prepared = pipeline::prepare(context, scene, dsm_options, stats);
+    pipeline::Prepared prepared = pipeline::prepare(context, scene, dsm_options, stats, light_index);  // that light's maps only
     std::vector<DeepShadowMap> maps = prepared.technique.read_back_maps(runtime, std::size_t(light_index));
     if (stats_out) *stats_out = stats;
     return maps;

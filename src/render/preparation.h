@@ -73,7 +73,9 @@ struct Prepared {
     const PreparedScene& scene;
     techniques::ShadowModule& technique;
 };
-Prepared prepare(Context& context, const Scene& scene, const RenderOptions& options, RenderStats& stats);
+// only_light ≥ 0: the call reads that light's shadow data only (techniques may leave the others'
+// unbuilt until a call needs them: SceneOnDevice::lights_needed).
+Prepared prepare(Context& context, const Scene& scene, const RenderOptions& options, RenderStats& stats, int only_light = -1);
 
 int check_light(const Scene& scene, int light_index);
 

@@ -144,7 +144,7 @@ int check_light(const Scene& scene, int light_index) {
 // The prepared scene of the last call when nothing it depends on changed (a moved camera
 // rebuilds nothing), with the technique told which lights moved; else a new one. The module is
 // kept while the technique's family is (dsm and shadowmap share maps, the SAT techniques tables).
-Prepared prepare(Context& context, const Scene& scene, const RenderOptions& options, RenderStats& stats) {
+Prepared prepare(Context& context, const Scene& scene, const RenderOptions& options, RenderStats& stats, int only_light) {
     host::Runtime& runtime = context.runtime();
     detail::KeptScenes& kept = context.kept_scenes();
     check_render_options(options);
@@ -162,6 +162,8 @@ Prepared prepare(Context& context, const Scene& scene, const RenderOptions& opti
     std::string key = keys.whole();
     std::vector<std::string> light_keys;
     for (const Light& l : scene.lights) light_keys.push_back(light_view_key(l));
+    std::vector<bool> needed(scene.lights.size(), true);
+    if (only_light >= 0) needed.assign(scene.lights.size(), false), needed.at(std::size_t(only_light)) = true;
     if (kept.prepared && kept.prepared->key == key) {
         PreparedScene& p = *kept.prepared;
         std::vector<bool> moved(light_keys.size());
@@ -170,7 +172,7 @@ Prepared prepare(Context& context, const Scene& scene, const RenderOptions& opti
         auto start = clock_type::now();
         upload_lights(runtime, scene, options, p, technique);
         stats.stage_ms["host_prepare"] = ms_since(start);
-        technique.update_lights({runtime, scene, p.packed, p.packed_surfaces, p.device, options, p.use_images}, moved, stats);
+        technique.update_lights({runtime, scene, p.packed, p.packed_surfaces, p.device, options, p.use_images, &needed}, moved, stats);
         p.light_keys = light_keys;
     } else {
         kept.prepared.reset();  // the shadow cache stays: its entries have their own keys
@@ -179,7 +181,8 @@ Prepared prepare(Context& context, const Scene& scene, const RenderOptions& opti
         fresh->keys = keys;
         fresh->light_keys = light_keys;
         try {
-            technique.prepare({runtime, scene, fresh->packed, fresh->packed_surfaces, fresh->device, options, fresh->use_images}, stats);
+            technique.prepare({runtime, scene, fresh->packed, fresh->packed_surfaces, fresh->device, options, fresh->use_images, &needed},
+                              stats);
         } catch (...) {
             kept = detail::KeptScenes();  // nothing half-built stays for the next call
             throw;
@@ -187,7 +190,7 @@ Prepared prepare(Context& context, const Scene& scene, const RenderOptions& opti
         kept.prepared = std::move(fresh);
     }
     const PreparedScene& p = *kept.prepared;
-    technique.refresh({runtime, scene, p.packed, p.packed_surfaces, p.device, options, p.use_images}, stats);
+    technique.refresh({runtime, scene, p.packed, p.packed_surfaces, p.device, options, p.use_images, &needed}, stats);
     technique.add_stats(stats);
     return {p, technique};
 }
@@ -351,7 +354,7 @@ ShadowQuery shadow_transmittance(Context& context, const Scene& scene, int light
     host::ProgressScope progress(runtime.progress(), options.progress);
     ShadowQuery query;
     query.stats.device = runtime.info().name;
-    pipeline::Prepared prepared = pipeline::prepare(context, scene, options, query.stats);
+    pipeline::Prepared prepared = pipeline::prepare(context, scene, options, query.stats, light_index);  // that light's data only
     if (points.empty()) return query;
     std::vector<cl_float4> host_points;
     for (const Vec3& p : points) host_points.push_back({{p[0], p[1], p[2], 1.f}});

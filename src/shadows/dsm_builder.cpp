@@ -213,10 +213,10 @@ SubPixelDsm build_sub_pixel_maps(host::Runtime& runtime, const Scene& scene, con
 
 DeviceDsm build_deep_shadow_maps(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
                                  const packing::DeviceScene& device_scene, std::vector<DsmViewGpu> views,
-                                 const DsmOptions& options, int lanes, const ViewMeshes& meshes) {
+                                 const DsmOptions& options, int lanes, const ViewMeshes& meshes, const std::vector<bool>& generate_views) {
     DeviceDsm dsm = start_dsm(runtime, views, options);
-    host::ProgressStage stage(runtime.progress(), "deep shadow maps", generation_launches(dsm, {}));
-    generate(runtime, scene, packed, device_scene, views, options, lanes, dsm, {}, meshes);
+    host::ProgressStage stage(runtime.progress(), "deep shadow maps", generation_launches(dsm, generate_views));
+    generate(runtime, scene, packed, device_scene, views, options, lanes, dsm, generate_views, meshes);
     return dsm;
 }
 

@@ -27,9 +27,12 @@ struct DeviceDsm {
 // options.error is "relative".
 void add_dsm_value_define(const DsmOptions& options, std::vector<std::string>& defines);
 
+// Builds the maps of `views`; with `generate_views` (one flag per view), only those marked are
+// generated and the others stay empty (no nodes: lit) until regenerated.
 DeviceDsm build_deep_shadow_maps(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
                                  const packing::DeviceScene& device_scene, std::vector<DsmViewGpu> views,
-                                 const DsmOptions& options, int lanes, const ViewMeshes& meshes = {});
+                                 const DsmOptions& options, int lanes, const ViewMeshes& meshes = {},
+                                 const std::vector<bool>& generate_views = {});
 
 // Regenerates the views marked in `regenerate` (those of changed lights) in `dsm`, built before
 // by build_deep_shadow_maps with the same options and as many views; the others keep their nodes.

@@ -110,12 +110,32 @@ void DeepShadowMaps::plan_lights(const Scene& scene, const packing::PackedScene&
     light_views_buffer_ = cl::Buffer();  // uploaded anew at the next bind
 }
 
-void DeepShadowMaps::prepare(const SceneOnDevice& s, RenderStats& stats) {
-    dsm_ = shadows::DeviceDsm();  // the previous scene's maps go before the new ones are allocated
-    dsm_ = shadows::build_deep_shadow_maps(s.runtime, s.scene, s.packed, s.device, views_, s.options.dsm, s.options.lanes, meshes_);
+std::vector<bool> DeepShadowMaps::needed_views(const SceneOnDevice& s) const {
+    std::vector<bool> needed(views_.size(), false);
+    for (std::size_t light = 0; light < light_views_.size(); ++light)
+        for (cl_uint v = light_views_[light].first; v < light_views_[light].first + light_views_[light].count; ++v)
+            needed[v] = s.needs_light(light);
+    return needed;
+}
+
+void DeepShadowMaps::note_built(const std::vector<bool>& generate, RenderStats& stats) {
     built_views_ = views_, built_meshes_ = meshes_;
+    generated_.resize(views_.size(), false);
+    for (std::size_t v = 0; v < views_.size(); ++v) generated_[v] = generated_[v] || generate[v];
     for (auto& [stage, ms] : dsm_.stats.stage_ms) stats.stage_ms[stage] = ms;
     views_generated_ = dsm_.stats.views_generated;
+}
+
+// Only the views of the lights the call needs are generated (`sombra dsm --light k`, a query of
+// one light): each view keeps its index, so its map — and the jitter of its rays, seeded by the
+// index — is the one a build of every light makes.
+void DeepShadowMaps::prepare(const SceneOnDevice& s, RenderStats& stats) {
+    dsm_ = shadows::DeviceDsm();  // the previous scene's maps go before the new ones are allocated
+    const std::vector<bool> generate = needed_views(s);
+    generated_.assign(views_.size(), false);
+    dsm_ = shadows::build_deep_shadow_maps(s.runtime, s.scene, s.packed, s.device, views_, s.options.dsm, s.options.lanes, meshes_,
+                                           generate);
+    note_built(generate, stats);
 }
 
 namespace {
@@ -139,29 +159,33 @@ const std::vector<bool>& meshes_of(const shadows::ViewMeshes& meshes, std::size_
 // the clusters regenerates nothing. A different number of views builds the set anew.
 void DeepShadowMaps::update_lights(const SceneOnDevice& s, const std::vector<bool>& moved, RenderStats& stats) {
     views_generated_ = 0;
+    const bool anew = views_.size() != built_views_.size();
+    if (anew) generated_.assign(views_.size(), false);
+    const std::vector<bool> needed = needed_views(s);
     std::vector<bool> regenerate(views_.size(), false);
     bool any = false;
     for (std::size_t i = 0; i < moved.size(); ++i) {
         const DsmLightViews& l = light_views_[i];
         for (cl_uint v = l.first; v < l.first + l.count; ++v) {
-            regenerate[v] = moved[i] || v >= built_views_.size() ||
-                            !same_map(views_[v], built_views_[v], meshes_of(meshes_, v), meshes_of(built_meshes_, v));
+            const bool stale = moved[i] || anew || !same_map(views_[v], built_views_[v], meshes_of(meshes_, v), meshes_of(built_meshes_, v));
+            if (stale) generated_[v] = false;  // a light no call needs now is left stale, and built when one does
+            regenerate[v] = needed[v] && !generated_[v];
             any = any || regenerate[v];
         }
     }
-    const bool anew = views_.size() != built_views_.size();
     if (!any && !anew) return;
     // superseded nodes stay in the pools of the on-demand backends until the set is built anew
     if (anew || dsm_.storage->garbage_fraction() > 0.5) {
+        for (std::size_t v = 0; v < views_.size(); ++v) regenerate[v] = needed[v];  // what was kept goes too
+        generated_.assign(views_.size(), false);
         dsm_ = shadows::DeviceDsm();
-        dsm_ = shadows::build_deep_shadow_maps(s.runtime, s.scene, s.packed, s.device, views_, s.options.dsm, s.options.lanes, meshes_);
+        dsm_ = shadows::build_deep_shadow_maps(s.runtime, s.scene, s.packed, s.device, views_, s.options.dsm, s.options.lanes, meshes_,
+                                               regenerate);
     } else {
         shadows::regenerate_deep_shadow_maps(s.runtime, s.scene, s.packed, s.device, views_, s.options.dsm, s.options.lanes, dsm_,
                                              regenerate, meshes_);
     }
-    built_views_ = views_, built_meshes_ = meshes_;
-    for (auto& [stage, ms] : dsm_.stats.stage_ms) stats.stage_ms[stage] = ms;
-    views_generated_ = dsm_.stats.views_generated;
+    note_built(regenerate, stats);
 }
 
 std::string DeepShadowMaps::light_data_key(std::size_t light) const {

@@ -35,8 +35,14 @@ private:
     // what the maps in dsm_ were generated from
     std::vector<DsmViewGpu> built_views_;
     shadows::ViewMeshes built_meshes_;
+    std::vector<bool> generated_;  // per view: its map holds nodes (false: left empty for a light no call needed yet)
     shadows::DeviceDsm dsm_;
     int views_generated_ = 0;  // by the last prepare or update
+
+    // Per view, whether its light's maps are needed by the call (SceneOnDevice::lights_needed).
+    std::vector<bool> needed_views(const SceneOnDevice& s) const;
+    // After a build or regeneration of the views marked in `generate`.
+    void note_built(const std::vector<bool>& generate, RenderStats& stats);
 };
 
 }  // namespace sombra::techniques

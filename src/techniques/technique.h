@@ -26,6 +26,10 @@ struct SceneOnDevice {
     const packing::DeviceScene& device;
     const RenderOptions& options;
     bool use_images;
+    // The lights whose shadow data this call reads (one flag per light); nullptr: every light. A
+    // module may leave the others' data unbuilt, and must build it when a later call needs it.
+    const std::vector<bool>* lights_needed = nullptr;
+    bool needs_light(std::size_t light) const { return !lights_needed || (light < lights_needed->size() && (*lights_needed)[light]); }
 };
 
 class ShadowModule {
