@@ -305,22 +305,23 @@ TEST_CASE("sombra dsm writes a deep EXR that reads back as the built map", "[dsm
     CHECK(mismatches == 0);
     CHECK(read.light_name == "lights[0]");
     CHECK(read.world_to_ndc == built[0].world_to_ndc);
-    CHECK(read.interpolation == DeepShadowMap::Interpolation::Opacity);
+    CHECK(read.interpolation == DeepShadowMap::Interpolation::OpticalDepth);  // the default relative bound says so
 
-    // a map of optical depth (--dsm-error relative) says so in the file and reads back the same
-    const std::string relative_out = dir + "/relative.exr";
-    command = std::string(SOMBRA_CLI) + " dsm " + scene + " --light 0 --dsm-res 32 --eps 0.05 --dsm-error relative -o " +
-              relative_out + " 2>/dev/null";
+    // a map of opacity (--dsm-error absolute) says that and reads back the same
+    const std::string absolute_out = dir + "/absolute.exr";
+    command = std::string(SOMBRA_CLI) + " dsm " + scene + " --light 0 --dsm-res 32 --eps 0.05 --dsm-error absolute -o " +
+              absolute_out + " 2>/dev/null";
     REQUIRE(std::system(command.c_str()) == 0);
-    RenderOptions relative = dsm_options(32, 0.05f);
-    relative.dsm.error = "relative";
-    auto relative_built = build_deep_shadow_maps(test::context(), load_scene(scene), 0, relative);
-    DeepShadowMap relative_read = read_deep_exr(relative_out);
-    CHECK(relative_read.interpolation == DeepShadowMap::Interpolation::OpticalDepth);
-    REQUIRE(relative_read.nodes.size() == relative_built[0].nodes.size());
+    RenderOptions absolute = dsm_options(32, 0.05f);
+    absolute.dsm.error = "absolute";
+    auto absolute_built = build_deep_shadow_maps(test::context(), load_scene(scene), 0, absolute);
+    DeepShadowMap absolute_read = read_deep_exr(absolute_out);
+    CHECK(absolute_read.interpolation == DeepShadowMap::Interpolation::Opacity);
+    REQUIRE(absolute_read.nodes.size() == absolute_built[0].nodes.size());
     double worst_node = 0;
-    for (std::size_t i = 0; i < relative_read.nodes.size(); ++i)
-        worst_node = std::max(worst_node, double(std::fabs(relative_read.nodes[i].opacity - relative_built[0].nodes[i].opacity)));
+    for (std::size_t i = 0; i < absolute_read.nodes.size(); ++i)
+        worst_node = std::max(worst_node, double(std::fabs(absolute_read.nodes[i].opacity -
+                                                            std::clamp(absolute_built[0].nodes[i].opacity, 0.f, 1.f))));
     CHECK(worst_node <= 1e-6);
 
     // OpenImageIO's flatten (oiiotool --flatten) of every texel: the DSM's opacity at the far end
@@ -512,6 +513,7 @@ TEST_CASE("atlas layer cap: hit, counted and reported, never written past", "[ds
     s.volumes[0].step_voxels = 0.04f;  // ~600 samples per ray
     s.volumes[0].transfer_function = test::ramp_tf(0.0f, 1.0f, 0.02f);
     RenderOptions o = dsm_options(16, 0.f);  // ε = 0: a node per sample, past the 256-layer cap
+    o.dsm.error = "absolute";                // (optical depth is linear where the ramp's opacity is: fewer nodes)
     o.dsm.storage = "atlas";
     RenderResult r = render(test::context(), s, o);
     INFO("capped texels " << r.stats.dsm_capped_texels << ", max nodes " << r.stats.dsm_max_nodes_per_texel);

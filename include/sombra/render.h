@@ -68,7 +68,7 @@ struct DsmOptions {
     // than ≈ ε of the light is left the map may be black) or "relative" (they hold the optical
     // depth τ = −ln T, |τ' − τ| ≤ ε: T' within a factor e^±ε of T wherever light is left, and
     // within e^ε − 1 ≈ ε absolutely; cl/shared/dsm_value.h). docs/deep-shadow-maps.md measures both.
-    std::string error = "absolute";
+    std::string error = "relative";
     // A factor on each volume's step for the rays from the light (the pre-compressed tables follow
     // it; the camera rays keep their step). Larger is faster and coarser along the light: on the
     // CT at 512², ε 0.01, 2 makes generation 1.55× faster for +14 % point error and +54 % image

@@ -40,7 +40,7 @@ std::vector<DeepShadowMap> build_prefilter_sub_maps(Context& context, const Scen
     const DsmLightViews& light = light_views[std::size_t(light_index)];
     std::vector<DeepShadowMap> maps;
     for (cl_uint v = light.first * sub.layout.maps; v < (light.first + light.count) * sub.layout.maps; ++v) {
-        maps.push_back(sub.dsm.storage->read_back(runtime, sub.dsm.views[v], v));
+        maps.push_back(shadows::read_back_map(runtime, sub.dsm, v));
         maps.back().light_name = "lights[" + std::to_string(light_index) + "].sub" + std::to_string(v);
     }
     return maps;

@@ -6,6 +6,7 @@
 
 #include "geometry/surfaces.h"
 #include "shadows/precompression.h"
+#include "shared/dsm_value.h"
 
 #include "sombra/error.h"
 
@@ -17,6 +18,15 @@ std::vector<std::string> volume_pass_defines(const Scene& scene, bool use_images
     if (use_images) defines.push_back("SOMBRA_USE_IMAGES");
     if (skip_empty) defines.push_back("SOMBRA_SKIP_EMPTY");
     return defines;
+}
+
+DeepShadowMap read_back_map(host::Runtime& runtime, const DeviceDsm& dsm, cl_uint view) {
+    DeepShadowMap map = dsm.storage->read_back(runtime, dsm.views[view], view);
+    if (dsm.optical_depth) {  // cl/shared/dsm_value.h
+        for (DsmNode& node : map.nodes) node.opacity = dsm_opacity_of_optical_depth(node.opacity);
+        map.interpolation = DeepShadowMap::Interpolation::OpticalDepth;
+    }
+    return map;
 }
 
 void add_dsm_value_define(const DsmOptions& options, std::vector<std::string>& defines) {

@@ -23,6 +23,10 @@ struct DeviceDsm {
     bool optical_depth = false;  // the nodes hold optical depth τ (DsmOptions::error "relative"), not opacity
 };
 
+// View `view` of `dsm` read back to the host; the nodes hold opacities (a map of optical depth is
+// converted node by node and says so in DeepShadowMap::interpolation).
+DeepShadowMap read_back_map(host::Runtime& runtime, const DeviceDsm& dsm, cl_uint view);
+
 // The define that makes the DSM kernels store and read optical depth (cl/shared/dsm_value.h) when
 // options.error is "relative".
 void add_dsm_value_define(const DsmOptions& options, std::vector<std::string>& defines);

@@ -6,7 +6,6 @@
 #include <ostream>
 
 #include "shadows/dsm_views.h"
-#include "shared/dsm_value.h"
 #include "techniques/option_declarations.h"
 
 namespace sombra::techniques {
@@ -218,11 +217,7 @@ std::vector<DeepShadowMap> DeepShadowMaps::read_back_maps(host::Runtime& runtime
     cl_uint in_cluster = 0;  // clustered maps: the view's index within its cluster
     for (cl_uint v = 0; v < range.count; ++v) {
         const DsmViewGpu& view = dsm_.views[range.first + v];
-        DeepShadowMap map = dsm_.storage->read_back(runtime, view, range.first + v);
-        if (dsm_.optical_depth) {  // the API's maps hold opacities at the nodes (cl/shared/dsm_value.h)
-            for (DsmNode& node : map.nodes) node.opacity = dsm_opacity_of_optical_depth(node.opacity);
-            map.interpolation = DeepShadowMap::Interpolation::OpticalDepth;
-        }
+        DeepShadowMap map = shadows::read_back_map(runtime, dsm_, range.first + v);
         map.light = int(light);
         if (clusters_) {
             in_cluster = v > 0 && dsm_.views[range.first + v - 1].cluster == view.cluster ? in_cluster + 1 : 0;
