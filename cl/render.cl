@@ -106,8 +106,17 @@ static inline lmask shade_sample(VOLUME_DATA_PARAM, CameraState* state, const Vo
         lfloat3 pv = ray_voxel_point(ray, i, t);
         lfloat density = sample_density(volume_data, v, pv);
         state->samples += select((luint)(0u), (luint)(1u), here);
+        const lfloat front_density = front[i];
         lfloat sigma = interval_sigma(state->scene.tf_tables, v, density, &front[i], here);
-        lmask visible = (sigma > 0.0f) & (cursor->delta > 0.0f) & !cursor->empty_interval;
+        lmask interval = here & (cursor->delta > 0.0f) & !cursor->empty_interval;
+        if (v->stiff && lany(interval)) {
+            /* a stiff volume's interval in pieces split at the voxel-centre planes, as the light
+             * passes integrate it (traversal.h): its opacity no longer depends on the step */
+            lfloat depth = split_interval_depth(volume_data, v, state->scene.tf_tables, ray, i, t - cursor->delta, t, front_density,
+                                                density, interval);
+            sigma = select(sigma, depth / select((lfloat)(1.0f), cursor->delta, interval), interval);
+        }
+        lmask visible = (sigma > 0.0f) & interval;
         if (!lany(visible)) continue;
         Classified c = classify(state->scene.tf_tables, v, density);
         lfloat3 normal = l3((lfloat)(0.0f), (lfloat)(0.0f), (lfloat)(0.0f));

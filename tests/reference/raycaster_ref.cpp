@@ -195,15 +195,20 @@ void march_segments(const std::vector<RefVolume>& volumes, V3 origin, V3 dir, do
 
 // The value of each volume at the previous point of a march; the mean extinction of volume i
 // over the interval to point q (pre-integrated, for the camera pass) or its optical depth (light
-// passes: stiff volumes split at the ray's crossings of voxel-centre planes, as the kernel does).
+// passes); stiff volumes split at the ray's crossings of voxel-centre planes in both, as the kernels do.
 struct IntervalValues {
     std::vector<double> front;
     std::vector<V3> front_voxel;
     explicit IntervalValues(std::size_t n) : front(n, 0.0), front_voxel(n, V3{0, 0, 0}) {}
     double value_at(const RefVolume& rv, V3 pv) const { return sample_trilinear(*rv.instance->volume, pv[0], pv[1], pv[2]); }
-    double sigma(const RefVolume& rv, std::size_t i, V3 q, double* value_out = nullptr) {
+    // (a stiff volume's interval integrated in pieces, as depth() does: cl/render.cl)
+    double sigma(const RefVolume& rv, std::size_t i, V3 q, double delta, double* value_out = nullptr) {
         V3 pv = rv.world_to_voxel.point(q);
         double value = value_at(rv, pv);
+        if (rv.stiff && delta > 0) {
+            if (value_out) *value_out = value;
+            return depth(rv, i, q, delta) / delta;
+        }
         double sigma = preintegrated_extinction(rv.instance->transfer_function, front[i], value, rv.opacity_unit);
         front[i] = value, front_voxel[i] = pv;
         if (value_out) *value_out = value;
@@ -370,7 +375,7 @@ Image render_reference(const Scene& scene, int width, int height, const Referenc
                     const VolumeInstance& vi = *volumes[i].instance;
                     V3 pv = volumes[i].world_to_voxel.point(p);
                     double value = 0;
-                    double sigma = values.sigma(volumes[i], i, p, &value);
+                    double sigma = values.sigma(volumes[i], i, p, delta, &value);
                     if (sigma <= 0 || delta <= 0) continue;
                     auto c = vi.transfer_function.color(float(value));
                     V3 normal{0, 0, 0};
