@@ -18,15 +18,6 @@ namespace {
 
 constexpr double kDegrees = 180.0 / 3.14159265358979323846;
 
-const char* light_type_name(LightType type) {
-    switch (type) {
-        case LightType::Directional: return "directional";
-        case LightType::Spot: return "spot";
-        case LightType::Point: return "point";
-    }
-    return "?";
-}
-
 // Six significant digits: enough to read, stable across platforms' last bits.
 double rounded(double value) {
     if (value == 0 || !std::isfinite(value)) return value;
