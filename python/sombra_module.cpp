@@ -421,8 +421,8 @@ PYBIND11_MODULE(sombra, m) {
         [](Context& context, const Scene& scene, int light, const py::object& points, const py::object& options,
            const py::kwargs& kwargs) {
             RenderOptions o = call_options(scene, options, kwargs, "shadow_transmittance");
-            // a query about shadows: deep shadow maps unless a technique is named (RenderOptions'
-            // own default, none, has no shadow term to query)
+            // a query about shadows: deep shadow maps unless a technique is named (a scene's "render"
+            // block may say none, which has no shadow term to query)
             if (options.is_none() && !kwargs.contains("shadows") && o.shadows == ShadowTechnique::None) o.shadows = ShadowTechnique::Dsm;
             check_keywords_apply(o, kwargs, "shadow_transmittance");
             std::vector<Vec3> p = points_of(points, "shadow_transmittance");

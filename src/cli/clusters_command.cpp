@@ -143,8 +143,8 @@ void add_clusters_command(CLI::App& app, ClustersCommand& command) {
                             "also render the scene (PNG or EXR, no shadows) with each object tinted by its cluster of --light "
                             "(grey: outside the light's convex body B)");
     command.app->add_option("--light", command.light, "the light whose clusters --image shows");
-    command.app->add_option("--width", command.width, "--image width (default: the scene's)");
-    command.app->add_option("--height", command.height, "--image height (default: the scene's)");
+    command.app->add_option("--width", command.width, "--image width (0: the scene's)");
+    command.app->add_option("--height", command.height, "--image height (0: the scene's)");
     command.app->add_option("--device", command.device, "OpenCL device for --image: auto, cpu, gpu or an index");
 }
 

@@ -495,7 +495,7 @@ int run(int argc_given, char** argv_given) {
     sombra::cli::add_clusters_command(app, clusters);
     clusters.app->get_option("--clusters")->check(in_range<int>(1, 64));
     clusters.app->get_option("--cluster-distance")->check(in_range<double>(0, 10));
-    for (const char* size : {"--width", "--height"}) clusters.app->get_option(size)->check(in_range<int>(1, 16384));
+    for (const char* size : {"--width", "--height"}) clusters.app->get_option(size)->check(in_range<int>(0, 16384));  // 0: the scene's
     clusters.app->get_option("--light")->check(in_range<int>(0, 1 << 20));
 
     try {
