@@ -168,7 +168,7 @@ TEST_CASE("sombra info and render: an unreadable file is one error line naming i
     CHECK_FALSE(std::filesystem::exists(out));
 }
 
-TEST_CASE("sombra render VOLUME_FILE: the volume in frame with deep shadow maps; --write-scene renders the same image",
+TEST_CASE("sombra render VOLUME_FILE: the volume in frame with deep shadow maps, and --write-scene renders the same image",
           "[cli][volume_scene]") {
     const std::string dir = sombra::test::temp_dir();
     const std::string volume = sombra::test::data_path("volumes/heart.vtk");
@@ -211,7 +211,7 @@ TEST_CASE("sombra render VOLUME_FILE: the volume in frame with deep shadow maps;
     CHECK(difference.max_abs == 0);
 }
 
-TEST_CASE("a scene without \"camera\" gets the fitted camera; a given camera stays as written", "[scene][volume_scene]") {
+TEST_CASE("a scene without \"camera\" gets the fitted camera, and a given camera stays as written", "[scene][volume_scene]") {
     const std::string dir = sombra::test::temp_dir();
     nlohmann::json j = {{"image", {{"width", 80}, {"height", 40}}},
                         {"volumes", {{{"file", sombra::test::data_path("volumes/stent.npz")},

@@ -457,7 +457,8 @@ int run(int argc_given, char** argv_given) {
     app.option_defaults()->always_capture_default();  // --help shows every default
     app.set_version_flag("--version", std::string("sombra ") + SOMBRA_VERSION, "print the version and exit");
     SceneCommandArgs a;
-    CLI::App* render = app.add_subcommand("render", "render a scene to an image (PNG or EXR)");
+    CLI::App* render = app.add_subcommand(
+        "render", "render a scene or a volume file to an image (PNG or EXR), with deep shadow maps unless --shadows says otherwise");
     CLI::App* devices = app.add_subcommand("devices", "list OpenCL platforms and devices");
     CLI::App* dsm = app.add_subcommand("dsm", "write one light's deep shadow map as a scanline deep OpenEXR");
     CLI::App* visibility = app.add_subcommand("visibility", "transmittance to a light at points: technique vs reference");
