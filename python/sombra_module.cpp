@@ -398,6 +398,13 @@ PYBIND11_MODULE(sombra, m) {
         py::arg("path"), py::arg("non_finite") = "reject", "A scene file (JSON), as `sombra render` reads it.");
 
     m.def(
+        "volume_info",
+        [](const std::string& path, const std::string& grid) { return py::module_::import("json").attr("loads")(volume_info_json(path, grid)); },
+        py::arg("path"), py::arg("grid") = "",
+        "What `sombra info --json FILE` prints for a volume file, as a dict: format, voxel_type, dims, spacing, world_bounds, "
+        "placement, min, max, mean, percentiles, background, foreground_percentiles, histogram, non_finite, preset.");
+
+    m.def(
         "render",
         [](Context& context, const Scene& scene, const py::object& options, const py::kwargs& kwargs) {
             RenderOptions o = call_options(scene, options, kwargs, "render");

@@ -118,7 +118,7 @@ TEST_CASE("sombra info: a tiny .npy's size, type, bounds, value range, percentil
     CHECK(counts.size() == 16);
     CHECK(std::accumulate(counts.begin(), counts.end(), std::size_t(0)) == 24);
     CHECK(j.at("placement").size() == 16);
-    CHECK(j.at("preset") == "mri");
+    CHECK(j.at("preset") == "ct");  // 1 voxel of 24 is background: the data fill the box
 }
 
 TEST_CASE("sombra info: a real volume's placement in RAS millimetres and a scene's objects, lights and camera", "[cli][info]") {
@@ -191,7 +191,7 @@ TEST_CASE("sombra render VOLUME_FILE: the volume in frame with deep shadow maps,
     CHECK(scene.volumes[0].volume->source == std::filesystem::path(volume).lexically_normal().string());
     require_in_frame(scene.camera, sombra::world_bounds(scene.volumes[0]), 64, 48);
 
-    // not all background: the volume covers a good part of the picture
+    // not all background: the heart (auto: ct, its densest quarter) covers a good part of the picture
     const sombra::Image image = sombra::read_image(out);
     REQUIRE(image.width == 64);
     std::size_t covered = 0;  // pixels unlike the corner's, which the 4 % margin leaves to the background
@@ -200,7 +200,7 @@ TEST_CASE("sombra render VOLUME_FILE: the volume in frame with deep shadow maps,
         for (std::size_t c = 0; c < 3; ++c) d = std::max(d, std::fabs(image.rgba[i + c] - image.rgba[c]));
         covered += d > 0.05f ? 1 : 0;
     }
-    CHECK(covered > std::size_t(image.width * image.height / 8));
+    CHECK(covered > std::size_t(image.width * image.height / 16));  // measured: 322 of 3072
 
     // the written scene renders the same image
     const std::string again = dir + "/heart_again.png";
@@ -247,6 +247,8 @@ TEST_CASE("volume presets: auto picks ct, mri or fog by the values, and each ram
     sombra::VolumeScene fog = sombra::volume_scene(sombra::test::data_path("volumes/smoke_plume.vdb"), sombra::TransferPreset::Auto);
     CHECK(fog.preset == sombra::TransferPreset::Fog);
     CHECK(fog.scene.camera.up == sombra::Vec3{0, 1, 0});  // OpenVDB: Y up
+    sombra::VolumeScene crop = sombra::volume_scene(sombra::test::data_path("volumes/heart.vtk"), sombra::TransferPreset::Auto);
+    CHECK(crop.preset == sombra::TransferPreset::Ct);  // 0–255, 8 % background: the data fill the box
     sombra::VolumeScene mri = sombra::volume_scene(sombra::test::data_path("volumes/ch2.nii.gz"), sombra::TransferPreset::Auto);
     CHECK(mri.preset == sombra::TransferPreset::Mri);
     CHECK(mri.scene.volumes[0].transfer_function.opacity(float(mri.statistics.foreground_percentiles[2])) == 0.f);

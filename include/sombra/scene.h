@@ -171,7 +171,9 @@ Light key_light(const Camera& camera);
 //        maximum (per voxel): a translucent medium; near-white
 //   auto ct when the values go below −200 (Hounsfield units) or span more than 1000 (a 12-bit
 //        range); fog for OpenVDB files and for values within [0, 1] whose background holds more
-//        than 40 % of the voxels (densities); mri otherwise
+//        than 40 % of the voxels (densities); ct when the background holds less than 20 % (the
+//        data fill the box, a crop: only the densest quarter can show); mri otherwise (a head
+//        in air)
 enum class TransferPreset { Auto, Ct, Mri, Fog };
 TransferPreset parse_transfer_preset(const std::string& name);  // "auto", "ct", "mri", "fog"; else throws
 const char* transfer_preset_name(TransferPreset preset);
@@ -196,6 +198,14 @@ VolumeScene volume_scene(const std::string& path, TransferPreset preset, int wid
 // or mesh). Volume paths are written relative to scene_path's folder (absolute when they share
 // none); `render` is written as the file's "render" block (an object, may be empty).
 std::string scene_file_text(const Scene& scene, const std::string& scene_path, const std::string& render_block_json = "{}");
+
+// What `sombra info` prints, as one JSON object (docs/volume-scenes.md): for a volume file (read
+// with NaN/Inf counted and set to 0) its format, voxel type, dims, spacing, world bounds,
+// placement, value range, percentiles, background, histogram, non-finite count and the preset
+// auto picks; for a scene every object's world bounds, the lights, the camera and whether it was
+// fitted. Throws sombra::Error "FILE: FIELD: what" as load_volume and load_scene do.
+std::string volume_info_json(const std::string& path, const std::string& grid = "");
+std::string scene_info_json(const std::string& path);
 
 // Whether a path names a scene file: a .json file that is not a raw volume's header (an object
 // with a "raw" key, data/README.md "Raw volumes"). Anything else is read as a volume.

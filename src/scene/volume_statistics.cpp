@@ -77,6 +77,7 @@ TransferPreset choose_transfer_preset(const VolumeStatistics& s, const std::stri
     if (s.min < -200 || s.max - s.min > 1000) return TransferPreset::Ct;
     if (format == "vdb") return TransferPreset::Fog;
     if (s.min >= 0 && s.max <= 1 && double(s.background_voxels) > 0.4 * double(s.voxels)) return TransferPreset::Fog;
+    if (double(s.background_voxels) < 0.2 * double(s.voxels)) return TransferPreset::Ct;  // the data fill the box
     return TransferPreset::Mri;
 }
 
