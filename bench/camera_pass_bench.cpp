@@ -136,6 +136,7 @@ int run(int argc, char** argv) {
 
     sombra::Scene scene = sombra::load_scene(o.scene);
     sombra::RenderOptions options;  // defaults: central differences, skipping on, t ≤ 1e-3 stops, seed 1
+    options.shadows = sombra::ShadowTechnique::None;  // the camera pass alone, as the native C++ one
     options.width = o.width, options.height = o.height;
     sombra::Context context(o.device);
     int width = o.width > 0 ? o.width : scene.width, height = o.height > 0 ? o.height : scene.height;

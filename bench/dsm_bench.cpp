@@ -211,6 +211,7 @@ std::string measure_speed(sombra::Context& context, const BenchOptions& o) {
         std::string name = std::filesystem::path(path).stem().string();
         for (const std::string& storage : o.storages) {
             sombra::RenderOptions none;
+            none.shadows = sombra::ShadowTechnique::None;
             none.width = o.width, none.height = o.height;
             none.shadow_cache = sombra::ShadowCacheMode::Off;  // the lookup per sample, as the issue measures it
             std::vector<sombra::RenderOptions> runs{none};    // none, then one DSM render per lookup
@@ -387,6 +388,7 @@ int run(int argc, char** argv) {
     if (scene.volumes.empty()) throw sombra::Error(o.scene + ": no volumes to place points in");
     sombra::Context context(o.device);
     sombra::RenderOptions base;  // defaults: central differences, skipping on, t ≤ 1e-3 stops, seed 1
+    base.shadows = sombra::ShadowTechnique::None;  // each row names its technique
     base.width = o.width, base.height = o.height;
 
     std::cout << "command:  " << command << "\n"

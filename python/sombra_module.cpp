@@ -398,6 +398,13 @@ PYBIND11_MODULE(sombra, m) {
         py::arg("path"), py::arg("non_finite") = "reject", "A scene file (JSON), as `sombra render` reads it.");
 
     m.def(
+        "volume_info",
+        [](const std::string& path, const std::string& grid) { return py::module_::import("json").attr("loads")(volume_info_json(path, grid)); },
+        py::arg("path"), py::arg("grid") = "",
+        "What `sombra info --json FILE` prints for a volume file, as a dict: format, voxel_type, dims, spacing, world_bounds, "
+        "placement, min, max, mean, percentiles, background, foreground_percentiles, histogram, non_finite, preset.");
+
+    m.def(
         "render",
         [](Context& context, const Scene& scene, const py::object& options, const py::kwargs& kwargs) {
             RenderOptions o = call_options(scene, options, kwargs, "render");
@@ -421,8 +428,8 @@ PYBIND11_MODULE(sombra, m) {
         [](Context& context, const Scene& scene, int light, const py::object& points, const py::object& options,
            const py::kwargs& kwargs) {
             RenderOptions o = call_options(scene, options, kwargs, "shadow_transmittance");
-            // a query about shadows: deep shadow maps unless a technique is named (RenderOptions'
-            // own default, none, has no shadow term to query)
+            // a query about shadows: deep shadow maps unless a technique is named (a scene's "render"
+            // block may say none, which has no shadow term to query)
             if (options.is_none() && !kwargs.contains("shadows") && o.shadows == ShadowTechnique::None) o.shadows = ShadowTechnique::Dsm;
             check_keywords_apply(o, kwargs, "shadow_transmittance");
             std::vector<Vec3> p = points_of(points, "shadow_transmittance");

@@ -177,7 +177,7 @@ TEST_CASE("sombra render --help shows every option's default, from RenderOptions
     CHECK_THAT(line_of("--eps"), Catch::Contains("=0.02"));
     CHECK_THAT(line_of("--filter"), Catch::Contains("=3"));
     CHECK_THAT(line_of("--cone-angle"), Catch::Contains("=10"));
-    CHECK_THAT(line_of("--shadows"), Catch::Contains("=none"));
+    CHECK_THAT(line_of("--shadows"), Catch::Contains("=dsm"));  // shadows by default (issue 29)
     CHECK_THAT(line_of("--dsm-storage"), Catch::Contains("=" + defaults.dsm.storage));
     CHECK_THAT(line_of("--dsm-lookup"), Catch::Contains("=" + defaults.dsm.lookup));
     CHECK_THAT(line_of("--device"), Catch::Contains("=auto"));
@@ -482,7 +482,7 @@ TEST_CASE("enumerated render options by name: every name round-trips, unknown on
     RenderOptions o;
     set_render_option(o, "shadows", "dsm");
     CHECK(o.shadows == ShadowTechnique::Dsm);
-    CHECK(render_option_value(RenderOptions{}, "shadows") == "none");  // the defaults have names too
+    CHECK(render_option_value(RenderOptions{}, "shadows") == "dsm");  // the defaults have names too
     CHECK(test::error_of([&] { set_render_option(o, "shadows", "dsmm"); }) ==
           "shadows: unknown value 'dsmm' (none, rays, dsm, shadowmap, lowpass, ao, cone) (did you mean 'dsm'?)");
     CHECK(test::error_of([] { render_option_values("shadow"); }) ==

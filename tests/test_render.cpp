@@ -13,7 +13,7 @@ using namespace sombra;
 
 namespace {
 
-RenderResult render_with(const Scene& scene, RenderOptions options = {}) {
+RenderResult render_with(const Scene& scene, RenderOptions options = test::unshadowed()) {
     return render(test::context(), scene, options);
 }
 
@@ -32,21 +32,21 @@ void require_matches_reference(const Scene& scene, RenderOptions options, refere
 
 TEST_CASE("camera pass matches the CPU reference: one sphere, directional light", "[render]") {
     Scene s = test::sphere_scene();
-    require_matches_reference(s, {}, {});
+    require_matches_reference(s, test::unshadowed(), {});
 }
 
 TEST_CASE("camera pass matches the CPU reference: overlapping rotated volumes, spot + point + directional", "[render]") {
     Scene s = test::overlapping_scene();
-    SECTION("buffer storage, central differences") { require_matches_reference(s, {}, {}); }
+    SECTION("buffer storage, central differences") { require_matches_reference(s, test::unshadowed(), {}); }
     SECTION("Sobel gradients") {
-        RenderOptions o;
+        RenderOptions o = test::unshadowed();
         o.gradient = GradientMethod::Sobel;
         reference::ReferenceOptions r;
         r.sobel = true;
         require_matches_reference(s, o, r);
     }
     SECTION("3D image storage with the linear sampler") {
-        RenderOptions o;
+        RenderOptions o = test::unshadowed();
         o.volume_storage = VolumeStorage::Image;
         require_matches_reference(s, o, {});
     }
@@ -57,7 +57,7 @@ TEST_CASE("every packet width matches the reference, also where the image width 
     s.width = 45, s.height = 29;
     Image ref = reference::render_reference(s, s.width, s.height);
     for (int lanes : {1, 4, 8, 16}) {
-        RenderOptions o;
+        RenderOptions o = test::unshadowed();
         o.lanes = lanes;
         RenderResult r = render_with(s, o);
         auto d = test::compare(r.image, ref);
@@ -71,7 +71,7 @@ TEST_CASE("every packet width matches the reference, also where the image width 
 TEST_CASE("shadow-ray baseline matches the CPU reference and darkens what lies behind", "[render][shadows]") {
     Scene s = test::overlapping_scene();
     s.width = 40, s.height = 30;
-    RenderOptions o;
+    RenderOptions o = test::unshadowed();
     o.shadows = ShadowTechnique::Rays;
     o.shadow_cache = ShadowCacheMode::Off;  // every sample marches, as the reference does
     reference::ReferenceOptions r;
@@ -96,7 +96,7 @@ TEST_CASE("shadow ray step: a finer step moves the rays closer to the reference,
     for (auto& p : points) p = {u(rng), u(rng), u(rng)};
     std::vector<double> reference(points.size());
     for (std::size_t i = 0; i < points.size(); ++i) reference[i] = reference_transmittance(s, 0, points[i]);
-    RenderOptions o;
+    RenderOptions o = test::unshadowed();
     o.shadows = ShadowTechnique::Rays;
     auto mean_error = [&](float step) {
         o.rays.step = step;
@@ -122,7 +122,7 @@ TEST_CASE("shadow ray step: a finer step moves the rays closer to the reference,
 }
 
 TEST_CASE("shadow ray step: zero, negative, NaN, steps below 0.01 and above 16 are refused", "[render][shadows]") {
-    RenderOptions o;
+    RenderOptions o = test::unshadowed();
     for (float step : {0.01f, 1.f, 16.f}) {
         o.rays.step = step;
         CHECK_NOTHROW(check_render_options(o));
@@ -136,7 +136,7 @@ TEST_CASE("shadow ray step: zero, negative, NaN, steps below 0.01 and above 16 a
 TEST_CASE("camera pass without lights shows the transfer function colours only (ambient)", "[render]") {
     Scene s = test::sphere_scene();
     s.lights.clear();
-    require_matches_reference(s, {}, {});
+    require_matches_reference(s, test::unshadowed(), {});
 }
 
 TEST_CASE("empty-space skipping changes no pixel and takes fewer samples", "[render]") {

@@ -91,6 +91,12 @@ TransferFunction constant_tf(float alpha) {
     return tf;
 }
 
+RenderOptions unshadowed() {
+    RenderOptions options;
+    options.shadows = ShadowTechnique::None;
+    return options;
+}
+
 Scene sphere_scene(int size) {
     Scene s;
     VolumeInstance vi;

@@ -18,6 +18,9 @@ struct ImageDifference {
 ImageDifference compare(const Image& a, const Image& b);  // over RGB
 
 // Small procedural scenes for kernel-vs-reference comparisons.
+// The camera pass alone, as the references without shadow rays compute it: RenderOptions{} with
+// no shadow technique (RenderOptions' own default is deep shadow maps).
+RenderOptions unshadowed();
 Scene sphere_scene(int size = 24);                 // one sphere, one directional light
 Scene overlapping_scene();                          // two rotated/scaled overlapping volumes, 3 light types
 TransferFunction ramp_tf(float lo, float hi, float max_alpha);

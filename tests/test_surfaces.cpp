@@ -418,7 +418,7 @@ TEST_CASE("surfaces: per-fragment shadows darken the side of a floor that faces 
     // light_term_possible): here the floor's upper side faces the camera and the light from above.
     Scene s = test::sphere_scene(32);
     s.meshes.push_back(quad(1.5f, -0.9f, 1.f, {0.8f, 0.8f, 0.8f}));  // opaque floor under the sphere
-    RenderOptions none;
+    RenderOptions none = test::unshadowed();
     none.shadow_cache = ShadowCacheMode::Off;  // per-fragment lookups
     Image plain = render(test::context(), s, none).image;
     Scene volume_only = s;

@@ -135,7 +135,7 @@ struct RenderOptions {
     GradientMethod gradient = GradientMethod::CentralDifferences;
     ShadingModel shading = ShadingModel::Phong;
     float phase_g = 0.f;  // Henyey–Greenstein g in (−1, 1), ShadingModel::Scattering only
-    ShadowTechnique shadows = ShadowTechnique::None;
+    ShadowTechnique shadows = ShadowTechnique::Dsm;  // deep shadow maps unless told (None: no shadows)
     ShadowCacheMode shadow_cache = ShadowCacheMode::Auto;  // every technique with a shadow term
     VolumeStorage volume_storage = VolumeStorage::Auto;
     bool empty_space_skipping = true;

@@ -62,6 +62,7 @@ enum class LightType { Directional, Spot, Point };
 // A light type by name, as scene files spell it: "directional", "spot", "point" (or "omni");
 // otherwise throws sombra::Error "unknown light type 'NAME' (directional, spot, point)".
 LightType parse_light_type(const std::string& name);
+const char* light_type_name(LightType type);  // "directional", "spot", "point"
 
 struct Light {
     LightType type = LightType::Directional;
@@ -74,6 +75,8 @@ struct Light {
     float att_constant = 1.f, att_linear = 0.f, att_quadratic = 0.f;  // point, spot
 };
 
+// A scene without "camera" gets fit_camera's (Scene::camera_fitted); these are the defaults of a
+// "camera" block's missing keys.
 struct Camera {
     Vec3 position{0, 0, 3};
     Vec3 look_at{0, 0, 0};
@@ -86,6 +89,7 @@ struct Scene {
     std::vector<MeshInstance> meshes;
     std::vector<Light> lights;
     Camera camera;
+    bool camera_fitted = false;  // no "camera" in the file: fitted to the objects (fit_scene_camera)
     Vec3 background{0, 0, 0};
     float ambient_intensity = 1.f;  // i_a
     int width = 512, height = 512;  // default image size (the CLI can override)
@@ -123,6 +127,89 @@ void validate_scene(const Scene& scene, const std::string& where);
 
 // World transform (row-major) of a volume's bound mesh: VolumeInstance::transform · bound.transform.
 std::array<float, 16> bound_to_world(const VolumeInstance& volume);
+
+// An axis-aligned box in world units; empty (lo > hi) until a point is added.
+struct Box3 {
+    Vec3 lo{3e38f, 3e38f, 3e38f}, hi{-3e38f, -3e38f, -3e38f};
+    void add(const Vec3& p);
+    void add(const Box3& b);
+    bool empty() const { return lo[0] > hi[0]; }
+    Vec3 center() const { return {(lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2, (lo[2] + hi[2]) / 2}; }
+};
+// World bounds: a volume's voxel cells (its box ± half a voxel, through its transform), a mesh's
+// vertices through its transform, and the union of every volume and mesh of a scene.
+Box3 world_bounds(const VolumeInstance& volume);
+Box3 world_bounds(const MeshInstance& mesh);
+Box3 world_bounds(const Scene& scene);
+
+// The world axis that is up in a scene's files: +y when every volume comes from an OpenVDB file
+// (OpenVDB, Houdini, Blender exports: Y up) or the scene holds meshes only (OBJ/PLY: Y up); else +z
+// (medical images in RAS+: +z superior; arrays stored as z slices).
+Vec3 natural_up(const Scene& scene);
+
+// The fitted camera: a three-quarter view from above-front of `box` (35° around `up` from the
+// front, 20° above; the front is +y for up = +z, the patient's anterior in RAS+, and +z for
+// up = +y), looking at the box's centre with a vertical field of view of fov_y_deg, as close as
+// every corner of the box stays inside the width × height image with a 4 % margin on each side.
+Camera fit_camera(const Box3& box, const Vec3& up, int width, int height, float fov_y_deg = 40.f);
+// Sets scene.camera to fit_camera(world_bounds(scene), natural_up(scene), width, height) and
+// camera_fitted; load_scene does it (at the scene's image size) for a file without "camera".
+void fit_scene_camera(Scene& scene, int width, int height);
+
+// The key light of a fitted view: directional, from over the camera's left shoulder (from the
+// camera's position seen from the centre, turned 40° up and 40° left), so that shadows fall to
+// the lower right, in view.
+Light key_light(const Camera& camera);
+
+// Transfer-function presets for volume scenes, each derived from the volume's statistics
+// (VolumeStatistics; fg p = a percentile of the voxels above the background, docs/volume-scenes.md):
+//   ct   opacity 0 up to fg p75, 0.05 at fg p95, 0.6 at fg p99, 0.9 at the maximum: the densest
+//        tissue (bone, contrast, metal) opaque; colours dark red → bone → white
+//   mri  opacity 0 up to fg p25, 0.05 at fg p50, 0.25 at fg p95, 0.6 at the maximum: the
+//        tissue's upper three quarters, skin and brain; colours flesh → white
+//   fog  opacity 0 at the background threshold, 0.1 at fg p50, 0.3 at fg p99, 0.5 at the
+//        maximum (per voxel): a translucent medium; near-white
+//   auto ct when the values go below −200 (Hounsfield units) or span more than 1000 (a 12-bit
+//        range); fog for OpenVDB files and for values within [0, 1] whose background holds more
+//        than 40 % of the voxels (densities); ct when the background holds less than 20 % (the
+//        data fill the box, a crop: only the densest quarter can show); mri otherwise (a head
+//        in air)
+enum class TransferPreset { Auto, Ct, Mri, Fog };
+TransferPreset parse_transfer_preset(const std::string& name);  // "auto", "ct", "mri", "fog"; else throws
+const char* transfer_preset_name(TransferPreset preset);
+// Auto resolved by the rules above; `format` is VolumeLoadReport::format.
+TransferPreset choose_transfer_preset(const VolumeStatistics& statistics, const std::string& format);
+TransferFunction preset_transfer_function(const VolumeStatistics& statistics, TransferPreset preset);  // not Auto
+
+// A scene made from one volume file (`sombra render VOLUME`): the volume where its file places
+// it, the transfer function of the preset, fit_camera at width × height, key_light, a dark
+// background (grey-blue for fog) and ambient 0.5.
+struct VolumeScene {
+    Scene scene;
+    VolumeStatistics statistics;
+    VolumeLoadReport report;
+    TransferPreset preset = TransferPreset::Auto;  // the one used (never Auto)
+};
+VolumeScene volume_scene(const std::string& path, TransferPreset preset, int width = 512, int height = 512,
+                         const VolumeLoadOptions& options = {});
+
+// The scene as a scene file that loads back to the same scene (for volume scenes: every volume
+// read from a file, where its file places it, and no meshes; otherwise throws naming the volume
+// or mesh). Volume paths are written relative to scene_path's folder (absolute when they share
+// none); `render` is written as the file's "render" block (an object, may be empty).
+std::string scene_file_text(const Scene& scene, const std::string& scene_path, const std::string& render_block_json = "{}");
+
+// What `sombra info` prints, as one JSON object (docs/volume-scenes.md): for a volume file (read
+// with NaN/Inf counted and set to 0) its format, voxel type, dims, spacing, world bounds,
+// placement, value range, percentiles, background, histogram, non-finite count and the preset
+// auto picks; for a scene every object's world bounds, the lights, the camera and whether it was
+// fitted. Throws sombra::Error "FILE: FIELD: what" as load_volume and load_scene do.
+std::string volume_info_json(const std::string& path, const std::string& grid = "");
+std::string scene_info_json(const std::string& path);
+
+// Whether a path names a scene file: a .json file that is not a raw volume's header (an object
+// with a "raw" key, data/README.md "Raw volumes"). Anything else is read as a volume.
+bool is_scene_file(const std::string& path);
 
 // 4×4 row-major helpers for VolumeInstance::transform and MeshInstance::transform.
 std::array<float, 16> make_transform(const Vec3& translate, const Vec3& rotate_deg_xyz, const Vec3& scale);

@@ -25,6 +25,9 @@ struct Volume {
     std::array<float, 16> placement{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
     std::vector<float> voxels;
     std::string source;  // file path or generator name, for messages
+    // The voxel type in the file, before conversion to float: "uint8", "int16", "float32", "half"
+    // (OpenVDB) …; "float32" for the generators, "" where unknown.
+    std::string stored_type;
     float value_min = 0.f, value_max = 0.f;
 
     std::size_t voxel_count() const {
@@ -78,6 +81,22 @@ struct VolumeLoadReport {
 // Throws sombra::Error with "FILE: FIELD: what" on any malformed, truncated or empty input.
 Volume load_volume(const std::string& path, const VolumeLoadOptions& options = {},
                    VolumeLoadReport* report = nullptr);
+
+// The values of a volume's voxels, for `sombra info` and the transfer-function presets of volume
+// scenes (scene.h). Percentiles interpolate linearly between the closest ranks (numpy's default);
+// they are exact up to 2^24 voxels, and over every k-th voxel (k = ⌈voxels / 2^24⌉) above. The
+// background is the voxels at most 1 % of the value range above the minimum (air, empty space).
+struct VolumeStatistics {
+    static constexpr std::array<double, 7> kPercentiles{1, 5, 25, 50, 75, 95, 99};
+    std::size_t voxels = 0;
+    double min = 0, max = 0, mean = 0;
+    std::array<double, 7> percentiles{};             // of every voxel, at kPercentiles
+    double background_threshold = 0;                 // min + 0.01 · (max − min)
+    std::size_t background_voxels = 0;               // voxels ≤ background_threshold
+    std::array<double, 7> foreground_percentiles{};  // of the voxels above it (= percentiles when none is)
+    std::vector<std::size_t> histogram;              // equal bins over [min, max], the last one closed
+};
+VolumeStatistics volume_statistics(const Volume& volume, int bins = 16);
 
 // Writes a volume as NIfTI-1 (.nii or .nii.gz, float32). Used by the converter and by tests.
 void save_volume_nifti(const Volume& volume, const std::string& path);

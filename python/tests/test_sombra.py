@@ -112,6 +112,23 @@ def test_deep_shadow_maps(context, tmp_path):
     assert np.array_equal(back.world_to_ndc, view.world_to_ndc)
 
 
+def test_volume_info_is_sombra_info_json():
+    info = sombra.volume_info(str(SOURCE_DIR / "data/volumes/stent.npz"))
+    assert info["dims"] == [128, 128, 256] and info["voxel_type"] == "int16" and info["preset"] == "ct"
+    assert (info["min"], info["max"]) == (0.0, 2000.0)
+    assert info["world_bounds"] == {"min": [-64.0, -64.0, -128.0], "max": [64.0, 64.0, 128.0]}
+    assert sum(info["histogram"]["counts"]) == info["voxels"] == 128 * 128 * 256
+    with pytest.raises(Exception, match="no_such.nii"):
+        sombra.volume_info("no_such.nii")
+
+
+def test_render_shadows_by_default(context):
+    scene = sombra.load_scene(str(SOURCE_DIR / "data/scenes/default.json"))
+    assert sombra.RenderOptions().shadows == "dsm"
+    image, stats = sombra.render(context, scene, width=24, height=24)
+    assert "dsm" in stats and stats["dsm"]["views_generated"] > 0
+
+
 def test_load_scene_and_options(context):
     scene = sombra.load_scene(str(SOURCE_DIR / "data/scenes/default.json"))
     assert scene.light_count == 2 and scene.volume_count == 1

@@ -18,15 +18,6 @@ namespace {
 
 constexpr double kDegrees = 180.0 / 3.14159265358979323846;
 
-const char* light_type_name(LightType type) {
-    switch (type) {
-        case LightType::Directional: return "directional";
-        case LightType::Spot: return "spot";
-        case LightType::Point: return "point";
-    }
-    return "?";
-}
-
 // Six significant digits: enough to read, stable across platforms' last bits.
 double rounded(double value) {
     if (value == 0 || !std::isfinite(value)) return value;
@@ -152,8 +143,8 @@ void add_clusters_command(CLI::App& app, ClustersCommand& command) {
                             "also render the scene (PNG or EXR, no shadows) with each object tinted by its cluster of --light "
                             "(grey: outside the light's convex body B)");
     command.app->add_option("--light", command.light, "the light whose clusters --image shows");
-    command.app->add_option("--width", command.width, "--image width (default: the scene's)");
-    command.app->add_option("--height", command.height, "--image height (default: the scene's)");
+    command.app->add_option("--width", command.width, "--image width (0: the scene's)");
+    command.app->add_option("--height", command.height, "--image height (0: the scene's)");
     command.app->add_option("--device", command.device, "OpenCL device for --image: auto, cpu, gpu or an index");
 }
 

@@ -21,6 +21,7 @@
 #include <nlohmann/json.hpp>
 
 #include "cli/clusters_command.h"
+#include "cli/info_command.h"
 #include "render/staged_outputs.h"
 #include "scene/input_file.h"
 #include "scene/suggest.h"
@@ -321,6 +322,20 @@ sombra::RenderOptions effective_options(const RenderOptionFlags& flags, const so
     return options;
 }
 
+// The options given as flags, by key, as a scene file's "render" block holds them; the image size
+// is left out (a written scene holds it in "image").
+nlohmann::json given_options_json(const RenderOptionFlags& flags) {
+    nlohmann::json j = nlohmann::json::object();
+    for (const auto& given : flags.options) {
+        const sombra::OptionSpec& spec = *given->spec;
+        if (given->option->count() == 0 || spec.key == "width" || spec.key == "height") continue;
+        const sombra::OptionValue value = spec.kind == sombra::OptionKind::Flag ? sombra::OptionValue(!std::get<bool>(spec.default_value()))
+                                                                                : sombra::parse_option_text(spec, given->text, spec.flag);
+        std::visit([&](const auto& v) { j[spec.key] = v; }, value);
+    }
+    return j;
+}
+
 // Old spellings still accepted, each with a note: --storage (the DSM storage, now --dsm-storage)
 // and --prefilter-jitter on|off|SEED (now --no-prefilter-jitter and --prefilter-seed).
 std::vector<std::string> current_spellings(int argc, char** argv) {
@@ -371,12 +386,16 @@ int parse_error(CLI::App& app, const CLI::ParseError& e, int argc, char** argv) 
 // What the render, dsm and visibility commands share.
 struct SceneCommandArgs {
     std::string scene_path, output, device = "auto", stats_path, non_finite = "reject", points_path;
+    std::string preset = "auto", write_scene;  // render: a volume file's scene
     int light_index = 0;
     bool quiet = false;
 };
 
 void add_scene_command_args(CLI::App& sub, SceneCommandArgs& a) {
-    sub.add_option("scene", a.scene_path, "scene file (JSON)")->required();
+    sub.add_option("scene", a.scene_path,
+                   "scene file (JSON), or a volume file (any format `sombra info` reads: rendered with a fitted camera, "
+                   "a key light and a transfer function of --preset)")
+        ->required();
     sub.add_option("--device", a.device, "auto, cpu, gpu, or an index from `sombra devices`");
     sub.add_option("--non-finite", a.non_finite, "NaN/Inf voxels: reject (error) or sanitize (set to 0, warn)")
         ->check(CLI::IsMember({"reject", "sanitize"}));
@@ -392,21 +411,31 @@ int list_devices() {
     return 0;
 }
 
+std::string lower_extension(const std::string& path) {
+    std::string e = std::filesystem::path(path).extension().string();
+    std::transform(e.begin(), e.end(), e.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+    return e;
+}
+
 // A wrong output name fails before the work, not after it.
 void check_output_name(const std::string& output, bool image) {
-    std::string e = std::filesystem::path(output).extension().string();
-    std::transform(e.begin(), e.end(), e.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+    const std::string e = lower_extension(output);
     if (image && e != ".png" && e != ".exr") throw sombra::Error(output + ": output must end in .png or .exr");
     if (!image && e != ".exr")
         throw sombra::Error(output + ": a deep shadow map is written as OpenEXR: the name must end in .exr");
 }
 
+// --write-scene: the scene made for a volume file, its "render" block the options given as flags
+// (the image size is the scene's), written with the image.
 int render_image(sombra::Context& context, const sombra::Scene& scene, const StatsContext& stats_context, const SceneCommandArgs& a,
-                 const StageTimes& stages) {
+                 const StageTimes& stages, const nlohmann::json& given_options) {
     const sombra::RenderOptions& options = stats_context.options;
+    const std::string scene_text =
+        a.write_scene.empty() ? "" : sombra::scene_file_text(scene, a.write_scene, given_options.dump());  // fails before the work
     sombra::RenderResult result = sombra::render(context, scene, options);
     sombra::detail::StagedOutputs outputs;
     outputs.write(a.output, [&](const std::string& staged) { sombra::write_image(result.image, staged); });
+    if (!a.write_scene.empty()) outputs.write(a.write_scene, [&](const std::string& staged) { write_text_file(staged, scene_text); });
     stage_stats(outputs, a.stats_path, command_stats(result.stats, stats_context));
     outputs.commit();
     if (!a.quiet)
@@ -428,12 +457,18 @@ int run(int argc_given, char** argv_given) {
     app.option_defaults()->always_capture_default();  // --help shows every default
     app.set_version_flag("--version", std::string("sombra ") + SOMBRA_VERSION, "print the version and exit");
     SceneCommandArgs a;
-    CLI::App* render = app.add_subcommand("render", "render a scene to an image (PNG or EXR)");
+    CLI::App* render = app.add_subcommand(
+        "render", "render a scene or a volume file to an image (PNG or EXR), with deep shadow maps unless --shadows says otherwise");
     CLI::App* devices = app.add_subcommand("devices", "list OpenCL platforms and devices");
     CLI::App* dsm = app.add_subcommand("dsm", "write one light's deep shadow map as a scanline deep OpenEXR");
     CLI::App* visibility = app.add_subcommand("visibility", "transmittance to a light at points: technique vs reference");
     render->add_option("-o,--output", a.output, "output image, .png (sRGB) or .exr (linear float)")->required();
     render->add_option("--stats", a.stats_path, "write per-stage times and sample counts as JSON");
+    render->add_option("--preset", a.preset,
+                       "a volume file's transfer function: ct, mri, fog, or auto (by the value range; docs/volume-scenes.md)")
+        ->check(CLI::IsMember({"auto", "ct", "mri", "fog"}));
+    render->add_option("--write-scene", a.write_scene,
+                       "also write the scene made for a volume file as a scene file (JSON) to edit and render again");
     dsm->add_option("-o,--output", a.output,
                     "output .exr (a point light writes NAME.+x.exr … NAME.-z.exr; clustered maps NAME.cluster<k>.<j>.exr)")
         ->required();
@@ -455,11 +490,13 @@ int run(int argc_given, char** argv_given) {
         add_scene_command_args(*sub, a);
         add_render_options(*sub, command, *flags);
     }
+    sombra::cli::InfoCommand info;
+    sombra::cli::add_info_command(app, info);
     sombra::cli::ClustersCommand clusters;
     sombra::cli::add_clusters_command(app, clusters);
     clusters.app->get_option("--clusters")->check(in_range<int>(1, 64));
     clusters.app->get_option("--cluster-distance")->check(in_range<double>(0, 10));
-    for (const char* size : {"--width", "--height"}) clusters.app->get_option(size)->check(in_range<int>(1, 16384));
+    for (const char* size : {"--width", "--height"}) clusters.app->get_option(size)->check(in_range<int>(0, 16384));  // 0: the scene's
     clusters.app->get_option("--light")->check(in_range<int>(0, 1 << 20));
 
     try {
@@ -470,18 +507,32 @@ int run(int argc_given, char** argv_given) {
         return parse_error(app, e, argc, argv);
     }
     if (devices->parsed()) return list_devices();
+    if (info.app->parsed()) return sombra::cli::run_info_command(info);
     if (clusters.app->parsed()) return sombra::cli::run_clusters_command(clusters, sombra::load_scene(clusters.scene_path));
 
     const RenderOptionFlags& flags = render->parsed() ? render_flags : dsm->parsed() ? dsm_flags : visibility_flags;
     if (!visibility->parsed()) check_output_name(a.output, render->parsed());
-    auto check_outputs = [&] { sombra::detail::StagedOutputs::check_targets({a.output, a.stats_path}); };
+    if (!a.write_scene.empty() && lower_extension(a.write_scene) != ".json")
+        throw sombra::Error(a.write_scene + ": --write-scene: a scene file's name must end in .json");
+    auto check_outputs = [&] { sombra::detail::StagedOutputs::check_targets({a.output, a.stats_path, a.write_scene}); };
     check_outputs();
     sombra::VolumeLoadOptions load;
     load.non_finite = a.non_finite == "sanitize" ? sombra::NonFinitePolicy::Sanitize : sombra::NonFinitePolicy::Reject;
-    sombra::Scene scene = sombra::load_scene(a.scene_path, load);
+    const bool volume_file = !sombra::is_scene_file(a.scene_path);
+    for (const char* flag : {"--preset", "--write-scene"})
+        if (!volume_file && render->count(flag) > 0)
+            throw sombra::Error(std::string(flag) + ": applies to a volume file, not a scene (" + a.scene_path + ")");
+    sombra::Scene scene = volume_file ? sombra::volume_scene(a.scene_path, sombra::parse_transfer_preset(a.preset), 512, 512, load).scene
+                                      : sombra::load_scene(a.scene_path, load);
     if (visibility->parsed()) sombra::detail::regular_file_size(a.points_path);  // an input, read below
     check_outputs();  // again, now that the inputs are known: no output may name one (before any work)
     sombra::RenderOptions options = effective_options(flags, scene);
+    const int width = options.width > 0 ? options.width : scene.width, height = options.height > 0 ? options.height : scene.height;
+    if (scene.camera_fitted && (width != scene.width || height != scene.height)) {  // fitted to the image it renders
+        scene.width = width, scene.height = height;
+        sombra::fit_scene_camera(scene, width, height);
+        if (volume_file) scene.lights.front() = sombra::key_light(scene.camera), sombra::normalize_light_direction(scene.lights.front());
+    }
     sombra::Context context(a.device);
     StageTimes stages;
     options.progress = stages.callback(a.quiet);
@@ -489,7 +540,7 @@ int run(int argc_given, char** argv_given) {
     if (dsm->parsed()) return write_dsm(context, scene, a.light_index, stats_context, a.output, a.stats_path, a.quiet);
     if (visibility->parsed())
         return print_visibility(context, scene, a.light_index, stats_context, visibility_shadows, a.points_path, a.stats_path, a.quiet);
-    return render_image(context, scene, stats_context, a, stages);
+    return render_image(context, scene, stats_context, a, stages, given_options_json(flags));
 }
 
 }  // namespace

@@ -18,6 +18,7 @@ Volume empty_cube(const char* name, int n) {
     v.dims = {n, n, n};
     v.voxels.assign(std::size_t(n) * n * n, 0.f);
     v.source = name;
+    v.stored_type = "float32";
     return v;
 }
 

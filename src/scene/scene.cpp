@@ -202,6 +202,14 @@ LightType parse_light_type(const std::string& name) {
     throw Error("unknown light type '" + name + "' (directional, spot, point)");
 }
 
+const char* light_type_name(LightType type) {
+    switch (type) {
+        case LightType::Directional: return "directional";
+        case LightType::Spot: return "spot";
+        default: return "point";
+    }
+}
+
 namespace {
 
 Light read_light(const json& j, const std::string& file, const std::string& path) {
@@ -412,6 +420,12 @@ Scene load_scene(const std::string& path, const VolumeLoadOptions& options) {
         for (auto it = block.begin(); it != block.end(); ++it) scene.render_settings.emplace_back(it.key(), it.value().dump());
     }
     f.finish();
+    if (!f.has("camera")) {  // not (0, 0, 3): the objects in frame
+        fit_scene_camera(scene, scene.width, scene.height);
+        for (const Vec3& p : {scene.camera.position, scene.camera.look_at})
+            for (float c : p)
+                if (!(std::fabs(c) <= limits::kMaxCoordinate)) scene.camera = Camera{};  // objects out of range: validate_scene names them
+    }
     validate_scene(scene, path);
     return scene;
 }

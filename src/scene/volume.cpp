@@ -89,6 +89,10 @@ const Reader& reader_for(const std::string& path) {
 }  // namespace
 
 Volume load_volume(const std::string& path, const VolumeLoadOptions& options, VolumeLoadReport* report) {
+    std::error_code ec;
+    const auto status = std::filesystem::status(path, ec);
+    if (!ec && std::filesystem::exists(status) && !std::filesystem::is_directory(status) && !std::filesystem::is_regular_file(status))
+        detail::regular_file_size(path);  // a FIFO or a device says so, whatever its name
     const Reader& reader = reader_for(path);
     if (!options.grid.empty() && std::string(reader.format) != "vdb")
         throw file_error(path, "grid", "only .vdb files have named grids");

@@ -135,6 +135,19 @@ void convert(const unsigned char* data, std::size_t count, bool swap, float* out
 }
 }  // namespace
 
+const char* type_name(ScalarType type) {
+    switch (type) {
+        case ScalarType::u8: return "uint8";
+        case ScalarType::i8: return "int8";
+        case ScalarType::u16: return "uint16";
+        case ScalarType::i16: return "int16";
+        case ScalarType::u32: return "uint32";
+        case ScalarType::i32: return "int32";
+        case ScalarType::f32: return "float32";
+        default: return "float64";
+    }
+}
+
 std::vector<float> to_float(const unsigned char* data, std::size_t count, ScalarType type, Endian endian) {
     std::vector<float> out(count);
     const bool swap = endian != native_endian();

@@ -41,6 +41,8 @@ double parse_number(const std::string& file, const std::string& field, const std
 // The caller guarantees data holds count * type_size(type) bytes.
 std::vector<float> to_float(const unsigned char* data, std::size_t count, ScalarType type,
                             Endian endian);
+// "uint8", "int16", "float32", … (Volume::stored_type).
+const char* type_name(ScalarType type);
 
 // Sets v.spacing and v.placement (see Volume::placement) from an index → world affine map:
 // voxel (i, j, k) of v lies at world = origin + i·axes[0] + j·axes[1] + k·axes[2], axes[a] being

@@ -35,6 +35,7 @@ Volume read_den(const std::string& path) {
     Volume volume;
     volume.dims = {int(dims[0]), int(dims[1]), int(dims[2])};
     volume.voxels = to_float(bytes.data() + kHeaderBytes, count, ScalarType::u8, Endian::little);
+    volume.stored_type = type_name(ScalarType::u8);
     volume.source = path;
     return volume;
 }

@@ -77,6 +77,7 @@ Volume read_inr(const std::string& path) {
         volume.spacing[a] = float(s);
     }
     volume.voxels = to_float(bytes.data() + header_bytes, count, type, endian);
+    volume.stored_type = type_name(type);
     volume.source = path;
     return volume;
 }

@@ -79,6 +79,24 @@ void quiet_once() {
     });
 }
 
+// ITK's component type as Volume::stored_type spells it ("uint8", "int16", "float32", …).
+std::string stored_type_name(const itk::ImageIOBase& io) {
+    using C = itk::IOComponentEnum;
+    switch (io.GetComponentType()) {
+        case C::UCHAR: return "uint8";
+        case C::CHAR: return "int8";
+        case C::USHORT: return "uint16";
+        case C::SHORT: return "int16";
+        case C::UINT: return "uint32";
+        case C::INT: return "int32";
+        case C::ULONG: case C::ULONGLONG: return "uint64";
+        case C::LONG: case C::LONGLONG: return "int64";
+        case C::FLOAT: return "float32";
+        case C::DOUBLE: return "float64";
+        default: return "";
+    }
+}
+
 itk::ImageIOBase::Pointer make_io(ItkFormat format) {
     switch (format) {
         case ItkFormat::nrrd: return itk::NrrdImageIO::New().GetPointer();
@@ -328,7 +346,9 @@ Volume read_file(const std::string& path, ItkFormat format, const VolumeLoadOpti
     const std::string said = capture.text();
     if (said.find("not read completely") != std::string::npos)
         throw file_error(path, "data", "truncated: " + one_line(said));
-    return to_volume(path, *reader->GetOutput(), format);
+    Volume volume = to_volume(path, *reader->GetOutput(), format);
+    volume.stored_type = stored_type_name(*io);
+    return volume;
 }
 
 }  // namespace

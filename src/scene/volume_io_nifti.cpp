@@ -113,6 +113,7 @@ Volume read_nifti(const std::string& path) {
     volume.dims = {int(nim->nx), int(nim->ny), int(nim->nz)};
     volume.spacing = {spacing_of(nim->pixdim[1]), spacing_of(nim->pixdim[2]), spacing_of(nim->pixdim[3])};
     volume.voxels = to_float(data.data(), count, type, nim->byteorder == kMsbFirst ? Endian::big : Endian::little);
+    volume.stored_type = type_name(type);
     // Orientation and position: the sform when it has a code, else the qform (nibabel's rule);
     // both map (i, j, k) to RAS+ millimetres, sombra's frame for medical images. Neither: identity.
     const mat44* xform = nim->sform_code > 0 ? &nim->sto_xyz : nim->qform_code > 0 ? &nim->qto_xyz : nullptr;

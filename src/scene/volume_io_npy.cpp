@@ -135,6 +135,7 @@ Volume parse_npy(const std::string& name, const unsigned char* data, std::size_t
     Volume volume;
     volume.dims = {int(dims[0]), int(dims[1]), int(dims[2])};
     volume.voxels = to_float(data + data_start, count, type, endian);
+    volume.stored_type = type_name(type);
     volume.source = name;
     return volume;
 }

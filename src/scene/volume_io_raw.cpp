@@ -120,6 +120,7 @@ Volume read_raw_json(const std::string& path) {
 
     volume.dims = {int(dims[0]), int(dims[1]), int(dims[2])};
     volume.voxels = to_float(bytes.data() + *header_bytes, count, type, endian == "big" ? Endian::big : Endian::little);
+    volume.stored_type = volume_io::type_name(type);
     volume.source = path;
     return volume;
 }

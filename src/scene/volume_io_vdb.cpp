@@ -139,9 +139,13 @@ Volume read_vdb(const std::string& path, const VolumeLoadOptions& options, Volum
             throw file_error(path, "grid", (options.grid.empty() ? std::string("no float or double grid")
                                                                  : "no grid named '" + options.grid + "'") +
                                                " (the file holds " + listing + ")");
-        if (auto g = openvdb::gridPtrCast<openvdb::FloatGrid>(base)) return dense_volume(path, *g, options, report);
-        if (auto g = openvdb::gridPtrCast<openvdb::DoubleGrid>(base)) return dense_volume(path, *g, options, report);
-        throw file_error(path, "grid", "grid '" + base->getName() + "' changed type while it was read");
+        Volume volume;
+        if (auto g = openvdb::gridPtrCast<openvdb::FloatGrid>(base)) volume = dense_volume(path, *g, options, report);
+        else if (auto g = openvdb::gridPtrCast<openvdb::DoubleGrid>(base)) volume = dense_volume(path, *g, options, report);
+        else throw file_error(path, "grid", "grid '" + base->getName() + "' changed type while it was read");
+        volume.stored_type = std::string(base->isType<openvdb::FloatGrid>() ? "float32" : "float64") +
+                             (base->saveFloatAsHalf() ? " (stored as half)" : "");
+        return volume;
     } catch (const Error&) {
         throw;
     } catch (const std::exception& e) {  // openvdb::Exception (IoError, …), std::bad_alloc, …

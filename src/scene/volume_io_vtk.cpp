@@ -126,6 +126,7 @@ Volume read_vtk(const std::string& path) {
     }
 
     volume.dims = {int(dims[0]), int(dims[1]), int(dims[2])};
+    volume.stored_type = type_name(type);
     if (binary) {
         const std::size_t needed = count * type_size(type), available = bytes.size() - lines.pos();
         if (available < needed) check_exact_size(path, "data", needed, available);  // throws "truncated"
