@@ -11,12 +11,33 @@
 #include "traversal.h"
 #include "lowpass.h"
 
+/* Whether the part [t0, t1] of the ray lies in bricks of volume i whose σ is 0 everywhere (the
+ * camera pass's occupancy flags, traversal.h): the bricks under the part's voxel-space bounding
+ * box, when it spans at most three per axis (a table cell spans one or two), all empty. Such a
+ * part adds exactly 0, so skipping it changes no bit of the table. */
+static inline int segment_in_empty_bricks(__global const uchar* occupancy, __global const VolumeGpu* v, const VolumeRay* ray,
+                                          uint i, float t0, float t1) {
+    lfloat3 q0 = ray_voxel_point(ray, i, t0), q1 = ray_voxel_point(ray, i, t1); /* SOMBRA_LANES=1: lfloat is float */
+    float3 p0 = (float3)(q0.x, q0.y, q0.z), p1 = (float3)(q1.x, q1.y, q1.z);
+    float3 last = (float3)((float)(v->dims.x - 1), (float)(v->dims.y - 1), (float)(v->dims.z - 1));
+    int3 lo = convert_int3(clamp(fmin(p0, p1), 0.0f, last)) / SOMBRA_BRICK_SIZE;
+    int3 hi = min(convert_int3(clamp(fmax(p0, p1), 0.0f, last)) / SOMBRA_BRICK_SIZE, v->brick_dims.xyz - 1);
+    /* trilinear samples in the last voxel of a brick read the next brick's first: its flags cover
+     * them (scene_upload.cpp), and a sample at a brick's upper face is the next brick's */
+    if (any(hi - lo > 2)) return 0;
+    for (int z = lo.z; z <= hi.z; ++z)
+        for (int y = lo.y; y <= hi.y; ++y)
+            for (int x = lo.x; x <= hi.x; ++x)
+                if (occupancy[v->brick_offset + x + v->brick_dims.x * (y + v->brick_dims.y * z)]) return 0;
+    return 1;
+}
+
 /* Optical depth of the segment from a to b under the renderer's model: each volume's part inside
  * its box [−0.5, dims − 0.5] in steps of at most its ray step, each split at the voxel-centre
  * planes it crosses and pre-integrated (traversal.h split_interval_depth, whatever the volume's
- * stiffness: a table is built once per light). */
-static inline float segment_optical_depth(VOLUME_DATA_PARAM, __global const VolumeGpu* volumes, uint volume_count,
-                                   __global const float* tf_tables, float3 a, float3 b) {
+ * stiffness: a table is built once per light); parts in empty bricks are skipped. */
+static inline float segment_optical_depth(VOLUME_DATA_PARAM, __global const uchar* occupancy, __global const VolumeGpu* volumes,
+                                          uint volume_count, __global const float* tf_tables, float3 a, float3 b) {
     float length = distance(a, b);
     if (!(length > 0.0f)) return 0.0f;
     VolumeRay ray;
@@ -25,7 +46,7 @@ static inline float segment_optical_depth(VOLUME_DATA_PARAM, __global const Volu
     for (uint i = 0; i < volume_count; ++i) {
         __global const VolumeGpu* v = &volumes[i];
         float t0 = ray.t_enter[i], t1 = ray.t_exit[i];
-        if (!(t0 < t1)) continue;
+        if (!(t0 < t1) || segment_in_empty_bricks(occupancy, v, &ray, i, t0, t1)) continue;
         int steps = clamp((int)ceil((t1 - t0) / v->step - 1e-3f), 1, 4096); /* 1e-3: the same count in double */
         float h = (t1 - t0) / (float)steps, ta = t0, da = density_at_point(volume_data, v, &ray, i, t0);
         for (int s = 1; s <= steps; ++s) {
@@ -46,7 +67,7 @@ static inline float segment_optical_depth(VOLUME_DATA_PARAM, __global const Volu
  * to SOMBRA_SAT_MAX_CELL_TAU and rounded to fixed point; the column's running sums go to
  * S(i + 1, j + 1, k + 1); the zero border S(0, ·, ·) … is cleared by the host. */
 __kernel void sat_resample(VOLUME_DATA_PARAM, __global const float* tf_tables, __global const VolumeGpu* volumes,
-                           uint volume_count, __global ulong* sat, uint data_offset, int4 n, float4 origin,
+                           uint volume_count, __global const uchar* occupancy, __global ulong* sat, uint data_offset, int4 n, float4 origin,
                            float4 cell_u, float4 cell_v, float4 cell_w, float cell_length, uint light_axes) {
     int i = get_global_id(0), j = get_global_id(1);
     if (i >= n.x || j >= n.y) return;
@@ -61,7 +82,8 @@ __kernel void sat_resample(VOLUME_DATA_PARAM, __global const float* tf_tables, _
         float tau = 0.0f;
         for (int a = 0; a < 3; ++a)
             if (axes & (1u << a))
-                tau += segment_optical_depth(volume_data, volumes, volume_count, tf_tables, centre - 0.5f * axis[a], centre + 0.5f * axis[a]);
+                tau += segment_optical_depth(volume_data, occupancy, volumes, volume_count, tf_tables, centre - 0.5f * axis[a],
+                                             centre + 0.5f * axis[a]);
         running += sat_fixed_point(tau / count);
         s[sat_entry(n, i + 1, j + 1, k + 1)] = running;
     }
@@ -71,7 +93,7 @@ __kernel void sat_resample(VOLUME_DATA_PARAM, __global const float* tf_tables, _
  * light; a cell holds the optical depth of its radial segment through the cell's centre angles
  * (segment_optical_depth) times w_θ (shared/types.h, SsatGridGpu). */
 __kernel void ssat_resample(VOLUME_DATA_PARAM, __global const float* tf_tables, __global const VolumeGpu* volumes,
-                            uint volume_count, __global ulong* sat, __global const SsatGridGpu* grid) {
+                            uint volume_count, __global const uchar* occupancy, __global ulong* sat, __global const SsatGridGpu* grid) {
     int4 n = grid->dims;
     int i = get_global_id(0), j = get_global_id(1);
     if (i >= n.x || j >= n.y) return;
@@ -86,7 +108,7 @@ __kernel void ssat_resample(VOLUME_DATA_PARAM, __global const float* tf_tables, 
     for (int k = 0; k < n.z; ++k) {
         float r0 = grid->start.z + k * grid->cell.z;
         float3 a = grid->light.xyz + r0 * dir, b = grid->light.xyz + (r0 + grid->cell.z) * dir;
-        running += sat_fixed_point(segment_optical_depth(volume_data, volumes, volume_count, tf_tables, a, b) * w_theta);
+        running += sat_fixed_point(segment_optical_depth(volume_data, occupancy, volumes, volume_count, tf_tables, a, b) * w_theta);
         s[sat_entry(n, i + 1, j + 1, k + 1)] = running;
     }
 }

@@ -228,7 +228,7 @@ void bind_volumes(host::KernelArgs& args, const packing::PackedScene& packed, co
     if (device_scene.uses_images) args("volume_data", device_scene.voxel_image);
     else args("volume_data", device_scene.voxel_buffer);
     args("tf_tables", device_scene.tf_tables)("volumes", device_scene.volumes)("volume_count", cl_uint(packed.volumes.size()));
-    args("sat", data);
+    args("occupancy", device_scene.occupancy)("sat", data);
 }
 
 // A resample kernel over nx × ny lines: a table's unit of the progress stage.
