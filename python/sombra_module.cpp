@@ -270,6 +270,30 @@ PYBIND11_MODULE(sombra, m) {
         .def_property_readonly("volume_count", [](const Scene& s) { return s.volumes.size(); })
         .def_property_readonly("light_count", [](const Scene& s) { return s.lights.size(); })
         .def_property_readonly("source", [](const Scene& s) { return s.source; })
+        .def(
+            "bounds",
+            [](const Scene& s) {
+                const Box3 b = world_bounds(s);
+                if (b.empty()) throw py::value_error("Scene.bounds: the scene has no volume or mesh");
+                return py::make_tuple(tuple3(b.lo), tuple3(b.hi));
+            },
+            "World bounds ((x, y, z) low, (x, y, z) high) of every volume's voxel cells and mesh, as `sombra info` reports "
+            "them and as a camera-less scene is framed.")
+        .def(
+            "volume_bounds",
+            [](const Scene& s, std::size_t i) {
+                if (i >= s.volumes.size()) throw py::index_error("Scene.volume_bounds: index: no volume " + std::to_string(i));
+                const Box3 b = world_bounds(s.volumes[i]);
+                return py::make_tuple(tuple3(b.lo), tuple3(b.hi));
+            },
+            py::arg("index"), "World bounds of volume `index` (its box ± half a voxel, through its transform).")
+        .def(
+            "value_range",
+            [](const Scene& s, std::size_t i) {
+                if (i >= s.volumes.size()) throw py::index_error("Scene.value_range: index: no volume " + std::to_string(i));
+                return py::make_tuple(s.volumes[i].volume->value_min, s.volumes[i].volume->value_max);
+            },
+            py::arg("index"), "(min, max) of volume `index`'s values, as read (the units its transfer function uses).")
         .def("render_options", &scene_render_options,
              "The scene file's \"render\" block as RenderOptions (the defaults where it is silent); what render() uses when "
              "no options are given.")

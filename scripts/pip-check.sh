@@ -23,6 +23,7 @@ fi
 where=$(cd "$work" && venv/bin/python -c "import sombra; print(sombra.__file__)")
 case "$where" in "$work"/venv/*) ;; *) echo "pip-check: the module came from $where, not the venv" >&2; exit 1 ;; esac
 echo "pip-check: module $where, command $command_version"
+ls "$work"/venv/lib/python3*/site-packages/sombra-stubs/__init__.pyi >/dev/null  # the type stub (PEP 561)
 (cd "$work" && SOMBRA_SOURCE_DIR="$OLDPWD" PATH="$work/venv/bin:/usr/local/bin:/usr/bin:/bin" \
    venv/bin/python -m pytest -q -p no:cacheprovider "$OLDPWD/python/tests")
 echo "pip-check: passed"

@@ -122,6 +122,19 @@ def test_volume_info_is_sombra_info_json():
         sombra.volume_info("no_such.nii")
 
 
+def test_scene_bounds_and_value_ranges_match_sombra_info():
+    scene = sombra.load_scene(str(SOURCE_DIR / "data/scenes/default.json"))
+    info = sombra.volume_info(str(SOURCE_DIR / "data/volumes/stent.npz"))
+    lo, hi = scene.bounds()
+    assert [lo, hi] == [tuple(info["world_bounds"]["min"]), tuple(info["world_bounds"]["max"])]
+    assert scene.volume_bounds(0) == (lo, hi)
+    assert scene.value_range(0) == (info["min"], info["max"])
+    with pytest.raises(IndexError, match="volume_bounds"):
+        scene.volume_bounds(1)
+    with pytest.raises(ValueError, match="no volume or mesh"):
+        sombra.Scene(8, 8).bounds()
+
+
 def test_render_shadows_by_default(context):
     scene = sombra.load_scene(str(SOURCE_DIR / "data/scenes/default.json"))
     assert sombra.RenderOptions().shadows == "dsm"
@@ -413,3 +426,27 @@ def test_huge_zero_stride_views_are_refused_before_any_copy():
     points = np.broadcast_to(np.zeros(3), (1 << 25, 3))
     with pytest.raises(ValueError, match="more than the limit"):
         sombra.reference_transmittance(numpy_scene(lopsided_volume()), 0, points)
+
+
+def test_the_type_stub_names_everything_the_module_has():
+    import ast
+
+    stub = ast.parse((SOURCE_DIR / "python" / "sombra.pyi").read_text())
+
+    def names(body):
+        out = set()
+        for node in body:
+            if isinstance(node, (ast.FunctionDef, ast.ClassDef)):
+                out.add(node.name)
+            elif isinstance(node, ast.AnnAssign) and isinstance(node.target, ast.Name):
+                out.add(node.target.id)
+        return out
+
+    classes = {node.name: names(node.body) for node in stub.body if isinstance(node, ast.ClassDef)}
+    public = {n for n in dir(sombra) if not n.startswith("_")} | {"__version__"}
+    assert public <= names(stub.body), public - names(stub.body)
+    for name, members in classes.items():
+        if not hasattr(sombra, name) or name == "Error":
+            continue  # stub-only types (RenderOptionKeywords); Error's members are Exception's
+        runtime = {m for m in dir(getattr(sombra, name)) if not m.startswith("_")}
+        assert runtime <= members, (name, runtime - members)
