@@ -1,4 +1,4 @@
-# Type stub of the module `sombra` (python/sombra_module.cpp), written by python/make_stub.py:
+# Type stub of the module `sombra` (python/sombra_module.cpp), written by python/make_stub.py from sombra.pyi.in:
 # RenderOptions and the option keywords come from the options' declarations (docs/options.md).
 from typing import Any, Literal, Optional, Sequence, TypedDict, Union
 
