@@ -1,6 +1,6 @@
 # Type stub of the module `sombra` (python/sombra_module.cpp), written by python/make_stub.py from sombra.pyi.in:
 # RenderOptions and the option keywords come from the options' declarations (docs/options.md).
-from typing import Any, Literal, Optional, Sequence, TypedDict, Union
+from typing import Any, Literal, NamedTuple, Optional, Sequence, TypedDict, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -12,6 +12,11 @@ Vec3 = Union[Sequence[float], npt.NDArray[Any]]
 Stats = dict[str, Any]
 
 class Error(Exception): ...
+
+class Rendered(NamedTuple):
+    image: npt.NDArray[np.float32]
+    stats: Stats
+    def _repr_png_(self) -> bytes: ...
 
 class Context:
     device: str
@@ -153,7 +158,7 @@ def volume_info(path: str, grid: str = "") -> dict[str, Any]: ...
 def render_option_declarations() -> list[dict[str, Any]]: ...
 def render(
     context: Context, scene: Scene, options: Optional[RenderOptions] = None, **kwargs: Unpack[RenderOptionKeywords]
-) -> tuple[npt.NDArray[np.float32], Stats]: ...
+) -> Rendered: ...
 def shadow_transmittance(
     context: Context,
     scene: Scene,

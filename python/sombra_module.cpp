@@ -1,6 +1,7 @@
 // sombra — Python bindings (pybind11): `import sombra` (docs/python.md). Thin: numpy arrays in and
 // out, option values as strings through the library's own parsers (render.h set_render_option,
 // scene.h parse_light_type).
+#include <pybind11/eval.h>
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
@@ -440,10 +441,10 @@ PYBIND11_MODULE(sombra, m) {
             }
             py::array_t<float> image({py::ssize_t(result.image.height), py::ssize_t(result.image.width), py::ssize_t(4)});
             std::copy(result.image.rgba.begin(), result.image.rgba.end(), image.mutable_data());
-            return py::make_tuple(image, stats_dict(result.stats));
+            return py::module_::import("sombra").attr("Rendered")(image, stats_dict(result.stats));
         },
         py::arg("context"), py::arg("scene"), py::arg("options") = py::none(),
-        "Returns (image, stats): float32 (height, width, 4) linear RGBA, top row first, background composited; "
+        "Returns a Rendered (image, stats): float32 (height, width, 4) linear RGBA, top row first, background composited; "
         "the stats as `sombra render --stats` writes them. Options: a RenderOptions (default: the scene file's \"render\" "
         "block) and/or its attributes as keywords; a keyword that does not apply to the technique is refused.");
 
@@ -527,6 +528,26 @@ PYBIND11_MODULE(sombra, m) {
         "Writes render()'s image as `sombra render -o` does: .png (8-bit sRGB) or .exr (linear float, premultiplied: "
         "the background composited into the image is taken out again; pass the scene's). No partial file on failure.");
     m.attr("__version__") = SOMBRA_VERSION;
+
+    // render()'s result: a named tuple (image, stats), so `image, stats = render(…)` unpacks it, that
+    // a notebook shows as the PNG `sombra render -o` writes (IPython's _repr_png_)
+    py::exec(R"(
+import collections as _collections, os as _os, tempfile as _tempfile
+
+class Rendered(_collections.namedtuple("Rendered", ["image", "stats"])):
+    """What render() returns: image (float32 (height, width, 4) linear RGBA, top row first) and stats
+    (the dict `sombra render --stats` writes); unpacks as (image, stats). A notebook shows it as the
+    8-bit sRGB PNG `sombra render -o image.png` writes."""
+    __slots__ = ()
+
+    def _repr_png_(self):
+        with _tempfile.TemporaryDirectory() as folder:
+            path = _os.path.join(folder, "image.png")
+            write_image(path, self.image)
+            with open(path, "rb") as f:
+                return f.read()
+)",
+             m.attr("__dict__"));
 
     m.def(
         "build_deep_shadow_maps",

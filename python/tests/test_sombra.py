@@ -135,9 +135,22 @@ def test_scene_bounds_and_value_ranges_match_sombra_info():
         sombra.Scene(8, 8).bounds()
 
 
+def test_render_returns_a_named_tuple_a_notebook_shows(context, tmp_path):
+    scene = sombra.load_scene(str(SOURCE_DIR / "data/scenes/default.json"))
+    result = sombra.render(context, scene, width=20, height=12)
+    image, stats = result  # unpacks as before
+    assert isinstance(result, tuple) and result.image is image and result.stats is stats and result[0] is image
+    png = result._repr_png_()
+    assert png[:8] == b"\x89PNG\r\n\x1a\n" and png[12:16] == b"IHDR"
+    assert int.from_bytes(png[16:20], "big") == 20 and int.from_bytes(png[20:24], "big") == 12
+    sombra.write_image(str(tmp_path / "same.png"), image)
+    assert (tmp_path / "same.png").read_bytes() == png  # the CLI's PNG, bit for bit
+
+
 def test_render_shadows_by_default(context):
     scene = sombra.load_scene(str(SOURCE_DIR / "data/scenes/default.json"))
     assert sombra.RenderOptions().shadows == "dsm"
+    context.release_prepared_scenes()  # maps another test kept would be reused, not generated
     image, stats = sombra.render(context, scene, width=24, height=24)
     assert "dsm" in stats and stats["dsm"]["views_generated"] > 0
 
@@ -448,5 +461,6 @@ def test_the_type_stub_names_everything_the_module_has():
     for name, members in classes.items():
         if not hasattr(sombra, name) or name == "Error":
             continue  # stub-only types (RenderOptionKeywords); Error's members are Exception's
-        runtime = {m for m in dir(getattr(sombra, name)) if not m.startswith("_")}
+        inherited = set(dir(tuple)) if issubclass(getattr(sombra, name), tuple) else set()  # a NamedTuple's count, index
+        runtime = {m for m in dir(getattr(sombra, name)) if not m.startswith("_")} - inherited
         assert runtime <= members, (name, runtime - members)
