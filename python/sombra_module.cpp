@@ -510,6 +510,23 @@ PYBIND11_MODULE(sombra, m) {
                    ", " + std::to_string(d.nodes.size()) + " nodes)";
         });
     m.def("read_deep_exr", &read_deep_exr, py::arg("path"));
+    m.def(
+        "load_mesh",
+        [](const std::string& path) {
+            Mesh mesh;
+            {
+                py::gil_scoped_release release;
+                mesh = load_mesh(path);
+            }
+            py::array_t<float> vertices({py::ssize_t(mesh.positions.size()), py::ssize_t(3)});
+            py::array_t<std::uint32_t> triangles({py::ssize_t(mesh.triangles.size()), py::ssize_t(3)});
+            std::copy_n(mesh.positions.data()->data(), mesh.positions.size() * 3, vertices.mutable_data());
+            std::copy_n(mesh.triangles.data()->data(), mesh.triangles.size() * 3, triangles.mutable_data());
+            return py::make_tuple(vertices, triangles);
+        },
+        py::arg("path"),
+        "Reads an OBJ or PLY mesh as the scene files do (polygons as fans, OBJ corners welded): returns (vertices, "
+        "triangles), float32 (N, 3) and uint32 (M, 3), ready for Scene.add_mesh. Errors name the file.");
 
     m.def(
         "write_image",

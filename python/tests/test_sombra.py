@@ -135,6 +135,19 @@ def test_scene_bounds_and_value_ranges_match_sombra_info():
         sombra.Scene(8, 8).bounds()
 
 
+def test_load_mesh_gives_what_add_mesh_takes(context, tmp_path):
+    obj = tmp_path / "quad.obj"
+    obj.write_text("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n")
+    vertices, triangles = sombra.load_mesh(str(obj))
+    assert vertices.dtype == np.float32 and vertices.shape == (4, 3) and vertices.strides == (12, 4)
+    assert triangles.dtype == np.uint32 and triangles.shape == (2, 3)  # the quad as a fan
+    assert vertices[2].tolist() == [1.0, 1.0, 0.0] and sorted(set(triangles.ravel().tolist())) == [0, 1, 2, 3]
+    scene = sombra.Scene(8, 8)
+    assert scene.add_mesh(vertices, triangles) == 0
+    with pytest.raises(Exception, match="no_such.obj"):
+        sombra.load_mesh(str(tmp_path / "no_such.obj"))
+
+
 def test_render_returns_a_named_tuple_a_notebook_shows(context, tmp_path):
     scene = sombra.load_scene(str(SOURCE_DIR / "data/scenes/default.json"))
     result = sombra.render(context, scene, width=20, height=12)
