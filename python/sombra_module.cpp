@@ -35,6 +35,20 @@ std::string shape_of(const py::array& a) {
 // 'f', 'i', 'u') and Python sequences convert to T.
 // An array's shape and element count are checked before anything is copied: a zero-stride view
 // (np.broadcast_to) of 2⁴⁰ elements costs no memory until converted. At most `max_elements`.
+// The dtype kind, shape and size of a numpy array checked as checked_array does, before any copy.
+void check_array_layout(const py::array& array, const char* where, const char* name, const std::vector<py::ssize_t>& sizes,
+                        const char* expected, std::uint64_t max_elements, const std::string& kinds) {
+    auto fail = [&](const std::string& got) {
+        throw py::value_error(std::string(where) + ": " + name + ": expected " + expected + ", got " + got);
+    };
+    if (kinds.find(array.dtype().kind()) == std::string::npos) fail("dtype " + std::string(py::str(array.dtype())));
+    bool shaped = array.ndim() == py::ssize_t(sizes.size());
+    for (std::size_t d = 0; shaped && d < sizes.size(); ++d) shaped = sizes[d] < 0 || array.shape(py::ssize_t(d)) == sizes[d];
+    if (!shaped) fail("shape " + shape_of(array));
+    if (std::uint64_t(array.size()) > max_elements)
+        fail(std::to_string(array.size()) + " elements " + shape_of(array) + ", more than the limit of " + std::to_string(max_elements));
+}
+
 template <typename T>
 py::array_t<T, py::array::c_style> checked_array(const py::handle& value, const char* where, const char* name,
                                                    std::vector<py::ssize_t> sizes, const char* expected,
@@ -43,16 +57,8 @@ py::array_t<T, py::array::c_style> checked_array(const py::handle& value, const 
     auto fail = [&](const std::string& got) {
         throw py::value_error(std::string(where) + ": " + name + ": expected " + expected + ", got " + got);
     };
-    if (py::isinstance<py::array>(value)) {
-        const auto array = py::reinterpret_borrow<py::array>(value);
-        if (kinds.find(array.dtype().kind()) == std::string::npos) fail("dtype " + std::string(py::str(array.dtype())));
-        bool shaped = array.ndim() == py::ssize_t(sizes.size());
-        for (std::size_t d = 0; shaped && d < sizes.size(); ++d) shaped = sizes[d] < 0 || array.shape(py::ssize_t(d)) == sizes[d];
-        if (!shaped) fail("shape " + shape_of(array));
-        if (std::uint64_t(array.size()) > max_elements)
-            fail(std::to_string(array.size()) + " elements " + shape_of(array) + ", more than the limit of " +
-                 std::to_string(max_elements));
-    }
+    if (py::isinstance<py::array>(value))
+        check_array_layout(py::reinterpret_borrow<py::array>(value), where, name, sizes, expected, max_elements, kinds);
     py::array_t<T, py::array::c_style> typed;
     try {
         typed = py::array_t<T, py::array::c_style | py::array::forcecast>::ensure(value);
@@ -312,12 +318,30 @@ PYBIND11_MODULE(sombra, m) {
             [](Scene& s, const py::object& voxels, const py::object& spacing, const py::object& transform,
                const py::object& opacity, const py::object& color, float step_voxels, float opacity_unit, const std::string& name) {
                 // any real dtype and memory order (uint8 and int16 CT, float64, Fortran order, views), as
-                // float32 in C order: the values as they are (no rescaling, as the CLI reads .npy)
-                auto a = checked_array<float>(voxels, "Scene.add_volume", "voxels", {-1, -1, -1}, "a real array of shape (z, y, x)");
-                if (a.size() == 0) throw py::value_error("Scene.add_volume: voxels: empty array " + shape_of(a));
+                // float32 in C order: the values as they are (no rescaling, as the CLI reads .npy). One
+                // copy at most: a float32 C-ordered array is copied into the volume; any other array is
+                // converted by numpy straight into the volume's memory (no float32 temporary)
+                const char* expected = "a real array of shape (z, y, x)";
                 auto volume = std::make_shared<Volume>();
-                volume->dims = {int(a.shape(2)), int(a.shape(1)), int(a.shape(0))};  // x fastest: C order (z, y, x)
-                volume->voxels.assign(a.data(), a.data() + a.size());
+                if (py::isinstance<py::array>(voxels) && !py::isinstance<py::array_t<float, py::array::c_style>>(voxels)) {
+                    const auto array = py::reinterpret_borrow<py::array>(voxels);
+                    check_array_layout(array, "Scene.add_volume", "voxels", {-1, -1, -1}, expected, limits::kMaxVolumeVoxels, "fiu");
+                    if (array.size() == 0) throw py::value_error("Scene.add_volume: voxels: empty array " + shape_of(array));
+                    volume->dims = {int(array.shape(2)), int(array.shape(1)), int(array.shape(0))};
+                    volume->voxels.resize(std::size_t(array.size()));
+                    py::array_t<float> into({array.shape(0), array.shape(1), array.shape(2)}, volume->voxels.data(),
+                                            py::capsule(volume->voxels.data(), [](void*) {}));  // a view: the volume owns it
+                    py::module_::import("numpy").attr("copyto")(into, array, py::arg("casting") = "unsafe");
+                    for (std::size_t i = 0; i < volume->voxels.size(); ++i)
+                        if (!std::isfinite(volume->voxels[i]))
+                            throw py::value_error(std::string("Scene.add_volume: voxels: expected ") + expected +
+                                                  ", got a non-finite value at flat index " + std::to_string(i));
+                } else {
+                    auto a = checked_array<float>(voxels, "Scene.add_volume", "voxels", {-1, -1, -1}, expected);
+                    if (a.size() == 0) throw py::value_error("Scene.add_volume: voxels: empty array " + shape_of(a));
+                    volume->dims = {int(a.shape(2)), int(a.shape(1)), int(a.shape(0))};  // x fastest: C order (z, y, x)
+                    volume->voxels.assign(a.data(), a.data() + a.size());
+                }
                 volume->spacing = vec3(spacing, "Scene.add_volume", "spacing");
                 volume->source = name.empty() ? "numpy array" : name;
                 volume->update_range();

@@ -282,6 +282,10 @@ def test_voxels_of_every_real_dtype_and_order_render_as_their_float32_values(con
     from_int16, _ = sombra.render(context, numpy_scene(counts.astype(np.int16)), shadows="rays")
     from_float, _ = sombra.render(context, numpy_scene(counts.astype(np.float32)), shadows="rays")
     assert np.array_equal(from_uint8, from_float) and np.array_equal(from_int16, from_float)
+    # converted straight into the volume (no float32 temporary), with the same non-finite rule
+    for bad in (np.full((2, 2, 2), np.nan), np.full((2, 2, 2), 1e300), np.asfortranarray(np.full((2, 2, 3), np.inf))):
+        with pytest.raises(ValueError, match="add_volume: voxels: .*non-finite value at flat index 0"):
+            sombra.Scene(8, 8).add_volume(bad)
 
 
 def test_meshes_from_numpy_cast_shadows_and_images_are_written(context, tmp_path):
