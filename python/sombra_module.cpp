@@ -198,7 +198,9 @@ std::vector<Point> tf_points(const py::handle& value, const char* name, py::ssiz
 
 PYBIND11_MODULE(sombra, m) {
     m.doc() = "sombra: volumetric shadows (deep shadow maps, shadow rays, low-pass SAT shadows) on OpenCL";
-    py::register_exception<Error>(m, "Error", PyExc_RuntimeError);
+    py::register_exception<Error>(m, "Error", PyExc_RuntimeError).attr("__doc__") =
+        "sombra's own errors (a RuntimeError): one line naming the file and field, or the option, that is wrong; "
+        "bad arguments raise ValueError or TypeError naming the function and argument instead.";
 
     py::class_<Context>(m, "Context", "An OpenCL device with its compiled kernels and kept scene data.")
         .def(py::init<const std::string&>(), py::arg("device") = "auto",
@@ -211,7 +213,9 @@ PYBIND11_MODULE(sombra, m) {
             devices.append(py::dict(py::arg("index") = d.index, py::arg("name") = d.name, py::arg("platform") = d.platform,
                                     py::arg("is_gpu") = d.is_gpu));
         return devices;
-    });
+    },
+          "The OpenCL devices, as `sombra devices` lists them: dicts of index, name, platform, is_gpu; Context(str(index)) "
+          "chooses one.");
 
     py::class_<RenderOptions> options(m, "RenderOptions",
                                       "The render options (sombra/options.h): each an attribute and a keyword of RenderOptions(), "
@@ -533,7 +537,9 @@ PYBIND11_MODULE(sombra, m) {
             return "sombra.DeepShadowMap('" + d.light_name + "', " + std::to_string(d.width) + "x" + std::to_string(d.height) +
                    ", " + std::to_string(d.nodes.size()) + " nodes)";
         });
-    m.def("read_deep_exr", &read_deep_exr, py::arg("path"));
+    m.def("read_deep_exr", &read_deep_exr, py::arg("path"),
+          "Reads a deep OpenEXR as a DeepShadowMap: sombra's own (`sombra dsm`, DeepShadowMap.write_exr) and other tools' "
+          "scanline deep files (docs/deep_exr.md); a hostile file is refused with one error line naming it.");
     m.def(
         "load_mesh",
         [](const std::string& path) {
