@@ -76,3 +76,15 @@ if os.path.exists(seed):
     with open(seed, "rb") as f:
         whole = f.read()
     put("deep_exr", "cut-in-samples.exr", whole[: len(whole) * 2 // 3])
+
+# --- CLI arguments (fuzz/fuzz_cli.cpp): values out of range or not numbers, outputs naming inputs ---
+def argv(*args):
+    return b"\0".join(a.encode() for a in args)
+
+
+put("cli", "huge-and-nan-values.args", argv("render", "scene.json", "-o", "o.png", "--width", "1e400", "--eps", "nan",
+                                             "--dsm-res", "-1", "--filter", "inf", "--seed", "99999999999999999999"))
+put("cli", "output-is-input.args", argv("render", "scene.json", "-o", "scene.json"))
+put("cli", "points-device.args", argv("visibility", "scene.json", "--light", "99999999999", "--points", "/dev/zero"))
+put("cli", "empty-arguments.args", argv("", "", "render", "", "-o"))
+put("cli", "unknown-technique.args", argv("dsm", "scene.json", "--light", "0", "-o", "d.png", "--shadows", "dsmx", "--precompression=7"))

@@ -178,3 +178,18 @@ if os.path.exists(sombra):
     os.makedirs(os.path.join(CORPUS, "deep_exr"), exist_ok=True)
     subprocess.run([sombra, "dsm", os.path.join(DATA, "scenes", "default.json"), "--light", "0", "--dsm-res", "8", "-q",
                     "-o", os.path.join(CORPUS, "deep_exr", "dsm_8x8.exr")], check=True)
+
+# CLI arguments (issue 25 item 5): argument lists after `sombra`, NUL-separated; the harness's
+# folder holds scene.json, v.npy, m.obj and points.csv (fuzz/fuzz_cli.cpp)
+def argv(*args):
+    return b"\0".join(a.encode() for a in args)
+
+put("cli", "render.args", argv("render", "scene.json", "-o", "o.png", "--dsm-res", "64", "--eps", "0.01", "--stats", "s.json"))
+put("cli", "render-lowpass.args", argv("render", "scene.json", "-o", "o.exr", "--shadows", "lowpass", "--filter", "5",
+                                        "--width", "32", "--height", "8"))
+put("cli", "render-volume.args", argv("render", "v.npy", "-o", "v.png", "--preset", "ct", "--write-scene", "w.json"))
+put("cli", "dsm.args", argv("dsm", "scene.json", "--light", "1", "-o", "d.exr", "--dsm-error", "absolute", "--clusters", "2"))
+put("cli", "visibility.args", argv("visibility", "scene.json", "--light", "0", "--points", "points.csv", "--shadows", "dsm,rays"))
+put("cli", "info.args", argv("info", "scene.json", "--json"))
+put("cli", "clusters.args", argv("clusters", "scene.json", "--clusters", "3", "--light", "0"))
+put("cli", "help.args", argv("render", "--help"))

@@ -14,9 +14,9 @@ int main(int argc, char** argv) {
     for (int i = 1; i < argc; ++i) {
         if (std::filesystem::is_directory(argv[i])) {
             for (const auto& entry : std::filesystem::directory_iterator(argv[i]))
-                if (entry.is_regular_file()) files.push_back(entry.path());
+                if (entry.is_regular_file()) files.push_back(std::filesystem::absolute(entry.path()));
         } else {
-            files.emplace_back(argv[i]);
+            files.push_back(std::filesystem::absolute(argv[i]));  // a harness may change the working folder (cli)
         }
     }
     std::sort(files.begin(), files.end());

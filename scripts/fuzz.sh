@@ -10,7 +10,7 @@ cd "$(dirname "$0")/.."
 seconds=${1:-60}
 shift || true
 names=("$@")
-[ ${#names[@]} -gt 0 ] || names=(nifti nifti_gz npy npz den inr vtk raw mesh_ply mesh_obj scene points nrrd metaimage tiff vdb dicom deep_exr)
+[ ${#names[@]} -gt 0 ] || names=(nifti nifti_gz npy npz den inr vtk raw mesh_ply mesh_obj scene points nrrd metaimage tiff vdb dicom deep_exr cli)
 # Harnesses that run ITK's readers: ITK 5.2 leaks on its own error paths (NrrdIO's gzip reader,
 # TIFFImageIO's strip buffer: a few hundred bytes per refused file, found in the first seconds), so
 # for them leaks are not findings; crashes, sanitizer reports, hangs and big allocations still are.
@@ -34,7 +34,11 @@ for name in "${names[@]}"; do
   [[ $library_leaks == *" $name "* ]] &&
     options="${ASAN_OPTIONS//detect_leaks=1/detect_leaks=0}:log_path=$PWD/build-sanitize/fuzz-$name.asan"
   # -jobs/-workers 1: CI has 2 cores; one harness at a time keeps the numbers comparable
-  ASAN_OPTIONS=$options build-sanitize/fuzz/fuzz_"$name" "$corpus" fuzz/corpus/"$name" -max_total_time="$seconds" -timeout=10 \
+  # the CLI prints help and error lines at every run: its stdout and stderr are closed (libFuzzer
+  # keeps its own report stream)
+  quiet=""
+  [ "$name" = cli ] && quiet=-close_fd_mask=3
+  ASAN_OPTIONS=$options build-sanitize/fuzz/fuzz_"$name" "$corpus" fuzz/corpus/"$name" -max_total_time="$seconds" -timeout=10 $quiet \
     -malloc_limit_mb=1024 -rss_limit_mb=2560 -print_final_stats=1 -artifact_prefix="$artifacts/" >"$log" 2>&1 || status=$?
   runs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" | tail -1)
   rate=$(sed -n 's/^stat::average_exec_per_sec: *//p' "$log" | tail -1)

@@ -506,6 +506,9 @@ int run(int argc_given, char** argv_given) {
     } catch (const CLI::ParseError& e) {
         return parse_error(app, e, argc, argv);
     }
+#ifdef SOMBRA_FUZZ_CLI  // fuzz/fuzz_cli.cpp: no device, and nothing written
+    if (devices->parsed() || clusters.app->parsed()) return 0;
+#endif
     if (devices->parsed()) return list_devices();
     if (info.app->parsed()) return sombra::cli::run_info_command(info);
     if (clusters.app->parsed()) return sombra::cli::run_clusters_command(clusters, sombra::load_scene(clusters.scene_path));
@@ -533,6 +536,9 @@ int run(int argc_given, char** argv_given) {
         sombra::fit_scene_camera(scene, width, height);
         if (volume_file) scene.lights.front() = sombra::key_light(scene.camera), sombra::normalize_light_direction(scene.lights.front());
     }
+#ifdef SOMBRA_FUZZ_CLI  // parsed, checked and loaded: what the CLI harness exercises
+    return 0;
+#endif
     sombra::Context context(a.device);
     StageTimes stages;
     options.progress = stages.callback(a.quiet);
@@ -545,4 +551,8 @@ int run(int argc_given, char** argv_given) {
 
 }  // namespace
 
+#ifdef SOMBRA_FUZZ_CLI
+int sombra_cli_run(int argc, char** argv) { return run(argc, argv); }  // errors escape to the harness
+#else
 int main(int argc, char** argv) { return sombra::host::guarded_main("sombra", run, argc, argv); }
+#endif
