@@ -1,10 +1,8 @@
-// CLI arguments (issue 25 item 5): the input is the argument list after `sombra`, NUL-separated,
-// run in this process's private folder, which holds a small scene (scene.json), volume (v.npy),
-// mesh (m.obj) and points file (points.csv) the arguments may name (the seeds in fuzz/corpus/cli do). src/cli/main.cpp is built with
+// CLI arguments (issue 25 item 5): the input is the argument list after `sombra`, NUL-separated;
+// the arguments scene.json, v.npy, m.obj and points.csv stand for a small scene, volume, mesh and
+// points file in this process's private folder (the seeds in fuzz/corpus/cli name them). src/cli/main.cpp is built with
 // SOMBRA_FUZZ_CLI: the command parses its arguments, checks them and loads its inputs, and returns
 // before it opens a device or writes a file; `devices` and `clusters` stop after parsing.
-#include <unistd.h>
-
 #include <string>
 #include <vector>
 
@@ -14,12 +12,11 @@ int sombra_cli_run(int argc, char** argv);
 
 namespace {
 
-// The files the arguments may name, written once into the private folder, which becomes the
-// working directory.
-void prepare_folder() {
-    static bool done = false;
-    if (done) return;
-    done = true;
+// The files the arguments may name, written once into the private folder; returns the folder.
+// (No chdir: libFuzzer keeps relative corpus paths.)
+const std::string& prepare_folder() {
+    static std::string folder;
+    if (!folder.empty()) return folder;
     auto put = [](const char* name, const std::string& text) {
         return sombra::fuzz::input_file(name, reinterpret_cast<const std::uint8_t*>(text.data()), text.size());
     };
@@ -44,14 +41,20 @@ void prepare_folder() {
   "meshes": [{"file": "m.obj", "material": {"color": [1, 0.5, 0.2], "opacity": 0.5}}],
   "lights": [{"type": "directional", "direction": [0, -1, -1]}, {"type": "point", "position": [1, 1, 1]}]
 })");
-    const std::string folder = scene.substr(0, scene.rfind('/'));
-    if (chdir(folder.c_str()) != 0) std::abort();
+    folder = scene.substr(0, scene.rfind('/'));
+    return folder;
+}
+
+// An argument naming one of the folder's files, as its path there.
+std::string in_folder(const std::string& arg) {
+    for (const char* name : {"scene.json", "v.npy", "m.obj", "points.csv"})
+        if (arg == name) return prepare_folder() + "/" + name;
+    return arg;
 }
 
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
-    prepare_folder();
     std::vector<std::string> args{"sombra"};
     std::string current;
     for (std::size_t i = 0; i < size && args.size() < 64; ++i) {
@@ -59,10 +62,10 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
             current += char(data[i]);
             continue;
         }
-        args.push_back(current);
+        args.push_back(in_folder(current));
         current.clear();
     }
-    if (!current.empty() && args.size() < 64) args.push_back(current);
+    if (!current.empty() && args.size() < 64) args.push_back(in_folder(current));
     std::vector<char*> argv;
     for (std::string& arg : args) argv.push_back(arg.data());
     argv.push_back(nullptr);
