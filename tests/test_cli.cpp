@@ -20,6 +20,9 @@
 
 namespace {
 
+using sombra::test::CliOutput;
+using sombra::test::run_cli_output;
+
 struct CliRun {
     int exit_code;
     std::string stderr_text;
@@ -36,24 +39,6 @@ CliRun run_cli(const std::string& args) {
 }
 
 // stdout and stderr of one run
-struct CliOutput {
-    int exit_code;
-    std::string out, err;
-};
-
-CliOutput run_cli_output(const std::string& args) {
-    const std::string dir = sombra::test::temp_dir();
-    std::string command = std::string(SOMBRA_CLI) + " " + args + " >" + dir + "/stdout.txt 2>" + dir + "/stderr.txt";
-    int status = std::system(command.c_str());
-    const auto read = [](const std::string& path) {
-        std::ifstream in(path);
-        std::stringstream text;
-        text << in.rdbuf();
-        return text.str();
-    };
-    return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, read(dir + "/stdout.txt"), read(dir + "/stderr.txt")};
-}
-
 std::string write_file(const std::string& name, const std::string& content) {
     std::string path = sombra::test::temp_dir() + "/" + name;
     std::ofstream(path) << content;

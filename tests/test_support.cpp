@@ -4,6 +4,9 @@
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
+#include <sys/wait.h>
+#include <sstream>
+#include <fstream>
 #include <unistd.h>
 
 namespace sombra::test {
@@ -155,5 +158,18 @@ std::string temp_dir() {
 }
 
 std::string data_path(const std::string& relative) { return std::string(SOMBRA_DATA_DIR) + "/" + relative; }
+
+CliOutput run_cli_output(const std::string& args) {
+    const std::string dir = temp_dir();
+    const std::string command = std::string(SOMBRA_CLI) + " " + args + " >" + dir + "/stdout.txt 2>" + dir + "/stderr.txt";
+    const int status = std::system(command.c_str());
+    const auto read = [](const std::string& path) {
+        std::ifstream in(path);
+        std::stringstream text;
+        text << in.rdbuf();
+        return text.str();
+    };
+    return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, read(dir + "/stdout.txt"), read(dir + "/stderr.txt")};
+}
 
 }  // namespace sombra::test

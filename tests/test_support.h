@@ -50,4 +50,11 @@ std::string error_of(F&& f) {
 }
 std::string data_path(const std::string& relative);  // data/… of the source tree
 
+// `sombra ARGS` (the built CLI, through the shell): its exit code (−1: killed), stdout and stderr.
+struct CliOutput {
+    int exit_code;
+    std::string out, err;
+};
+CliOutput run_cli_output(const std::string& args);
+
 }  // namespace sombra::test

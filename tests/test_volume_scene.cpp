@@ -17,23 +17,8 @@
 
 namespace {
 
-struct Run {
-    int exit_code;
-    std::string out, err;
-};
-
-Run sombra_cli(const std::string& args) {
-    const std::string dir = sombra::test::temp_dir();
-    const std::string command = std::string(SOMBRA_CLI) + " " + args + " >" + dir + "/vs_out.txt 2>" + dir + "/vs_err.txt";
-    const int status = std::system(command.c_str());
-    const auto read = [](const std::string& path) {
-        std::ifstream in(path);
-        std::stringstream text;
-        text << in.rdbuf();
-        return text.str();
-    };
-    return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, read(dir + "/vs_out.txt"), read(dir + "/vs_err.txt")};
-}
+using sombra::test::CliOutput;
+using sombra::test::run_cli_output;
 
 // A float32 .npy of shape (z, y, x) = (4, 3, 2) holding 0, 1, …, 23 in file order (x fastest).
 std::string tiny_npy() {
@@ -87,7 +72,7 @@ std::size_t lines(const std::string& text) { return std::size_t(std::count(text.
 
 TEST_CASE("sombra info: a tiny .npy's size, type, bounds, value range, percentiles and histogram", "[cli][info]") {
     const std::string npy = tiny_npy();
-    Run text = sombra_cli("info " + npy);
+    CliOutput text = run_cli_output("info " + npy);
     INFO(text.err);
     REQUIRE(text.exit_code == 0);
     CHECK_THAT(text.out, Catch::Contains("2 × 3 × 4 (24 voxels)"));
@@ -97,7 +82,7 @@ TEST_CASE("sombra info: a tiny .npy's size, type, bounds, value range, percentil
     CHECK_THAT(text.out, Catch::Contains("p1 0.23  p5 1.15  p25 5.75  p50 11.5  p75 17.25  p95 21.85  p99 22.77"));
     CHECK_THAT(text.out, Catch::Contains("non-finite    0"));
 
-    Run json = sombra_cli("info --json " + npy);
+    CliOutput json = run_cli_output("info --json " + npy);
     REQUIRE(json.exit_code == 0);
     const nlohmann::json j = nlohmann::json::parse(json.out);  // one JSON object, nothing else
     CHECK(j.at("kind") == "volume");
@@ -122,7 +107,7 @@ TEST_CASE("sombra info: a tiny .npy's size, type, bounds, value range, percentil
 }
 
 TEST_CASE("sombra info: a real volume's placement in RAS millimetres and a scene's objects, lights and camera", "[cli][info]") {
-    Run head = sombra_cli("info --json " + sombra::test::data_path("volumes/ch2.nii.gz"));
+    CliOutput head = run_cli_output("info --json " + sombra::test::data_path("volumes/ch2.nii.gz"));
     REQUIRE(head.exit_code == 0);
     const nlohmann::json h = nlohmann::json::parse(head.out);
     CHECK(h.at("voxel_type") == "uint8");
@@ -130,7 +115,7 @@ TEST_CASE("sombra info: a real volume's placement in RAS millimetres and a scene
     CHECK(h.at("world_bounds").at("min") == nlohmann::json({-90.5, -125.5, -71.5}));
     CHECK(h.at("max") == 254.0);
 
-    Run scene = sombra_cli("info --json " + sombra::test::data_path("scenes/default.json"));
+    CliOutput scene = run_cli_output("info --json " + sombra::test::data_path("scenes/default.json"));
     REQUIRE(scene.exit_code == 0);
     const nlohmann::json s = nlohmann::json::parse(scene.out);
     CHECK(s.at("kind") == "scene");
@@ -145,7 +130,7 @@ TEST_CASE("sombra info: a real volume's placement in RAS millimetres and a scene
 TEST_CASE("sombra info and render: an unreadable file is one error line naming it, a non-zero exit and no output", "[cli][info]") {
     const std::string dir = sombra::test::temp_dir();
     const std::string missing = dir + "/no_such_volume.nii.gz";
-    Run info = sombra_cli("info " + missing);
+    CliOutput info = run_cli_output("info " + missing);
     CHECK(info.exit_code != 0);
     CHECK(lines(info.err) == 1);
     CHECK_THAT(info.err, Catch::Contains(missing));
@@ -153,7 +138,7 @@ TEST_CASE("sombra info and render: an unreadable file is one error line naming i
 
     const std::string bad = dir + "/bad.npy", out = dir + "/bad.png", written = dir + "/bad_scene.json";
     std::ofstream(bad) << "not a numpy file";
-    Run render = sombra_cli("render " + bad + " -o " + out + " --write-scene " + written);
+    CliOutput render = run_cli_output("render " + bad + " -o " + out + " --write-scene " + written);
     CHECK(render.exit_code != 0);
     CHECK(lines(render.err) == 1);
     CHECK_THAT(render.err, Catch::Contains(bad));
@@ -161,7 +146,7 @@ TEST_CASE("sombra info and render: an unreadable file is one error line naming i
     CHECK_FALSE(std::filesystem::exists(written));
 
     // --preset and --write-scene belong to a volume file
-    Run scene = sombra_cli("render " + sombra::test::data_path("scenes/default.json") + " -o " + out + " --preset ct");
+    CliOutput scene = run_cli_output("render " + sombra::test::data_path("scenes/default.json") + " -o " + out + " --preset ct");
     CHECK(scene.exit_code != 0);
     CHECK(lines(scene.err) == 1);
     CHECK_THAT(scene.err, Catch::Contains("--preset: applies to a volume file"));
@@ -173,7 +158,7 @@ TEST_CASE("sombra render VOLUME_FILE: the volume in frame with deep shadow maps,
     const std::string dir = sombra::test::temp_dir();
     const std::string volume = sombra::test::data_path("volumes/heart.vtk");
     const std::string out = dir + "/heart.png", stats = dir + "/heart-stats.json", scene_path = dir + "/heart_scene.json";
-    Run run = sombra_cli("render " + volume + " -o " + out + " --width 64 --height 48 --stats " + stats + " --write-scene " +
+    CliOutput run = run_cli_output("render " + volume + " -o " + out + " --width 64 --height 48 --stats " + stats + " --write-scene " +
                          scene_path + " --device cpu");
     INFO(run.err);
     REQUIRE(run.exit_code == 0);
@@ -204,7 +189,7 @@ TEST_CASE("sombra render VOLUME_FILE: the volume in frame with deep shadow maps,
 
     // the written scene renders the same image
     const std::string again = dir + "/heart_again.png";
-    Run rerun = sombra_cli("render " + scene_path + " -o " + again + " --device cpu");
+    CliOutput rerun = run_cli_output("render " + scene_path + " -o " + again + " --device cpu");
     INFO(rerun.err);
     REQUIRE(rerun.exit_code == 0);
     const auto difference = sombra::test::compare(image, sombra::read_image(again));
