@@ -181,6 +181,9 @@ struct RenderStats {
     std::map<std::string, double> stage_ms;  // from OpenCL profiling events
     unsigned long long samples = 0;          // volume samples taken (all volumes)
     double msamples_per_s = 0;               // samples / camera-pass kernel time
+    // OpenCL programs this call compiled from source, and loaded from the on-disk program cache
+    // (SOMBRA_KERNEL_CACHE; a program built earlier in the process counts as neither)
+    int programs_compiled = 0, programs_loaded = 0;
     // deep shadow maps (ShadowTechnique::Dsm): views, nodes, memory
     int dsm_views = 0;
     unsigned long long dsm_nodes = 0;

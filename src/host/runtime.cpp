@@ -93,6 +93,15 @@ Runtime::Runtime(const std::string& selector) {
     device_ = chosen.device;
     context_ = cl::Context(device_);
     queue_ = cl::CommandQueue(context_, device_, CL_QUEUE_PROFILING_ENABLE);
+    const cl::Platform platform(device_.getInfo<CL_DEVICE_PLATFORM>());
+    program_cache_ = std::make_unique<ProgramCache>(
+        context_, device_,
+        platform.getInfo<CL_PLATFORM_NAME>() + '|' + platform.getInfo<CL_PLATFORM_VERSION>() + '|' + info_.name + '|' +
+            device_.getInfo<CL_DEVICE_VERSION>() + '|' + device_.getInfo<CL_DRIVER_VERSION>());
+}
+
+Runtime::~Runtime() {
+    for (auto& [key, program] : programs_) unregister_arg_names(program());
 }
 
 std::string expand_kernel_source(const std::string& path) {
@@ -136,15 +145,16 @@ cl::Program& Runtime::program(const std::string& source, const std::vector<std::
     auto found = programs_.find(key);
     if (found != programs_.end()) return found->second;
     ProgressStage stage(progress_, "kernel build", 1);
-    cl::Program program(context_, expand_kernel_source(source));
+    ProgramCache::Built built;
     try {
-        program.build(std::vector<cl::Device>{device_}, options.c_str());
-    } catch (const cl::Error&) {
-        std::string log = program.getBuildInfo<CL_PROGRAM_BUILD_LOG>(device_);
+        built = program_cache_->build(expand_kernel_source(source), options);
+    } catch (const ProgramBuildError& failure) {
         throw Error("cl/" + source + ": kernel build failed on " + info_.name + " with options '" + options +
-                    "':\n" + log);
+                    "':\n" + failure.log);
     }
-    return programs_.emplace(key, std::move(program)).first->second;
+    ++(built.from_cache ? programs_loaded_ : programs_compiled_);
+    register_arg_names(built.program(), std::move(built.arg_names));
+    return programs_.emplace(key, std::move(built.program)).first->second;
 }
 
 double Runtime::event_ms(const cl::Event& event) {

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "host/program_cache.h"
 #include "host/progress.h"
 #include "sombra/device.h"
 
@@ -18,6 +19,9 @@ namespace sombra::host {
 class Runtime {
 public:
     explicit Runtime(const std::string& selector);
+    ~Runtime();
+    Runtime(const Runtime&) = delete;
+    Runtime& operator=(const Runtime&) = delete;
 
     const DeviceInfo& info() const { return info_; }
     cl::Context& context() { return context_; }
@@ -26,9 +30,14 @@ public:
     cl::CommandQueue& queue() { return queue_; }
 
     // Builds (once per process) the program made of `source` (a file under cl/, its #includes
-    // resolved from the embedded sources) with the given -D defines. A compile error throws
-    // sombra::Error carrying the build log.
+    // resolved from the embedded sources) with the given -D defines, or loads it from the on-disk
+    // cache (host/program_cache.h). A compile error throws sombra::Error carrying the build log.
     cl::Program& program(const std::string& source, const std::vector<std::string>& defines);
+
+    // Programs this runtime compiled from source and loaded from the on-disk cache so far.
+    int programs_compiled() const { return programs_compiled_; }
+    int programs_loaded() const { return programs_loaded_; }
+    const std::string& program_cache_folder() const { return program_cache_->folder(); }
 
     // Milliseconds between an event's start and end (profiling queue).
     static double event_ms(const cl::Event& event);
@@ -48,6 +57,8 @@ private:
     cl::CommandQueue queue_;
     std::mutex cache_mutex_;
     std::map<std::string, cl::Program> programs_;
+    std::unique_ptr<ProgramCache> program_cache_;
+    int programs_compiled_ = 0, programs_loaded_ = 0;
 };
 
 // Rays per work-item of the packet kernels (cl/lanes.h): `requested` (1, 4, 8 or 16; else an

@@ -225,6 +225,7 @@ std::string RenderStats::to_json() const {
     j["msamples_per_s"] = msamples_per_s;
     j["stage_ms"] = stage_ms;
     j["reused_preparation"] = reused_preparation;
+    j["programs"] = {{"compiled", programs_compiled}, {"loaded_from_cache", programs_loaded}};
     if (dsm_views > 0) {
         j["dsm"] = {{"views", dsm_views},
                     {"nodes", dsm_nodes},
@@ -286,6 +287,7 @@ RenderResult render(Context& context, const Scene& scene, const RenderOptions& o
     RenderStats& stats = result.stats;
     stats.device = runtime.info().name;
     stats.width = width, stats.height = height;
+    const int compiled_before = runtime.programs_compiled(), loaded_before = runtime.programs_loaded();
     pipeline::Prepared prepared = pipeline::prepare(context, scene, options, stats);
     const pipeline::PreparedScene& p = prepared.scene;
 
@@ -341,6 +343,8 @@ RenderResult render(Context& context, const Scene& scene, const RenderOptions& o
     stats.stage_ms["readback"] = readback_ms + host::Runtime::event_ms(event);
     for (cl_uint c : counts) stats.samples += c;
     stats.msamples_per_s = kernel_ms > 0 ? double(stats.samples) / (kernel_ms * 1e3) : 0.0;
+    stats.programs_compiled = runtime.programs_compiled() - compiled_before;
+    stats.programs_loaded = runtime.programs_loaded() - loaded_before;
     return result;
 }
 
