@@ -9,7 +9,25 @@
 #ifndef SOMBRA_LOWPASS_H
 #define SOMBRA_LOWPASS_H
 #include "shared/types.h"
+/* Precision of the lookups' geometry and weights: double where the device has it (the host
+ * defines SOMBRA_SAT_FP64), else float. The sums themselves are exact either way: every box is an
+ * integer inclusion–exclusion over 64-bit entries (which reach 2^50 and more), and only the
+ * weighted blend of the small box sums is in sat_real. */
+#ifdef SOMBRA_SAT_FP64
 #pragma OPENCL EXTENSION cl_khr_fp64 : enable
+typedef double sat_real;
+typedef double2 sat_real2;
+typedef double3 sat_real3;
+#define convert_sat_real3 convert_double3
+#define SAT_PI M_PI
+#else
+typedef float sat_real;
+typedef float2 sat_real2;
+typedef float3 sat_real3;
+#define convert_sat_real3 convert_float3
+#define SAT_PI M_PI_F
+#endif
+#define SR(x) ((sat_real)(x)) /* a constant in sat_real (an unsuffixed literal would be double) */
 
 static inline size_t sat_entry(int4 n, int i, int j, int k) {
     return (size_t)i + (size_t)(n.x + 1) * ((size_t)j + (size_t)(n.y + 1) * (size_t)k);
@@ -29,79 +47,106 @@ static inline long sat_box(__global const ulong* s, int4 n, int3 lo, int3 hi) {
     return (long)sum; /* wraps modulo 2^64 in between, exact in the end */
 }
 
-/* S at a real grid position: trilinear in the integer entries (exact for cell-wise constant
- * cells), in double: the entries reach 2^50 and more, the boxes built from them are small. */
-static inline double sat_at(__global const ulong* s, int4 n, double3 g) {
-    g = clamp(g, (double3)(0.0), convert_double3(n.xyz));
-    int3 i = min(convert_int3(floor(g)), n.xyz - 1);
-    i = max(i, (int3)(0));
-    double3 f = g - convert_double3(i);
-    double sum = 0.0;
-    for (int c = 0; c < 8; ++c) {
-        int3 o = (int3)(c & 1, (c >> 1) & 1, (c >> 2) & 1);
-        int3 e = min(i + o, n.xyz);
-        double w = (o.x ? f.x : 1.0 - f.x) * (o.y ? f.y : 1.0 - f.y) * (o.z ? f.z : 1.0 - f.z);
-        if (w != 0.0) sum += w * (double)s[sat_entry(n, e.x, e.y, e.z)];
-    }
-    return sum;
+/* The cells of real intervals along one grid axis as weighted integer ranges [begin, end): the
+ * integral of a cell-wise constant σ over [lo, hi) is Σ weight · Σ σ(cells of the range) (a
+ * partial first cell, the whole cells between, a partial last cell). */
+#define SAT_SPAN_TERMS 6
+typedef struct {
+    int begin[SAT_SPAN_TERMS], end[SAT_SPAN_TERMS];
+    sat_real weight[SAT_SPAN_TERMS];
+    int count;
+} SatSpan;
+
+static inline void sat_span_term(SatSpan* span, int begin, int end, sat_real weight) {
+    if (begin >= end || weight == SR(0)) return;
+    span->begin[span->count] = begin, span->end[span->count] = end, span->weight[span->count] = weight;
+    ++span->count;
 }
 
-/* S at real grid position g; with wrap, grid axis 0 is periodic: S(x + k·n.x) = S(x) + k·S(n.x). */
-static inline double sat_at_wrapped(__global const ulong* s, int4 n, double3 g, bool wrap) {
-    if (!wrap) return sat_at(s, n, g);
-    double turns = floor(g.x / n.x);
-    return sat_at(s, n, (double3)(g.x - turns * n.x, g.y, g.z)) + turns * sat_at(s, n, (double3)(n.x, g.y, g.z));
+/* [lo, hi) clamped to the axis's n cells (σ is 0 outside them). */
+static inline void sat_span_interval(SatSpan* span, sat_real lo, sat_real hi, int n) {
+    lo = clamp(lo, SR(0), (sat_real)n);
+    hi = clamp(hi, lo, (sat_real)n);
+    int first = min((int)floor(lo), n - 1), last = min((int)floor(hi), n - 1);
+    sat_real f_lo = lo - (sat_real)first, f_hi = hi - (sat_real)last;
+    if (first == last) {
+        sat_span_term(span, first, first + 1, f_hi - f_lo);
+        return;
+    }
+    sat_span_term(span, first, first + 1, SR(1) - f_lo);
+    sat_span_term(span, first + 1, last, SR(1));
+    sat_span_term(span, last, last + 1, f_hi);
 }
 
-/* Σ cells over the real box [lo, hi) (grid units): 8 corners of S. */
-static inline double sat_box_real(__global const ulong* s, int4 n, double3 lo, double3 hi, bool wrap) {
-    double sum = 0.0;
-    for (int c = 0; c < 8; ++c) {
-        double3 corner = (double3)(c & 1 ? lo.x : hi.x, c & 2 ? lo.y : hi.y, c & 4 ? lo.z : hi.z);
-        sum += (popcount(c) & 1 ? -1.0 : 1.0) * sat_at_wrapped(s, n, corner, wrap);
+/* With wrap the axis is periodic (φ of the SSAT): [lo, hi), shorter than the period, is moved into
+ * the first period and split where it crosses the end. */
+static inline SatSpan sat_span(sat_real lo, sat_real hi, int n, bool wrap) {
+    SatSpan span;
+    span.count = 0;
+    if (!wrap) {
+        sat_span_interval(&span, lo, hi, n);
+        return span;
     }
+    sat_real shift = floor(lo / (sat_real)n) * (sat_real)n;
+    lo -= shift, hi -= shift;
+    sat_span_interval(&span, lo, hi, n);
+    if (hi > (sat_real)n) sat_span_interval(&span, SR(0), hi - (sat_real)n, n);
+    return span;
+}
+
+/* Σ cells over the real box [lo, hi) (grid units; with wrap, axis 0 is periodic): the integer boxes
+ * of the three axes' spans, blended. S is multilinear inside a cell, so this is the trilinear blend
+ * of S at the box's corners (Ament Eq. 13 at real positions) without its cancellation. */
+static inline sat_real sat_box_real(__global const ulong* s, int4 n, sat_real3 lo, sat_real3 hi, bool wrap) {
+    SatSpan x = sat_span(lo.x, hi.x, n.x, wrap), y = sat_span(lo.y, hi.y, n.y, false), z = sat_span(lo.z, hi.z, n.z, false);
+    sat_real sum = SR(0);
+    for (int i = 0; i < x.count; ++i)
+        for (int j = 0; j < y.count; ++j)
+            for (int k = 0; k < z.count; ++k) {
+                long box = sat_box(s, n, (int3)(x.begin[i], y.begin[j], z.begin[k]), (int3)(x.end[i], y.end[j], z.end[k]));
+                sum += x.weight[i] * y.weight[j] * z.weight[k] * (sat_real)box;
+            }
     return sum;
 }
 
 #ifdef SOMBRA_LOWPASS_GAUSS
 /* Gaussian filtering (Ament §4.3, Eq. 25): the patch is cut into K × K sub-boxes; each sub-box's
  * mean optical depth (its SAT box / its area) is weighted by the mass of a Gaussian with σ = a
- * quarter of the patch width (truncated at ±2σ) over it. The (K+1)² × 2 corners of S are read once. */
+ * quarter of the patch width (truncated at ±2σ) over it. */
 #define SOMBRA_GAUSS_SUBBOXES 5
-static inline double normal_mass(double a, double b) { return 0.5 * (erf(b * M_SQRT1_2) - erf(a * M_SQRT1_2)); }
+static inline sat_real normal_mass(sat_real a, sat_real b) {
+    const sat_real inv_sqrt2 = SR(0.70710678118654752440);
+    return SR(0.5) * (erf(b * inv_sqrt2) - erf(a * inv_sqrt2));
+}
 
 /* Grid point from the two lateral coordinates (the axes other than `axis`, in order) and depth. */
-static inline double3 sat_point(int axis, double a, double b, double depth) {
-    return axis == 0 ? (double3)(depth, a, b) : axis == 1 ? (double3)(a, depth, b) : (double3)(a, b, depth);
+static inline sat_real3 sat_point(int axis, sat_real a, sat_real b, sat_real depth) {
+    return axis == 0 ? (sat_real3)(depth, a, b) : axis == 1 ? (sat_real3)(a, depth, b) : (sat_real3)(a, b, depth);
 }
 
 /* Σ w·τ_sub / Σ w over the patch [lo, hi] across `axis`, [depth.x, depth.y] along it, in units of
  * S. `sphere` (SSAT) turns sub-box areas into solid angles over Δφ·Δθ; NULL: Cartesian cells. */
-static inline double gauss_patch(__global const ulong* s, int4 n, int axis, double2 lo, double2 hi, double2 depth, bool wrap,
-                          __global const SsatGridGpu* sphere) {
+static inline sat_real gauss_patch(__global const ulong* s, int4 n, int axis, sat_real2 lo, sat_real2 hi, sat_real2 depth,
+                                   bool wrap, __global const SsatGridGpu* sphere) {
     const int k = SOMBRA_GAUSS_SUBBOXES;
-    double corner[SOMBRA_GAUSS_SUBBOXES + 1][SOMBRA_GAUSS_SUBBOXES + 1][2];
-    double2 step = (hi - lo) / k;
-    for (int i = 0; i <= k; ++i)
-        for (int j = 0; j <= k; ++j)
-            for (int d = 0; d < 2; ++d)
-                corner[i][j][d] = sat_at_wrapped(s, n, sat_point(axis, lo.x + i * step.x, lo.y + j * step.y, d ? depth.y : depth.x), wrap);
-    double sum = 0.0, weights = 0.0;
+    sat_real2 step = (hi - lo) / (sat_real)k;
+    sat_real sum = SR(0), weights = SR(0);
     for (int i = 0; i < k; ++i)
         for (int j = 0; j < k; ++j) {
-            double box = 0.0;
-            for (int d = 0; d < 2; ++d)
-                box += (d ? 1.0 : -1.0) * (corner[i + 1][j + 1][d] - corner[i][j + 1][d] - corner[i + 1][j][d] + corner[i][j][d]);
-            double area = step.x * step.y;
+            sat_real2 a = lo + (sat_real2)((sat_real)i * step.x, (sat_real)j * step.y);
+            sat_real2 b = lo + (sat_real2)((sat_real)(i + 1) * step.x, (sat_real)(j + 1) * step.y);
+            sat_real box = sat_box_real(s, n, sat_point(axis, a.x, a.y, depth.x), sat_point(axis, b.x, b.y, depth.y), wrap);
+            sat_real area = step.x * step.y;
             if (sphere) { /* (cos θ_a − cos θ_b)/Δθ instead of the θ extent */
-                double ta = clamp(sphere->start.y + (lo.y + j * step.y) * sphere->cell.y, 0.0, M_PI);
-                double tb = clamp(sphere->start.y + (lo.y + (j + 1) * step.y) * sphere->cell.y, 0.0, M_PI);
-                area = step.x * (cos(ta) - cos(tb)) / sphere->cell.y;
+                sat_real ta = clamp((sat_real)sphere->start.y + a.y * (sat_real)sphere->cell.y, SR(0), SAT_PI);
+                sat_real tb = clamp((sat_real)sphere->start.y + b.y * (sat_real)sphere->cell.y, SR(0), SAT_PI);
+                area = step.x * (cos(ta) - cos(tb)) / (sat_real)sphere->cell.y;
             }
-            double w = normal_mass(-2.0 + 4.0 * i / k, -2.0 + 4.0 * (i + 1) / k) * normal_mass(-2.0 + 4.0 * j / k, -2.0 + 4.0 * (j + 1) / k);
-            if (area > 0.0) sum += w * box / area, weights += w;
+            sat_real w = normal_mass(SR(-2) + SR(4) * (sat_real)i / (sat_real)k, SR(-2) + SR(4) * (sat_real)(i + 1) / (sat_real)k) *
+                         normal_mass(SR(-2) + SR(4) * (sat_real)j / (sat_real)k, SR(-2) + SR(4) * (sat_real)(j + 1) / (sat_real)k);
+            if (area > SR(0)) sum += w * box / area, weights += w;
         }
-    return weights > 0.0 ? sum / weights : 0.0;
+    return weights > SR(0) ? sum / weights : SR(0);
 }
 #endif
 
@@ -117,11 +162,12 @@ static inline float csat_filtered_depth(__global const ulong* sat, __global cons
 #ifdef SOMBRA_LOWPASS_GAUSS
     {
         int a0 = axis == 0 ? 1 : 0, a1 = axis == 2 ? 1 : 2; /* the lateral axes, in order */
-        double2 centre = (double2)(c[a0], c[a1]);
-        double extent = axis == 0 ? n.x : axis == 1 ? n.y : n.z;
-        double along = clamp((double)c[axis], 0.0, extent);
-        double2 depth = g->light_positive ? (double2)(along, extent) : (double2)(0.0, along);
-        return (float)(gauss_patch(s, n, axis, centre - 0.5 * width, centre + 0.5 * width, depth, false, 0) * g->tau_per_unit);
+        sat_real2 centre = (sat_real2)(c[a0], c[a1]);
+        sat_real extent = axis == 0 ? n.x : axis == 1 ? n.y : n.z;
+        sat_real along = clamp((sat_real)c[axis], SR(0), extent);
+        sat_real2 depth = g->light_positive ? (sat_real2)(along, extent) : (sat_real2)(SR(0), along);
+        sat_real half_patch = SR(0.5) * (sat_real)width;
+        return (float)(gauss_patch(s, n, axis, centre - half_patch, centre + half_patch, depth, false, 0) * (sat_real)g->tau_per_unit);
     }
 #endif
     int lo0[3], hi0[3];
@@ -159,11 +205,11 @@ static inline float csat_filtered_depth(__global const ulong* sat, __global cons
  * cube of side W cells around p times W/2 cells, the optical depth of an average ray of that
  * radius (no direction). */
 static inline float sat_ambient_depth(__global const ulong* sat, __global const SatGridGpu* g, float3 p) {
-    double3 c;
-    for (int a = 0; a < 3; ++a) ((double*)&c)[a] = dot(g->to_grid[a].xyz, p) + g->to_grid[a].w;
-    double radius = 0.5 * g->filter_cells;
-    double box = sat_box_real(sat + g->data_offset, g->dims, c - radius, c + radius, false);
-    return (float)(box * g->tau_per_unit / (8.0 * radius * radius));
+    sat_real3 c;
+    for (int a = 0; a < 3; ++a) ((sat_real*)&c)[a] = dot(g->to_grid[a].xyz, p) + g->to_grid[a].w;
+    sat_real radius = SR(0.5) * (sat_real)g->filter_cells;
+    sat_real box = sat_box_real(sat + g->data_offset, g->dims, c - radius, c + radius, false);
+    return (float)(box * (sat_real)g->tau_per_unit / (SR(8) * radius * radius));
 }
 
 /* Cone shadows: the cone of half angle atan(cone_tan) from p towards the light (unit vector
@@ -171,23 +217,23 @@ static inline float sat_ambient_depth(__global const ulong* sat, __global const 
  * each read from the SAT in constant time: τ = Σ mean σ(cube) · its length. */
 static inline float sat_cone_depth(__global const ulong* sat, __global const SatGridGpu* g, float3 p, float3 towards, float reach) {
     __global const ulong* s = sat + g->data_offset;
-    double3 c, d;
+    sat_real3 c, d;
     for (int a = 0; a < 3; ++a) {
-        ((double*)&c)[a] = dot(g->to_grid[a].xyz, p) + g->to_grid[a].w;
-        ((double*)&d)[a] = dot(g->to_grid[a].xyz, towards) * g->cell_size; /* unit vector in grid axes */
+        ((sat_real*)&c)[a] = dot(g->to_grid[a].xyz, p) + g->to_grid[a].w;
+        ((sat_real*)&d)[a] = dot(g->to_grid[a].xyz, towards) * g->cell_size; /* unit vector in grid axes */
     }
-    double3 n = convert_double3(g->dims.xyz);
-    double t_max = fmin((double)reach / g->cell_size, 4.0 * (n.x + n.y + n.z));
-    double tau = 0.0, t = 0.5;
+    sat_real3 n = convert_sat_real3(g->dims.xyz);
+    sat_real t_max = fmin((sat_real)reach / (sat_real)g->cell_size, SR(4) * (n.x + n.y + n.z));
+    sat_real tau = SR(0), t = SR(0.5);
     for (int i = 0; i < 256 && t < t_max; ++i) {
-        double radius = fmax(0.5, t * g->cone_tan), span = fmin(2.0 * radius, t_max - t);
-        double3 centre = c + (t + 0.5 * span) * d;
-        if (any(centre + radius < 0.0) || any(centre - radius > n)) break; /* left the grid */
-        double box = sat_box_real(s, g->dims, centre - radius, centre + radius, false);
-        tau += box / (8.0 * radius * radius * radius) * span;
+        sat_real radius = fmax(SR(0.5), t * (sat_real)g->cone_tan), span = fmin(SR(2) * radius, t_max - t);
+        sat_real3 centre = c + (t + SR(0.5) * span) * d;
+        if (any(centre + radius < SR(0)) || any(centre - radius > n)) break; /* left the grid */
+        sat_real box = sat_box_real(s, g->dims, centre - radius, centre + radius, false);
+        tau += box / (SR(8) * radius * radius * radius) * span;
         t += span;
     }
-    return (float)(tau * g->tau_per_unit);
+    return (float)(tau * (sat_real)g->tau_per_unit);
 }
 
 /* Box-filtered optical depth from world point p towards point light g (Ament Eq. 16–24): the
@@ -198,26 +244,26 @@ static inline float sat_cone_depth(__global const ulong* sat, __global const Sat
 static inline float ssat_filtered_depth(__global const ulong* sat, __global const SsatGridGpu* g, float3 p) {
     __global const ulong* s = sat + g->data_offset;
     int4 n = g->dims;
-    double3 d = convert_double3(p - g->light.xyz);
-    double x = dot(d, convert_double3(g->axes[0].xyz)), y = dot(d, convert_double3(g->axes[1].xyz));
-    double z = dot(d, convert_double3(g->axes[2].xyz));
-    double r = sqrt(x * x + y * y + z * z);
-    if (!(r > 1e-9)) return 0.0f; /* at the light */
-    double theta = acos(clamp(z / r, -1.0, 1.0)), phi = atan2(y, x);
-    double u = g->half_width, h_theta = fmin(u / r, M_PI), h_phi = u / (r * fmax(sin(theta), 1e-9));
-    bool all_phi = h_phi >= M_PI;
-    double3 start = convert_double3(g->start.xyz), cell = convert_double3(g->cell.xyz);
-    double3 lo = ((double3)(phi - h_phi, theta - h_theta, start.z) - start) / cell;
-    double3 hi = ((double3)(phi + h_phi, theta + h_theta, r) - start) / cell;
-    if (all_phi) lo.x = 0.0, hi.x = n.x;
+    sat_real3 d = convert_sat_real3(p - g->light.xyz);
+    sat_real x = dot(d, convert_sat_real3(g->axes[0].xyz)), y = dot(d, convert_sat_real3(g->axes[1].xyz));
+    sat_real z = dot(d, convert_sat_real3(g->axes[2].xyz));
+    sat_real r = sqrt(x * x + y * y + z * z);
+    if (!(r > SR(1e-9))) return 0.0f; /* at the light */
+    sat_real theta = acos(clamp(z / r, SR(-1), SR(1))), phi = atan2(y, x);
+    sat_real u = g->half_width, h_theta = fmin(u / r, SAT_PI), h_phi = u / (r * fmax(sin(theta), SR(1e-9)));
+    bool all_phi = h_phi >= SAT_PI;
+    sat_real3 start = convert_sat_real3(g->start.xyz), cell = convert_sat_real3(g->cell.xyz);
+    sat_real3 lo = ((sat_real3)(phi - h_phi, theta - h_theta, start.z) - start) / cell;
+    sat_real3 hi = ((sat_real3)(phi + h_phi, theta + h_theta, r) - start) / cell;
+    if (all_phi) lo.x = SR(0), hi.x = (sat_real)n.x;
     bool wrap = g->wrap_phi && !all_phi;
 #ifdef SOMBRA_LOWPASS_GAUSS
-    return (float)(gauss_patch(s, n, 2, lo.xy, hi.xy, (double2)(lo.z, hi.z), wrap, g) * g->tau_per_unit);
+    return (float)(gauss_patch(s, n, 2, lo.xy, hi.xy, (sat_real2)(lo.z, hi.z), wrap, g) * (sat_real)g->tau_per_unit);
 #else
-    double theta_lo = fmax(theta - h_theta, 0.0), theta_hi = fmin(theta + h_theta, M_PI);
-    double solid_angle = (all_phi ? 2.0 * M_PI : 2.0 * h_phi) * (cos(theta_lo) - cos(theta_hi));
-    double sum = sat_box_real(s, n, lo, hi, wrap);
-    return solid_angle > 0.0 ? (float)(sum * cell.x * cell.y * g->tau_per_unit / solid_angle) : 0.0f;
+    sat_real theta_lo = fmax(theta - h_theta, SR(0)), theta_hi = fmin(theta + h_theta, SAT_PI);
+    sat_real solid_angle = (all_phi ? SR(2) * SAT_PI : SR(2) * h_phi) * (cos(theta_lo) - cos(theta_hi));
+    sat_real sum = sat_box_real(s, n, lo, hi, wrap);
+    return solid_angle > SR(0) ? (float)(sum * cell.x * cell.y * (sat_real)g->tau_per_unit / solid_angle) : 0.0f;
 #endif
 }
 

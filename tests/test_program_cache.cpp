@@ -135,7 +135,7 @@ TEST_CASE("program cache: damaged, foreign and truncated files are rebuilt and r
     }
 }
 
-TEST_CASE("program cache: off writes nothing; an unwritable folder only costs a build", "[program_cache]") {
+TEST_CASE("program cache: off writes nothing, and an unwritable folder only costs a build", "[program_cache]") {
     std::string dir = test::temp_dir() + "/unwritable";
     fs::create_directories(dir);
     {

@@ -120,6 +120,10 @@ struct SatOptions {
     // keeps them ≤ 128 MiB).
     std::size_t max_entries = std::size_t(1) << 24;
     float cone_angle_deg = 10.f;  // cone: half angle of the cones
+    // Arithmetic of the lookups' positions and weights (cl/lowpass.h): "auto" (double where the
+    // device has cl_khr_fp64, else float), "double" (an error on a device without it) or "float".
+    // The box sums are exact integers either way.
+    std::string precision = "auto";
 };
 
 // The shadow-ray baseline (declared in src/techniques/rays.cpp).

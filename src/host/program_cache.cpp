@@ -77,10 +77,15 @@ struct Reader {
     }
 };
 
-std::mutex registry_mutex;
+// Never destroyed: runtimes held in statics (a process-wide Context) unregister during exit, after
+// a function-local static map would be gone.
+std::mutex& registry_mutex() {
+    static auto* mutex = new std::mutex;
+    return *mutex;
+}
 std::map<cl_program, KernelArgNames>& registry() {
-    static std::map<cl_program, KernelArgNames> names;
-    return names;
+    static auto* names = new std::map<cl_program, KernelArgNames>;
+    return *names;
 }
 
 }  // namespace
@@ -106,19 +111,19 @@ KernelArgNames read_arg_names(cl::Program& program) {
 }
 
 void register_arg_names(cl_program program, KernelArgNames names) {
-    std::lock_guard<std::mutex> lock(registry_mutex);
+    std::lock_guard<std::mutex> lock(registry_mutex());
     registry()[program] = std::move(names);
 }
 
 void unregister_arg_names(cl_program program) {
-    std::lock_guard<std::mutex> lock(registry_mutex);
+    std::lock_guard<std::mutex> lock(registry_mutex());
     registry().erase(program);
 }
 
 std::optional<std::string> registered_arg_name(const cl::Kernel& kernel, cl_uint index) {
     cl_program program = kernel.getInfo<CL_KERNEL_PROGRAM>()();
     std::string name = kernel.getInfo<CL_KERNEL_FUNCTION_NAME>().c_str();
-    std::lock_guard<std::mutex> lock(registry_mutex);
+    std::lock_guard<std::mutex> lock(registry_mutex());
     auto found = registry().find(program);
     if (found == registry().end()) return std::nullopt;
     auto args = found->second.find(name);

@@ -166,7 +166,8 @@ std::vector<std::string> shadow_cache_keys(const Scene& scene, const packing::Pa
     std::ostringstream common;
     common.precision(9);
     common << int(options.shadows) << ' ' << options.sat.filter_width << ' ' << options.sat.filter_kernel << ' '
-           << options.sat.cone_angle_deg << ' ' << options.jitter_seed << ' ' << hash_of(sat.voxel_size);
+           << options.sat.cone_angle_deg << ' ' << options.sat.precision << ' ' << options.jitter_seed << ' '
+           << hash_of(sat.voxel_size);
     std::vector<std::string> keys;
     for (std::size_t i = 0; i < packed.volumes.size(); ++i)
         for (std::size_t m = 0; m < scene.lights.size(); ++m) {

@@ -30,6 +30,9 @@ const std::vector<OptionSpec>& sat_option_specs() {
                     "summed-area tables: at most this many 64-bit entries (cells coarsen beyond)")
                 .range(1 << 12, double(SOMBRA_SAT_MAX_ENTRIES)).unit("entries").only(family).keys()
                 .commands(kRenderCommand | kVisibilityCommand),
+            declare("lowpass_precision", "--sat-precision", [](auto& o) -> auto& { return o.sat.precision; },
+                    "summed-area-table lookups in auto (double where the device has it), double or float arithmetic")
+                .choices({"auto", "double", "float"}).only(family).commands(kRenderCommand | kVisibilityCommand),
             declare("cone_angle_deg", "--cone-angle", [](auto& o) -> auto& { return o.sat.cone_angle_deg; },
                     "cone: half angle of the shadow cones")
                 .range(0, 60).open_min().unit("degrees").only({T::Cone}),
@@ -48,6 +51,11 @@ public:
                                                               : options.shadows == ShadowTechnique::Cone ? "CONE"
                                                                                                          : "LOWPASS"));
         if (options.sat.filter_kernel == "gauss") defines.push_back("SOMBRA_LOWPASS_GAUSS");
+        // the device is the Context's, fixed for the module's life; the option may change per call
+        if (options.sat.precision == "double" && !device_has_double_)
+            throw Error("--sat-precision: double, but " + device_name_ + " has no double precision (cl_khr_fp64); use auto or float");
+        if (options.sat.precision == "double" || (options.sat.precision == "auto" && device_has_double_))
+            defines.push_back("SOMBRA_SAT_FP64");
     }
 
     void add_key(const RenderOptions& options, int, std::ostream& key) const override {
@@ -60,8 +68,8 @@ public:
             if (s.scene.volumes[i].bound.mesh)
                 throw file_error(s.scene.source, "volumes[" + std::to_string(i) + "].bounds",
                                  std::string("polyhedral bounds are not supported by --shadows ") + shadow_technique_name(s.options.shadows));
-        if (s.runtime.device().getInfo<CL_DEVICE_DOUBLE_FP_CONFIG>() == 0)  // cl/lowpass.h reads corners in double
-            throw Error("--shadows: the summed-area-table techniques need double precision, which " + s.runtime.info().name + " lacks");
+        device_has_double_ = s.runtime.device().getInfo<CL_DEVICE_DOUBLE_FP_CONFIG>() != 0;
+        device_name_ = s.runtime.info().name;
     }
 
     // Ament Alg. 1, first pass: rebuilds the tables whose inputs changed, keeps the others.
@@ -93,6 +101,8 @@ public:
     }
 
 private:
+    bool device_has_double_ = true;  // cl_khr_fp64: SOMBRA_SAT_FP64 (cl/lowpass.h) unless float is asked for
+    std::string device_name_;
     shadows::SatPool pool_;
     shadows::DeviceSat sat_;
     mutable shadows::SatGridBuffers grids_;  // kept alive while the kernel that binds them runs
