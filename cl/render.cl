@@ -119,9 +119,11 @@ static inline lmask shade_sample(VOLUME_DATA_PARAM, CameraState* state, const Vo
         lmask visible = (sigma > 0.0f) & interval;
         if (!lany(visible)) continue;
         Classified c = classify(state->scene.tf_tables, v, density);
+#ifndef SOMBRA_SCATTERING /* scattering shades without normals */
         lfloat3 normal = l3((lfloat)(0.0f), (lfloat)(0.0f), (lfloat)(0.0f));
-#if defined(SOMBRA_HAS_LIGHTS) && !defined(SOMBRA_SCATTERING)
+#ifdef SOMBRA_HAS_LIGHTS
         normal = normal_from_gradient(v, gradient_voxel(volume_data, v, pv));
+#endif
 #endif
 #if SHADOW_TERM
 #ifdef SOMBRA_SCATTERING

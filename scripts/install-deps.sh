@@ -11,6 +11,9 @@ packages=(
   # a second OpenCL implementation: Oclgrind, a simulated OpenCL 1.2 device that checks every
   # access and reports data races (tests/portability/oclgrind.sh)
   oclgrind
+  # NVIDIA's target without a GPU (tests/portability/ptx_check.sh): clang-15 (PoCL's, named here
+  # as the test calls it) and libclc's OpenCL built-ins for NVPTX; ptxas is the CUDA toolkit's
+  clang-15 libclc-15
   # maths, images, tests, JSON, command line
   libglm-dev libopenimageio-dev catch2 nlohmann-json3-dev libcli11-dev
   # volume and mesh formats (OBJ: tinyobjloader's header; nifti1_io.h includes nifti1.h, which is in libnifti2-dev)
