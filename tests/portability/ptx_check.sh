@@ -110,6 +110,9 @@ r sobel "$work/one.json" --lanes 1 --gradient sobel --shadow-cache off
 r no-skipping "$work/one.json" --lanes 1 --no-empty-space-skipping --shadow-cache off
 r rays-step "$work/one.json" --shadows rays --lanes 1 --ray-step 0.5 --shadow-cache off
 r lowpass-gauss "$work/three.json" --shadows lowpass --lanes 1 --filter-kernel gauss --shadow-cache off
+# the float lookups of devices without cl_khr_fp64 (cl/lowpass.h)
+r lowpass-gauss-float "$work/three.json" --shadows lowpass --lanes 1 --filter-kernel gauss --sat-precision float --shadow-cache off
+r cone-float "$work/three.json" --shadows cone --lanes 1 --sat-precision float --shadow-cache on
 r dark "$work/dark.json" --lanes 1
 for shadows in dsm rays lowpass; do
     r "mesh-$shadows" "$work/mesh.json" --shadows $shadows --lanes 1 --shadow-cache off
