@@ -79,6 +79,11 @@ typedef int16 lmask;
 
 #define LFROM_LANES(f) LFROM_LANES_AS(lfloat, f)
 
+/* x clamped to [0, hi] for a load index, also where x is NaN or ±∞ (then 0 or hi): clamp() and
+ * min/max are undefined for NaN (OpenCL 1.2 §6.12.2, §6.12.4), fmax/fmin return the other operand.
+ * Every lane of a packet loads, and lanes masked off carry whatever position their ray gave. */
+static inline lfloat clamp_index(lfloat x, float hi) { return fmin(fmax(x, 0.0f), hi); }
+
 /* Per-lane loads ptr[idx[lane]] (the CPU has no cheaper gather for OpenCL C to use). */
 #if SOMBRA_LANES == 1
 static inline lfloat gather(__global const float* ptr, lint idx) { return ptr[idx]; }

@@ -63,9 +63,9 @@ static inline lfloat light_transmittance(VOLUME_DATA_PARAM, CameraState* state, 
  * cache (Ament Alg. 1, second pass) instead of evaluating the technique per sample. */
 static inline lfloat cached_shadow(const CameraState* state, uint i, uint m, lfloat3 pv) {
     __global const ShadowCacheGpu* c = &state->shadow_cache_table[i * state->scene.camera->light_count + m];
-    lfloat qx = clamp(pv.x / c->spacing.x, 0.0f, (float)(c->dims.x - 1));
-    lfloat qy = clamp(pv.y / c->spacing.y, 0.0f, (float)(c->dims.y - 1));
-    lfloat qz = clamp(pv.z / c->spacing.z, 0.0f, (float)(c->dims.z - 1));
+    lfloat qx = clamp_index(pv.x / c->spacing.x, (float)(c->dims.x - 1));
+    lfloat qy = clamp_index(pv.y / c->spacing.y, (float)(c->dims.y - 1));
+    lfloat qz = clamp_index(pv.z / c->spacing.z, (float)(c->dims.z - 1));
     lfloat bx = floor(qx), by = floor(qy), bz = floor(qz);
     lfloat fx = qx - bx, fy = qy - by, fz = qz - bz;
     lint x0 = LCONVERT_INT(bx), y0 = LCONVERT_INT(by), z0 = LCONVERT_INT(bz);

@@ -98,9 +98,9 @@ static inline lmask in_empty_bricks(__global const uchar* occupancy, __global co
         if (!lany(here)) continue;
         __global const VolumeGpu* v = &volumes[i];
         lfloat3 p = ray_voxel_point(ray, i, select((lfloat)(0.0f), t, here));
-        lint bx = min(LCONVERT_INT(clamp(p.x, 0.0f, (float)(v->dims.x - 1))) / SOMBRA_BRICK_SIZE, v->brick_dims.x - 1);
-        lint by = min(LCONVERT_INT(clamp(p.y, 0.0f, (float)(v->dims.y - 1))) / SOMBRA_BRICK_SIZE, v->brick_dims.y - 1);
-        lint bz = min(LCONVERT_INT(clamp(p.z, 0.0f, (float)(v->dims.z - 1))) / SOMBRA_BRICK_SIZE, v->brick_dims.z - 1);
+        lint bx = min(LCONVERT_INT(clamp_index(p.x, (float)(v->dims.x - 1))) / SOMBRA_BRICK_SIZE, v->brick_dims.x - 1);
+        lint by = min(LCONVERT_INT(clamp_index(p.y, (float)(v->dims.y - 1))) / SOMBRA_BRICK_SIZE, v->brick_dims.y - 1);
+        lint bz = min(LCONVERT_INT(clamp_index(p.z, (float)(v->dims.z - 1))) / SOMBRA_BRICK_SIZE, v->brick_dims.z - 1);
         lint brick = (int)v->brick_offset + bx + v->brick_dims.x * (by + v->brick_dims.y * bz);
 #define SOMBRA_OCCUPIED_LANE(c) (float)occupancy[LC(brick, c)]
         lfloat occupied = LFROM_LANES(SOMBRA_OCCUPIED_LANE);

@@ -28,9 +28,9 @@ static inline lfloat3 to_voxel_direction(__global const VolumeGpu* v, lfloat3 d)
 /* Trilinear density at voxel positions p (voxel centres at integers), clamped to the edge.
  * Callers keep p finite in every lane (masked lanes included). */
 static inline lfloat sample_density(VOLUME_DATA_PARAM, __global const VolumeGpu* v, lfloat3 p) {
-    lfloat px = clamp(p.x, 0.0f, (float)(v->dims.x - 1));
-    lfloat py = clamp(p.y, 0.0f, (float)(v->dims.y - 1));
-    lfloat pz = clamp(p.z, 0.0f, (float)(v->dims.z - 1));
+    lfloat px = clamp_index(p.x, (float)(v->dims.x - 1));
+    lfloat py = clamp_index(p.y, (float)(v->dims.y - 1));
+    lfloat pz = clamp_index(p.z, (float)(v->dims.z - 1));
 #ifdef SOMBRA_USE_IMAGES
     float z_offset = v->image_z_offset + 0.5f;
 #define SOMBRA_READ_LANE(c) read_imagef(volume_data, volume_sampler, (float4)(LC(px, c) + 0.5f, LC(py, c) + 0.5f, LC(pz, c) + z_offset, 0.0f)).x
@@ -60,7 +60,7 @@ typedef struct {
 } Classified;
 
 static inline Classified classify(__global const float* tf_tables, __global const VolumeGpu* v, lfloat density) {
-    lfloat u = clamp((density - v->tf_domain_min) * v->tf_domain_scale, 0.0f, (float)(v->tf_size - 1));
+    lfloat u = clamp_index((density - v->tf_domain_min) * v->tf_domain_scale, (float)(v->tf_size - 1));
     lint i0 = min(LCONVERT_INT(u), (int)v->tf_size - 2);
     lfloat f = u - LCONVERT_FLOAT(i0);
     __global const float* table = tf_tables + 4 * v->tf_offset;
@@ -96,7 +96,7 @@ static inline lfloat preintegrated_sigma(__global const float* tf_tables, __glob
     float last = (float)(size - 1);
     lfloat ua = (fmin(d_front, d_back) - v->tf_domain_min) * v->tf_domain_scale;
     lfloat ub = (fmax(d_front, d_back) - v->tf_domain_min) * v->tf_domain_scale;
-    lfloat a = clamp(ua, 0.0f, last), b = clamp(ub, 0.0f, last);
+    lfloat a = clamp_index(ua, last), b = clamp_index(ub, last);
     lint ia = min(LCONVERT_INT(a), (int)size - 2), ib = min(LCONVERT_INT(b), (int)size - 2);
     lfloat mid_sigma = table_sigma(table, size, 0.5f * (a + b));
     lmask one_cell = ia == ib;
