@@ -32,12 +32,17 @@ static inline int segment_in_empty_bricks(__global const uchar* occupancy, __glo
     return 1;
 }
 
-/* Optical depth of the segment from a to b under the renderer's model: each volume's part inside
- * its box [−0.5, dims − 0.5] in steps of at most its ray step, each split at the voxel-centre
- * planes it crosses and pre-integrated (traversal.h split_interval_depth, whatever the volume's
- * stiffness: a table is built once per light); parts in empty bricks are skipped. */
+/* Optical depth of the segment from a.xyz to b.xyz under the renderer's model: each volume's part
+ * inside its box [−0.5, dims − 0.5] in steps of at most its ray step, each split at the
+ * voxel-centre planes it crosses and pre-integrated (traversal.h split_interval_depth, whatever the
+ * volume's stiffness: a table is built once per light); parts in empty bricks are skipped.
+ * The points are float4, not float3: both kernels call this function, so a compiler may keep it
+ * out of line, and Intel's CPU runtime (oneAPI 2026.2) passes float3 arguments to the vectorised
+ * copy of an out-of-line function wrongly — garbage in most of the 16 lanes, different from run
+ * to run (docs/tests.md "Intel's OpenCL CPU runtime", tests/portability/intel_float3_call.c). */
 static inline float segment_optical_depth(VOLUME_DATA_PARAM, __global const uchar* occupancy, __global const VolumeGpu* volumes,
-                                          uint volume_count, __global const float* tf_tables, float3 a, float3 b) {
+                                          uint volume_count, __global const float* tf_tables, float4 a4, float4 b4) {
+    float3 a = a4.xyz, b = b4.xyz;
     float length = distance(a, b);
     if (!(length > 0.0f)) return 0.0f;
     VolumeRay ray;
@@ -82,8 +87,8 @@ __kernel void sat_resample(VOLUME_DATA_PARAM, __global const float* tf_tables, _
         float tau = 0.0f;
         for (int a = 0; a < 3; ++a)
             if (axes & (1u << a))
-                tau += segment_optical_depth(volume_data, occupancy, volumes, volume_count, tf_tables, centre - 0.5f * axis[a],
-                                             centre + 0.5f * axis[a]);
+                tau += segment_optical_depth(volume_data, occupancy, volumes, volume_count, tf_tables,
+                                             (float4)(centre - 0.5f * axis[a], 1.0f), (float4)(centre + 0.5f * axis[a], 1.0f));
         running += sat_fixed_point(tau / count);
         s[sat_entry(n, i + 1, j + 1, k + 1)] = running;
     }
@@ -108,7 +113,8 @@ __kernel void ssat_resample(VOLUME_DATA_PARAM, __global const float* tf_tables, 
     for (int k = 0; k < n.z; ++k) {
         float r0 = grid->start.z + k * grid->cell.z;
         float3 a = grid->light.xyz + r0 * dir, b = grid->light.xyz + (r0 + grid->cell.z) * dir;
-        running += sat_fixed_point(segment_optical_depth(volume_data, occupancy, volumes, volume_count, tf_tables, a, b) * w_theta);
+        running += sat_fixed_point(segment_optical_depth(volume_data, occupancy, volumes, volume_count, tf_tables, (float4)(a, 1.0f),
+                                                         (float4)(b, 1.0f)) * w_theta);
         s[sat_entry(n, i + 1, j + 1, k + 1)] = running;
     }
 }
