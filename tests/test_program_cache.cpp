@@ -33,11 +33,6 @@ struct CacheFolder {
     }
 };
 
-std::string device_selector() {
-    const char* chosen = std::getenv("SOMBRA_DEVICE");
-    return chosen && *chosen ? chosen : "cpu";
-}
-
 std::vector<fs::path> cache_files(const std::string& folder) {
     std::vector<fs::path> files;
     if (fs::exists(folder))
@@ -49,7 +44,7 @@ std::vector<fs::path> cache_files(const std::string& folder) {
 // kernel: the names KernelArgs binds by are those a build from source reports, and another name
 // is refused before anything is set.
 std::pair<int, int> build_once() {
-    host::Runtime runtime(device_selector());
+    host::Runtime runtime(test::device_selector());
     cl::Program& program = runtime.program("segments.cl", {});
     std::vector<cl::Kernel> kernels;
     program.createKernels(&kernels);
@@ -57,7 +52,7 @@ std::pair<int, int> build_once() {
     static host::KernelArgNames from_source;  // of the first build in this process, from source
     if (from_source.empty()) {
         CacheFolder off("off");
-        host::Runtime fresh(device_selector());
+        host::Runtime fresh(test::device_selector());
         from_source = host::read_arg_names(fresh.program("segments.cl", {}));
     }
     for (auto& kernel : kernels) {
@@ -87,7 +82,7 @@ TEST_CASE("program cache: a second runtime loads the first one's binary and bind
 
 TEST_CASE("program cache: other defines are another program", "[program_cache]") {
     CacheFolder cache(test::temp_dir() + "/kernels-defines");
-    host::Runtime runtime(device_selector());
+    host::Runtime runtime(test::device_selector());
     runtime.program("segments.cl", {});
     runtime.program("segments.cl", {"SOMBRA_UNUSED_DEFINE=1"});
     CHECK(runtime.programs_compiled() == 2);
@@ -153,7 +148,7 @@ TEST_CASE("program cache: off writes nothing, and an unwritable folder only cost
 
 TEST_CASE("program cache: the CLI renders the same image from cached programs and reports them", "[program_cache][cli]") {
     std::string dir = test::temp_dir();
-    std::string device = " --device " + device_selector();
+    std::string device = " --device " + test::device_selector();
     auto render = [&](const std::string& name) {
         auto run = test::run_cli_output("render " + test::data_path("scenes/smoke.json") + " -o " + dir + "/" + name +
                                         ".png --width 24 --height 24 --dsm-res 32 --stats " + dir + "/" + name + ".json" + device);

@@ -13,11 +13,13 @@ namespace sombra::test {
 
 // The device of the whole suite: SOMBRA_DEVICE (a --device value: "cpu", "gpu", "auto" or an index
 // from `sombra devices`), PoCL's CPU device by default.
+std::string device_selector() {
+    const char* chosen = std::getenv("SOMBRA_DEVICE");
+    return chosen && *chosen ? chosen : "cpu";
+}
+
 Context& context() {
-    static Context ctx([] {
-        const char* chosen = std::getenv("SOMBRA_DEVICE");
-        return std::string(chosen && *chosen ? chosen : "cpu");
-    }());
+    static Context ctx(device_selector());
     return ctx;
 }
 

@@ -9,6 +9,7 @@
 
 namespace sombra::test {
 
+std::string device_selector();  // the suite's device: SOMBRA_DEVICE, else "cpu" (a --device value)
 Context& context();  // one per test process (docs/architecture.md: tests share one context)
 
 struct ImageDifference {
