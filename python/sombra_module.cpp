@@ -311,10 +311,13 @@ PYBIND11_MODULE(sombra, m) {
         .def(
             "set_camera",
             [](Scene& s, const py::object& position, const py::object& look_at, const py::object& up, float fov_y_deg) {
-                s.camera.position = vec3(position, "Scene.set_camera", "position");
-                s.camera.look_at = vec3(look_at, "Scene.set_camera", "look_at");
-                s.camera.up = vec3(up, "Scene.set_camera", "up");
-                s.camera.fov_y_deg = fov_y_deg;
+                Camera camera = s.camera;  // checked whole before it replaces the scene's
+                camera.position = vec3(position, "Scene.set_camera", "position");
+                camera.look_at = vec3(look_at, "Scene.set_camera", "look_at");
+                camera.up = vec3(up, "Scene.set_camera", "up");
+                camera.fov_y_deg = fov_y_deg;
+                if (auto problem = camera_problem(camera)) throw py::value_error("Scene.set_camera: " + problem->field + ": " + problem->what);
+                s.camera = camera;
             },
             py::arg("position"), py::arg("look_at"), py::arg("up") = py::make_tuple(0, 1, 0), py::arg("fov_y_deg") = 40.f)
         .def(

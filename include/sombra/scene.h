@@ -111,12 +111,13 @@ std::vector<Vec3> load_points_csv(const std::string& path);
 // The rules scene files enforce on one volume or light, for those built in code (Python, C++):
 // the first field that breaks them, named as the JSON names it ("step_voxels", "cone_angle_deg"),
 // and what is wrong; nothing when all hold. NaN breaks every rule. The scene loader, the Python
-// module (at add_volume / add_light) and validate_scene (at every render) apply these same checks.
+// module (at add_volume / add_light / set_camera) and validate_scene (at every render) apply these same checks.
 struct FieldProblem {
     std::string field, what;
 };
 std::optional<FieldProblem> volume_problem(const VolumeInstance& volume);  // spacing, step_voxels, opacity_unit
 std::optional<FieldProblem> light_problem(const Light& light);  // direction, color, intensity, cone, attenuation
+std::optional<FieldProblem> camera_problem(const Camera& camera);  // position, look_at, up, fov_y_deg
 // Makes a directional or spot light's direction a unit vector, as scene files are read (after
 // light_problem found it non-zero).
 void normalize_light_direction(Light& light);

@@ -409,7 +409,8 @@ def test_one_context_shared_by_threads(context):
 
 def test_scene_values_are_checked_at_the_call_with_the_scene_files_rules(context):
     """Python scenes obey the rules scene files do, at the call that received the value (issue 25:
-    step_voxels=0 hung the renderer; NaN intensities and a 180° cone were accepted); a value set
+    step_voxels=0 hung the renderer; NaN intensities and a 180° cone were accepted; issue 26: a bad
+    set_camera was reported only at render); a value set
     later is caught at render by the same checks."""
     volume = lopsided_volume()
     scene = sombra.Scene(width=16, height=16)
@@ -428,6 +429,14 @@ def test_scene_values_are_checked_at_the_call_with_the_scene_files_rules(context
     assert message(lambda: scene.add_light("directional", direction=(0, 0, 0))) == (
         "Scene.add_light: direction: must be a non-zero vector")
     assert message(lambda: scene.add_light("point", color=(1, -1, 1))) == "Scene.add_light: color: must be ≥ 0"
+    assert message(lambda: scene.set_camera((0, 0, 5), (0, 0, 5))) == (
+        "Scene.set_camera: look_at: must differ from camera.position")
+    assert message(lambda: scene.set_camera((0, 0, 5), (0, 0, 0), up=(0, 0, 2))) == (
+        "Scene.set_camera: up: must be a non-zero vector not parallel to the view direction")
+    assert message(lambda: scene.set_camera((0, 0, 5), (0, 0, 0), up=(0, 0, 0))).startswith("Scene.set_camera: up:")
+    assert message(lambda: scene.set_camera((0, 0, 5), (0, 0, 0), fov_y_deg=180)) == (
+        "Scene.set_camera: fov_y_deg: must lie in (0, 180)")
+    assert message(lambda: scene.set_camera((0, 0, 1e30), (0, 0, 0))) == "Scene.set_camera: position: must lie within ±1e18"
     assert scene.volume_count == 0 and scene.light_count == 0  # nothing half-added
     scene.add_volume(volume, spacing=SPACING, opacity=OPACITY, color=COLOR)
     scene.add_light("spot", **LIGHT)

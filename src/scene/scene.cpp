@@ -306,6 +306,26 @@ std::optional<FieldProblem> light_problem(const Light& l) {
     return std::nullopt;
 }
 
+std::optional<FieldProblem> camera_problem(const Camera& c) {
+    auto within = [](const Vec3& p) {
+        for (float v : p)
+            if (!(std::fabs(v) <= limits::kMaxCoordinate)) return false;
+        return true;
+    };
+    if (!within(c.position)) return FieldProblem{"position", "must lie within ±1e18"};
+    if (!within(c.look_at)) return FieldProblem{"look_at", "must lie within ±1e18"};
+    const Vec3 d{c.look_at[0] - c.position[0], c.look_at[1] - c.position[1], c.look_at[2] - c.position[2]};
+    const float len = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    if (!(len > 1e-6f)) return FieldProblem{"look_at", "must differ from camera.position"};
+    const Vec3& u = c.up;
+    const Vec3 cross{d[1] * u[2] - d[2] * u[1], d[2] * u[0] - d[0] * u[2], d[0] * u[1] - d[1] * u[0]};
+    const float ulen = std::sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
+    if (!(std::sqrt(cross[0] * cross[0] + cross[1] * cross[1] + cross[2] * cross[2]) > 1e-6f * len * ulen) || !std::isfinite(ulen))
+        return FieldProblem{"up", "must be a non-zero vector not parallel to the view direction"};
+    if (!(c.fov_y_deg > 0.f && c.fov_y_deg < 180.f)) return FieldProblem{"fov_y_deg", "must lie in (0, 180)"};
+    return std::nullopt;
+}
+
 void normalize_light_direction(Light& l) {
     if (l.type == LightType::Point) return;
     const double len = std::hypot(double(l.direction[0]), double(l.direction[1]), double(l.direction[2]));
@@ -313,18 +333,7 @@ void normalize_light_direction(Light& l) {
 }
 
 void validate_scene(const Scene& scene, const std::string& where) {
-    const Camera& c = scene.camera;
-    Vec3 d{c.look_at[0] - c.position[0], c.look_at[1] - c.position[1], c.look_at[2] - c.position[2]};
-    float len = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-    check_point(where, "camera.position", c.position);
-    check_point(where, "camera.look_at", c.look_at);
-    if (!(len > 1e-6f)) throw file_error(where, "camera.look_at", "must differ from camera.position");
-    Vec3 u = c.up;
-    Vec3 cross{d[1] * u[2] - d[2] * u[1], d[2] * u[0] - d[0] * u[2], d[0] * u[1] - d[1] * u[0]};
-    float ulen = std::sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
-    if (!(std::sqrt(cross[0] * cross[0] + cross[1] * cross[1] + cross[2] * cross[2]) > 1e-6f * len * ulen))
-        throw file_error(where, "camera.up", "must not be parallel to the view direction");
-    if (!(c.fov_y_deg > 0.f && c.fov_y_deg < 180.f)) throw file_error(where, "camera.fov_y_deg", "must lie in (0, 180)");
+    if (auto problem = camera_problem(scene.camera)) throw file_error(where, "camera." + problem->field, problem->what);
     if (scene.width < 1 || scene.height < 1 || scene.width > limits::kMaxImageSide || scene.height > limits::kMaxImageSide)
         throw file_error(where, "image", "width and height must lie in [1, " + std::to_string(limits::kMaxImageSide) + "]");
     if (scene.volumes.size() > SOMBRA_MAX_VOLUMES)
