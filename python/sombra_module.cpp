@@ -163,7 +163,7 @@ void check_keywords_apply(const RenderOptions& o, const py::kwargs& kwargs, cons
     for (const auto& item : kwargs) {
         const std::string name = py::str(item.first);
         try {
-            check_option_applies(option_spec(name, where), o.shadows, std::string(where) + ": " + name);
+            check_option_applies(option_spec(name, where), o.shadows, std::string(where) + ": " + name, "shadows=");
         } catch (const Error& e) {
             throw py::value_error(e.what());
         }

@@ -65,7 +65,9 @@ std::string option_value_text(const OptionValue& value);
 std::string option_range_text(const OptionSpec& spec);
 
 // An option the user set that does not apply to the technique: "LABEL: applies to --shadows
-// dsm, shadowmap, not rays" (the CLI and Python call it on the options they were given).
-void check_option_applies(const OptionSpec& spec, ShadowTechnique technique, const std::string& label);
+// dsm, shadowmap, not rays" (the CLI and Python call it on the options they were given; Python
+// names its keyword, `shadows=`, as `technique_label`).
+void check_option_applies(const OptionSpec& spec, ShadowTechnique technique, const std::string& label,
+                          const std::string& technique_label = "--shadows ");
 
 }  // namespace sombra

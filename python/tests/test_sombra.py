@@ -223,7 +223,7 @@ def test_bad_arguments_name_the_argument(context, tmp_path):
     assert error(ValueError, lambda: sombra.render(context, scene, shadows="lowpass", lowpass_max_entries=0)).startswith(
         "render: lowpass_max_entries: must lie in [4096, ")
     assert error(ValueError, lambda: sombra.render(context, scene, shadows="rays", dsm_epsilon=0.1)) == (
-        "render: dsm_epsilon: applies to --shadows dsm, shadowmap, not rays")
+        "render: dsm_epsilon: applies to shadows=dsm, shadowmap, not rays")
     assert error(ValueError, lambda: sombra.RenderOptions(phase_g=float("nan"))) == (
         "RenderOptions: phase_g: must lie in (-1, 1), got nan")
     options = sombra.RenderOptions()

@@ -222,11 +222,12 @@ std::string option_range_text(const OptionSpec& spec) {
     return text;
 }
 
-void check_option_applies(const OptionSpec& spec, ShadowTechnique technique, const std::string& label) {
+void check_option_applies(const OptionSpec& spec, ShadowTechnique technique, const std::string& label,
+                          const std::string& technique_label) {
     if (spec.applies_to(technique)) return;
     std::string names;
     for (ShadowTechnique t : spec.techniques) names += std::string(names.empty() ? "" : ", ") + shadow_technique_name(t);
-    throw Error(label + ": applies to --shadows " + names + ", not " + shadow_technique_name(technique));
+    throw Error(label + ": applies to " + technique_label + names + ", not " + shadow_technique_name(technique));
 }
 
 std::vector<std::string> render_option_values(const std::string& key) {
