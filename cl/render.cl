@@ -176,7 +176,8 @@ __kernel void render_camera(SCENE_PARAMS, __global float4* image, __global uint*
                             , SURFACE_PARAMS
 #endif
 ) {
-    uint y = get_global_id(1);
+    uint row = get_global_id(1); /* the launch's row; y: the image's (CameraGpu first_row, row_stride) */
+    uint y = camera->first_row + row * camera->row_stride;
     if (y >= camera->height) return;
     lint xs = (int)(get_global_id(0) * SOMBRA_LANES) + LANE_INDEX;
     lmask lanes = xs < (int)camera->width;
@@ -243,7 +244,7 @@ __kernel void render_camera(SCENE_PARAMS, __global float4* image, __global uint*
     LSTORE(state.samples, samples);
     uint x0 = get_global_id(0) * SOMBRA_LANES;
     for (uint lane = 0; lane < SOMBRA_LANES && x0 + lane < camera->width; ++lane) {
-        size_t pixel = (size_t)y * camera->width + x0 + lane;
+        size_t pixel = (size_t)row * camera->width + x0 + lane;
         image[pixel] = (float4)(red[lane], green[lane], blue[lane], 1.0f - transmittance[lane]);
         sample_counts[pixel] = samples[lane];
     }

@@ -6,6 +6,7 @@
 
 #include <cmath>
 
+#include "host/runtime.h"
 #include "render/preparation.h"
 #include "sombra/sombra.h"
 #include "test_support.h"
@@ -204,27 +205,58 @@ TEST_CASE("shadow cache: a volume's change refills only the entries it can reach
     }
 }
 
-TEST_CASE("shadow cache auto: on when filling costs fewer evaluations than the frame's samples, and once filled", "[shadow_cache]") {
+TEST_CASE("shadow cache auto: measures the fill and both camera passes, chooses the cheaper, reads a filled cache", "[shadow_cache]") {
     Scene scene = test::overlapping_scene();
+    for (int size : {4, 200}) {
+        INFO("size " << size);
+        Context context("cpu"), forced("cpu");
+        RenderOptions o = cache_options(ShadowTechnique::Dsm, ShadowCacheMode::Auto);
+        o.width = o.height = size;
+        const RenderResult r = render(context, scene, o);
+        const RenderStats& s = r.stats;
+        CHECK(s.shadow_cache_points_to_fill > 0);
+        CHECK(s.shadow_cache_probe_ms > 0);  // the small runs of the real kernels
+        CHECK(s.shadow_cache_estimated_fill_ms > 0);
+        CHECK(s.shadow_cache_estimated_cached_ms > 0);
+        CHECK(s.shadow_cache_estimated_per_sample_ms > 0);
+        // the decision is the comparison the stats show
+        CHECK(s.shadow_cache_used == (s.shadow_cache_estimated_fill_ms + s.shadow_cache_estimated_cached_ms <
+                                      s.shadow_cache_estimated_per_sample_ms));
+        // and the frame is the one the chosen mode renders: the probe leaves no trace in the image
+        o.shadow_cache = s.shadow_cache_used ? ShadowCacheMode::On : ShadowCacheMode::Off;
+        CHECK(test::compare(r.image, render(forced, scene, o).image).max_abs == 0.0);
+    }
     Context context("cpu");
-    RenderOptions o = cache_options(ShadowTechnique::Dsm, ShadowCacheMode::Auto);
-    o.width = o.height = 4;  // 16 pixels: far fewer samples than lattice points
-    RenderResult tiny = render(context, scene, o);
-    CHECK_FALSE(tiny.stats.shadow_cache_used);
-    CHECK(tiny.stats.shadow_cache_points_to_fill > tiny.stats.shadow_cache_estimated_samples);
-    o.width = o.height = 400;
-    RenderResult large = render(context, scene, o);
-    CHECK(large.stats.shadow_cache_used);
-    CHECK(large.stats.shadow_cache_points_to_fill < large.stats.shadow_cache_estimated_samples);
-    // the estimate against what the frame took: the same order (it leans towards the cache)
-    CHECK(double(large.stats.shadow_cache_estimated_samples) > 0.5 * double(large.stats.samples));
-    CHECK(double(large.stats.shadow_cache_estimated_samples) < 20.0 * 3 * double(large.stats.samples));
-    o.width = o.height = 4;  // filled: nothing to fill, on at any size
+    RenderOptions o = cache_options(ShadowTechnique::Dsm, ShadowCacheMode::On);
+    render(context, scene, o);  // filled
+    o.shadow_cache = ShadowCacheMode::Auto;
+    o.width = o.height = 4;  // nothing to fill: on at any size, without measuring
     RenderResult again = render(context, scene, o);
     CHECK(again.stats.shadow_cache_points_to_fill == 0);
     CHECK(again.stats.shadow_cache_used);
+    CHECK(again.stats.shadow_cache_probe_ms == 0);
     o.shadow_cache = ShadowCacheMode::Off;
     CHECK_FALSE(render(context, scene, o).stats.shadow_cache_used);
+}
+
+TEST_CASE("camera pass by rows: single rows (first_row, row_stride) are the frame's rows", "[shadow_cache]") {
+    Scene scene = test::overlapping_scene();
+    Context context("cpu");
+    RenderOptions o = cache_options(ShadowTechnique::Rays, ShadowCacheMode::Off);
+    const RenderResult frame = render(context, scene, o);
+    const pipeline::Prepared prepared = pipeline::prepare(context, scene, o, *std::make_unique<RenderStats>());
+    host::Runtime& runtime = context.runtime();
+    CameraGpu camera = pipeline::frame_camera(scene, o, o.width, o.height);
+    camera.row_stride = cl_uint(o.height);  // one row per launch, as auto's probe renders them
+    cl::Buffer image = host::make_buffer(runtime, CL_MEM_WRITE_ONLY, std::size_t(o.width) * sizeof(cl_float4), nullptr, "row");
+    cl::Buffer counts = host::make_buffer(runtime, CL_MEM_WRITE_ONLY, std::size_t(o.width) * sizeof(cl_uint), nullptr, "row samples");
+    for (int row : {0, 7, o.height / 2, o.height - 1}) {
+        camera.first_row = cl_uint(row);
+        pipeline::run_camera_pass(runtime, scene, prepared, o, host::packet_lanes(runtime, o.lanes), camera, {}, image, counts);
+        std::vector<float> rgba(std::size_t(o.width) * 4);
+        runtime.queue().enqueueReadBuffer(image, CL_TRUE, 0, rgba.size() * sizeof(float), rgba.data());
+        for (std::size_t k = 0; k < rgba.size(); ++k) REQUIRE(rgba[k] == frame.image.rgba[std::size_t(row) * rgba.size() + k]);
+    }
 }
 
 TEST_CASE("shadow cache option: names round-trip and a wrong one is refused naming the key", "[shadow_cache]") {

@@ -131,6 +131,10 @@ typedef struct {
     float termination_transmittance; /* early ray termination below this t_acc */
     sb_uint jitter_seed;
     float phase_g; /* single scattering (SOMBRA_SCATTERING): Henyey–Greenstein asymmetry g */
+    /* The rows render_camera's launch covers: launch row j is image row first_row + j · row_stride,
+     * written to image row j (a frame: 0, 1; the shadow cache's auto probe renders single rows) */
+    sb_uint first_row, row_stride;
+    sb_uint pad0, pad1;
 } CameraGpu;
 
 /* A volume's pre-compressed visibility table (Hadwiger §3.2; src/shadows/precompression.h):

@@ -215,12 +215,15 @@ struct RenderStats {
     // low-pass shadows (ShadowTechnique::Lowpass): summed-area tables and their memory
     int sat_tables = 0;
     unsigned long long sat_bytes = 0;
-    // the shadow cache (ShadowCacheMode): whether this frame read it, its size, and for auto the
-    // lattice points it had to fill against the shaded samples the frame was estimated to take
-    // (both near possibly visible bricks only)
+    // the shadow cache (ShadowCacheMode): whether this frame read it, its size, the lattice points
+    // it had to fill (near possibly visible bricks), and what auto measured when it had to fill:
+    // its small runs' kernel time and the frame's estimated fill, cached camera pass and per-sample
+    // camera pass (ms); the cache is read when fill + cached < per sample
     bool shadow_cache_used = false;
     unsigned long long shadow_cache_bytes = 0;
-    unsigned long long shadow_cache_points_to_fill = 0, shadow_cache_estimated_samples = 0;
+    unsigned long long shadow_cache_points_to_fill = 0;
+    double shadow_cache_probe_ms = 0, shadow_cache_estimated_fill_ms = 0, shadow_cache_estimated_cached_ms = 0,
+           shadow_cache_estimated_per_sample_ms = 0;
     // tables (CSAT, SSAT, volume-aligned SAT) and shadow cache entries (volume × light) built by
     // this call because their inputs changed, and kept from the previous call on the Context
     int sat_tables_built = 0, sat_tables_reused = 0;

@@ -85,6 +85,24 @@ std::vector<std::string> camera_pass_defines(const Scene& scene, const RenderOpt
                                              bool shadow_cache, bool surface_cache = false);
 void bind_scene(host::KernelArgs& args, const PreparedScene& p, const cl::Buffer& camera);
 
+// The camera of a frame of width × height: the scene's camera with the options' termination,
+// jitter seed and phase asymmetry.
+CameraGpu frame_camera(const Scene& scene, const RenderOptions& options, int width, int height);
+
+// What the camera pass reads besides the prepared scene and the technique: the view's fragments
+// (mesh scenes) and the shadow cache's parts (null: evaluated per sample / fragment).
+struct CameraPassReads {
+    const surfaces::ViewFragments* fragments = nullptr;
+    const cl::Buffer *volume_cache = nullptr, *volume_cache_table = nullptr;
+    const SurfaceShadowCache* surface_cache = nullptr;
+};
+// render.cl's render_camera for `camera` (its width × the rows first_row, first_row + row_stride, …)
+// into `image` and `sample_counts` (one row per row rendered); returns the kernel time (ms). The
+// render and the shadow cache's auto probe run it.
+double run_camera_pass(host::Runtime& runtime, const Scene& scene, const Prepared& prepared, const RenderOptions& options, int lanes,
+                       const CameraGpu& camera, const CameraPassReads& reads, const cl::Buffer& image, const cl::Buffer& sample_counts,
+                       RenderStats* stats = nullptr);
+
 // Per light, the distance surface fragments' shadow lookups are biased in proportion to (cl/surfaces.h
 // surface_shadow_lookup; render.cl's surface_bias): the light's reach over the scene's box (volumes
 // and meshes) — its diagonal, or a positional light's distance to its farthest corner — to which
@@ -92,12 +110,13 @@ void bind_scene(host::KernelArgs& args, const PreparedScene& p, const cl::Buffer
 std::vector<float> surface_bias_distances(const PreparedScene& p);
 
 // The shadow cache this frame reads, its stale entries filled, or nullptr when every sample and
-// fragment evaluates the technique (options.shadow_cache; Auto weighs the lattice points to fill
-// against the samples the frame is estimated to take, and the surface points to fill against the
-// frame's surface fragments `surface_fragments`, each part on its own) — shadow_cache.cpp.
+// fragment evaluates the technique (options.shadow_cache). Auto weighs the volume part by
+// measuring (small runs of the fill and of the camera pass both ways) and the surface part by
+// counting: surface points to fill against the frame's surface fragments × lights. `fragments`:
+// the frame's view fragments (mesh scenes; else null) — shadow_cache.cpp.
 const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, const Prepared& prepared,
                                           const RenderOptions& options, int width, int height, int lanes,
-                                          std::size_t surface_fragments, RenderStats& stats);
+                                          const surfaces::ViewFragments* fragments, RenderStats& stats);
 
 }  // namespace pipeline
 

@@ -259,8 +259,12 @@ std::string RenderStats::to_json() const {
                              {"bytes", shadow_cache_bytes},
                              {"entries_built", shadow_cache_entries_built},
                              {"entries_reused", shadow_cache_entries_reused},
-                             {"points_to_fill", shadow_cache_points_to_fill},
-                             {"estimated_samples", shadow_cache_estimated_samples}};
+                             {"points_to_fill", shadow_cache_points_to_fill}};
+        if (shadow_cache_probe_ms > 0)
+            j["shadow_cache"]["auto"] = {{"probe_ms", shadow_cache_probe_ms},
+                                         {"estimated_fill_ms", shadow_cache_estimated_fill_ms},
+                                         {"estimated_cached_camera_pass_ms", shadow_cache_estimated_cached_ms},
+                                         {"estimated_per_sample_camera_pass_ms", shadow_cache_estimated_per_sample_ms}};
         if (shadow_cache_surface_points > 0)
             j["shadow_cache"]["surfaces"] = {{"used", shadow_cache_surfaces_used},
                                              {"points", shadow_cache_surface_points},
@@ -272,6 +276,46 @@ std::string RenderStats::to_json() const {
     return j.dump(2);
 }
 
+
+namespace pipeline {
+
+CameraGpu frame_camera(const Scene& scene, const RenderOptions& options, int width, int height) {
+    CameraGpu camera = packing::pack_camera(scene, width, height);
+    camera.termination_transmittance = options.termination_transmittance;
+    camera.jitter_seed = options.jitter_seed;
+    camera.phase_g = options.phase_g;
+    return camera;
+}
+
+double run_camera_pass(host::Runtime& runtime, const Scene& scene, const Prepared& prepared, const RenderOptions& options, int lanes,
+                       const CameraGpu& camera, const CameraPassReads& reads, const cl::Buffer& image, const cl::Buffer& sample_counts,
+                       RenderStats* stats) {
+    cl::Buffer camera_buffer = host::make_buffer(runtime, CL_MEM_READ_ONLY, sizeof(CameraGpu), &camera, "camera");
+    auto build_start = std::chrono::steady_clock::now();
+    cl::Program& program = runtime.program(
+        "render.cl", camera_pass_defines(scene, options, prepared, lanes, reads.volume_cache != nullptr, reads.surface_cache != nullptr));
+    if (stats)
+        stats->stage_ms["program_build"] = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - build_start).count();
+    cl::Kernel kernel(program, "render_camera");
+    host::KernelArgs args(kernel);
+    bind_scene(args, prepared.scene, camera_buffer);
+    args("image", image)("sample_counts", sample_counts);
+    prepared.technique.bind(args, runtime, options);
+    if (reads.volume_cache) args("shadow_cache", *reads.volume_cache)("shadow_cache_table", *reads.volume_cache_table);
+    if (reads.surface_cache) args("surface_shadow_cache", reads.surface_cache->values)("surface_cache_triangles", reads.surface_cache->triangle_buffer);
+    if (reads.fragments) {
+        const PreparedScene& p = prepared.scene;
+        args("fragment_first", reads.fragments->fragments.first)("fragments", reads.fragments->fragments.fragments);
+        args("screen_triangles", reads.fragments->tiles.triangles)("surface_triangles", p.surfaces.triangles);
+        args("surface_materials", p.surfaces.materials);
+        args("surface_bias", p.surface_bias);
+    }
+    args.done();
+    const cl_uint rows = (camera.height - std::min(camera.first_row, camera.height) + camera.row_stride - 1) / camera.row_stride;
+    return host::run_packets(runtime, kernel, int(camera.width), int(rows), lanes);
+}
+
+}  // namespace pipeline
 
 RenderResult render(Context& context, const Scene& scene, const RenderOptions& options) {
     auto held = context.exclusive();  // one call at a time on a Context (sombra/device.h)
@@ -289,7 +333,6 @@ RenderResult render(Context& context, const Scene& scene, const RenderOptions& o
     stats.width = width, stats.height = height;
     const int compiled_before = runtime.programs_compiled(), loaded_before = runtime.programs_loaded();
     pipeline::Prepared prepared = pipeline::prepare(context, scene, options, stats);
-    const pipeline::PreparedScene& p = prepared.scene;
 
     surfaces::ViewFragments fragments;
     if (surfaces::has_fragments(scene)) {  // the camera view's fragments (Knecht §3.1: raster → segments); SURFACE_PARAMS
@@ -299,37 +342,20 @@ RenderResult render(Context& context, const Scene& scene, const RenderOptions& o
     }
     // the shadow cache is filled first: its fill binds the technique's per-call buffers anew
     const pipeline::ShadowCache* cache = pipeline::shadow_cache_for_frame(context, scene, prepared, options, width, height, lanes,
-                                                                          fragments.fragments.stats.fragments, stats);
+                                                                          surfaces::has_fragments(scene) ? &fragments : nullptr, stats);
     bool cached = cache && cache->volumes_used, surfaces_cached = cache && cache->surfaces_used;
 
-    CameraGpu camera = packing::pack_camera(scene, width, height);
-    camera.termination_transmittance = options.termination_transmittance;
-    camera.jitter_seed = options.jitter_seed;
-    camera.phase_g = options.phase_g;
+    const CameraGpu camera = pipeline::frame_camera(scene, options, width, height);
     std::size_t pixels = std::size_t(width) * std::size_t(height);
-    cl::Buffer camera_buffer = host::make_buffer(runtime, CL_MEM_READ_ONLY, sizeof(CameraGpu), &camera, "camera");
     cl::Buffer image_buffer = host::make_buffer(runtime, CL_MEM_WRITE_ONLY, pixels * sizeof(cl_float4), nullptr, "image");
     cl::Buffer count_buffer = host::make_buffer(runtime, CL_MEM_WRITE_ONLY, pixels * sizeof(cl_uint), nullptr, "sample counts");
-
-    auto build_start = std::chrono::steady_clock::now();
-    cl::Program& program = runtime.program("render.cl", pipeline::camera_pass_defines(scene, options, prepared, lanes, cached, surfaces_cached));
-    stats.stage_ms["program_build"] = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - build_start).count();
-    cl::Kernel kernel(program, "render_camera");
-    host::KernelArgs args(kernel);
-    pipeline::bind_scene(args, p, camera_buffer);
-    args("image", image_buffer)("sample_counts", count_buffer);
-    prepared.technique.bind(args, runtime, options);
-    if (cached) args("shadow_cache", cache->values)("shadow_cache_table", cache->table);
-    if (surfaces_cached) args("surface_shadow_cache", cache->surfaces.values)("surface_cache_triangles", cache->surfaces.triangle_buffer);
-    if (surfaces::has_fragments(scene)) {
-        args("fragment_first", fragments.fragments.first)("fragments", fragments.fragments.fragments);
-        args("screen_triangles", fragments.tiles.triangles)("surface_triangles", p.surfaces.triangles);
-        args("surface_materials", p.surfaces.materials);
-        args("surface_bias", p.surface_bias);
-    }
-    args.done();
-
-    double kernel_ms = host::in_stage(runtime.progress(), "camera pass", 1, [&] { return host::run_packets(runtime, kernel, width, height, lanes); });
+    pipeline::CameraPassReads reads;
+    if (surfaces::has_fragments(scene)) reads.fragments = &fragments;
+    if (cached) reads.volume_cache = &cache->values, reads.volume_cache_table = &cache->table;
+    if (surfaces_cached) reads.surface_cache = &cache->surfaces;
+    double kernel_ms = host::in_stage(runtime.progress(), "camera pass", 1, [&] {
+        return pipeline::run_camera_pass(runtime, scene, prepared, options, lanes, camera, reads, image_buffer, count_buffer, &stats);
+    });
     stats.stage_ms["camera_pass"] = kernel_ms;
 
     result.image.width = width, result.image.height = height;

@@ -23,6 +23,8 @@ constexpr std::size_t kShadowCachePoints = std::size_t(1) << 23;  // per volume 
 constexpr std::size_t kSurfacePoints = std::size_t(1) << 22;      // the surface part's, over all meshes (64 MiB + 4 MiB per light)
 constexpr int kSurfaceMaxSubdivision = 1024;                        // lattice intervals along a triangle's edge
 constexpr int kSurfaceRowPoints = 1024;                              // rows of the surface fill's launch
+constexpr int kProbeLatticeStride = 16;  // auto's probe fills every 16th lattice row along y and z
+constexpr int kProbeRows = 16;           // and renders at most 16 image rows
 
 double triangle_longest_edge(const SurfaceTriangleGpu& t) {
     const cl_float4* c[3] = {&t.corner, &t.corner1, &t.corner2};
@@ -124,51 +126,6 @@ std::vector<std::string> generic_keys(const Scene& scene, const PreparedScene& p
     return keys;
 }
 
-// The volume samples the camera pass takes in volume i, roughly: over the pixels its box covers,
-// the box's volume over the pixel footprint at its centre times the step (the chords of a convex
-// body integrate to its volume), at most every covered pixel marching the box's diagonal. Empty
-// space skipping and early termination only lower it (the estimate leans towards the cache).
-// corners: the volume's 8 world corners (shadows::scene_corners).
-double estimated_samples(const CameraGpu& camera, const shadows::D3* corners, float step) {
-    using shadows::D3;
-    auto dot3 = [](const cl_float4& a, const D3& b) { return a.s[0] * b[0] + a.s[1] * b[1] + a.s[2] * b[2]; };
-    auto norm2 = [](const cl_float4& a) { return double(a.s[0]) * a.s[0] + double(a.s[1]) * a.s[1] + double(a.s[2]) * a.s[2]; };
-    double x_min = 1e30, x_max = -1e30, y_min = 1e30, y_max = -1e30;
-    bool behind = false;
-    D3 centre{0, 0, 0};
-    for (int corner = 0; corner < 8; ++corner) {
-        D3 rel;
-        for (std::size_t r = 0; r < 3; ++r) centre[r] += corners[corner][r] / 8, rel[r] = corners[corner][r] - camera.position.s[r];
-        double z = dot3(camera.forward, rel);
-        if (z <= 1e-6) {
-            behind = true;
-            continue;
-        }
-        // NDC: the camera's right and up vectors are scaled by tan(fov/2) (·aspect)
-        double x = dot3(camera.right, rel) / (z * norm2(camera.right)), y = dot3(camera.up, rel) / (z * norm2(camera.up));
-        x_min = std::min(x_min, x), x_max = std::max(x_max, x), y_min = std::min(y_min, y), y_max = std::max(y_max, y);
-    }
-    double pixels = double(camera.width) * camera.height;
-    if (!behind) {
-        double covered_x = std::max(0.0, std::min(x_max, 1.0) - std::max(x_min, -1.0)) / 2;
-        double covered_y = std::max(0.0, std::min(y_max, 1.0) - std::max(y_min, -1.0)) / 2;
-        pixels *= covered_x * covered_y;
-    }
-    // the box's edges: corner 0 to corners 1, 2, 4 (scene_corners: x, y, z bits)
-    D3 edge_length;
-    for (std::size_t a = 0; a < 3; ++a) {
-        const D3& end = corners[1 << a];
-        edge_length[a] = std::hypot(end[0] - corners[0][0], end[1] - corners[0][1], end[2] - corners[0][2]);
-    }
-    double box_volume = edge_length[0] * edge_length[1] * edge_length[2];
-    double diagonal = std::hypot(edge_length[0], edge_length[1], edge_length[2]);
-    double world_step = std::max(1e-9, double(step));
-    double distance = std::max(std::hypot(centre[0] - camera.position.s[0], centre[1] - camera.position.s[1], centre[2] - camera.position.s[2]),
-                               0.5 * diagonal);
-    double pixel_side = 2 * distance * std::sqrt(norm2(camera.up)) / camera.height;
-    return std::min(box_volume / (pixel_side * pixel_side * world_step), pixels * diagonal / world_step);
-}
-
 // The share of volume i's bricks that may be visible under its transfer function.
 double visible_brick_fraction(const packing::PackedScene& packed, std::size_t i) {
     const VolumeGpu& v = packed.volumes[i];
@@ -266,10 +223,11 @@ struct VolumePlan {
     bool same_layout = false, use = false;
 };
 
-// Auto: a lattice point costs one evaluation of the technique, as a shaded sample does per light;
-// both happen only near possibly visible bricks (the fill skips the other points).
+// The lattice points to fill (near possibly visible bricks: the fill skips the others; stats);
+// whether the cache is used is decided here only when the mode is On or nothing is stale (reading
+// costs less than evaluating): auto otherwise measures (probe_volume_costs).
 VolumePlan plan_volume_entries(host::Runtime& runtime, const Scene& scene, const Prepared& prepared, const RenderOptions& options,
-                               const CameraGpu& camera, const ShadowCache& cache, RenderStats& stats) {
+                               const ShadowCache& cache, RenderStats& stats) {
     const PreparedScene& p = prepared.scene;
     const std::size_t lights = scene.lights.size();
     VolumePlan plan;
@@ -281,17 +239,14 @@ VolumePlan plan_volume_entries(host::Runtime& runtime, const Scene& scene, const
                                   [](const ShadowCacheGpu& a, const ShadowCacheGpu& b) { return std::memcmp(&a, &b, sizeof a) == 0; });
     plan.stale.assign(plan.layout.size(), true);
     for (std::size_t e = 0; e < plan.layout.size(); ++e) plan.stale[e] = !plan.same_layout || cache.keys[e] != plan.keys[e];
-    double to_fill = 0, samples = 0, voxel_size = 0;
-    std::vector<shadows::D3> corners = shadows::scene_corners(p.packed, voxel_size);
+    double to_fill = 0;
     for (std::size_t i = 0; i < scene.volumes.size(); ++i) {
         double visible = visible_brick_fraction(p.packed, i);
         for (std::size_t m = 0; m < lights; ++m)
             if (plan.stale[i * lights + m]) to_fill += visible * double(lattice_points(plan.layout[i * lights + m]));
-        samples += visible * double(lights) * estimated_samples(camera, &corners[8 * i], p.packed.volumes[i].step);
     }
     stats.shadow_cache_points_to_fill = static_cast<unsigned long long>(to_fill);
-    stats.shadow_cache_estimated_samples = static_cast<unsigned long long>(std::min(samples, 1.8e19));
-    plan.use = options.shadow_cache == ShadowCacheMode::On || to_fill < samples;
+    plan.use = options.shadow_cache == ShadowCacheMode::On || to_fill == 0;
     return plan;
 }
 
@@ -329,6 +284,7 @@ SurfacePlan plan_surface_entries(const Scene& scene, const Prepared& prepared, c
 // scene and the technique's parameters.
 struct FillLaunch {
     host::Runtime& runtime;
+    const Scene& scene;
     const Prepared& prepared;
     const RenderOptions& options;
     cl::Program& program;
@@ -408,11 +364,79 @@ double fill_surface_entries(const FillLaunch& launch, SurfaceShadowCache& sc, co
     return ms;
 }
 
+// Auto's measurement (issue 29 item 5): what the frame's shadow terms cost both ways, from small
+// runs of the real kernels before the frame. The fill: every lattice's rows along x at every 16th
+// y and z (1/256 of its points; whole rows, so that a packet's lanes are neighbours as in the
+// fill), the stale ones' time scaled by their points. The camera pass: single image rows at full
+// width (lanes as coherent as the frame's), in van der Corput order (the middle row, the
+// quarters, …), each once evaluating the technique per sample and once reading the small
+// lattices (a lattice costs the same to read at any size; its values are thrown away), scaled by
+// the rows. It stops when one side costs twice the other, or after kProbeRows rows.
+struct VolumeCosts {
+    double fill_ms = 0, per_sample_ms = 0, cached_ms = 0, probe_ms = 0;
+    int rows = 0;
+};
+
+VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan, std::size_t lights, int width, int height,
+                               const surfaces::ViewFragments* fragments, const SurfaceShadowCache* surface_cache) {
+    host::Runtime& runtime = launch.runtime;
+    VolumeCosts costs;
+    std::vector<ShadowCacheGpu> small = plan.layout;
+    std::size_t total = 0;
+    for (ShadowCacheGpu& c : small) {
+        for (std::size_t a = 1; a < 3; ++a) {
+            c.dims.s[a] = (c.dims.s[a] - 1) / kProbeLatticeStride + 1;
+            c.spacing.s[a] *= float(kProbeLatticeStride);
+        }
+        c.offset = cl_uint(total);  // c.reach stays: points near the same bricks are evaluated
+        total += lattice_points(c);
+    }
+    cl::Buffer values = host::make_buffer(runtime, CL_MEM_READ_WRITE, total * sizeof(float), nullptr, "shadow cache probe");
+    cl::Buffer table = host::make_buffer(runtime, CL_MEM_READ_ONLY, small.size() * sizeof(ShadowCacheGpu), small.data(), "shadow cache probe table");
+    cl::Kernel kernel(launch.program, "shadow_cache_fill");
+    for (std::size_t e = 0; e < small.size(); ++e) {
+        host::KernelArgs args{kernel};
+        bind_scene(args, launch.prepared.scene, launch.camera);
+        args("light_index", cl_uint(e % lights))("cache_entry", cl_uint(e))("shadow_cache_table", table)("shadow_cache", values);
+        launch.prepared.technique.bind(args, runtime, launch.options);
+        args.done();
+        const double ms = host::run_packets(runtime, kernel, small[e].dims.s[0], small[e].dims.s[1] * small[e].dims.s[2], launch.lanes);
+        costs.probe_ms += ms;
+        if (plan.stale[e]) costs.fill_ms += ms * double(lattice_points(plan.layout[e])) / double(lattice_points(small[e]));
+    }
+    CameraGpu camera = frame_camera(launch.scene, launch.options, width, height);
+    camera.row_stride = cl_uint(height);  // one row per launch
+    CameraPassReads per_sample, cached;
+    per_sample.fragments = cached.fragments = fragments;
+    per_sample.surface_cache = cached.surface_cache = surface_cache;
+    cached.volume_cache = &values, cached.volume_cache_table = &table;
+    cl::Buffer image = host::make_buffer(runtime, CL_MEM_WRITE_ONLY, std::size_t(width) * sizeof(cl_float4), nullptr, "probe row");
+    cl::Buffer counts = host::make_buffer(runtime, CL_MEM_WRITE_ONLY, std::size_t(width) * sizeof(cl_uint), nullptr, "probe row samples");
+    double per_sample_sum = 0, cached_sum = 0;
+    std::vector<bool> done(std::size_t(height), false);
+    for (unsigned k = 1; costs.rows < std::min(kProbeRows, height); ++k) {
+        double fraction = 0;  // van der Corput: k's bits mirrored behind the binary point
+        for (unsigned bits = k, weight = 2; bits; bits >>= 1, weight *= 2) fraction += double(bits & 1u) / weight;
+        const int row = std::min(height - 1, int(fraction * height));
+        if (done[std::size_t(row)]) continue;
+        done[std::size_t(row)] = true;
+        camera.first_row = cl_uint(row);
+        per_sample_sum += run_camera_pass(runtime, launch.scene, launch.prepared, launch.options, launch.lanes, camera, per_sample, image, counts);
+        cached_sum += run_camera_pass(runtime, launch.scene, launch.prepared, launch.options, launch.lanes, camera, cached, image, counts);
+        ++costs.rows;
+        costs.per_sample_ms = per_sample_sum * height / costs.rows, costs.cached_ms = cached_sum * height / costs.rows;
+        const double with_cache = costs.fill_ms + costs.cached_ms;
+        if (costs.per_sample_ms > 2 * with_cache || (costs.rows >= 4 && 2 * costs.per_sample_ms < with_cache)) break;
+    }
+    costs.probe_ms += per_sample_sum + cached_sum;
+    return costs;
+}
+
 }  // namespace
 
 const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, const Prepared& prepared,
                                           const RenderOptions& options, int width, int height, int lanes,
-                                          std::size_t surface_fragments, RenderStats& stats) {
+                                          const surfaces::ViewFragments* fragments, RenderStats& stats) {
     const PreparedScene& p = prepared.scene;
     const bool has_surfaces = !p.packed_surfaces.triangles.empty();
     if (options.shadow_cache == ShadowCacheMode::Off || !prepared.technique.has_shadow_term() ||
@@ -423,19 +447,32 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
     if (!cache) cache = std::make_unique<ShadowCache>();
     const std::size_t lights = scene.lights.size();
     CameraGpu camera = packing::pack_camera(scene, width, height);
-    const VolumePlan volumes = scene.volumes.empty() ? VolumePlan() : plan_volume_entries(runtime, scene, prepared, options, camera, *cache, stats);
-    const SurfacePlan surfaces = has_surfaces ? plan_surface_entries(scene, prepared, options, surface_fragments, cache->surfaces, stats)
+    VolumePlan volumes = scene.volumes.empty() ? VolumePlan() : plan_volume_entries(runtime, scene, prepared, options, *cache, stats);
+    const SurfacePlan surfaces = has_surfaces ? plan_surface_entries(scene, prepared, options, fragments ? fragments->fragments.stats.fragments : 0, cache->surfaces, stats)
                                               : SurfacePlan();
+    const bool measure = options.shadow_cache == ShadowCacheMode::Auto && !scene.volumes.empty() && !volumes.use;
     cache->volumes_used = volumes.use, cache->surfaces_used = surfaces.use;
-    if (!volumes.use && !surfaces.use) return nullptr;
+    if (!volumes.use && !surfaces.use && !measure) return nullptr;
 
     camera.jitter_seed = options.jitter_seed;  // the fills' shadow rays start where the camera pass's would
-    const FillLaunch launch{runtime, prepared, options,
-                            runtime.program("render.cl", camera_pass_defines(scene, options, prepared, lanes, volumes.use, surfaces.use)),
+    // the program of a camera pass reading the volume lattices (the fills read no cache: any variant fills alike)
+    const FillLaunch launch{runtime, scene, prepared, options,
+                            runtime.program("render.cl", camera_pass_defines(scene, options, prepared, lanes, volumes.use || measure, surfaces.use)),
                             host::make_buffer(runtime, CL_MEM_READ_ONLY, sizeof(CameraGpu), &camera, "camera"), lanes};
     double ms = 0;
-    if (volumes.use) ms += fill_volume_entries(launch, *cache, volumes, lights, stats);
     if (surfaces.use) ms += fill_surface_entries(launch, cache->surfaces, surfaces, lights, stats);
+    if (measure) {  // a probe's passes read the surface part as the frame will
+        const VolumeCosts costs = probe_volume_costs(launch, volumes, lights, width, height, fragments, surfaces.use ? &cache->surfaces : nullptr);
+        volumes.use = costs.fill_ms + costs.cached_ms < costs.per_sample_ms;
+        stats.shadow_cache_probe_ms = costs.probe_ms;
+        stats.shadow_cache_estimated_fill_ms = costs.fill_ms;
+        stats.shadow_cache_estimated_cached_ms = costs.cached_ms;
+        stats.shadow_cache_estimated_per_sample_ms = costs.per_sample_ms;
+        stats.stage_ms["shadow_cache_probe"] = costs.probe_ms;
+        cache->volumes_used = volumes.use;
+        if (!volumes.use && !surfaces.use) return nullptr;
+    }
+    if (volumes.use) ms += fill_volume_entries(launch, *cache, volumes, lights, stats);
     if (stats.shadow_cache_entries_built + stats.shadow_cache_surface_entries_built > 0) stats.stage_ms["shadow_cache"] = ms;
     stats.shadow_cache_used = true;
     stats.shadow_cache_surfaces_used = surfaces.use;
