@@ -23,8 +23,9 @@ constexpr std::size_t kShadowCachePoints = std::size_t(1) << 23;  // per volume 
 constexpr std::size_t kSurfacePoints = std::size_t(1) << 22;      // the surface part's, over all meshes (64 MiB + 4 MiB per light)
 constexpr int kSurfaceMaxSubdivision = 1024;                        // lattice intervals along a triangle's edge
 constexpr int kSurfaceRowPoints = 1024;                              // rows of the surface fill's launch
-constexpr int kProbeLatticeStride = 16;  // auto's probe fills every 16th lattice row along y and z
-constexpr int kProbeRows = 16;           // and renders at most 16 image rows
+constexpr int kProbeLatticeStride = 16;                     // auto's probe fills at most every 16th lattice row along y and z,
+constexpr std::size_t kProbeLatticePoints = 1 << 16;        // at least 65,536 points per lattice (or all of it),
+constexpr int kProbeRowsPerLaunch = 4, kProbeLaunches = 4;  // and renders 4 image rows a launch, at most 16
 
 double triangle_longest_edge(const SurfaceTriangleGpu& t) {
     const cl_float4* c[3] = {&t.corner, &t.corner1, &t.corner2};
@@ -367,11 +368,12 @@ double fill_surface_entries(const FillLaunch& launch, SurfaceShadowCache& sc, co
 // Auto's measurement (issue 29 item 5): what the frame's shadow terms cost both ways, from small
 // runs of the real kernels before the frame. The fill: every lattice's rows along x at every 16th
 // y and z (1/256 of its points; whole rows, so that a packet's lanes are neighbours as in the
-// fill), the stale ones' time scaled by their points. The camera pass: single image rows at full
-// width (lanes as coherent as the frame's), in van der Corput order (the middle row, the
-// quarters, …), each once evaluating the technique per sample and once reading the small
-// lattices (a lattice costs the same to read at any size; its values are thrown away), scaled by
-// the rows. It stops when one side costs twice the other, or after kProbeRows rows.
+// fill; fewer rows skipped on small lattices: ≥ 65,536 points), the stale ones' time scaled by
+// their points. The camera pass: image rows at full width (lanes as coherent as the frame's), 4 a
+// launch a quarter of the image apart, the launches' offsets in van der Corput order (the middle
+// of each quarter, then of each eighth, …), each launch once evaluating the technique per sample
+// and once reading the small lattices (a lattice costs the same to read at any size; its values
+// are thrown away), scaled by the rows. It stops when one side costs twice the other, or after 16 rows.
 struct VolumeCosts {
     double fill_ms = 0, per_sample_ms = 0, cached_ms = 0, probe_ms = 0;
     int rows = 0;
@@ -384,9 +386,13 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
     std::vector<ShadowCacheGpu> small = plan.layout;
     std::size_t total = 0;
     for (ShadowCacheGpu& c : small) {
+        // every stride-th row along y and z (whole rows along x); the stride halved from 16 while
+        // fewer than kProbeLatticePoints remain, so that no launch is mostly its fixed cost
+        int stride = kProbeLatticeStride;
+        while (stride > 1 && lattice_points(c) / std::size_t(stride * stride) < kProbeLatticePoints) stride /= 2;
         for (std::size_t a = 1; a < 3; ++a) {
-            c.dims.s[a] = (c.dims.s[a] - 1) / kProbeLatticeStride + 1;
-            c.spacing.s[a] *= float(kProbeLatticeStride);
+            c.dims.s[a] = (c.dims.s[a] - 1) / stride + 1;
+            c.spacing.s[a] *= float(stride);
         }
         c.offset = cl_uint(total);  // c.reach stays: points near the same bricks are evaluated
         total += lattice_points(c);
@@ -405,28 +411,30 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
         if (plan.stale[e]) costs.fill_ms += ms * double(lattice_points(plan.layout[e])) / double(lattice_points(small[e]));
     }
     CameraGpu camera = frame_camera(launch.scene, launch.options, width, height);
-    camera.row_stride = cl_uint(height);  // one row per launch
+    camera.row_stride = cl_uint(std::max(1, height / kProbeRowsPerLaunch));  // a launch: 4 rows a quarter of the image apart
     CameraPassReads per_sample, cached;
     per_sample.fragments = cached.fragments = fragments;
     per_sample.surface_cache = cached.surface_cache = surface_cache;
     cached.volume_cache = &values, cached.volume_cache_table = &table;
-    cl::Buffer image = host::make_buffer(runtime, CL_MEM_WRITE_ONLY, std::size_t(width) * sizeof(cl_float4), nullptr, "probe row");
-    cl::Buffer counts = host::make_buffer(runtime, CL_MEM_WRITE_ONLY, std::size_t(width) * sizeof(cl_uint), nullptr, "probe row samples");
+    const std::size_t launch_pixels = std::size_t(width) * std::size_t(kProbeRowsPerLaunch + 1);
+    cl::Buffer image = host::make_buffer(runtime, CL_MEM_WRITE_ONLY, launch_pixels * sizeof(cl_float4), nullptr, "probe rows");
+    cl::Buffer counts = host::make_buffer(runtime, CL_MEM_WRITE_ONLY, launch_pixels * sizeof(cl_uint), nullptr, "probe row samples");
     double per_sample_sum = 0, cached_sum = 0;
-    std::vector<bool> done(std::size_t(height), false);
-    for (unsigned k = 1; costs.rows < std::min(kProbeRows, height); ++k) {
+    std::vector<bool> done(camera.row_stride, false);
+    for (unsigned k = 1; k <= 4 * kProbeLaunches && costs.rows < height; ++k) {
         double fraction = 0;  // van der Corput: k's bits mirrored behind the binary point
         for (unsigned bits = k, weight = 2; bits; bits >>= 1, weight *= 2) fraction += double(bits & 1u) / weight;
-        const int row = std::min(height - 1, int(fraction * height));
-        if (done[std::size_t(row)]) continue;
-        done[std::size_t(row)] = true;
-        camera.first_row = cl_uint(row);
+        const cl_uint first = std::min(camera.row_stride - 1, cl_uint(fraction * camera.row_stride));
+        if (done[first]) continue;
+        done[first] = true;
+        camera.first_row = first;
         per_sample_sum += run_camera_pass(runtime, launch.scene, launch.prepared, launch.options, launch.lanes, camera, per_sample, image, counts);
         cached_sum += run_camera_pass(runtime, launch.scene, launch.prepared, launch.options, launch.lanes, camera, cached, image, counts);
-        ++costs.rows;
+        costs.rows += int((cl_uint(height) - first + camera.row_stride - 1) / camera.row_stride);
         costs.per_sample_ms = per_sample_sum * height / costs.rows, costs.cached_ms = cached_sum * height / costs.rows;
         const double with_cache = costs.fill_ms + costs.cached_ms;
-        if (costs.per_sample_ms > 2 * with_cache || (costs.rows >= 4 && 2 * costs.per_sample_ms < with_cache)) break;
+        if (costs.per_sample_ms > 2 * with_cache || 2 * costs.per_sample_ms < with_cache || costs.rows >= kProbeRowsPerLaunch * kProbeLaunches)
+            break;
     }
     costs.probe_ms += per_sample_sum + cached_sum;
     return costs;
