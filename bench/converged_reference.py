@@ -427,6 +427,16 @@ def cmd_validate(args):
                       f"max |rel| {np.max(np.abs(x - r) / np.abs(r)):.2e}, {wall:.1f} s", flush=True)
 
 
+def parse_value(text):
+    """An option's value from KEY=VALUE: int, float or string."""
+    for kind in (int, float):
+        try:
+            return kind(text)
+        except ValueError:
+            pass
+    return text
+
+
 TECHNIQUES = [
     ("none", {}),
     ("rays", {}),
@@ -453,7 +463,7 @@ def cmd_measure(args):
                 continue
             o = dict(opts)
             o.setdefault("shadows", name)
-            o.update(dict(kv.split("=", 1) for kv in args.option) if args.option else {})
+            o.update({k: parse_value(v) for k, v in (kv.split("=", 1) for kv in args.option or [])})
             for step in args.steps:
                 render_technique(sombra, ctx, step, o, tmp)  # warm-up (program build, tables)
                 walls, image, stats = [], None, None
@@ -492,7 +502,7 @@ def main():
     m.add_argument("--steps", nargs="+", type=float, default=[0.5, 0.25], help="camera steps, voxels")
     m.add_argument("--runs", type=int, default=3, help="timed renders per row (median)")
     m.add_argument("--only", nargs="*", help="technique rows to run (names as printed)")
-    m.add_argument("--option", nargs="*", help="extra render options KEY=VALUE (strings)")
+    m.add_argument("--option", nargs="*", help="extra render options KEY=VALUE (numbers or strings)")
     m.add_argument("--json", help="write the rows here")
     args = ap.parse_args()
     {"scene": lambda a: write_scene(), "reference": cmd_reference, "validate": cmd_validate,
