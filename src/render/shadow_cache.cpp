@@ -23,8 +23,7 @@ constexpr std::size_t kShadowCachePoints = std::size_t(1) << 23;  // per volume 
 constexpr std::size_t kSurfacePoints = std::size_t(1) << 22;      // the surface part's, over all meshes (64 MiB + 4 MiB per light)
 constexpr int kSurfaceMaxSubdivision = 1024;                        // lattice intervals along a triangle's edge
 constexpr int kSurfaceRowPoints = 1024;                              // rows of the surface fill's launch
-constexpr int kProbeLatticeStride = 16;                     // auto's probe fills at most every 16th lattice row along y and z,
-constexpr std::size_t kProbeLatticePoints = 1 << 16;        // at least 65,536 points per lattice (or all of it),
+constexpr int kProbeLatticeStride = 16;                     // auto's probe fills every 16th lattice row along y and z (4th: close calls)
 constexpr int kProbeRowsPerLaunch = 4, kProbeLaunches = 4;  // and renders 4 image rows a launch, at most 16
 
 double triangle_longest_edge(const SurfaceTriangleGpu& t) {
@@ -368,8 +367,8 @@ double fill_surface_entries(const FillLaunch& launch, SurfaceShadowCache& sc, co
 // Auto's measurement (issue 29 item 5): what the frame's shadow terms cost both ways, from small
 // runs of the real kernels before the frame. The fill: every lattice's rows along x at every 16th
 // y and z (1/256 of its points; whole rows, so that a packet's lanes are neighbours as in the
-// fill; fewer rows skipped on small lattices: ≥ 65,536 points), the stale ones' time scaled by
-// their points. The camera pass: image rows at full width (lanes as coherent as the frame's), 4 a
+// fill), the stale ones' time scaled by their points; when the result is a close call (within 2×),
+// again at every 4th (1/16). The camera pass: image rows at full width (lanes as coherent as the frame's), 4 a
 // launch a quarter of the image apart, the launches' offsets in van der Corput order (the middle
 // of each quarter, then of each eighth, …), each launch once evaluating the technique per sample
 // and once reading the small lattices (a lattice costs the same to read at any size; its values
@@ -383,33 +382,38 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
                                const surfaces::ViewFragments* fragments, const SurfaceShadowCache* surface_cache) {
     host::Runtime& runtime = launch.runtime;
     VolumeCosts costs;
-    std::vector<ShadowCacheGpu> small = plan.layout;
-    std::size_t total = 0;
-    for (ShadowCacheGpu& c : small) {
-        // every stride-th row along y and z (whole rows along x); the stride halved from 16 while
-        // fewer than kProbeLatticePoints remain, so that no launch is mostly its fixed cost
-        int stride = kProbeLatticeStride;
-        while (stride > 1 && lattice_points(c) / std::size_t(stride * stride) < kProbeLatticePoints) stride /= 2;
-        for (std::size_t a = 1; a < 3; ++a) {
-            c.dims.s[a] = (c.dims.s[a] - 1) / stride + 1;
-            c.spacing.s[a] *= float(stride);
+    // the lattices at every stride-th row along y and z (whole rows along x), filled and timed;
+    // returns the stale ones' fill time scaled by their points
+    std::vector<ShadowCacheGpu> small;
+    cl::Buffer values, table;
+    auto fill_rows = [&](int stride) {
+        small = plan.layout;
+        std::size_t total = 0;
+        for (ShadowCacheGpu& c : small) {
+            for (std::size_t a = 1; a < 3; ++a) {
+                c.dims.s[a] = (c.dims.s[a] - 1) / stride + 1;
+                c.spacing.s[a] *= float(stride);
+            }
+            c.offset = cl_uint(total);  // c.reach stays: points near the same bricks are evaluated
+            total += lattice_points(c);
         }
-        c.offset = cl_uint(total);  // c.reach stays: points near the same bricks are evaluated
-        total += lattice_points(c);
-    }
-    cl::Buffer values = host::make_buffer(runtime, CL_MEM_READ_WRITE, total * sizeof(float), nullptr, "shadow cache probe");
-    cl::Buffer table = host::make_buffer(runtime, CL_MEM_READ_ONLY, small.size() * sizeof(ShadowCacheGpu), small.data(), "shadow cache probe table");
-    cl::Kernel kernel(launch.program, "shadow_cache_fill");
-    for (std::size_t e = 0; e < small.size(); ++e) {
-        host::KernelArgs args{kernel};
-        bind_scene(args, launch.prepared.scene, launch.camera);
-        args("light_index", cl_uint(e % lights))("cache_entry", cl_uint(e))("shadow_cache_table", table)("shadow_cache", values);
-        launch.prepared.technique.bind(args, runtime, launch.options);
-        args.done();
-        const double ms = host::run_packets(runtime, kernel, small[e].dims.s[0], small[e].dims.s[1] * small[e].dims.s[2], launch.lanes);
-        costs.probe_ms += ms;
-        if (plan.stale[e]) costs.fill_ms += ms * double(lattice_points(plan.layout[e])) / double(lattice_points(small[e]));
-    }
+        values = host::make_buffer(runtime, CL_MEM_READ_WRITE, total * sizeof(float), nullptr, "shadow cache probe");
+        table = host::make_buffer(runtime, CL_MEM_READ_ONLY, small.size() * sizeof(ShadowCacheGpu), small.data(), "shadow cache probe table");
+        cl::Kernel kernel(launch.program, "shadow_cache_fill");
+        double fill_ms = 0;
+        for (std::size_t e = 0; e < small.size(); ++e) {
+            host::KernelArgs args{kernel};
+            bind_scene(args, launch.prepared.scene, launch.camera);
+            args("light_index", cl_uint(e % lights))("cache_entry", cl_uint(e))("shadow_cache_table", table)("shadow_cache", values);
+            launch.prepared.technique.bind(args, runtime, launch.options);
+            args.done();
+            const double ms = host::run_packets(runtime, kernel, small[e].dims.s[0], small[e].dims.s[1] * small[e].dims.s[2], launch.lanes);
+            costs.probe_ms += ms;
+            if (plan.stale[e]) fill_ms += ms * double(lattice_points(plan.layout[e])) / double(lattice_points(small[e]));
+        }
+        return fill_ms;
+    };
+    costs.fill_ms = fill_rows(kProbeLatticeStride);
     CameraGpu camera = frame_camera(launch.scene, launch.options, width, height);
     camera.row_stride = cl_uint(std::max(1, height / kProbeRowsPerLaunch));  // a launch: 4 rows a quarter of the image apart
     CameraPassReads per_sample, cached;
@@ -437,6 +441,10 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
             break;
     }
     costs.probe_ms += per_sample_sum + cached_sum;
+    // a close call: the fill again on 1/16 of the rows (small lattices' 1/256 can be mostly a
+    // launch's fixed cost, which leans the estimate towards evaluating per sample)
+    const double with_cache = costs.fill_ms + costs.cached_ms;
+    if (costs.per_sample_ms <= 2 * with_cache && 2 * costs.per_sample_ms >= with_cache) costs.fill_ms = fill_rows(kProbeLatticeStride / 4);
     return costs;
 }
 
