@@ -9,22 +9,25 @@
 #   scripts/intel-opencl.sh --env    install if missing; print export lines to eval:
 #                                    eval "$(scripts/intel-opencl.sh --env)"
 #   scripts/intel-opencl.sh --env --pocl   the same with PoCL visible too (Intel and PoCL)
+#   --no-install: exit 77 instead of downloading when it is not there (the ctest's way)
 #
 # The environment: OCL_ICD_VENDORS (only the folder's platforms are seen), LD_LIBRARY_PATH (the
 # wheels' libraries) and LD_PRELOAD of the wheel's libtbb.so.12 — Intel's runtime needs oneTBB
 # 2023, but sombra links OpenVDB, which loads Debian's TBB 2021.8 under the same soname first, and
 # Intel's device then silently disappears. Not written: libOpenCL.so* (the system's ICD loader
 # stays), icx-lto.so (a compiler plug-in, 94 MB), the wheels' ICD files and conda scripts.
-# Exit 77 when it cannot install (no network, no pip), with one line saying why.
+# Exit 77 when it cannot install (no network, no pip), with one line saying why (messages go to
+# stderr, the folder or the export lines to stdout).
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 dest=$root/.intel-opencl
-env=0 pocl=0
+env=0 pocl=0 install=1
 for arg in "$@"; do
   case $arg in
     --env) env=1 ;;
     --pocl) pocl=1 ;;
-    *) echo "intel-opencl.sh: unknown argument $arg (--env, --pocl)" >&2; exit 2 ;;
+    --no-install) install=0 ;;
+    *) echo "intel-opencl.sh: unknown argument $arg (--env, --pocl, --no-install)" >&2; exit 2 ;;
   esac
 done
 # intel-opencl-rt needs tbb 2023.* (which needs tcmlib 1.*), intel-cmplr-lic-rt 2026.* (its
@@ -36,16 +39,17 @@ tbb==2023.2.0 --hash=sha256:7d80615b6e970f11671fa05b6eaa9483ac864fbfe525ac280271
 tcmlib==1.6.0 --hash=sha256:46c2491988bfd18c4733eeb08aca6a386706a497b92cc51d155f37ddea003c14'
 
 if ! { [ -f "$dest/installed" ] && [ "$(cat "$dest/installed")" = "$pins" ] && [ -f "$dest/lib/libintelocl.so" ]; }; then
+  [ $install = 1 ] || { echo "intel-opencl.sh: Intel's runtime is not in $dest (scripts/intel-opencl.sh installs it): skipped" >&2; exit 77; }
   python=/usr/bin/python3
   "$python" -m pip --version >/dev/null 2>&1 || python=$root/.python-deps/bin/python
-  "$python" -m pip --version >/dev/null 2>&1 || { echo "intel-opencl.sh: no pip (python3-pip) to install Intel's runtime: skipped"; exit 77; }
+  "$python" -m pip --version >/dev/null 2>&1 || { echo "intel-opencl.sh: no pip (python3-pip) to install Intel's runtime: skipped" >&2; exit 77; }
   rm -rf "$dest" "$dest.part"
   mkdir -p "$dest.part/wheels"
   echo "$pins" >"$dest.part/requirements.txt"
   echo "intel-opencl.sh: downloading Intel's OpenCL CPU runtime (276 MB) into $dest" >&2
   if ! "$python" -m pip download -q --disable-pip-version-check --no-deps --require-hashes --only-binary :all: \
       -r "$dest.part/requirements.txt" -d "$dest.part/wheels" >"$dest.part/pip.log" 2>&1; then
-    echo "intel-opencl.sh: cannot download the wheels from PyPI ($(grep -m1 -iE 'error|could not' "$dest.part/pip.log" || echo 'pip failed')): skipped"
+    echo "intel-opencl.sh: cannot download the wheels from PyPI ($(grep -m1 -iE 'error|could not' "$dest.part/pip.log" || echo 'pip failed')): skipped" >&2
     rm -rf "$dest.part"
     exit 77
   fi
