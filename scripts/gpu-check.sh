@@ -66,28 +66,9 @@ fi
 size=$([ $quick = 1 ] && echo 24 || echo 64)
 scenes=$([ $quick = 1 ] && echo "default smoke" || ls data/scenes/*.json | xargs -n1 basename | sed 's/\.json$//' | tr '\n' ' ')
 techniques=$([ $quick = 1 ] && echo "none dsm rays" || echo "none dsm rays shadowmap lowpass")
-step "images: $device against PoCL ($size², $techniques)" 240 env PYTHONPATH=build/python /usr/bin/python3 - "$device" "$size" "$scenes" "$techniques" <<'PY'
-import sys, numpy as np, sombra
-device, size, scenes, techniques = sys.argv[1], int(sys.argv[2]), sys.argv[3].split(), sys.argv[4].split()
-on, pocl = sombra.Context(device), sombra.Context("cpu")
-print(f"device: {on.device}; reference: {pocl.device}")
-print(f"{'scene':<18} {'technique':<10} {'max |Δ|':>9} {'mean |Δ|':>10}")
-worst = 0.0
-for name in scenes:
-    scene = sombra.load_scene(f"data/scenes/{name}.json")
-    for t in techniques:
-        try:
-            options = dict(shadows=t, width=size, height=size, **({"dsm_resolution": 128} if t in ("dsm", "shadowmap") else {}))
-            a, _ = sombra.render(on, scene, **options)
-            b, _ = sombra.render(pocl, scene, **options)
-        except sombra.Error as e:
-            print(f"{name:<18} {t:<10} refused: {e}")
-            continue
-        d = np.abs(a - b)
-        worst = max(worst, float(d.max()))
-        print(f"{name:<18} {t:<10} {d.max():9.2e} {d.mean():10.2e}" + ("   <- differs" if d.max() > 0.02 else ""))
-print(f"largest difference: {worst:.3g}")
-PY
+# shellcheck disable=SC2086  # the scene and technique lists are words without spaces
+step "images: $device against PoCL ($size², $techniques)" 240 env PYTHONPATH=build/python /usr/bin/python3 \
+  tests/portability/compare_devices.py "$device" "Portable Computing Language" --size "$size" --scenes $scenes --techniques $techniques
 if [ $quick = 1 ]; then
   step "camera bench" 120 build/bench/sombra_bench_camera --scene data/scenes/default.json --device "$device" --width 64 --height 64 --runs 1 --no-scalar
   step "DSM bench" 120 build/bench/sombra_bench_dsm --scene data/scenes/default.json --device "$device" --resolutions 64 --eps 0.02 --width 32 --height 32 --runs 1 --points 20

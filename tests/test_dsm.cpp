@@ -422,6 +422,8 @@ TEST_CASE("packed lookups read the same maps as native ones: identical images an
     s.lights.push_back(smoke_scene(LightType::Directional).lights[0]);
     RenderOptions base = dsm_options(48, 0.01f);
     base.volume_storage = VolumeStorage::Buffer;
+    const bool pocl = test::context().device().platform.find("Portable Computing Language") != std::string::npos;
+    INFO(test::context().device().platform);
     for (const char* storage : {"atlas", "chunked", "chunked-ondemand"}) {
         RenderOptions native = base, packed = base;
         native.dsm.storage = packed.dsm.storage = storage;
@@ -429,9 +431,11 @@ TEST_CASE("packed lookups read the same maps as native ones: identical images an
         packed.dsm.lookup = "packed";
         RenderResult a = render(test::context(), s, native), b = render(test::context(), s, packed);
         INFO(storage);
-        // the same nodes read in the same order: not one bit differs
+        // the same nodes read in the same order: on PoCL not one bit differs; another compiler may
+        // contract the two lookups' arithmetic differently (Intel's CPU runtime): ≤ 1e-7
         REQUIRE(a.image.rgba.size() == b.image.rgba.size());
-        CHECK(std::equal(a.image.rgba.begin(), a.image.rgba.end(), b.image.rgba.begin()));
+        if (pocl) CHECK(std::equal(a.image.rgba.begin(), a.image.rgba.end(), b.image.rgba.begin()));
+        else CHECK(test::compare(a.image, b.image).max_abs <= 1e-7);
         CHECK(a.stats.dsm_nodes == b.stats.dsm_nodes);
         CHECK(b.stats.stage_ms.count("dsm_pack") == 1);
         CHECK(a.stats.stage_ms.count("dsm_pack") == 0);

@@ -15,22 +15,27 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// Sets SOMBRA_KERNEL_CACHE for the scope of one test (each test case runs in its own process
+// Sets an environment variable for the scope of one test (each test case runs in its own process
 // under ctest; restored for runs of the whole binary).
-struct CacheFolder {
-    std::string path;
-    std::string previous;
+struct Variable {
+    std::string name, value, previous;
     bool had_previous;
-    explicit CacheFolder(const std::string& value) : path(value) {
-        const char* old = std::getenv("SOMBRA_KERNEL_CACHE");
+    Variable(std::string name_, const std::string& value_) : name(std::move(name_)), value(value_) {
+        const char* old = std::getenv(name.c_str());
         had_previous = old != nullptr;
         previous = old ? old : "";
-        setenv("SOMBRA_KERNEL_CACHE", value.c_str(), 1);
+        setenv(name.c_str(), value.c_str(), 1);
     }
-    ~CacheFolder() {
-        if (had_previous) setenv("SOMBRA_KERNEL_CACHE", previous.c_str(), 1);
-        else unsetenv("SOMBRA_KERNEL_CACHE");
+    ~Variable() {
+        if (had_previous) setenv(name.c_str(), previous.c_str(), 1);
+        else unsetenv(name.c_str());
     }
+};
+
+// SOMBRA_KERNEL_CACHE (the cache folder, or off) for the scope of one test.
+struct CacheFolder : Variable {
+    std::string& path = value;
+    explicit CacheFolder(const std::string& folder) : Variable("SOMBRA_KERNEL_CACHE", folder) {}
 };
 
 std::vector<fs::path> cache_files(const std::string& folder) {
@@ -127,6 +132,47 @@ TEST_CASE("program cache: damaged, foreign and truncated files are rebuilt and r
         // only when it builds the same kernels; what matters is that nothing throws or crashes
         CHECK(counts.first + counts.second == 1);
         if (counts.first == 1) CHECK(build_once() == std::pair<int, int>{0, 1});  // replaced by a good file
+    }
+}
+
+TEST_CASE("program cache: the driver settings (CL_CONFIG_ variables) are part of the key", "[program_cache]") {
+    // Intel's CPU runtime compiles by these variables: a binary built with its vectoriser off must
+    // not be loaded with it on, nor the other way round
+    CacheFolder cache(test::temp_dir() + "/kernels-settings");
+    CHECK(build_once() == std::pair<int, int>{1, 0});
+    {
+        Variable mode("CL_CONFIG_CPU_VECTORIZER_MODE", "1");
+        CHECK(build_once() == std::pair<int, int>{1, 0});
+        CHECK(build_once() == std::pair<int, int>{0, 1});
+        CHECK(cache_files(cache.path).size() == 2);
+        Variable math("CL_CONFIG_USE_FAST_RELAXED_MATH", "False");
+        CHECK(build_once() == std::pair<int, int>{1, 0});
+    }
+    CHECK(build_once() == std::pair<int, int>{0, 1});  // the first binary again
+    CHECK(cache_files(cache.path).size() == 3);
+    {
+        Variable other("SOMBRA_NOT_A_DRIVER_SETTING", "1");  // other variables are not
+        CHECK(build_once() == std::pair<int, int>{0, 1});
+    }
+}
+
+TEST_CASE("program cache: driver_settings lists every CL_CONFIG_ variable, sorted", "[program_cache]") {
+    Variable b("CL_CONFIG_SOMBRA_TEST_B", "2"), a("CL_CONFIG_SOMBRA_TEST_A", "x=1"), not_one("NOT_CL_CONFIG_SOMBRA_TEST", "3");
+    const std::string settings = host::driver_settings();
+    INFO(settings);
+    const auto at_a = settings.find("CL_CONFIG_SOMBRA_TEST_A=x=1\n"), at_b = settings.find("CL_CONFIG_SOMBRA_TEST_B=2\n");
+    REQUIRE(at_a != std::string::npos);
+    REQUIRE(at_b != std::string::npos);
+    CHECK(at_a < at_b);
+    CHECK(settings.find("NOT_CL_CONFIG") == std::string::npos);
+    std::string previous;  // every line a CL_CONFIG_ variable, in order
+    for (std::size_t at = 0, end; at < settings.size(); at = end + 1) {
+        end = settings.find('\n', at);
+        REQUIRE(end != std::string::npos);
+        const std::string line = settings.substr(at, end - at);
+        CHECK(line.rfind("CL_CONFIG_", 0) == 0);
+        CHECK(previous < line);
+        previous = line;
     }
 }
 

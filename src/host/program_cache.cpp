@@ -98,6 +98,16 @@ std::string default_kernel_cache_folder() {
     return std::string();
 }
 
+std::string driver_settings() {
+    std::vector<std::string> settings;
+    for (char** variable = environ; variable && *variable; ++variable)
+        if (std::strncmp(*variable, "CL_CONFIG_", 10) == 0) settings.emplace_back(*variable);
+    std::sort(settings.begin(), settings.end());
+    std::string lines;
+    for (auto& setting : settings) lines += setting + '\n';
+    return lines;
+}
+
 KernelArgNames read_arg_names(cl::Program& program) {
     KernelArgNames names;
     std::vector<cl::Kernel> kernels;
@@ -138,7 +148,7 @@ ProgramCache::ProgramCache(cl::Context context, cl::Device device, std::string d
 }
 
 ProgramCache::Built ProgramCache::build(const std::string& source, const std::string& options) {
-    const std::string digest = digest_of(identity_ + '\0' + options + '\0' + source);
+    const std::string digest = digest_of(identity_ + '\0' + driver_settings() + '\0' + options + '\0' + source);
     const std::string path = folder_.empty() ? std::string() : folder_ + "/" + digest + ".bin";
     if (!path.empty())
         if (auto cached = load(path, digest)) return std::move(*cached);

@@ -2,7 +2,9 @@
 // Intel's CPU runtime compiles each program in 2.6–14 s and caches nothing).
 //
 // One file per program under the cache folder, named by a 128-bit digest of everything the binary
-// depends on: the expanded source, the build options, the platform, device and driver versions.
+// depends on: the expanded source, the build options, the platform, device and driver versions, and
+// the driver's compile settings in the environment (driver_settings(): Intel's CPU runtime compiles
+// by CL_CONFIG_* variables, e.g. CL_CONFIG_CPU_VECTORIZER_MODE).
 // The file holds that digest again, the kernels' argument names (OpenCL keeps them only for
 // programs built from source; KernelArgs binds by name), the binary's digest and the binary. A
 // file that is short, damaged (the driver never sees bytes whose digest differs: PoCL aborts the
@@ -63,6 +65,10 @@ private:
 
 // The folder the cache uses in this environment (see above); empty when off.
 std::string default_kernel_cache_folder();
+
+// Every CL_CONFIG_* environment variable as sorted NAME=value lines (empty when none): part
+// of the cache key, so that a binary built under one setting is never loaded under another.
+std::string driver_settings();
 
 // Every kernel's argument names, read from a program built with -cl-kernel-arg-info.
 KernelArgNames read_arg_names(cl::Program& program);
