@@ -122,6 +122,7 @@ TEST_CASE("progress: every stage of a render reports from 0, never goes back, an
     RenderOptions options;
     options.width = 24, options.height = 20;
     options.dsm.resolution = 32;
+    options.shadow_cache = ShadowCacheMode::On;  // the low-pass frame fills it (auto would measure and may not)
     for (ShadowTechnique t : {ShadowTechnique::Dsm, ShadowTechnique::Lowpass}) {
         options.shadows = t;
         auto reports = reports_of(scene, options);

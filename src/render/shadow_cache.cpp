@@ -381,6 +381,8 @@ struct VolumeCosts {
 VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan, std::size_t lights, int width, int height,
                                const surfaces::ViewFragments* fragments, const SurfaceShadowCache* surface_cache) {
     host::Runtime& runtime = launch.runtime;
+    // the probe's short launches must not make the frame's long ones run unbanded (tiled_launch.cpp)
+    const double last_launch_ms = runtime.progress().last_launch_ms;
     VolumeCosts costs;
     // the lattices at every stride-th row along y and z (whole rows along x), filled and timed;
     // returns the stale ones' fill time scaled by their points
@@ -445,6 +447,7 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
     // launch's fixed cost, which leans the estimate towards evaluating per sample)
     const double with_cache = costs.fill_ms + costs.cached_ms;
     if (costs.per_sample_ms <= 2 * with_cache && 2 * costs.per_sample_ms >= with_cache) costs.fill_ms = fill_rows(kProbeLatticeStride / 4);
+    runtime.progress().last_launch_ms = last_launch_ms;
     return costs;
 }
 
