@@ -197,7 +197,8 @@ TEST_CASE("program cache: the CLI renders the same image from cached programs an
     std::string device = " --device " + test::device_selector();
     auto render = [&](const std::string& name) {
         auto run = test::run_cli_output("render " + test::data_path("scenes/smoke.json") + " -o " + dir + "/" + name +
-                                        ".png --width 24 --height 24 --dsm-res 32 --stats " + dir + "/" + name + ".json" + device);
+                                        ".png --width 24 --height 24 --dsm-res 32 --shadow-cache off --stats " + dir + "/" + name + ".json" +
+                                        device);  // off: auto's measured choice (and its programs) may differ run to run
         INFO(run.err);
         REQUIRE(run.exit_code == 0);
         std::ifstream in(dir + "/" + name + ".json");
