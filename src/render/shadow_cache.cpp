@@ -292,6 +292,18 @@ struct FillLaunch {
     int lanes;
 };
 
+// shadow_cache_fill of entry e of `table` (lattice c) into `values`, by the launch's technique;
+// returns the kernel time. The frame's fill and auto's probe both run it.
+double fill_lattice(const FillLaunch& launch, cl::Kernel& kernel, std::size_t e, const ShadowCacheGpu& c, std::size_t lights,
+                    const cl::Buffer& table, const cl::Buffer& values) {
+    host::KernelArgs args{kernel};
+    bind_scene(args, launch.prepared.scene, launch.camera);
+    args("light_index", cl_uint(e % lights))("cache_entry", cl_uint(e))("shadow_cache_table", table)("shadow_cache", values);
+    launch.prepared.technique.bind(args, launch.runtime, launch.options);
+    args.done();
+    return host::run_packets(launch.runtime, kernel, c.dims.s[0], c.dims.s[1] * c.dims.s[2], launch.lanes);
+}
+
 // Fills the stale lattices (new ones first when the layout changed); returns the kernel time.
 double fill_volume_entries(const FillLaunch& launch, ShadowCache& cache, const VolumePlan& plan, std::size_t lights, RenderStats& stats) {
     host::Runtime& runtime = launch.runtime;
@@ -314,13 +326,7 @@ double fill_volume_entries(const FillLaunch& launch, ShadowCache& cache, const V
     for (std::size_t e = 0; e < plan.layout.size(); ++e) {
         if (!plan.stale[e]) continue;
         cache.keys[e].clear();  // an entry half filled when a launch throws is not kept
-        host::KernelArgs args{kernel};
-        bind_scene(args, launch.prepared.scene, launch.camera);
-        args("light_index", cl_uint(e % lights))("cache_entry", cl_uint(e))("shadow_cache_table", cache.table)("shadow_cache", cache.values);
-        launch.prepared.technique.bind(args, runtime, launch.options);
-        args.done();
-        const ShadowCacheGpu& c = plan.layout[e];
-        ms += host::run_packets(runtime, kernel, c.dims.s[0], c.dims.s[1] * c.dims.s[2], launch.lanes);
+        ms += fill_lattice(launch, kernel, e, plan.layout[e], lights, cache.table, cache.values);
         cache.keys[e] = plan.keys[e];
         ++stats.shadow_cache_entries_built;
     }
@@ -404,12 +410,7 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
         cl::Kernel kernel(launch.program, "shadow_cache_fill");
         double fill_ms = 0;
         for (std::size_t e = 0; e < small.size(); ++e) {
-            host::KernelArgs args{kernel};
-            bind_scene(args, launch.prepared.scene, launch.camera);
-            args("light_index", cl_uint(e % lights))("cache_entry", cl_uint(e))("shadow_cache_table", table)("shadow_cache", values);
-            launch.prepared.technique.bind(args, runtime, launch.options);
-            args.done();
-            const double ms = host::run_packets(runtime, kernel, small[e].dims.s[0], small[e].dims.s[1] * small[e].dims.s[2], launch.lanes);
+            const double ms = fill_lattice(launch, kernel, e, small[e], lights, table, values);
             costs.probe_ms += ms;
             if (plan.stale[e]) fill_ms += ms * double(lattice_points(plan.layout[e])) / double(lattice_points(small[e]));
         }
