@@ -26,11 +26,13 @@ struct Frame {
     bool cache_used = false;
 };
 
-// `repeats` frames, each on a fresh Context; the median wall time of render().
+// `repeats` frames, each on a fresh Context with auto's remembered choices forgotten (a first
+// frame measures); the median wall time of render().
 Frame first_frame(const std::string& device, const sombra::Scene& scene, const sombra::RenderOptions& options, int repeats) {
     std::vector<double> ms;
     Frame frame;
     for (int r = 0; r < repeats; ++r) {
+        sombra::forget_shadow_cache_choices();
         sombra::Context context(device);
         auto start = std::chrono::steady_clock::now();
         sombra::RenderResult result = sombra::render(context, scene, options);

@@ -207,6 +207,9 @@ PYBIND11_MODULE(sombra, m) {
              "device: 'auto', 'cpu', 'gpu' or an index of list_devices()")
         .def_property_readonly("device", [](const Context& c) { return c.device().name; })
         .def("release_prepared_scenes", &Context::release_prepared_scenes);
+    m.def("forget_shadow_cache_choices", &forget_shadow_cache_choices,
+          "The shadow cache's auto remembers its choice per frame (scene, camera, size, options, device) for the "
+          "process, so that the same frame renders the same image; this forgets them: the next frames measure.");
     m.def("list_devices", [] {
         py::list devices;
         for (const DeviceInfo& d : list_devices())

@@ -55,6 +55,7 @@ RenderOptions exact_options(int lanes) {
     o.lanes = lanes;
     o.volume_storage = VolumeStorage::Buffer;
     o.termination_transmittance = 0.f;
+    o.shadow_cache = ShadowCacheMode::Off;  // auto may choose differently for 1 and 8 lanes
     return o;
 }
 

@@ -220,12 +220,13 @@ TEST_CASE("shadow cache auto: measures the fill and both camera passes, chooses 
         CHECK(s.shadow_cache_estimated_cached_ms > 0);
         CHECK(s.shadow_cache_estimated_per_sample_ms > 0);
         // the decision is the comparison the stats show
-        CHECK(s.shadow_cache_used == (s.shadow_cache_estimated_fill_ms + s.shadow_cache_estimated_cached_ms <
-                                      s.shadow_cache_estimated_per_sample_ms));
+        CHECK(s.shadow_cache_used == pipeline::shadow_cache_pays(s.shadow_cache_estimated_fill_ms, s.shadow_cache_estimated_cached_ms,
+                                                                 s.shadow_cache_estimated_per_sample_ms));
         // and the frame is the one the chosen mode renders: the probe leaves no trace in the image
         o.shadow_cache = s.shadow_cache_used ? ShadowCacheMode::On : ShadowCacheMode::Off;
         CHECK(test::compare(r.image, render(forced, scene, o).image).max_abs == 0.0);
     }
+    forget_shadow_cache_choices();
     Context context("cpu");
     RenderOptions o = cache_options(ShadowTechnique::Dsm, ShadowCacheMode::On);
     render(context, scene, o);  // filled
@@ -237,6 +238,40 @@ TEST_CASE("shadow cache auto: measures the fill and both camera passes, chooses 
     CHECK(again.stats.shadow_cache_probe_ms == 0);
     o.shadow_cache = ShadowCacheMode::Off;
     CHECK_FALSE(render(context, scene, o).stats.shadow_cache_used);
+}
+
+TEST_CASE("shadow cache auto: the same frame again, on any Context, chooses as the first did and renders the same image", "[shadow_cache]") {
+    Scene scene = test::overlapping_scene();
+    RenderOptions o = cache_options(ShadowTechnique::Dsm, ShadowCacheMode::Auto);
+    o.width = o.height = 48;
+    forget_shadow_cache_choices();
+    Context first("cpu");
+    const RenderResult chosen = render(first, scene, o);
+    REQUIRE(chosen.stats.shadow_cache_probe_ms > 0);
+    CHECK_FALSE(chosen.stats.shadow_cache_auto_remembered);
+    for (int k = 0; k < 3; ++k) {
+        Context fresh("cpu");
+        const RenderResult again = render(fresh, scene, o);
+        CHECK(again.stats.shadow_cache_auto_remembered);
+        CHECK(again.stats.shadow_cache_probe_ms == 0);
+        CHECK(again.stats.shadow_cache_used == chosen.stats.shadow_cache_used);
+        CHECK(again.stats.shadow_cache_estimated_per_sample_ms == chosen.stats.shadow_cache_estimated_per_sample_ms);
+        CHECK(test::compare(again.image, chosen.image).max_abs == 0.0);
+    }
+    // on the first Context too, whatever it kept: a filled cache is not read when the choice was off
+    const RenderResult kept = render(first, scene, o);
+    CHECK(kept.stats.shadow_cache_auto_remembered);
+    CHECK(test::compare(kept.image, chosen.image).max_abs == 0.0);
+    // another frame (a moved camera) is another choice
+    Scene moved = scene;
+    moved.camera.position[0] += 0.25f;
+    CHECK_FALSE(render(first, moved, o).stats.shadow_cache_auto_remembered);
+    // forgotten: measured again
+    forget_shadow_cache_choices();
+    Context later("cpu");
+    const RenderResult remeasured = render(later, scene, o);
+    CHECK_FALSE(remeasured.stats.shadow_cache_auto_remembered);
+    CHECK(remeasured.stats.shadow_cache_probe_ms > 0);
 }
 
 TEST_CASE("camera pass by rows: single rows (first_row, row_stride) are the frame's rows", "[shadow_cache]") {
@@ -382,13 +417,14 @@ TEST_CASE("surface shadow cache auto: on when its points cost fewer evaluations 
     Scene scene = surface_scene();
     Context context("cpu");
     RenderOptions o = cache_options(ShadowTechnique::Dsm, ShadowCacheMode::Auto);
-    // 8² pixels: few fragments against ~5k points × 2 lights; 400²: more fragments; then 8² again,
-    // filled: nothing to fill, on at any size
+    // 8² pixels: few fragments against ~5k points × 2 lights; 400²: more fragments; then 9², filled:
+    // nothing to fill, on at any size (8² again is the frame auto chose for before: off again)
+    forget_shadow_cache_choices();
     struct Step {
         int size;
         bool used;
     };
-    for (Step step : {Step{8, false}, Step{400, true}, Step{8, true}}) {
+    for (Step step : {Step{8, false}, Step{400, true}, Step{9, true}}) {
         INFO(step.size << " pixels a side");
         o.width = o.height = step.size;
         RenderStats stats = render(context, scene, o).stats;
@@ -397,6 +433,10 @@ TEST_CASE("surface shadow cache auto: on when its points cost fewer evaluations 
         if (step.used) CHECK(stats.shadow_cache_surface_points_to_fill < stats.shadow_cache_estimated_fragments);
         else CHECK(stats.shadow_cache_surface_points_to_fill > stats.shadow_cache_estimated_fragments);
     }
+    o.width = o.height = 8;
+    const RenderStats again = render(context, scene, o).stats;
+    CHECK(again.shadow_cache_auto_remembered);
+    CHECK_FALSE(again.shadow_cache_surfaces_used);
     o.shadow_cache = ShadowCacheMode::Off;
     CHECK_FALSE(render(context, scene, o).stats.shadow_cache_surfaces_used);
 }

@@ -218,12 +218,15 @@ struct RenderStats {
     // the shadow cache (ShadowCacheMode): whether this frame read it, its size, the lattice points
     // it had to fill (near possibly visible bricks), and what auto measured when it had to fill:
     // its small runs' kernel time and the frame's estimated fill, cached camera pass and per-sample
-    // camera pass (ms); the cache is read when fill + cached < per sample
+    // camera pass (ms); the volume lattices are read when kShadowCacheAutoMargin × (fill + cached) < per sample
     bool shadow_cache_used = false;
     unsigned long long shadow_cache_bytes = 0;
     unsigned long long shadow_cache_points_to_fill = 0;
     double shadow_cache_probe_ms = 0, shadow_cache_estimated_fill_ms = 0, shadow_cache_estimated_cached_ms = 0,
            shadow_cache_estimated_per_sample_ms = 0;
+    // auto made no new choice: this frame (scene, camera, size, options, device) was rendered
+    // before in this process, and chose as then (forget_shadow_cache_choices); the estimates are then's
+    bool shadow_cache_auto_remembered = false;
     // tables (CSAT, SSAT, volume-aligned SAT) and shadow cache entries (volume × light) built by
     // this call because their inputs changed, and kept from the previous call on the Context
     int sat_tables_built = 0, sat_tables_reused = 0;
@@ -250,6 +253,15 @@ struct RenderResult {
 };
 
 RenderResult render(Context& context, const Scene& scene, const RenderOptions& options = {});
+
+// The shadow cache's auto measures whether the cache pays for a frame, and remembers the choice
+// for the process: the same frame (scene, camera, size, options, device) rendered again, on any
+// Context, chooses the same and so renders the same image (measured times vary from run to run).
+// This forgets the choices (up to 4096 are kept, the oldest dropped first): the next frames measure.
+void forget_shadow_cache_choices();
+// Auto reads the volume lattices when margin × (fill + cached camera pass) < per-sample camera
+// pass: a close call evaluates per sample (no lattice error) and flips less from run to run.
+constexpr double kShadowCacheAutoMargin = 1.1;
 
 // Transmittance (1 − α) from world points to one light by options.shadows (Rays or Dsm, with the
 // options' DSM resolution and ε), computed by the same kernel code the camera pass runs.

@@ -36,7 +36,7 @@ void write_text_file(const std::string& path, const std::string& text) {
     if (!(out << text << '\n') || !(out.flush())) throw sombra::Error(path + ": cannot write file");
 }
 
-// "shadow cache off (auto: fill ≈ 35.1 s + cached pass ≈ 0.6 s > per sample ≈ 12.8 s, measured
+// "shadow cache off (auto: 1.1 × (fill ≈ 35.1 s + cached pass ≈ 0.6 s) ≥ per sample ≈ 12.8 s, measured
 // in 0.42 s; surfaces on: 0.3 M points to fill, ≤ 0.5 M fragments); " — what the frame did with
 // the shadow cache and, for auto, why; nothing when the frame has no shadow term to cache.
 std::string shadow_cache_note(const sombra::RenderStats& s, const sombra::RenderOptions& o) {
@@ -50,10 +50,12 @@ std::string shadow_cache_note(const sombra::RenderStats& s, const sombra::Render
         };
         std::vector<std::string> parts;
         if (s.shadow_cache_probe_ms > 0)
-            parts.push_back(text("fill ≈ %.2f s", s.shadow_cache_estimated_fill_ms / 1e3) +
-                            text(" + cached pass ≈ %.2f s", s.shadow_cache_estimated_cached_ms / 1e3) +
+            parts.push_back(text("%.1f × ", sombra::kShadowCacheAutoMargin) + text("(fill ≈ %.2f s", s.shadow_cache_estimated_fill_ms / 1e3) +
+                            text(" + cached pass ≈ %.2f s)", s.shadow_cache_estimated_cached_ms / 1e3) +
                             (s.shadow_cache_used ? " < " : " ≥ ") + text("per sample ≈ %.2f s", s.shadow_cache_estimated_per_sample_ms / 1e3) +
                             text(", measured in %.2f s", s.shadow_cache_probe_ms / 1e3));
+        else if (s.shadow_cache_auto_remembered)
+            parts.push_back("as this frame chose before");
         else if (s.shadow_cache_used && s.shadow_cache_points_to_fill == 0 && s.shadow_cache_entries_reused > 0)
             parts.push_back("filled before");
         if (s.shadow_cache_surface_points > 0)

@@ -16,15 +16,26 @@ namespace sombra {
 namespace pipeline {
 
 // What a prepared scene depends on besides the lights (renderer.cpp scene_keys), in the parts the
-// shadow cache's keys take apart: per volume its placement and its content (voxels, transfer
-// function, step), the volumes' shading materials, the meshes, and the options with the technique's.
+// shadow cache's keys take apart: per volume its identity (the Volume's address), placement and
+// content (size, a sample of the voxels, transfer function, step), the volumes' shading
+// materials, the meshes' identities and content, and the options with the technique's.
 struct SceneKeys {
-    std::vector<std::string> volume_placement, volume_content;
-    std::string materials, meshes, options;
-    std::string whole() const {
+    std::vector<std::string> volume_identity, volume_placement, volume_content;
+    std::string materials, mesh_identity, meshes, options;
+    std::string volume(std::size_t i) const { return volume_identity[i] + " " + volume_content[i]; }
+    std::string surfaces() const { return mesh_identity + meshes; }
+    std::string whole() const { return identities() + content(); }
+    // without the identities: the same for two copies of the same data (auto's remembered choices;
+    // a sample of the voxels may collide, so data caches key by whole())
+    std::string content() const {
         std::string key;
         for (std::size_t i = 0; i < volume_placement.size(); ++i) key += "V" + volume_placement[i] + " " + volume_content[i];
         return key + " " + materials + meshes + options;
+    }
+    std::string identities() const {
+        std::string key;
+        for (const std::string& identity : volume_identity) key += identity + " ";
+        return key + mesh_identity + " | ";
     }
 };
 
@@ -109,10 +120,18 @@ double run_camera_pass(host::Runtime& runtime, const Scene& scene, const Prepare
 // the texels of its maps are proportional; a camera move does not change it (shadow_cache.cpp).
 std::vector<float> surface_bias_distances(const PreparedScene& p);
 
+// Auto reads the volume lattices when their fill and the camera pass reading them take less than
+// the per-sample pass by a margin (render.h kShadowCacheAutoMargin).
+constexpr bool shadow_cache_pays(double fill_ms, double cached_ms, double per_sample_ms) {
+    return kShadowCacheAutoMargin * (fill_ms + cached_ms) < per_sample_ms;
+}
+
 // The shadow cache this frame reads, its stale entries filled, or nullptr when every sample and
 // fragment evaluates the technique (options.shadow_cache). Auto weighs the volume part by
 // measuring (small runs of the fill and of the camera pass both ways) and the surface part by
-// counting: surface points to fill against the frame's surface fragments × lights. `fragments`:
+// counting: surface points to fill against the frame's surface fragments × lights. Auto's choice
+// is remembered for the process: the same frame again chooses the same (forget_shadow_cache_choices
+// in render.h). `fragments`:
 // the frame's view fragments (mesh scenes; else null) — shadow_cache.cpp.
 const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, const Prepared& prepared,
                                           const RenderOptions& options, int width, int height, int lanes,

@@ -49,7 +49,10 @@ SceneKeys scene_keys(const Scene& scene, const RenderOptions& o, bool use_images
         placement << v.dims[0] << ' ' << v.dims[1] << ' ' << v.dims[2];
         for (float f : vi.transform) placement << ' ' << f;
         for (float f : vi.spacing) placement << ' ' << f;
-        content << shadows::volume_data_key(v);
+        std::ostringstream identity;
+        identity << static_cast<const void*>(&v);
+        keys.volume_identity.push_back(identity.str());
+        content << shadows::volume_sample_key(v);
         for (auto& c : vi.transfer_function.color_points) content << ' ' << c.x << ' ' << c.r << ' ' << c.g << ' ' << c.b;
         for (auto& a : vi.transfer_function.opacity_points) content << ' ' << a.x << ' ' << a.alpha;
         content << ' ' << vi.step_voxels << ' ' << vi.opacity_unit;
@@ -57,8 +60,14 @@ SceneKeys scene_keys(const Scene& scene, const RenderOptions& o, bool use_images
         keys.volume_placement.push_back(placement.str());
         keys.volume_content.push_back(content.str());
     }
+    std::ostringstream mesh_identity;
     for (const MeshInstance& mi : scene.meshes) {  // by identity: meshes are immutable once shared
-        meshes << "M" << static_cast<const void*>(mi.mesh.get());
+        mesh_identity << "M" << static_cast<const void*>(mi.mesh.get()) << ' ';
+        const Mesh& mesh = *mi.mesh;  // and a sample of their corners (auto's choices key by content)
+        double sum = 0;
+        for (std::size_t i = 0, stride = std::max<std::size_t>(1, mesh.positions.size() / 4096); i < mesh.positions.size(); i += stride)
+            sum += double(mesh.positions[i][0] + 2 * mesh.positions[i][1] + 3 * mesh.positions[i][2]) * double(i % 7919 + 1);
+        meshes << "M " << mesh.positions.size() << ' ' << mesh.triangles.size() << ' ' << mesh.normals.size() << ' ' << sum;
         for (float f : mi.transform) meshes << ' ' << f;
         const MeshMaterial& m = mi.material;
         meshes << ' ' << m.color[0] << ' ' << m.color[1] << ' ' << m.color[2] << ' ' << m.opacity << ' ' << m.phong.ambient << ' '
@@ -68,7 +77,7 @@ SceneKeys scene_keys(const Scene& scene, const RenderOptions& o, bool use_images
     for (const Light& l : scene.lights) options << ' ' << (l.type == LightType::Point ? 6 : 1);  // views per light
     options << " O" << use_images << " T";
     technique.add_key(o, lanes, options);
-    keys.materials = materials.str(), keys.meshes = meshes.str(), keys.options = options.str();
+    keys.materials = materials.str(), keys.mesh_identity = mesh_identity.str(), keys.meshes = meshes.str(), keys.options = options.str();
     return keys;
 }
 
@@ -260,8 +269,9 @@ std::string RenderStats::to_json() const {
                              {"entries_built", shadow_cache_entries_built},
                              {"entries_reused", shadow_cache_entries_reused},
                              {"points_to_fill", shadow_cache_points_to_fill}};
-        if (shadow_cache_probe_ms > 0)
-            j["shadow_cache"]["auto"] = {{"probe_ms", shadow_cache_probe_ms},
+        if (shadow_cache_probe_ms > 0 || shadow_cache_auto_remembered)
+            j["shadow_cache"]["auto"] = {{"remembered", shadow_cache_auto_remembered},
+                                         {"probe_ms", shadow_cache_probe_ms},
                                          {"estimated_fill_ms", shadow_cache_estimated_fill_ms},
                                          {"estimated_cached_camera_pass_ms", shadow_cache_estimated_cached_ms},
                                          {"estimated_per_sample_camera_pass_ms", shadow_cache_estimated_per_sample_ms}};

@@ -9,12 +9,16 @@
 #include <array>
 #include <cmath>
 #include <cstring>
+#include <deque>
+#include <map>
+#include <mutex>
 
 #include "host/kernel_args.h"
 #include "host/tiled_launch.h"
 #include "render/preparation.h"
 #include "shadows/light_reach.h"
 #include "sombra/error.h"
+#include "sombra/options.h"
 
 namespace sombra::pipeline {
 namespace {
@@ -25,6 +29,7 @@ constexpr int kSurfaceMaxSubdivision = 1024;                        // lattice i
 constexpr int kSurfaceRowPoints = 1024;                              // rows of the surface fill's launch
 constexpr int kProbeLatticeStride = 16;                     // auto's probe fills every 16th lattice row along y and z (4th: close calls)
 constexpr int kProbeRowsPerLaunch = 4, kProbeLaunches = 4;  // and renders 4 image rows a launch, at most 16
+constexpr std::size_t kRememberedChoices = 4096;            // auto's choices kept per process (the oldest go first)
 
 double triangle_longest_edge(const SurfaceTriangleGpu& t) {
     const cl_float4* c[3] = {&t.corner, &t.corner1, &t.corner2};
@@ -85,7 +90,7 @@ std::vector<ShadowCacheGpu> cache_layout(const Scene& scene, const packing::Pack
 std::string common_key(const PreparedScene& p, const RenderOptions& options) {
     const SceneKeys& k = p.keys;
     std::string common = std::string(shadow_technique_name(options.shadows)) + " seed " + std::to_string(options.jitter_seed) +
-                         " | options " + k.options + " | meshes " + k.meshes + " | placement";
+                         " | options " + k.options + " | meshes " + k.surfaces() + " | placement";
     for (const std::string& placement : k.volume_placement) common += " " + placement;
     return common;
 }
@@ -117,10 +122,10 @@ std::vector<std::string> generic_keys(const Scene& scene, const PreparedScene& p
             double reach = light_reach(all, light);  // a positional light's map spans its distance to the farthest corner
             // a texel of a view of ≤ 90° fitted to the scene spans ≤ (π/2)·reach / resolution
             double margin = 4 * 1.6 * reach / std::max(options.dsm.resolution, 1) + 2 * step;
-            std::string key = common + " | light " + p.light_keys[m] + " " + technique.light_data_key(m) + " | volume " + std::to_string(i) + " " + k.volume_content[i];
+            std::string key = common + " | light " + p.light_keys[m] + " " + technique.light_data_key(m) + " | volume " + std::to_string(i) + " " + k.volume(i);
             for (std::size_t j = 0; j < scene.volumes.size(); ++j)
                 if (j != i && shadows::between_light_and(boxes[i], boxes[j].grown(margin), light))
-                    key += " | " + std::to_string(j) + " " + k.volume_content[j];
+                    key += " | " + std::to_string(j) + " " + k.volume(j);
             keys.push_back(key);
         }
     return keys;
@@ -193,7 +198,7 @@ double surface_spacing(const std::vector<SurfaceTriangleGpu>& triangles) {
 std::vector<std::string> surface_keys(const Scene& scene, const PreparedScene& p, const techniques::ShadowModule& technique,
                                       const RenderOptions& options) {
     std::string common = common_key(p, options) + " | volumes";
-    for (const std::string& content : p.keys.volume_content) common += " | " + content;
+    for (std::size_t i = 0; i < p.keys.volume_content.size(); ++i) common += " | " + p.keys.volume(i);
     std::vector<std::string> keys;
     for (std::size_t m = 0; m < scene.lights.size(); ++m)
         keys.push_back(common + " | light " + p.light_keys[m] + " " + technique.light_data_key(m));
@@ -262,10 +267,10 @@ SurfacePlan plan_surface_entries(const Scene& scene, const Prepared& prepared, c
                                  std::size_t surface_fragments, SurfaceShadowCache& sc, RenderStats& stats) {
     const PreparedScene& p = prepared.scene;
     const std::size_t lights = scene.lights.size();
-    if (sc.points_key != p.keys.meshes || sc.triangles.size() != 2 * p.packed_surfaces.triangles.size()) {
+    if (sc.points_key != p.keys.surfaces() || sc.triangles.size() != 2 * p.packed_surfaces.triangles.size()) {
         sc = SurfaceShadowCache();
         make_surface_points(sc, p.packed_surfaces.triangles, surface_spacing(p.packed_surfaces.triangles));
-        sc.points_key = p.keys.meshes;
+        sc.points_key = p.keys.surfaces();
     }
     SurfacePlan plan;
     plan.keys = surface_keys(scene, p, prepared.technique, options);
@@ -452,6 +457,37 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
     return costs;
 }
 
+
+// Auto's choices, by everything the frame's image depends on (the_choice_key): the same frame
+// rendered again in this process, on any Context, reads the cache or not as the first time did,
+// so that its image is the same. Measured times differ from run to run; close calls would
+// otherwise flip. Never destroyed: a static Context may render during exit.
+struct AutoChoice {
+    bool volumes = false, surfaces = false;
+    VolumeCosts costs;  // what the first frame measured (zeros when it did not need to)
+};
+
+struct RememberedChoices {
+    std::mutex mutex;  // held while a choice is made, so that two first frames make one
+    std::map<std::string, AutoChoice> choices;
+    std::deque<std::string> order;  // oldest first
+};
+
+RememberedChoices& remembered_choices() {
+    static auto* remembered = new RememberedChoices;
+    return *remembered;
+}
+
+std::string the_choice_key(host::Runtime& runtime, const Scene& scene, const PreparedScene& p, const RenderOptions& options,
+                           int width, int height, int lanes) {
+    std::string key = runtime.device().getInfo<CL_DEVICE_NAME>() + " | " + runtime.device().getInfo<CL_DEVICE_VERSION>() +
+                      " | lanes " + std::to_string(lanes) + " | " + p.keys.content() + " | lights";
+    for (const std::string& light : p.light_keys) key += " " + light;
+    for (const OptionSpec& spec : render_option_specs()) key += " | " + spec.key + "=" + option_value_text(spec.get(options));
+    CameraGpu camera = frame_camera(scene, options, width, height);
+    return key + " | camera " + std::string(reinterpret_cast<const char*>(&camera), sizeof camera);
+}
+
 }  // namespace
 
 const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, const Prepared& prepared,
@@ -468,11 +504,45 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
     const std::size_t lights = scene.lights.size();
     CameraGpu camera = packing::pack_camera(scene, width, height);
     VolumePlan volumes = scene.volumes.empty() ? VolumePlan() : plan_volume_entries(runtime, scene, prepared, options, *cache, stats);
-    const SurfacePlan surfaces = has_surfaces ? plan_surface_entries(scene, prepared, options, fragments ? fragments->fragments.stats.fragments : 0, cache->surfaces, stats)
-                                              : SurfacePlan();
-    const bool measure = options.shadow_cache == ShadowCacheMode::Auto && !scene.volumes.empty() && !volumes.use;
+    SurfacePlan surfaces = has_surfaces ? plan_surface_entries(scene, prepared, options, fragments ? fragments->fragments.stats.fragments : 0, cache->surfaces, stats)
+                                        : SurfacePlan();
+    // auto: the choice remembered for this frame, else this one's (the plans' counts and, when the
+    // volume lattices need filling, a measurement), remembered
+    const bool automatic = options.shadow_cache == ShadowCacheMode::Auto;
+    std::unique_lock<std::mutex> choosing;
+    std::string choice_key;
+    bool measure = false;
+    if (automatic) {
+        RememberedChoices& remembered = remembered_choices();
+        choosing = std::unique_lock<std::mutex>(remembered.mutex);
+        choice_key = the_choice_key(runtime, scene, p, options, width, height, lanes);
+        if (auto found = remembered.choices.find(choice_key); found != remembered.choices.end()) {
+            volumes.use = found->second.volumes, surfaces.use = found->second.surfaces;
+            stats.shadow_cache_auto_remembered = true;
+            stats.shadow_cache_estimated_fill_ms = found->second.costs.fill_ms;
+            stats.shadow_cache_estimated_cached_ms = found->second.costs.cached_ms;
+            stats.shadow_cache_estimated_per_sample_ms = found->second.costs.per_sample_ms;
+            choosing.unlock();
+        } else {
+            measure = !scene.volumes.empty() && !volumes.use;
+        }
+    }
+    auto remember = [&](const VolumeCosts& costs) {
+        if (!choosing.owns_lock()) return;
+        RememberedChoices& remembered = remembered_choices();
+        if (remembered.order.size() >= kRememberedChoices) {
+            remembered.choices.erase(remembered.order.front());
+            remembered.order.pop_front();
+        }
+        remembered.choices[choice_key] = AutoChoice{volumes.use, surfaces.use, costs};
+        remembered.order.push_back(choice_key);
+        choosing.unlock();
+    };
     cache->volumes_used = volumes.use, cache->surfaces_used = surfaces.use;
-    if (!volumes.use && !surfaces.use && !measure) return nullptr;
+    if (!volumes.use && !surfaces.use && !measure) {
+        remember(VolumeCosts());
+        return nullptr;
+    }
 
     camera.jitter_seed = options.jitter_seed;  // the fills' shadow rays start where the camera pass's would
     // the program of a camera pass reading the volume lattices (the fills read no cache: any variant fills alike)
@@ -483,14 +553,17 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
     if (surfaces.use) ms += fill_surface_entries(launch, cache->surfaces, surfaces, lights, stats);
     if (measure) {  // a probe's passes read the surface part as the frame will
         const VolumeCosts costs = probe_volume_costs(launch, volumes, lights, width, height, fragments, surfaces.use ? &cache->surfaces : nullptr);
-        volumes.use = costs.fill_ms + costs.cached_ms < costs.per_sample_ms;
+        volumes.use = shadow_cache_pays(costs.fill_ms, costs.cached_ms, costs.per_sample_ms);
         stats.shadow_cache_probe_ms = costs.probe_ms;
         stats.shadow_cache_estimated_fill_ms = costs.fill_ms;
         stats.shadow_cache_estimated_cached_ms = costs.cached_ms;
         stats.shadow_cache_estimated_per_sample_ms = costs.per_sample_ms;
         stats.stage_ms["shadow_cache_probe"] = costs.probe_ms;
         cache->volumes_used = volumes.use;
+        remember(costs);
         if (!volumes.use && !surfaces.use) return nullptr;
+    } else {
+        remember(VolumeCosts());
     }
     if (volumes.use) ms += fill_volume_entries(launch, *cache, volumes, lights, stats);
     if (stats.shadow_cache_entries_built + stats.shadow_cache_surface_entries_built > 0) stats.stage_ms["shadow_cache"] = ms;
@@ -501,3 +574,14 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
 }
 
 }  // namespace sombra::pipeline
+
+namespace sombra {
+
+void forget_shadow_cache_choices() {
+    pipeline::RememberedChoices& remembered = pipeline::remembered_choices();
+    std::lock_guard<std::mutex> lock(remembered.mutex);
+    remembered.choices.clear();
+    remembered.order.clear();
+}
+
+}  // namespace sombra

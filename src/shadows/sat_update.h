@@ -21,6 +21,8 @@ namespace sombra::shadows {
 // What a volume's voxels are: identity, size and a sample of the values (meshes and volumes are
 // immutable once shared; the sample catches a reused address).
 std::string volume_data_key(const Volume& volume);
+// Its size and the sample of the values only: the same for two copies of the same voxels.
+std::string volume_sample_key(const Volume& volume);
 
 // Per volume, everything its extinction σ at a world point depends on: the voxels, the placement
 // (world_to_voxel), the σ column of its transfer-function table and the table's domain, and buffer
