@@ -4,21 +4,19 @@
  * 64-bit fixed-point integer (shared/types.h), already summed along grid axis 2; sat_scan sums
  * along axis 0 or 1. One work-item per line: the prefix sums run in parallel over lines. Integer
  * sums are exact and independent of the order, so the table cannot cancel the way float32 SATs
- * do (docs/architecture.md "Numerics"). Built with SOMBRA_LANES=1; defines as dsm_build.cl. */
+ * do (docs/architecture.md "Numerics"). The resamples march SOMBRA_LANES neighbouring columns
+ * together (lanes.h; the scans are scalar); defines as dsm_build.cl. */
 #include "shared/types.h"
 #include "lanes.h"
 #include "volume_sample.h"
 #include "traversal.h"
 #include "lowpass.h"
 
-/* Whether the part [t0, t1] of the ray lies in bricks of volume i whose σ is 0 everywhere (the
- * camera pass's occupancy flags, traversal.h): the bricks under the part's voxel-space bounding
- * box, when it spans at most three per axis (a table cell spans one or two), all empty. Such a
- * part adds exactly 0, so skipping it changes no bit of the table. */
-static inline int segment_in_empty_bricks(__global const uchar* occupancy, __global const VolumeGpu* v, const VolumeRay* ray,
-                                          uint i, float t0, float t1) {
-    lfloat3 q0 = ray_voxel_point(ray, i, t0), q1 = ray_voxel_point(ray, i, t1); /* SOMBRA_LANES=1: lfloat is float */
-    float3 p0 = (float3)(q0.x, q0.y, q0.z), p1 = (float3)(q1.x, q1.y, q1.z);
+/* Whether the voxel-space part from p0 to p1 lies in bricks of volume v whose σ is 0 everywhere
+ * (the camera pass's occupancy flags, traversal.h): the bricks under its bounding box, when it
+ * spans at most three per axis (a table cell spans one or two), all empty. Such a part adds
+ * exactly 0, so skipping it changes no bit of the table. */
+static inline int part_in_empty_bricks(__global const uchar* occupancy, __global const VolumeGpu* v, float3 p0, float3 p1) {
     float3 last = (float3)((float)(v->dims.x - 1), (float)(v->dims.y - 1), (float)(v->dims.z - 1));
     int3 lo = convert_int3(clamp(fmin(p0, p1), 0.0f, last)) / SOMBRA_BRICK_SIZE;
     int3 hi = min(convert_int3(clamp(fmax(p0, p1), 0.0f, last)) / SOMBRA_BRICK_SIZE, v->brick_dims.xyz - 1);
@@ -32,90 +30,129 @@ static inline int segment_in_empty_bricks(__global const uchar* occupancy, __glo
     return 1;
 }
 
-/* Optical depth of the segment from a.xyz to b.xyz under the renderer's model: each volume's part
- * inside its box [−0.5, dims − 0.5] in steps of at most its ray step, each split at the
- * voxel-centre planes it crosses and pre-integrated (traversal.h split_interval_depth, whatever the
- * volume's stiffness: a table is built once per light); parts in empty bricks are skipped.
- * The points are float4, not float3: both kernels call this function, so a compiler may keep it
- * out of line, and Intel's CPU runtime (oneAPI 2026.2) passes float3 arguments to the vectorised
- * copy of an out-of-line function wrongly — garbage in most of the 16 lanes, different from run
- * to run (docs/tests.md "Intel's OpenCL CPU runtime", tests/portability/intel_float3_call.c). */
-static inline float segment_optical_depth(VOLUME_DATA_PARAM, __global const uchar* occupancy, __global const VolumeGpu* volumes,
-                                          uint volume_count, __global const float* tf_tables, float4 a4, float4 b4) {
-    float3 a = a4.xyz, b = b4.xyz;
-    float length = distance(a, b);
-    if (!(length > 0.0f)) return 0.0f;
+/* part_in_empty_bricks for the part [t0, t1] of each lane's ray in volume i. */
+static inline lmask segment_in_empty_bricks(__global const uchar* occupancy, __global const VolumeGpu* v, const VolumeRay* ray,
+                                            uint i, lfloat t0, lfloat t1) {
+    lfloat3 q0 = ray_voxel_point(ray, i, t0), q1 = ray_voxel_point(ray, i, t1);
+    float x0[SOMBRA_LANES], y0[SOMBRA_LANES], z0[SOMBRA_LANES], x1[SOMBRA_LANES], y1[SOMBRA_LANES], z1[SOMBRA_LANES];
+    LSTORE(q0.x, x0), LSTORE(q0.y, y0), LSTORE(q0.z, z0), LSTORE(q1.x, x1), LSTORE(q1.y, y1), LSTORE(q1.z, z1);
+    int empty[SOMBRA_LANES];
+    for (int lane = 0; lane < SOMBRA_LANES; ++lane)
+        empty[lane] = part_in_empty_bricks(occupancy, v, (float3)(x0[lane], y0[lane], z0[lane]), (float3)(x1[lane], y1[lane], z1[lane]))
+                          ? (SOMBRA_LANES == 1 ? 1 : -1)
+                          : 0;
+    return LLOAD(empty);
+}
+
+/* Optical depth of each lane's segment from a to b (lanes `active`) under the renderer's model:
+ * each volume's part inside its box [−0.5, dims − 0.5] in steps of at most its ray step, each split
+ * at the voxel-centre planes it crosses and pre-integrated (traversal.h split_interval_depth,
+ * whatever the volume's stiffness: a table is built once per light); parts in empty bricks are
+ * skipped. The lanes march together, each its own number of steps (on CPU devices the packet is
+ * how the kernel reaches the SIMD units, lanes.h); every lane computes what one lane would.
+ * (A scalar build once passed float4 points here: Intel's CPU runtime (oneAPI 2026.2) passed
+ * float3 arguments to the vectorised copy of an out-of-line function wrongly, docs/tests.md
+ * "Intel's OpenCL CPU runtime"; lfloat3 is a struct of lane vectors, no float3.) */
+static inline lfloat segment_optical_depth(VOLUME_DATA_PARAM, __global const uchar* occupancy, __global const VolumeGpu* volumes,
+                                           uint volume_count, __global const float* tf_tables, lfloat3 a, lfloat3 b, lmask active) {
+    lfloat3 ab = l3_sub(b, a);
+    lfloat length = sqrt(l3_dot(ab, ab));
+    lmask live = active & (length > 0.0f);
+    if (!lany(live)) return (lfloat)(0.0f);
     VolumeRay ray;
-    make_volume_ray(&ray, volumes, volume_count, l3_splat(a), l3_splat((b - a) / length), 0.0f, length);
-    float depth = 0.0f;
+    make_volume_ray(&ray, volumes, volume_count, a, l3_scale(ab, 1.0f / select((lfloat)(1.0f), length, live)), (lfloat)(0.0f),
+                    select((lfloat)(0.0f), length, live));
+    lfloat depth = (lfloat)(0.0f);
     for (uint i = 0; i < volume_count; ++i) {
         __global const VolumeGpu* v = &volumes[i];
-        float t0 = ray.t_enter[i], t1 = ray.t_exit[i];
-        if (!(t0 < t1) || segment_in_empty_bricks(occupancy, v, &ray, i, t0, t1)) continue;
-        int steps = clamp((int)ceil((t1 - t0) / v->step - 1e-3f), 1, 4096); /* 1e-3: the same count in double */
-        float h = (t1 - t0) / (float)steps, ta = t0, da = density_at_point(volume_data, v, &ray, i, t0);
-        for (int s = 1; s <= steps; ++s) {
-            float tb = s == steps ? t1 : t0 + (float)s * h;
-            float db = density_at_point(volume_data, v, &ray, i, tb);
-            depth += split_interval_depth(volume_data, v, tf_tables, &ray, i, ta, tb, da, db, 1);
-            ta = tb, da = db;
+        lmask inside = live & (ray.t_enter[i] < ray.t_exit[i]);
+        if (!lany(inside)) continue;
+        lfloat t0 = select((lfloat)(0.0f), ray.t_enter[i], inside), t1 = select((lfloat)(0.0f), ray.t_exit[i], inside);
+        inside &= !segment_in_empty_bricks(occupancy, v, &ray, i, t0, t1);
+        if (!lany(inside)) continue;
+        lint steps = clamp(LCONVERT_INT(ceil((t1 - t0) / v->step - 1e-3f)), 1, 4096); /* 1e-3: the same count in double */
+        lfloat h = (t1 - t0) / LCONVERT_FLOAT(steps), ta = t0, da = density_at_point(volume_data, v, &ray, i, t0);
+        for (int s = 1; s <= 4096; ++s) {
+            lmask more = inside & (steps >= s);
+            if (!lany(more)) break;
+            lfloat tb = select(ta, select(t0 + (float)s * h, t1, steps == s), more);
+            lfloat db = density_at_point(volume_data, v, &ray, i, tb);
+            depth += select((lfloat)(0.0f), split_interval_depth(volume_data, v, tf_tables, &ray, i, ta, tb, da, db, more), more);
+            ta = tb, da = select(da, db, more);
         }
     }
     return depth;
 }
 
-/* Work-item (i, j): the column of cells (i, j, 0 … n.z − 1) of the grid origin + i·cell_u + j·cell_v
- * + k·cell_w. A cell holds the optical depth along the lights' axes through its centre, face to
- * face (the mean over the axes in light_axes: bit a = a light shines along grid axis a; a table
- * no light is aligned with uses all three) — ∫σ over the cell under the renderer's model, not σ at
- * its centre times the cell, so a thin near-opaque feature inside a cell counts in full. Clamped
- * to SOMBRA_SAT_MAX_CELL_TAU and rounded to fixed point; the column's running sums go to
- * S(i + 1, j + 1, k + 1); the zero border S(0, ·, ·) … is cleared by the host. */
-__kernel void sat_resample(VOLUME_DATA_PARAM, __global const float* tf_tables, __global const VolumeGpu* volumes,
-                           uint volume_count, __global const uchar* occupancy, __global ulong* sat, uint data_offset, int4 n, float4 origin,
-                           float4 cell_u, float4 cell_v, float4 cell_w, float cell_length, uint light_axes) {
-    int i = get_global_id(0), j = get_global_id(1);
-    if (i >= n.x || j >= n.y) return;
-    float3 base = origin.xyz + (i + 0.5f) * cell_u.xyz + (j + 0.5f) * cell_v.xyz;
-    float3 axis[3] = {cell_u.xyz, cell_v.xyz, cell_w.xyz};
-    uint axes = light_axes & 7u ? light_axes & 7u : 7u;
-    float count = (float)popcount(axes);
-    __global ulong* s = sat + data_offset;
-    ulong running = 0;
-    for (int k = 0; k < n.z; ++k) {
-        float3 centre = base + (k + 0.5f) * cell_w.xyz;
-        float tau = 0.0f;
-        for (int a = 0; a < 3; ++a)
-            if (axes & (1u << a))
-                tau += segment_optical_depth(volume_data, occupancy, volumes, volume_count, tf_tables,
-                                             (float4)(centre - 0.5f * axis[a], 1.0f), (float4)(centre + 0.5f * axis[a], 1.0f));
-        running += sat_fixed_point(tau / count);
-        s[sat_entry(n, i + 1, j + 1, k + 1)] = running;
+/* The lanes' cells' optical depths `depth` (fixed point, sat_fixed_point) added to their columns'
+ * running sums, written to S(i + 1, j + 1, k + 1) for the lanes' i = i0 + lane < n.x. */
+static inline void write_running_sums(__global ulong* s, int4 n, int i0, int j, int k, lfloat depth, ulong* running) {
+    float cell[SOMBRA_LANES];
+    LSTORE(depth, cell);
+    for (int lane = 0; lane < SOMBRA_LANES && i0 + lane < n.x; ++lane) {
+        running[lane] += sat_fixed_point(cell[lane]);
+        s[sat_entry(n, i0 + lane + 1, j + 1, k + 1)] = running[lane];
     }
 }
 
-/* SSAT (Ament §4.2.3): work-item (i, j) is the ray of cells (φ_i, θ_j, r_0 … r_n.z−1) from the
- * light; a cell holds the optical depth of its radial segment through the cell's centre angles
- * (segment_optical_depth) times w_θ (shared/types.h, SsatGridGpu). */
+/* Work-item (p, j): the columns of cells (i, j, 0 … n.z − 1), i = p·SOMBRA_LANES + lane, of the
+ * grid origin + i·cell_u + j·cell_v + k·cell_w. A cell holds the optical depth along the lights'
+ * axes through its centre, face to face (the mean over the axes in light_axes: bit a = a light
+ * shines along grid axis a; a table no light is aligned with uses all three) — ∫σ over the cell
+ * under the renderer's model, not σ at its centre times the cell, so a thin near-opaque feature
+ * inside a cell counts in full. Clamped to SOMBRA_SAT_MAX_CELL_TAU and rounded to fixed point; the
+ * column's running sums go to S(i + 1, j + 1, k + 1); the zero border S(0, ·, ·) … is cleared by
+ * the host. */
+__kernel void sat_resample(VOLUME_DATA_PARAM, __global const float* tf_tables, __global const VolumeGpu* volumes,
+                           uint volume_count, __global const uchar* occupancy, __global ulong* sat, uint data_offset, int4 n, float4 origin,
+                           float4 cell_u, float4 cell_v, float4 cell_w, float cell_length, uint light_axes) {
+    int i0 = get_global_id(0) * SOMBRA_LANES, j = get_global_id(1);
+    if (i0 >= n.x || j >= n.y) return;
+    lint i = i0 + LANE_INDEX;
+    lmask active = i < n.x;
+    lfloat u = LCONVERT_FLOAT(i) + 0.5f;
+    float3 row = origin.xyz + (j + 0.5f) * cell_v.xyz;
+    lfloat3 base = l3_mad(l3_splat(cell_u.xyz), u, l3_splat(row));
+    float3 axis[3] = {cell_u.xyz, cell_v.xyz, cell_w.xyz};
+    uint axes = light_axes & 7u ? light_axes & 7u : 7u;
+    float count = (float)popcount(axes);
+    ulong running[SOMBRA_LANES];
+    for (int lane = 0; lane < SOMBRA_LANES; ++lane) running[lane] = 0;
+    for (int k = 0; k < n.z; ++k) {
+        lfloat3 centre = l3_add(base, l3_splat((k + 0.5f) * cell_w.xyz));
+        lfloat tau = (lfloat)(0.0f);
+        for (int a = 0; a < 3; ++a)
+            if (axes & (1u << a))
+                tau += segment_optical_depth(volume_data, occupancy, volumes, volume_count, tf_tables, l3_sub(centre, l3_splat(0.5f * axis[a])),
+                                             l3_add(centre, l3_splat(0.5f * axis[a])), active);
+        write_running_sums(sat + data_offset, n, i0, j, k, tau / count, running);
+    }
+}
+
+/* SSAT (Ament §4.2.3): work-item (p, j) holds the rays of cells (φ_i, θ_j, r_0 … r_n.z−1) from the
+ * light, i = p·SOMBRA_LANES + lane; a cell holds the optical depth of its radial segment through
+ * the cell's centre angles (segment_optical_depth) times w_θ (shared/types.h, SsatGridGpu). */
 __kernel void ssat_resample(VOLUME_DATA_PARAM, __global const float* tf_tables, __global const VolumeGpu* volumes,
                             uint volume_count, __global const uchar* occupancy, __global ulong* sat, __global const SsatGridGpu* grid) {
     int4 n = grid->dims;
-    int i = get_global_id(0), j = get_global_id(1);
-    if (i >= n.x || j >= n.y) return;
-    float phi = grid->start.x + (i + 0.5f) * grid->cell.x;
+    int i0 = get_global_id(0) * SOMBRA_LANES, j = get_global_id(1);
+    if (i0 >= n.x || j >= n.y) return;
+    lint i = i0 + LANE_INDEX;
+    lmask active = i < n.x;
+    lfloat phi = grid->start.x + (LCONVERT_FLOAT(i) + 0.5f) * grid->cell.x;
     float theta0 = grid->start.y + j * grid->cell.y, theta1 = theta0 + grid->cell.y;
     float theta = theta0 + 0.5f * grid->cell.y;
     float w_theta = (cos(theta0) - cos(theta1)) / grid->cell.y;
-    float3 dir = sin(theta) * cos(phi) * grid->axes[0].xyz + sin(theta) * sin(phi) * grid->axes[1].xyz +
-                 cos(theta) * grid->axes[2].xyz;
-    __global ulong* s = sat + grid->data_offset;
-    ulong running = 0;
+    lfloat3 dir = l3_add(l3_add(l3_scale(l3_splat(grid->axes[0].xyz), sin(theta) * cos(phi)), l3_scale(l3_splat(grid->axes[1].xyz), sin(theta) * sin(phi))),
+                         l3_splat(cos(theta) * grid->axes[2].xyz));
+    lfloat3 light = l3_splat(grid->light.xyz);
+    ulong running[SOMBRA_LANES];
+    for (int lane = 0; lane < SOMBRA_LANES; ++lane) running[lane] = 0;
     for (int k = 0; k < n.z; ++k) {
         float r0 = grid->start.z + k * grid->cell.z;
-        float3 a = grid->light.xyz + r0 * dir, b = grid->light.xyz + (r0 + grid->cell.z) * dir;
-        running += sat_fixed_point(segment_optical_depth(volume_data, occupancy, volumes, volume_count, tf_tables, (float4)(a, 1.0f),
-                                                         (float4)(b, 1.0f)) * w_theta);
-        s[sat_entry(n, i + 1, j + 1, k + 1)] = running;
+        lfloat3 a = l3_mad(dir, (lfloat)(r0), light), b = l3_mad(dir, (lfloat)(r0 + grid->cell.z), light);
+        write_running_sums(sat + grid->data_offset, n, i0, j, k,
+                           segment_optical_depth(volume_data, occupancy, volumes, volume_count, tf_tables, a, b, active) * w_theta, running);
     }
 }
 

@@ -231,11 +231,6 @@ void bind_volumes(host::KernelArgs& args, const packing::PackedScene& packed, co
     args("occupancy", device_scene.occupancy)("sat", data);
 }
 
-// A resample kernel over nx × ny lines: a table's unit of the progress stage.
-double run_2d(host::Runtime& runtime, cl::Kernel& kernel, int nx, int ny) {
-    return host::run_tiled(runtime, kernel, cl::NDRange(std::size_t(nx), std::size_t(ny)), cl::NullRange);
-}
-
 // One light's view of CSAT frame f stored at `offset`, the light along grid axis `axis`.
 SatGridGpu sat_grid(const SatFrame& f, std::size_t offset, int axis, bool positive) {
     SatGridGpu g{};
@@ -338,8 +333,11 @@ void build_sat_table(host::Runtime& runtime, const Scene& scene, const packing::
     runtime.queue().enqueueFillBuffer(sat.data, cl_ulong(0), offset * sizeof(cl_ulong), entries * sizeof(cl_ulong), nullptr, &event);
     event.wait();
     sat.stage_ms["sat_clear"] += host::Runtime::event_ms(event);
+    // the resamples march packets of neighbouring columns, as DSM generation does its texels (a
+    // table does not depend on the width: it is not in the tables' keys)
+    const int lanes = host::generation_lanes(runtime, sat.lanes);
     auto defines = volume_pass_defines(scene, device_scene.uses_images, false);
-    defines.push_back("SOMBRA_LANES=1");
+    defines.push_back("SOMBRA_LANES=" + std::to_string(lanes));
     cl::Program& program = runtime.program("sat_build.cl", defines);
     cl::Kernel scan(program, "sat_scan");
     if (table < sat.frames.size()) {  // Ament Alg. 1: recomputeCSAT
@@ -355,7 +353,7 @@ void build_sat_table(host::Runtime& runtime, const Scene& scene, const packing::
             args(cell_names[axis], f4({r[0] * f.cell_size, r[1] * f.cell_size, r[2] * f.cell_size}));
         }
         args("cell_length", float(f.cell_size))("light_axes", sat_frame_light_axes(sat, table)).done();
-        sat.stage_ms["sat_resample"] += run_2d(runtime, resample, f.dims[0], f.dims[1]);
+        sat.stage_ms["sat_resample"] += host::run_packets(runtime, resample, f.dims[0], f.dims[1], lanes);
         sat.stage_ms["sat_scan"] += scan_table(runtime, scan, sat.data, offset, n);
         return;
     }
@@ -366,7 +364,7 @@ void build_sat_table(host::Runtime& runtime, const Scene& scene, const packing::
     host::KernelArgs args(resample_sphere);
     bind_volumes(args, packed, device_scene, sat.data);
     args("grid", grid).done();
-    sat.stage_ms["ssat_resample"] += run_2d(runtime, resample_sphere, sphere.dims.s[0], sphere.dims.s[1]);
+    sat.stage_ms["ssat_resample"] += host::run_packets(runtime, resample_sphere, sphere.dims.s[0], sphere.dims.s[1], lanes);
     sat.stage_ms["sat_scan"] += scan_table(runtime, scan, sat.data, offset, sphere.dims);
 }
 
@@ -413,15 +411,17 @@ DeviceSat plan_volume_sat(const packing::PackedScene& packed, std::size_t max_en
 }
 
 DeviceSat build_light_sats(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
-                           const packing::DeviceScene& device_scene, std::size_t max_entries) {
+                           const packing::DeviceScene& device_scene, std::size_t max_entries, int lanes) {
     DeviceSat sat = plan_light_sats(packed, max_entries);
+    sat.lanes = lanes;
     build_all(runtime, scene, packed, device_scene, sat);
     return sat;
 }
 
 DeviceSat build_volume_sat(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
-                           const packing::DeviceScene& device_scene, std::size_t max_entries) {
+                           const packing::DeviceScene& device_scene, std::size_t max_entries, int lanes) {
     DeviceSat sat = plan_volume_sat(packed, max_entries);
+    sat.lanes = lanes;
     build_all(runtime, scene, packed, device_scene, sat);
     return sat;
 }

@@ -67,6 +67,7 @@ struct DeviceSat {
     std::vector<SsatGridGpu> spheres;  // one per light; dims.w = 0: the light has no SSAT
     std::vector<std::size_t> offsets;  // first entry of each CSAT in `data`
     double voxel_size = 0;             // the unit of the filter width
+    int lanes = 0;                     // the resamples' packet width as requested (host::generation_lanes; 0: the device's)
     cl::Buffer data;                   // every table, cl_ulong entries
     std::size_t bytes = 0;
     std::map<std::string, double> stage_ms;
@@ -98,14 +99,15 @@ DeviceSat plan_light_sats(const packing::PackedScene& packed, std::size_t max_en
 // The plan of the baselines' one volume-aligned SAT (see build_volume_sat).
 DeviceSat plan_volume_sat(const packing::PackedScene& packed, std::size_t max_entries);
 
-// A plan placed contiguously and built into a fresh buffer (plan_light_sats).
+// A plan placed contiguously and built into a fresh buffer (plan_light_sats); lanes: the
+// resamples' packet width (DeviceSat::lanes).
 DeviceSat build_light_sats(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
-                           const packing::DeviceScene& device_scene, std::size_t max_entries);
+                           const packing::DeviceScene& device_scene, std::size_t max_entries, int lanes = 0);
 
 // The baselines' one volume-aligned SAT (SAT ambient occlusion and cone shadows, Schlegel et al.
 // 2011): frames[0], described by grids[0] for every light.
 DeviceSat build_volume_sat(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
-                           const packing::DeviceScene& device_scene, std::size_t max_entries);
+                           const packing::DeviceScene& device_scene, std::size_t max_entries, int lanes = 0);
 
 // The per-light grids with the box width for a filter of `filter_voxels` voxels, on the device
 // (the tables do not depend on it: changing the filter rebuilds nothing).

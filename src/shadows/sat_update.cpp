@@ -70,9 +70,10 @@ std::vector<std::string> extinction_keys(const Scene& scene, const packing::Pack
 }
 
 DeviceSat update_sats(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
-                      const packing::DeviceScene& device_scene, bool light_aligned, std::size_t max_entries,
+                      const packing::DeviceScene& device_scene, bool light_aligned, std::size_t max_entries, int lanes,
                       SatPool& pool, SatUpdateCounts& counts) {
     DeviceSat sat = light_aligned ? plan_light_sats(packed, max_entries) : plan_volume_sat(packed, max_entries);
+    sat.lanes = lanes;
     std::string volumes;  // every table holds every volume
     for (const std::string& k : extinction_keys(scene, packed, device_scene.uses_images)) volumes += k + ';';
     std::size_t n = sat_table_count(sat), needed = 0;

@@ -51,7 +51,7 @@ struct SatUpdateCounts {
 // the others into the gaps (or into a new, compact buffer, the kept tables copied, stage
 // "sat_copy"). Returned stage_ms: this call's kernels only.
 DeviceSat update_sats(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
-                      const packing::DeviceScene& device_scene, bool light_aligned, std::size_t max_entries,
+                      const packing::DeviceScene& device_scene, bool light_aligned, std::size_t max_entries, int lanes,
                       SatPool& pool, SatUpdateCounts& counts);
 
 // Whether the extinction of volume j can reach the shadow term that `options.shadows` gives volume

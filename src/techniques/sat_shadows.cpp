@@ -76,7 +76,7 @@ public:
     void refresh(const SceneOnDevice& s, RenderStats& stats) override {
         shadows::SatUpdateCounts counts;
         sat_ = shadows::update_sats(s.runtime, s.scene, s.packed, s.device, s.options.shadows == ShadowTechnique::Lowpass,
-                                    s.options.sat.max_entries, pool_, counts);
+                                    s.options.sat.max_entries, s.options.lanes, pool_, counts);
         for (auto& [stage, ms] : sat_.stage_ms) stats.stage_ms[stage] = ms;
         stats.sat_tables_built = counts.built, stats.sat_tables_reused = counts.reused;
     }
