@@ -35,7 +35,7 @@ class RenderOptions:
     empty_space_skipping: bool  # march empty bricks too (for comparisons)
     termination_transmittance: float  # early ray termination: a camera ray stops when its transmittance falls below this
     jitter_seed: int  # seed of the per-pixel ray jitter
-    lanes: int  # rays per work-item in vector types (camera pass and DSM generation): 1, 4, 8, 16, or 0: on CPUs 8 in the camera pass and the native float vector width in DSM generation, 1 on GPUs
+    lanes: int  # rays per work-item in vector types (camera pass, DSM generation, low-pass table resampling): 1, 4, 8, 16, or 0: on CPUs 8 in the camera pass and the native float vector width in the light passes, 1 on GPUs
     dsm_resolution: int  # deep shadow map texels per side
     dsm_epsilon: float  # deep shadow map compression error bound ε (Knecht Eq. 3.1)
     dsm_error: Literal['absolute', 'relative']  # what ε bounds: absolute (opacity, |α' − α| ≤ ε) or relative (optical depth, |τ' − τ| ≤ ε: the light that is left within a factor e^±ε, dim regions kept)

@@ -146,9 +146,10 @@ struct RenderOptions {
     float termination_transmittance = 1e-3f;  // early ray termination threshold on t_acc
     unsigned jitter_seed = 1;
     // Rays per work-item, marched together in OpenCL vector types (1, 4, 8 or 16), in the camera
-    // pass and in DSM generation (neighbouring pixels / texels of a row); 0 = auto: on CPU devices
-    // (PoCL runs them on the SIMD units) 8 in the camera pass and the native float vector width in
-    // DSM generation (16 with AVX-512, else 8), 1 on GPUs. The maps do not depend on it.
+    // pass, in DSM generation and in the low-pass tables' resampling (neighbouring pixels / texels
+    // / table columns); 0 = auto: on CPU devices (PoCL runs them on the SIMD units) 8 in the camera
+    // pass and the native float vector width in the light passes (16 with AVX-512, else 8), 1 on
+    // GPUs. The maps and tables do not depend on it.
     int lanes = 0;
     DsmOptions dsm;
     SatOptions sat;

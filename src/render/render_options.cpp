@@ -67,8 +67,8 @@ std::vector<OptionSpec> generic_option_specs() {
         declare("jitter_seed", "--seed", [](auto& o) -> auto& { return o.jitter_seed; }, "seed of the per-pixel ray jitter")
             .range(0, 4294967295.0),
         declare("lanes", "--lanes", [](auto& o) -> auto& { return o.lanes; },
-                "rays per work-item in vector types (camera pass and DSM generation): 1, 4, 8, 16, or 0: on CPUs 8 in "
-                "the camera pass and the native float vector width in DSM generation, 1 on GPUs")
+                "rays per work-item in vector types (camera pass, DSM generation, low-pass table resampling): 1, 4, 8, 16, "
+                "or 0: on CPUs 8 in the camera pass and the native float vector width in the light passes, 1 on GPUs")
             .choices({"0", "1", "4", "8", "16"}).keys(),
     };
     return std::vector<OptionSpec>(d.begin(), d.end());
