@@ -44,15 +44,65 @@ static inline lmask segment_in_empty_bricks(__global const uchar* occupancy, __g
     return LLOAD(empty);
 }
 
-/* Optical depth of each lane's segment from a to b (lanes `active`) under the renderer's model:
- * each volume's part inside its box [−0.5, dims − 0.5] in steps of at most its ray step, each split
- * at the voxel-centre planes it crosses and pre-integrated (traversal.h split_interval_depth,
- * whatever the volume's stiffness: a table is built once per light); parts in empty bricks are
- * skipped. The lanes march together, each its own number of steps (on CPU devices the packet is
- * how the kernel reaches the SIMD units, lanes.h); every lane computes what one lane would.
- * (A scalar build once passed float4 points here: Intel's CPU runtime (oneAPI 2026.2) passed
- * float3 arguments to the vectorised copy of an out-of-line function wrongly, docs/tests.md
- * "Intel's OpenCL CPU runtime"; lfloat3 is a struct of lane vectors, no float3.) */
+/* ∫σ of volume i over each lane's part [t0, t1] of the ray (lanes `inside`; t0, t1 finite in every
+ * lane), *density the density at t0: in steps of at most the volume's ray step, each split at the
+ * voxel-centre planes it crosses and pre-integrated (traversal.h split_interval_depth, whatever
+ * the volume's stiffness: a table is built once per light). *density becomes the density at t1. */
+static inline lfloat part_optical_depth(VOLUME_DATA_PARAM, __global const VolumeGpu* v, __global const float* tf_tables,
+                                        const VolumeRay* ray, uint i, lfloat t0, lfloat t1, lfloat* density, lmask inside) {
+    lint steps = clamp(LCONVERT_INT(ceil((t1 - t0) / v->step - 1e-3f)), 1, 4096); /* 1e-3: the same count in double */
+    lfloat h = (t1 - t0) / LCONVERT_FLOAT(steps), ta = t0, da = *density, depth = (lfloat)(0.0f);
+    for (int s = 1; s <= 4096; ++s) {
+        lmask more = inside & (steps >= s);
+        if (!lany(more)) break;
+        lfloat tb = select(ta, select(t0 + (float)s * h, t1, steps == s), more);
+        lfloat db = density_at_point(volume_data, v, ray, i, tb);
+        depth += select((lfloat)(0.0f), split_interval_depth(volume_data, v, tf_tables, ray, i, ta, tb, da, db, more), more);
+        ta = tb, da = select(da, db, more);
+    }
+    *density = da;
+    return depth;
+}
+
+/* The density each lane's ray ended its last part with, and where (a column's cells share their
+ * faces: a part that starts where the previous one ended reuses the sample). */
+typedef struct {
+    lfloat t[SOMBRA_VOLUME_SLOTS], density[SOMBRA_VOLUME_SLOTS];
+} PartEnds;
+
+static inline void no_part_ends(PartEnds* ends) {
+    for (uint i = 0; i < SOMBRA_VOLUME_SLOTS; ++i) ends->t[i] = (lfloat)(-INFINITY), ends->density[i] = (lfloat)(0.0f);
+}
+
+/* Optical depth of each lane's stretch [ta, tb] of `ray` (lanes `live`) under the renderer's model:
+ * each volume's part inside its box [−0.5, dims − 0.5] (part_optical_depth); parts in empty bricks
+ * are skipped. The lanes march together, each its own number of steps (on CPU devices the packet
+ * is how the kernel reaches the SIMD units, lanes.h); every lane computes what one lane would.
+ * `ends`: the previous stretch's part ends on the same ray, updated. */
+static inline lfloat stretch_optical_depth(VOLUME_DATA_PARAM, __global const uchar* occupancy, __global const VolumeGpu* volumes,
+                                           uint volume_count, __global const float* tf_tables, const VolumeRay* ray, lfloat ta,
+                                           lfloat tb, lmask live, PartEnds* ends) {
+    lfloat depth = (lfloat)(0.0f);
+    for (uint i = 0; i < volume_count; ++i) {
+        __global const VolumeGpu* v = &volumes[i];
+        lfloat t0 = fmax(ta, ray->t_enter[i]), t1 = fmin(tb, ray->t_exit[i]); /* missed: both +∞ */
+        lmask inside = live & (t0 < t1);
+        if (!lany(inside)) continue;
+        t0 = select((lfloat)(0.0f), t0, inside), t1 = select((lfloat)(0.0f), t1, inside);
+        inside &= !segment_in_empty_bricks(occupancy, v, ray, i, t0, t1);
+        if (!lany(inside)) continue;
+        lmask fresh = inside & (t0 != ends->t[i]);
+        lfloat density = ends->density[i];
+        if (lany(fresh)) density = select(density, density_at_point(volume_data, v, ray, i, t0), fresh);
+        depth += select((lfloat)(0.0f), part_optical_depth(volume_data, v, tf_tables, ray, i, t0, t1, &density, inside), inside);
+        ends->t[i] = select(ends->t[i], t1, inside);
+        ends->density[i] = select(ends->density[i], density, inside);
+    }
+    return depth;
+}
+
+/* Optical depth of each lane's segment from a to b (lanes `active`): stretch_optical_depth of a
+ * ray of its own. */
 static inline lfloat segment_optical_depth(VOLUME_DATA_PARAM, __global const uchar* occupancy, __global const VolumeGpu* volumes,
                                            uint volume_count, __global const float* tf_tables, lfloat3 a, lfloat3 b, lmask active) {
     lfloat3 ab = l3_sub(b, a);
@@ -60,28 +110,11 @@ static inline lfloat segment_optical_depth(VOLUME_DATA_PARAM, __global const uch
     lmask live = active & (length > 0.0f);
     if (!lany(live)) return (lfloat)(0.0f);
     VolumeRay ray;
-    make_volume_ray(&ray, volumes, volume_count, a, l3_scale(ab, 1.0f / select((lfloat)(1.0f), length, live)), (lfloat)(0.0f),
-                    select((lfloat)(0.0f), length, live));
-    lfloat depth = (lfloat)(0.0f);
-    for (uint i = 0; i < volume_count; ++i) {
-        __global const VolumeGpu* v = &volumes[i];
-        lmask inside = live & (ray.t_enter[i] < ray.t_exit[i]);
-        if (!lany(inside)) continue;
-        lfloat t0 = select((lfloat)(0.0f), ray.t_enter[i], inside), t1 = select((lfloat)(0.0f), ray.t_exit[i], inside);
-        inside &= !segment_in_empty_bricks(occupancy, v, &ray, i, t0, t1);
-        if (!lany(inside)) continue;
-        lint steps = clamp(LCONVERT_INT(ceil((t1 - t0) / v->step - 1e-3f)), 1, 4096); /* 1e-3: the same count in double */
-        lfloat h = (t1 - t0) / LCONVERT_FLOAT(steps), ta = t0, da = density_at_point(volume_data, v, &ray, i, t0);
-        for (int s = 1; s <= 4096; ++s) {
-            lmask more = inside & (steps >= s);
-            if (!lany(more)) break;
-            lfloat tb = select(ta, select(t0 + (float)s * h, t1, steps == s), more);
-            lfloat db = density_at_point(volume_data, v, &ray, i, tb);
-            depth += select((lfloat)(0.0f), split_interval_depth(volume_data, v, tf_tables, &ray, i, ta, tb, da, db, more), more);
-            ta = tb, da = select(da, db, more);
-        }
-    }
-    return depth;
+    length = select((lfloat)(0.0f), length, live);
+    make_volume_ray(&ray, volumes, volume_count, a, l3_scale(ab, 1.0f / select((lfloat)(1.0f), length, live)), (lfloat)(0.0f), length);
+    PartEnds ends;
+    no_part_ends(&ends);
+    return stretch_optical_depth(volume_data, occupancy, volumes, volume_count, tf_tables, &ray, (lfloat)(0.0f), length, live, &ends);
 }
 
 /* The lanes' cells' optical depths `depth` (fixed point, sat_fixed_point) added to their columns'
@@ -112,19 +145,28 @@ __kernel void sat_resample(VOLUME_DATA_PARAM, __global const float* tf_tables, _
     lmask active = i < n.x;
     lfloat u = LCONVERT_FLOAT(i) + 0.5f;
     float3 row = origin.xyz + (j + 0.5f) * cell_v.xyz;
-    lfloat3 base = l3_mad(l3_splat(cell_u.xyz), u, l3_splat(row));
+    lfloat3 base = l3_mad(l3_splat(cell_u.xyz), u, l3_splat(row)); /* the column's start: the face of cell k = 0 */
     float3 axis[3] = {cell_u.xyz, cell_v.xyz, cell_w.xyz};
     uint axes = light_axes & 7u ? light_axes & 7u : 7u;
     float count = (float)popcount(axes);
+    /* along axis w the column's cells lie on one line: one ray, cell k its stretch [k, k + 1]·|w| */
+    float w_length = length(cell_w.xyz);
+    VolumeRay column;
+    make_volume_ray(&column, volumes, volume_count, base, l3_splat(cell_w.xyz / w_length), (lfloat)(0.0f), (lfloat)(n.z * w_length));
+    PartEnds ends;
+    no_part_ends(&ends);
     ulong running[SOMBRA_LANES];
     for (int lane = 0; lane < SOMBRA_LANES; ++lane) running[lane] = 0;
     for (int k = 0; k < n.z; ++k) {
         lfloat3 centre = l3_add(base, l3_splat((k + 0.5f) * cell_w.xyz));
         lfloat tau = (lfloat)(0.0f);
-        for (int a = 0; a < 3; ++a)
+        for (int a = 0; a < 2; ++a)
             if (axes & (1u << a))
                 tau += segment_optical_depth(volume_data, occupancy, volumes, volume_count, tf_tables, l3_sub(centre, l3_splat(0.5f * axis[a])),
                                              l3_add(centre, l3_splat(0.5f * axis[a])), active);
+        if (axes & 4u)
+            tau += stretch_optical_depth(volume_data, occupancy, volumes, volume_count, tf_tables, &column, (lfloat)(k * w_length),
+                                         (lfloat)((k + 1) * w_length), active, &ends);
         write_running_sums(sat + data_offset, n, i0, j, k, tau / count, running);
     }
 }
@@ -145,14 +187,19 @@ __kernel void ssat_resample(VOLUME_DATA_PARAM, __global const float* tf_tables, 
     float w_theta = (cos(theta0) - cos(theta1)) / grid->cell.y;
     lfloat3 dir = l3_add(l3_add(l3_scale(l3_splat(grid->axes[0].xyz), sin(theta) * cos(phi)), l3_scale(l3_splat(grid->axes[1].xyz), sin(theta) * sin(phi))),
                          l3_splat(cos(theta) * grid->axes[2].xyz));
-    lfloat3 light = l3_splat(grid->light.xyz);
+    /* the cells of a ray lie on it: one ray from the light, cell k its stretch [r_k, r_k+1] */
+    VolumeRay ray;
+    make_volume_ray(&ray, volumes, volume_count, l3_splat(grid->light.xyz), dir, (lfloat)(grid->start.z),
+                    (lfloat)(grid->start.z + n.z * grid->cell.z));
+    PartEnds ends;
+    no_part_ends(&ends);
     ulong running[SOMBRA_LANES];
     for (int lane = 0; lane < SOMBRA_LANES; ++lane) running[lane] = 0;
     for (int k = 0; k < n.z; ++k) {
-        float r0 = grid->start.z + k * grid->cell.z;
-        lfloat3 a = l3_mad(dir, (lfloat)(r0), light), b = l3_mad(dir, (lfloat)(r0 + grid->cell.z), light);
+        float r0 = grid->start.z + k * grid->cell.z, r1 = grid->start.z + (k + 1) * grid->cell.z;
         write_running_sums(sat + grid->data_offset, n, i0, j, k,
-                           segment_optical_depth(volume_data, occupancy, volumes, volume_count, tf_tables, a, b, active) * w_theta, running);
+                           stretch_optical_depth(volume_data, occupancy, volumes, volume_count, tf_tables, &ray, (lfloat)(r0), (lfloat)(r1),
+                                                 active, &ends) * w_theta, running);
     }
 }
 
