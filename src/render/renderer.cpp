@@ -49,9 +49,7 @@ SceneKeys scene_keys(const Scene& scene, const RenderOptions& o, bool use_images
         placement << v.dims[0] << ' ' << v.dims[1] << ' ' << v.dims[2];
         for (float f : vi.transform) placement << ' ' << f;
         for (float f : vi.spacing) placement << ' ' << f;
-        std::ostringstream identity;
-        identity << static_cast<const void*>(&v);
-        keys.volume_identity.push_back(identity.str());
+        keys.volume_identity.push_back(shadows::volume_identity(v));
         content << shadows::volume_sample_key(v);
         for (auto& c : vi.transfer_function.color_points) content << ' ' << c.x << ' ' << c.r << ' ' << c.g << ' ' << c.b;
         for (auto& a : vi.transfer_function.opacity_points) content << ' ' << a.x << ' ' << a.alpha;
@@ -64,10 +62,9 @@ SceneKeys scene_keys(const Scene& scene, const RenderOptions& o, bool use_images
     for (const MeshInstance& mi : scene.meshes) {  // by identity: meshes are immutable once shared
         mesh_identity << "M" << static_cast<const void*>(mi.mesh.get()) << ' ';
         const Mesh& mesh = *mi.mesh;  // and a sample of their corners (auto's choices key by content)
-        double sum = 0;
-        for (std::size_t i = 0, stride = std::max<std::size_t>(1, mesh.positions.size() / 4096); i < mesh.positions.size(); i += stride)
-            sum += double(mesh.positions[i][0] + 2 * mesh.positions[i][1] + 3 * mesh.positions[i][2]) * double(i % 7919 + 1);
-        meshes << "M " << mesh.positions.size() << ' ' << mesh.triangles.size() << ' ' << mesh.normals.size() << ' ' << sum;
+        static_assert(sizeof(mesh.positions[0]) == 3 * sizeof(float), "positions are packed floats");
+        meshes << "M " << mesh.positions.size() << ' ' << mesh.triangles.size() << ' ' << mesh.normals.size() << ' '
+               << shadows::sampled_checksum(mesh.positions.empty() ? nullptr : mesh.positions[0].data(), 3 * mesh.positions.size());
         for (float f : mi.transform) meshes << ' ' << f;
         const MeshMaterial& m = mi.material;
         meshes << ' ' << m.color[0] << ' ' << m.color[1] << ' ' << m.color[2] << ' ' << m.opacity << ' ' << m.phong.ambient << ' '

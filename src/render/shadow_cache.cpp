@@ -457,6 +457,12 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
     return costs;
 }
 
+// What auto measured (or, remembered, what the frame's first render measured) into the stats.
+void report_auto_costs(const VolumeCosts& costs, RenderStats& stats) {
+    stats.shadow_cache_estimated_fill_ms = costs.fill_ms;
+    stats.shadow_cache_estimated_cached_ms = costs.cached_ms;
+    stats.shadow_cache_estimated_per_sample_ms = costs.per_sample_ms;
+}
 
 // Auto's choices, by everything the frame's image depends on (the_choice_key): the same frame
 // rendered again in this process, on any Context, reads the cache or not as the first time did,
@@ -519,9 +525,7 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
         if (auto found = remembered.choices.find(choice_key); found != remembered.choices.end()) {
             volumes.use = found->second.volumes, surfaces.use = found->second.surfaces;
             stats.shadow_cache_auto_remembered = true;
-            stats.shadow_cache_estimated_fill_ms = found->second.costs.fill_ms;
-            stats.shadow_cache_estimated_cached_ms = found->second.costs.cached_ms;
-            stats.shadow_cache_estimated_per_sample_ms = found->second.costs.per_sample_ms;
+            report_auto_costs(found->second.costs, stats);
             choosing.unlock();
         } else {
             measure = !scene.volumes.empty() && !volumes.use;
@@ -555,9 +559,7 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
         const VolumeCosts costs = probe_volume_costs(launch, volumes, lights, width, height, fragments, surfaces.use ? &cache->surfaces : nullptr);
         volumes.use = shadow_cache_pays(costs.fill_ms, costs.cached_ms, costs.per_sample_ms);
         stats.shadow_cache_probe_ms = costs.probe_ms;
-        stats.shadow_cache_estimated_fill_ms = costs.fill_ms;
-        stats.shadow_cache_estimated_cached_ms = costs.cached_ms;
-        stats.shadow_cache_estimated_per_sample_ms = costs.per_sample_ms;
+        report_auto_costs(costs, stats);
         stats.stage_ms["shadow_cache_probe"] = costs.probe_ms;
         cache->volumes_used = volumes.use;
         remember(costs);

@@ -39,20 +39,25 @@ std::size_t first_fit(std::vector<std::pair<std::size_t, std::size_t>> taken, st
 
 }  // namespace
 
-std::string volume_data_key(const Volume& v) {
+std::string volume_identity(const Volume& v) {
     std::ostringstream identity;
     identity << static_cast<const void*>(&v);
-    return identity.str() + ' ' + volume_sample_key(v);
+    return identity.str();
+}
+
+std::string volume_data_key(const Volume& v) { return volume_identity(v) + ' ' + volume_sample_key(v); }
+
+double sampled_checksum(const float* values, std::size_t n) {
+    double sum = 0;
+    for (std::size_t i = 0, stride = std::max<std::size_t>(1, n / 4096); i < n; i += stride) sum += double(values[i]) * double(i % 7919 + 1);
+    return sum;
 }
 
 std::string volume_sample_key(const Volume& v) {
     std::ostringstream key;
     key.precision(17);
     key << v.dims[0] << ' ' << v.dims[1] << ' ' << v.dims[2];
-    std::size_t n = v.voxels.size(), stride = std::max<std::size_t>(1, n / 4096);
-    double sum = 0;
-    for (std::size_t i = 0; i < n; i += stride) sum += double(v.voxels[i]) * double(i % 7919 + 1);
-    key << ' ' << sum;
+    key << ' ' << sampled_checksum(v.voxels.data(), v.voxels.size());
     return key.str();
 }
 

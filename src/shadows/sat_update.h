@@ -23,6 +23,11 @@ namespace sombra::shadows {
 std::string volume_data_key(const Volume& volume);
 // Its size and the sample of the values only: the same for two copies of the same voxels.
 std::string volume_sample_key(const Volume& volume);
+// Its identity alone: the Volume's address.
+std::string volume_identity(const Volume& volume);
+// A weighted sum of about 4096 of the n values, evenly strided: the "sample" of the keys above
+// (and of mesh corners, renderer.cpp scene_keys).
+double sampled_checksum(const float* values, std::size_t n);
 
 // Per volume, everything its extinction σ at a world point depends on: the voxels, the placement
 // (world_to_voxel), the σ column of its transfer-function table and the table's domain, and buffer
