@@ -84,6 +84,12 @@ typedef int16 lmask;
  * Every lane of a packet loads, and lanes masked off carry whatever position their ray gave. */
 static inline lfloat clamp_index(lfloat x, float hi) { return fmin(fmax(x, 0.0f), hi); }
 
+/* min and clamp of lane integers against scalar bounds, the bounds splat first. OpenCL C allows
+ * min(int4, int) (§6.12.3), but Oclgrind 21.10 reads the scalar as if it were a vector: lanes 1 to
+ * N-1 compare with garbage and index memory out of bounds (tests/portability/oclgrind_min_scalar.sim). */
+static inline lint lmin(lint x, int hi) { return min(x, (lint)(hi)); }
+static inline lint lclamp(lint x, int lo, int hi) { return clamp(x, (lint)(lo), (lint)(hi)); }
+
 /* Per-lane loads ptr[idx[lane]] (the CPU has no cheaper gather for OpenCL C to use). */
 #if SOMBRA_LANES == 1
 static inline lfloat gather(__global const float* ptr, lint idx) { return ptr[idx]; }

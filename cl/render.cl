@@ -69,7 +69,7 @@ static inline lfloat cached_shadow(const CameraState* state, uint i, uint m, lfl
     lfloat bx = floor(qx), by = floor(qy), bz = floor(qz);
     lfloat fx = qx - bx, fy = qy - by, fz = qz - bz;
     lint x0 = LCONVERT_INT(bx), y0 = LCONVERT_INT(by), z0 = LCONVERT_INT(bz);
-    lint x1 = min(x0 + 1, c->dims.x - 1), y1 = min(y0 + 1, c->dims.y - 1), z1 = min(z0 + 1, c->dims.z - 1);
+    lint x1 = lmin(x0 + 1, c->dims.x - 1), y1 = lmin(y0 + 1, c->dims.y - 1), z1 = lmin(z0 + 1, c->dims.z - 1);
     int sy = c->dims.x, sz = c->dims.x * c->dims.y, base = (int)c->offset;
 #define CACHE_AT(x, y, z) gather(state->shadow_cache, base + (x) + (y) * sy + (z) * sz)
     lfloat c00 = mix(CACHE_AT(x0, y0, z0), CACHE_AT(x1, y0, z0), fx), c10 = mix(CACHE_AT(x0, y1, z0), CACHE_AT(x1, y1, z0), fx);

@@ -50,7 +50,7 @@ static inline lmask segment_in_empty_bricks(__global const uchar* occupancy, __g
  * the volume's stiffness: a table is built once per light). *density becomes the density at t1. */
 static inline lfloat part_optical_depth(VOLUME_DATA_PARAM, __global const VolumeGpu* v, __global const float* tf_tables,
                                         const VolumeRay* ray, uint i, lfloat t0, lfloat t1, lfloat* density, lmask inside) {
-    lint steps = clamp(LCONVERT_INT(ceil((t1 - t0) / v->step - 1e-3f)), 1, 4096); /* 1e-3: the same count in double */
+    lint steps = lclamp(LCONVERT_INT(ceil((t1 - t0) / v->step - 1e-3f)), 1, 4096); /* 1e-3: the same count in double */
     lfloat h = (t1 - t0) / LCONVERT_FLOAT(steps), ta = t0, da = *density, depth = (lfloat)(0.0f);
     for (int s = 1; s <= 4096; ++s) {
         lmask more = inside & (steps >= s);

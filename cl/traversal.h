@@ -98,9 +98,9 @@ static inline lmask in_empty_bricks(__global const uchar* occupancy, __global co
         if (!lany(here)) continue;
         __global const VolumeGpu* v = &volumes[i];
         lfloat3 p = ray_voxel_point(ray, i, select((lfloat)(0.0f), t, here));
-        lint bx = min(LCONVERT_INT(clamp_index(p.x, (float)(v->dims.x - 1))) / SOMBRA_BRICK_SIZE, v->brick_dims.x - 1);
-        lint by = min(LCONVERT_INT(clamp_index(p.y, (float)(v->dims.y - 1))) / SOMBRA_BRICK_SIZE, v->brick_dims.y - 1);
-        lint bz = min(LCONVERT_INT(clamp_index(p.z, (float)(v->dims.z - 1))) / SOMBRA_BRICK_SIZE, v->brick_dims.z - 1);
+        lint bx = lmin(LCONVERT_INT(clamp_index(p.x, (float)(v->dims.x - 1))) / SOMBRA_BRICK_SIZE, v->brick_dims.x - 1);
+        lint by = lmin(LCONVERT_INT(clamp_index(p.y, (float)(v->dims.y - 1))) / SOMBRA_BRICK_SIZE, v->brick_dims.y - 1);
+        lint bz = lmin(LCONVERT_INT(clamp_index(p.z, (float)(v->dims.z - 1))) / SOMBRA_BRICK_SIZE, v->brick_dims.z - 1);
         lint brick = (int)v->brick_offset + bx + v->brick_dims.x * (by + v->brick_dims.y * bz);
 #define SOMBRA_OCCUPIED_LANE(c) (float)occupancy[LC(brick, c)]
         lfloat occupied = LFROM_LANES(SOMBRA_OCCUPIED_LANE);
@@ -520,7 +520,7 @@ static inline lfloat split_interval_depth(VOLUME_DATA_PARAM, __global const Volu
                                    const VolumeRay* ray, uint i, lfloat t0, lfloat t1, lfloat front, lfloat back, lmask here) {
     lfloat3 span = l3_scale(ray->vox_dir[i], t1 - t0);
     lfloat longest = fmax(fabs(span.x), fmax(fabs(span.y), fabs(span.z)));
-    lint pieces = clamp(LCONVERT_INT(ceil(select((lfloat)(1.0f), longest, here) - 1e-3f)), 1, SOMBRA_STIFF_MAX_PIECES);
+    lint pieces = lclamp(LCONVERT_INT(ceil(select((lfloat)(1.0f), longest, here) - 1e-3f)), 1, SOMBRA_STIFF_MAX_PIECES);
     lfloat length = (t1 - t0) / LCONVERT_FLOAT(pieces);
     lfloat depth = (lfloat)(0.0f), t = t0, density = front;
     for (int j = 1; j < SOMBRA_STIFF_MAX_PIECES; ++j) {

@@ -42,7 +42,7 @@ static inline lfloat sample_density(VOLUME_DATA_PARAM, __global const VolumeGpu*
     int sy = v->dims.x, sz = v->dims.x * v->dims.y;
     lint x0 = LCONVERT_INT(bx), y0 = LCONVERT_INT(by) * sy, z0 = LCONVERT_INT(bz) * sz;
     /* the +1 neighbour, clamped: stays on the same voxel at the upper edge */
-    lint x1 = min(x0 + 1, v->dims.x - 1), y1 = min(y0 + sy, (v->dims.y - 1) * sy), z1 = min(z0 + sz, (v->dims.z - 1) * sz);
+    lint x1 = lmin(x0 + 1, v->dims.x - 1), y1 = lmin(y0 + sy, (v->dims.y - 1) * sy), z1 = lmin(z0 + sz, (v->dims.z - 1) * sz);
     __global const float* d = volume_data + v->data_offset;
     lfloat c00 = mix(gather(d, x0 + y0 + z0), gather(d, x1 + y0 + z0), fx);
     lfloat c10 = mix(gather(d, x0 + y1 + z0), gather(d, x1 + y1 + z0), fx);
@@ -61,7 +61,7 @@ typedef struct {
 
 static inline Classified classify(__global const float* tf_tables, __global const VolumeGpu* v, lfloat density) {
     lfloat u = clamp_index((density - v->tf_domain_min) * v->tf_domain_scale, (float)(v->tf_size - 1));
-    lint i0 = min(LCONVERT_INT(u), (int)v->tf_size - 2);
+    lint i0 = lmin(LCONVERT_INT(u), (int)v->tf_size - 2);
     lfloat f = u - LCONVERT_FLOAT(i0);
     __global const float* table = tf_tables + 4 * v->tf_offset;
     lint e0 = 4 * i0, e1 = e0 + 4;
@@ -74,7 +74,7 @@ static inline Classified classify(__global const float* tf_tables, __global cons
 
 /* σ of the volume's table at entry coordinates u in [0, size − 1] (linear between entries). */
 static inline lfloat table_sigma(__global const float* table, uint size, lfloat u) {
-    lint i0 = min(LCONVERT_INT(u), (int)size - 2);
+    lint i0 = lmin(LCONVERT_INT(u), (int)size - 2);
     lfloat f = u - LCONVERT_FLOAT(i0);
     return mix(gather(table, 4 * i0 + 3), gather(table, 4 * i0 + 7), f);
 }
@@ -97,7 +97,7 @@ static inline lfloat preintegrated_sigma(__global const float* tf_tables, __glob
     lfloat ua = (fmin(d_front, d_back) - v->tf_domain_min) * v->tf_domain_scale;
     lfloat ub = (fmax(d_front, d_back) - v->tf_domain_min) * v->tf_domain_scale;
     lfloat a = clamp_index(ua, last), b = clamp_index(ub, last);
-    lint ia = min(LCONVERT_INT(a), (int)size - 2), ib = min(LCONVERT_INT(b), (int)size - 2);
+    lint ia = lmin(LCONVERT_INT(a), (int)size - 2), ib = lmin(LCONVERT_INT(b), (int)size - 2);
     lfloat mid_sigma = table_sigma(table, size, 0.5f * (a + b));
     lmask one_cell = ia == ib;
     lmask simple = one_cell & (ua == a) & (ub == b); /* no clamped part either: the mean is mid_sigma */

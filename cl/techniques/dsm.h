@@ -60,8 +60,8 @@ static inline lfloat shadow_transmittance(VOLUME_DATA_PARAM, const SceneRefs* sc
         w = select((lfloat)(0.0f), w, covered);
         lfloat u0 = floor(u), w0 = floor(w), fu = u - u0, fw = w - w0;
         int last = (int)v->resolution - 1;
-        lint x0 = clamp(LCONVERT_INT(u0), 0, last), x1 = clamp(LCONVERT_INT(u0) + 1, 0, last);
-        lint y0 = clamp(LCONVERT_INT(w0), 0, last), y1 = clamp(LCONVERT_INT(w0) + 1, 0, last);
+        lint x0 = lclamp(LCONVERT_INT(u0), 0, last), x1 = lclamp(LCONVERT_INT(u0) + 1, 0, last);
+        lint y0 = lclamp(LCONVERT_INT(w0), 0, last), y1 = lclamp(LCONVERT_INT(w0) + 1, 0, last);
         /* the four texels of each covered lane, one lane at a time (dsm_storage_common.h) */
         int cover_lane[SOMBRA_LANES], x0_lane[SOMBRA_LANES], x1_lane[SOMBRA_LANES], y0_lane[SOMBRA_LANES], y1_lane[SOMBRA_LANES];
         float z_lane[SOMBRA_LANES], a00[SOMBRA_LANES], a10[SOMBRA_LANES], a01[SOMBRA_LANES], a11[SOMBRA_LANES];

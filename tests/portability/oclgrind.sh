@@ -4,7 +4,8 @@
 # data races and API misuse. Registered through an ICD file of our own (OCL_ICD_VENDORS), so it is
 # the only platform: the runtime must come up on OpenCL 1.2 (no 2.0-only entry point: before,
 # Runtime hung in clCreateCommandQueueWithProperties), and tiny renders of every DSM storage, the
-# shadow cache fill, shadow rays and the binary shadow map must finish with no report.
+# shadow cache fill, shadow rays and the binary shadow map must finish with no report, and so must
+# packets of 4, 8 and 16 lanes, whose images must equal one lane's.
 # -cl-opt-disable: Oclgrind's LLVM cannot run the noalias-scope intrinsics that inlining of
 # `restrict` arguments emits. Usage: oclgrind.sh SOMBRA_CLI WORK_DIR. Exit 77 (skipped) without Oclgrind.
 set -euo pipefail
@@ -41,4 +42,17 @@ run dsm-native --shadows dsm --dsm-res 16 --dsm-lookup native --shadow-cache off
 run cache-fill --shadows dsm --dsm-res 16 --shadow-cache on
 run rays --shadows rays --shadow-cache off
 run shadowmap --shadows shadowmap --dsm-res 16 --shadow-cache off
+# Packets of 4, 8 and 16 lanes (cl/lanes.h): no report, and the image of one lane. Before lmin and
+# lclamp, Oclgrind's min(int4, int) gave lanes 1-3 garbage (tests/portability/oclgrind_min_scalar.cl):
+# out-of-bounds reads in dsm_build, wrong voxels elsewhere.
+for shadows in dsm rays lowpass; do
+    res=(); [ "$shadows" = dsm ] && res=(--dsm-res 16)
+    for lanes in 1 4 8 16; do
+        run "$shadows-lanes$lanes" --shadows "$shadows" "${res[@]}" --shadow-cache off --lanes "$lanes"
+        if [ "$lanes" != 1 ] && [ -f "$work/$shadows-lanes$lanes.png" ] &&
+           ! cmp -s "$work/$shadows-lanes1.png" "$work/$shadows-lanes$lanes.png"; then
+            echo "FAIL $shadows-lanes$lanes: the image differs from one lane's"; status=1
+        fi
+    done
+done
 exit $status

@@ -227,6 +227,27 @@ done
 wait
 finished=$(date +%s)
 
+# ---- no integer min/max/clamp of a vector against a scalar ----
+# Legal OpenCL C, but Oclgrind 21.10 reads the scalar as a vector (tests/portability/oclgrind_min_scalar.cl):
+# lane code splats the bound (lmin, lclamp in cl/lanes.h). Found in the unlinked IR by the mangled
+# name, e.g. _Z3minDv4_ii = min(int4, int).
+mixed=$work/vector_scalar.txt
+: >"$mixed"
+for options in "$work"/dump/*.options; do
+    digest=$(basename "$options" .options)
+    read -r -a opts <"$options"
+    "$clang" -x cl "${opts[@]}" -Xclang -finclude-default-header -O0 -S -emit-llvm "$work/dump/$digest.cl" \
+        -o "$work/out/$digest.ll" 2>/dev/null || continue  # a compile failure is reported below
+    grep -ohE '@_Z[0-9]+(min|max|clamp)Dv[0-9]+_([ijlm])\2+\b' "$work/out/$digest.ll" | sort -u |
+        sed "s/^/$digest: /" >>"$mixed" || true
+    rm -f "$work/out/$digest.ll"
+done
+if [ -s "$mixed" ]; then
+    echo "FAIL: integer min/max/clamp of a vector against a scalar (use lmin/lclamp of cl/lanes.h):"
+    cat "$mixed"
+    status=1
+fi
+
 # ---- the report ----
 versions="$("$clang" --version | head -1), ptxas $("$ptxas" --version | sed -n 's/.*release \([0-9.]*\).*/\1/p'), $libclc"
 python3 - "$work" "$((collected - started))" "$((finished - collected))" "$versions" <<'PY' || status=1
