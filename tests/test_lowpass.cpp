@@ -287,6 +287,102 @@ TEST_CASE("CSAT: homogeneous medium against exp(−σ·d), oblique and axis-alig
     }
 }
 
+TEST_CASE("low-pass tables span the occupied bricks: a blob in an empty box, points all around it", "[lowpass]") {
+    // 40³ voxels, non-zero only in [12, 28)³: the CSAT and SSAT cover the blob's bricks, not the
+    // box, and points outside the tables (beside, before, behind the blob) read the same depths as
+    // the shadow rays do (W = 1, the test above)
+    const int n = 40;
+    Volume blob;
+    blob.dims = {n, n, n};
+    blob.voxels.assign(blob.voxel_count(), 0.f);
+    for (int z = 12; z < 28; ++z)
+        for (int y = 12; y < 28; ++y)
+            for (int x = 12; x < 28; ++x) blob.voxels[std::size_t(x + n * (y + n * z))] = 0.5f + 0.5f * float((x * 7 + y * 3 + z) % 5) / 4.f;
+    blob.source = "blob";
+    blob.update_range();
+    auto volume = std::make_shared<const Volume>(std::move(blob));
+    Light point;
+    point.type = LightType::Point;
+    point.position = {0.9f, 0.7f, 0.8f};
+    for (const Light& light : {directional({-0.4, -0.7, -0.5}), directional({0, 0, -1}), point}) {
+        Scene scene = one_volume(volume, test::ramp_tf(0.2f, 0.6f, 0.3f), {light});
+        packing::PackedScene packed = packing::pack_scene(scene);
+        double voxel = 0;
+        auto whole = shadows::scene_corners(packed, voxel), occupied = shadows::occupied_corners(packed, voxel);
+        REQUIRE(occupied.size() == 8);
+        // bricks 2..6 of 10 (brick b: voxels [4b, 4b + 4]; voxel 12 is brick 2's too): voxels
+        // [7.5, 28.5], the volume's centre 19.5 at the origin
+        D3 lo{INFINITY, INFINITY, INFINITY}, hi{-INFINITY, -INFINITY, -INFINITY};
+        for (const D3& c : occupied)
+            for (std::size_t a = 0; a < 3; ++a) lo[a] = std::min(lo[a], c[a]), hi[a] = std::max(hi[a], c[a]);
+        for (std::size_t a = 0; a < 3; ++a) {
+            CHECK(lo[a] == Approx((7.5 - 19.5) / n));
+            CHECK(hi[a] == Approx((28.5 - 19.5) / n));
+        }
+        BuiltSat b = build(scene);
+        if (light.type == LightType::Directional) {
+            REQUIRE(b.sat.frames.size() == 1);
+            D3 toward = {-light.direction[0], -light.direction[1], -light.direction[2]};
+            double len = std::sqrt(toward[0] * toward[0] + toward[1] * toward[1] + toward[2] * toward[2]);
+            for (double& t : toward) t /= len;
+            shadows::SatFrame frame = b.sat.frames[0];
+            shadows::SatFrame box = shadows::make_sat_frame(whole, voxel, frame.axes, std::size_t(1) << 24);
+            CHECK(frame.entries() * 3 < box.entries());
+        } else {
+            REQUIRE(b.sat.spheres.size() == 1);
+            CHECK(shadows::ssat_entries(b.sat.spheres[0]) > 0);
+        }
+        auto points = random_points(400, 0.48f, 13);
+        auto t = lowpass(scene, 0, points, 1.f);
+        auto rays = shadow_rays(scene, 0, points);
+        // the segment from p towards the light (to infinity for a directional light) against the
+        // occupied box grown by two voxels (the W = 1 box and its interpolation): a miss must give T = 1
+        auto misses = [&](const Vec3& p) {
+            D3 d;
+            double t_end = INFINITY;
+            if (light.type == LightType::Directional) {
+                for (std::size_t a = 0; a < 3; ++a) d[a] = -light.direction[a];
+            } else {
+                for (std::size_t a = 0; a < 3; ++a) d[a] = light.position[a] - p[a];
+                t_end = 1;
+            }
+            double t0 = 0, t1 = t_end;
+            for (std::size_t a = 0; a < 3; ++a) {
+                double l = lo[a] - 2.0 / n - p[a], h = hi[a] + 2.0 / n - p[a];
+                if (d[a] == 0) {
+                    if (l > 0 || h < 0) return true;
+                    continue;
+                }
+                double ta = l / d[a], tb = h / d[a];
+                t0 = std::max(t0, std::min(ta, tb)), t1 = std::min(t1, std::max(ta, tb));
+            }
+            return t0 > t1;
+        };
+        double mean = 0;
+        int outside = 0, unshadowed = 0, far_off = 0;
+        for (std::size_t i = 0; i < points.size(); ++i) {
+            REQUIRE(std::isfinite(t[i]));
+            double e = std::fabs(t[i] - rays[i]);
+            mean += e / double(points.size());
+            far_off += e > 0.1 ? 1 : 0;  // the sharp blob's shadow edges: the box filter's own blur
+            bool inside = true;
+            for (std::size_t a = 0; a < 3; ++a) inside &= points[i][a] > lo[a] && points[i][a] < hi[a];
+            outside += inside ? 0 : 1;
+            if (misses(points[i])) {
+                ++unshadowed;
+                INFO("point " << i << " misses the blob: T " << t[i]);
+                CHECK(t[i] == 1.0);
+            }
+        }
+        INFO("light type " << int(light.type) << ": |ΔT| mean " << mean << ", " << far_off << " points off by > 0.1, "
+             << outside << " outside the tables, " << unshadowed << " out of the blob's shadow");
+        CHECK(outside > 300);
+        CHECK(unshadowed > 100);
+        CHECK(mean < 0.01);
+        CHECK(far_off <= 8);
+    }
+}
+
 TEST_CASE("CSAT: empty and saturated volumes give finite transmittance in [0, 1]", "[lowpass]") {
     auto points = random_points(100, 0.7f, 4);
     Scene empty = one_volume(test::constant_volume({12, 12, 12}, 0.f), test::constant_tf(0.f), {directional({0.2, -1, -0.3})});

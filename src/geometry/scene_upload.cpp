@@ -57,7 +57,7 @@ BrickRanges compute_brick_ranges(const Volume& volume) {
     std::size_t count = std::size_t(r.brick_dims[0]) * r.brick_dims[1] * r.brick_dims[2];
     r.min.assign(count, INFINITY);
     r.max.assign(count, -INFINITY);
-    // A voxel on a brick boundary (index a multiple of 8) also belongs to the brick before it.
+    // A voxel on a brick boundary (index a multiple of SOMBRA_BRICK_SIZE) also belongs to the brick before it.
     auto bricks_of = [](int i, int n_bricks, int out[2]) {
         int b = std::min(i / SOMBRA_BRICK_SIZE, n_bricks - 1), k = 0;
         out[k++] = b;

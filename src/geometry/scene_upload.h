@@ -14,8 +14,9 @@ namespace sombra::packing {
 
 constexpr int kTransferTableSize = 1024;
 
-// Brick value ranges of a volume (Hadwiger §3): brick b covers voxels [8b, 8b + 8] per axis, one
-// voxel of overlap so that every trilinear sample inside the brick reads only its voxels.
+// Brick value ranges of a volume (Hadwiger §3): brick b covers voxels [4b, 4b + 4] per axis (4 =
+// SOMBRA_BRICK_SIZE), one voxel of overlap so that every trilinear sample inside the brick reads
+// only its voxels.
 struct BrickRanges {
     std::array<int, 3> brick_dims{0, 0, 0};
     std::vector<float> min, max;

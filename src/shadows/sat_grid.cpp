@@ -3,6 +3,7 @@
 #include "host/kernel_args.h"
 
 #include <algorithm>
+#include <climits>
 #include <cmath>
 #include <type_traits>
 
@@ -63,6 +64,39 @@ std::vector<D3> scene_corners(const packing::PackedScene& packed, double& voxel_
     return corners;
 }
 
+std::vector<D3> occupied_corners(const packing::PackedScene& packed, double& voxel_size) {
+    std::vector<D3> whole = scene_corners(packed, voxel_size), corners;
+    for (std::size_t v = 0; v < packed.volumes.size(); ++v) {
+        const VolumeGpu& g = packed.volumes[v];
+        int lo[3] = {INT_MAX, INT_MAX, INT_MAX}, hi[3] = {-1, -1, -1};  // occupied brick range
+        for (int bz = 0; bz < g.brick_dims.s[2]; ++bz)
+            for (int by = 0; by < g.brick_dims.s[1]; ++by)
+                for (int bx = 0; bx < g.brick_dims.s[0]; ++bx) {
+                    std::size_t b = g.brick_offset + std::size_t(bx) + std::size_t(g.brick_dims.s[0]) * (std::size_t(by) + std::size_t(g.brick_dims.s[1]) * std::size_t(bz));
+                    if (!packed.occupancy[b]) continue;
+                    const int at[3] = {bx, by, bz};
+                    for (int a = 0; a < 3; ++a) lo[a] = std::min(lo[a], at[a]), hi[a] = std::max(hi[a], at[a]);
+                }
+        if (hi[0] < 0) continue;
+        // voxel coordinates, out to the voxel boundaries (cells of one voxel stay the voxels, as on
+        // the whole box); the outer bricks reach the box's faces (clamped reads)
+        double q_lo[3], q_hi[3];
+        for (int a = 0; a < 3; ++a) {
+            q_lo[a] = SOMBRA_BRICK_SIZE * lo[a] - 0.5;
+            q_hi[a] = std::min(SOMBRA_BRICK_SIZE * hi[a] + SOMBRA_BRICK_SIZE, g.dims.s[a] - 1) + 0.5;
+        }
+        const auto& m = packed.voxel_to_world[v];
+        for (int corner = 0; corner < 8; ++corner) {
+            D3 p;
+            double q[3];
+            for (int a = 0; a < 3; ++a) q[a] = (corner >> a) & 1 ? q_hi[a] : q_lo[a];
+            for (int r = 0; r < 3; ++r) p[std::size_t(r)] = m[std::size_t(4 * r)] * q[0] + m[std::size_t(4 * r + 1)] * q[1] + m[std::size_t(4 * r + 2)] * q[2] + m[std::size_t(4 * r + 3)];
+            corners.push_back(p);
+        }
+    }
+    return corners.empty() ? whole : corners;
+}
+
 D3 SatFrame::cell_centre(int i, int j, int k) const {
     D3 p = origin;
     double c[3] = {i + 0.5, j + 0.5, k + 0.5};
@@ -81,7 +115,9 @@ std::array<D3, 3> csat_axes(const D3& towards_light) {
 }  // namespace
 
 SatFrame make_csat_frame(const packing::PackedScene& packed, const D3& towards_light, std::size_t max_entries) {
-    return make_sat_frame(packed, csat_axes(towards_light), max_entries);
+    double voxel = 0;
+    std::vector<D3> corners = occupied_corners(packed, voxel);
+    return make_sat_frame(corners, voxel, csat_axes(towards_light), max_entries);
 }
 
 SatFrame make_shared_csat_frame(const packing::PackedScene& packed, const D3& towards_light, std::size_t max_entries) {
@@ -99,7 +135,9 @@ SatFrame make_shared_csat_frame(const packing::PackedScene& packed, const D3& to
     std::sort(axes.begin(), axes.end(), [&](const D3& a, const D3& b) {
         return major(a) != major(b) ? major(a) < major(b) : a < b;
     });
-    return make_sat_frame(packed, axes, max_entries);
+    double voxel = 0;
+    std::vector<D3> corners = occupied_corners(packed, voxel);
+    return make_sat_frame(corners, voxel, axes, max_entries);
 }
 
 SatFrame make_volume_sat_frame(const packing::PackedScene& packed, std::size_t max_entries) {
@@ -111,9 +149,15 @@ SatFrame make_volume_sat_frame(const packing::PackedScene& packed, std::size_t m
 }
 
 SatFrame make_sat_frame(const packing::PackedScene& packed, const std::array<D3, 3>& axes, std::size_t max_entries) {
+    double voxel = 0;
+    std::vector<D3> corners = scene_corners(packed, voxel);
+    return make_sat_frame(corners, voxel, axes, max_entries);
+}
+
+SatFrame make_sat_frame(const std::vector<D3>& corners, double voxel_size, const std::array<D3, 3>& axes, std::size_t max_entries) {
     SatFrame f;
     f.axes = axes;
-    std::vector<D3> corners = scene_corners(packed, f.voxel_size);
+    f.voxel_size = voxel_size;
     if (corners.empty() || !(f.voxel_size > 0)) throw Error("--shadows lowpass: the scene has no volume to build a summed-area table of");
     D3 lo{INFINITY, INFINITY, INFINITY}, hi{-INFINITY, -INFINITY, -INFINITY};
     for (const D3& p : corners)
@@ -143,7 +187,7 @@ std::uint64_t sat_fixed_point(double tau) {
 
 SsatGridGpu make_ssat_grid(const packing::PackedScene& packed, const D3& light, std::size_t max_entries) {
     double voxel = 0;
-    std::vector<D3> corners = scene_corners(packed, voxel);
+    std::vector<D3> corners = occupied_corners(packed, voxel);
     if (corners.empty() || !(voxel > 0)) throw Error("--shadows lowpass: the scene has no volume to build a summed-area table of");
     D3 lo{INFINITY, INFINITY, INFINITY}, hi{-INFINITY, -INFINITY, -INFINITY};
     for (const D3& c : corners)

@@ -19,6 +19,11 @@ using D3 = std::array<double, 3>;
 // World corners of every volume's box [−0.5, dims − 0.5] (8 per volume, in volume order) and the
 // smallest world voxel length.
 std::vector<D3> scene_corners(const packing::PackedScene& packed, double& voxel_size);
+// The same for the part of each volume where σ can be non-zero: the box of its occupied bricks
+// (PackedScene::occupancy; a brick covers voxels [4b, 4b + 4], and every trilinear sample outside
+// the occupied bricks reads only voxels of unoccupied ones). A volume with no occupied brick has
+// no corners; when no volume has one, the whole boxes (a table of zeros, as before).
+std::vector<D3> occupied_corners(const packing::PackedScene& packed, double& voxel_size);
 
 // A grid aligned with a light: axes[2] points towards the (first) light, axes[0] × axes[1] =
 // axes[2] (Ament Eq. 9). Cell (i, j, k) covers origin + [i, i+1]·h·axes[0] + … ; the grid is
@@ -45,7 +50,9 @@ SatFrame make_shared_csat_frame(const packing::PackedScene& packed, const D3& to
 // The same for a frame aligned with the first volume's axes (the volume-aligned SAT of the
 // baselines, Schlegel et al. 2011), and for any orthonormal axes.
 SatFrame make_volume_sat_frame(const packing::PackedScene& packed, std::size_t max_entries);
+// `corners`: the points the frame must contain (scene_corners or occupied_corners).
 SatFrame make_sat_frame(const packing::PackedScene& packed, const std::array<D3, 3>& axes, std::size_t max_entries);
+SatFrame make_sat_frame(const std::vector<D3>& corners, double voxel_size, const std::array<D3, 3>& axes, std::size_t max_entries);
 
 // A point (or spot) light's spherical grid (SSAT, Ament §4.2.3): φ, θ around a frame whose x axis
 // points from the light to the scene, r from the light. A light outside the scene's bounds gets
@@ -94,7 +101,9 @@ void build_sat_table(host::Runtime& runtime, const Scene& scene, const packing::
 
 // The plan of Ament Alg. 1's tables for the lights: one CSAT per group of directional lights whose
 // directions are ± the axes of one frame (orthodirectional lights, §4.2.2; the group's first
-// light founds the shared frame), one SSAT per point or spot light (§4.2.3).
+// light founds the shared frame), one SSAT per point or spot light (§4.2.3). Both are fitted to the
+// occupied bricks (occupied_corners); the baselines' volume-aligned SAT covers the whole boxes (a
+// cone leaving its grid stops there: cl/lowpass.h sat_cone_depth).
 DeviceSat plan_light_sats(const packing::PackedScene& packed, std::size_t max_entries);
 // The plan of the baselines' one volume-aligned SAT (see build_volume_sat).
 DeviceSat plan_volume_sat(const packing::PackedScene& packed, std::size_t max_entries);
