@@ -29,6 +29,7 @@ constexpr int kSurfaceMaxSubdivision = 1024;                        // lattice i
 constexpr int kSurfaceRowPoints = 1024;                              // rows of the surface fill's launch
 constexpr int kProbeLatticeStride = 16;                     // auto's probe fills every 16th lattice row along y and z (4th: close calls)
 constexpr int kProbeRowsPerLaunch = 4, kProbeLaunches = 4;  // and renders 4 image rows a launch, at most 16
+constexpr double kProbeBudget = 0.05;                        // beyond its first launch, at most 5 % of the cheaper frame
 constexpr std::size_t kRememberedChoices = 4096;            // auto's choices kept per process (the oldest go first)
 
 double triangle_longest_edge(const SurfaceTriangleGpu& t) {
@@ -379,11 +380,12 @@ double fill_surface_entries(const FillLaunch& launch, SurfaceShadowCache& sc, co
 // runs of the real kernels before the frame. The fill: every lattice's rows along x at every 16th
 // y and z (1/256 of its points; whole rows, so that a packet's lanes are neighbours as in the
 // fill), the stale ones' time scaled by their points; when the result is a close call (within 2×),
-// again at every 4th (1/16). The camera pass: image rows at full width (lanes as coherent as the frame's), 4 a
+// again at every 4th (1/16) if that fits the budget. The camera pass: image rows at full width (lanes as coherent as the frame's), 4 a
 // launch a quarter of the image apart, the launches' offsets in van der Corput order (the middle
 // of each quarter, then of each eighth, …), each launch once evaluating the technique per sample
 // and once reading the small lattices (a lattice costs the same to read at any size; its values
-// are thrown away), scaled by the rows. It stops when one side costs twice the other, or after 16 rows.
+// are thrown away), scaled by the rows. It stops when one side costs twice the other, after 16
+// rows, or when its next launch would take the probe past kProbeBudget of the cheaper frame.
 struct VolumeCosts {
     double fill_ms = 0, per_sample_ms = 0, cached_ms = 0, probe_ms = 0;
     int rows = 0;
@@ -431,7 +433,14 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
     const std::size_t launch_pixels = std::size_t(width) * std::size_t(kProbeRowsPerLaunch + 1);
     cl::Buffer image = host::make_buffer(runtime, CL_MEM_WRITE_ONLY, launch_pixels * sizeof(cl_float4), nullptr, "probe rows");
     cl::Buffer counts = host::make_buffer(runtime, CL_MEM_WRITE_ONLY, launch_pixels * sizeof(cl_uint), nullptr, "probe row samples");
-    double per_sample_sum = 0, cached_sum = 0;
+    double per_sample_sum = 0, cached_sum = 0, last_launch = 0;
+    // the probe's further steps must cost little against the frame either way would cost: a close
+    // call is one where either choice costs about the same, so probing it long costs more than a
+    // wrong choice (bench/README.md "sombra_bench_cache_auto")
+    auto within_budget = [&](double step_ms) {
+        const double cheaper = std::min(costs.per_sample_ms, costs.fill_ms + costs.cached_ms);
+        return costs.probe_ms + per_sample_sum + cached_sum + step_ms <= kProbeBudget * cheaper;
+    };
     std::vector<bool> done(camera.row_stride, false);
     for (unsigned k = 1; k <= 4 * kProbeLaunches && costs.rows < height; ++k) {
         double fraction = 0;  // van der Corput: k's bits mirrored behind the binary point
@@ -440,19 +449,23 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
         if (done[first]) continue;
         done[first] = true;
         camera.first_row = first;
-        per_sample_sum += run_camera_pass(runtime, launch.scene, launch.prepared, launch.options, launch.lanes, camera, per_sample, image, counts);
-        cached_sum += run_camera_pass(runtime, launch.scene, launch.prepared, launch.options, launch.lanes, camera, cached, image, counts);
+        if (costs.rows > 0 && !within_budget(last_launch)) break;
+        const double per_sample_launch = run_camera_pass(runtime, launch.scene, launch.prepared, launch.options, launch.lanes, camera, per_sample, image, counts);
+        const double cached_launch = run_camera_pass(runtime, launch.scene, launch.prepared, launch.options, launch.lanes, camera, cached, image, counts);
+        per_sample_sum += per_sample_launch, cached_sum += cached_launch, last_launch = per_sample_launch + cached_launch;
         costs.rows += int((cl_uint(height) - first + camera.row_stride - 1) / camera.row_stride);
         costs.per_sample_ms = per_sample_sum * height / costs.rows, costs.cached_ms = cached_sum * height / costs.rows;
         const double with_cache = costs.fill_ms + costs.cached_ms;
         if (costs.per_sample_ms > 2 * with_cache || 2 * costs.per_sample_ms < with_cache || costs.rows >= kProbeRowsPerLaunch * kProbeLaunches)
             break;
     }
-    costs.probe_ms += per_sample_sum + cached_sum;
     // a close call: the fill again on 1/16 of the rows (small lattices' 1/256 can be mostly a
-    // launch's fixed cost, which leans the estimate towards evaluating per sample)
-    const double with_cache = costs.fill_ms + costs.cached_ms;
-    if (costs.per_sample_ms <= 2 * with_cache && 2 * costs.per_sample_ms >= with_cache) costs.fill_ms = fill_rows(kProbeLatticeStride / 4);
+    // launch's fixed cost, which leans the estimate towards evaluating per sample), when 16 times
+    // the first fill probe fits the budget
+    const double with_cache = costs.fill_ms + costs.cached_ms, first_fill_probe_ms = costs.probe_ms;
+    const bool close_call = costs.per_sample_ms <= 2 * with_cache && 2 * costs.per_sample_ms >= with_cache;
+    if (close_call && within_budget(16 * first_fill_probe_ms)) costs.fill_ms = fill_rows(kProbeLatticeStride / 4);
+    costs.probe_ms += per_sample_sum + cached_sum;
     runtime.progress().last_launch_ms = last_launch_ms;
     return costs;
 }
