@@ -325,7 +325,9 @@ TEST_CASE("hostile input: scenes built in code are held to the scene file rules 
 // The inputs (fuzz/make_regressions.py) each crashed, aborted or allocated gigabytes before: a
 // leaf chunk longer than the leaf (heap overflow, glibc abort), names and metadata strings of 512 MiB
 // (3.2 GB and 1.7 GB resident), two active voxels densified to 2.2 GB, a DICOM length of 2 GiB
-// (2.2 GB), compressed pixel data (GDCM's codecs assert), pixel data shorter than the image (loaded).
+// (2.2 GB), compressed pixel data (GDCM's codecs assert), pixel data shorter than the image (loaded);
+// a half-float grid whose "is_saved_as_half_float" metadata was renamed, so that OpenVDB reads full
+// floats where the walk read halves and allocated a chunk of 96 GiB (found by CI's fuzzing).
 TEST_CASE("hostile input: VDB and DICOM files are walked before OpenVDB and GDCM read them", "[hostile][vdb][dicom]") {
     const struct { const char* file; const char* field; } cases[] = {
         {"vdb/leaf-chunk-overflow.vdb", "grid 'density': chunk size: an uncompressed chunk of 4096 bytes where the node holds 2048"},
@@ -334,6 +336,7 @@ TEST_CASE("hostile input: VDB and DICOM files are walked before OpenVDB and GDCM
         {"vdb/sparse-two-voxels.vdb", "grid 'density': its active box holds 545338513 voxels for 2 active ones"},
         {"vdb/unaligned-root-child.vdb", "root child origin: not a multiple of 4096"},
         {"vdb/bool-grid.vdb", "type: 'Tree_bool_5_4_3'"},
+        {"vdb/half-float-meta-renamed.vdb", "grid 'density': chunk: needs 103079215112 bytes"},
         {"dicom/length-2gib.dcm", "(0008,0060): a length of 2147483648 bytes"},
         {"dicom/jpeg-garbage.dcm", "(0002,0010) TransferSyntaxUID: '1.2.840.10008.1.2.4.50' (compressed"},
         {"dicom/jpeg2000-garbage.dcm", "sombra reads uncompressed DICOM only"},

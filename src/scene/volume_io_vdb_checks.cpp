@@ -30,10 +30,18 @@ constexpr std::uint64_t kMaxTreeBytes = std::uint64_t(4) << 30;    // the sparse
 constexpr std::uint32_t kMaxName = 1 << 16;                        // names and type names
 constexpr std::int32_t kRootChildSide = 4096;                      // voxels a root child spans
 
-// A grid's value type as stored: full size, and the size of values saved as half floats.
+// A grid's value type as stored: full size, the size of a value saved as a half float, and what
+// this grid stores (set_half).
 struct ValueType {
-    std::uint32_t full = 0, stored = 0;
+    std::uint32_t full = 0, half_size = 0, stored = 0;
     bool half = false;  // read through io::HalfReader, which reads nothing at all for no values
+    // Whether the values are stored as halves is the grid's metadata "is_saved_as_half_float"
+    // (GridBase::saveFloatAsHalf reads it), not its type name's "_HalfFloat": OpenVDB sets the flag
+    // from the name, then the grid's metadata replace it (MetaMap::readMeta clears first).
+    void set_half(bool saved_as_half) {
+        half = saved_as_half && half_size != full;
+        stored = half ? half_size : full;
+    }
 };
 
 // The grid types sombra lets OpenVDB read (Tree_T_5_4_3, optionally "_HalfFloat").
@@ -47,7 +55,7 @@ bool value_type_of(std::string type, ValueType* v) {
         {"Tree_vec3i_5_4_3", 12, 12}};
     for (const auto& t : kTypes)
         if (type == t.name) {
-            *v = {t.full, as_half ? t.half : t.full, as_half && t.half != t.full};
+            *v = {t.full, t.half, t.full, false};
             return true;
         }
     return false;
@@ -79,8 +87,10 @@ void walk_header(Cursor& c) {
             c.fail("uuid", "not a UUID in text form");
 }
 
-// A MetaMap: count, then name, type name and a sized value for each item.
-void walk_metadata(Cursor& c) {
+// A MetaMap: count, then name, type name and a sized value for each item. `saved_as_half`, when
+// given: the value of the last "is_saved_as_half_float" item (a bool), false without one.
+void walk_metadata(Cursor& c, bool* saved_as_half = nullptr) {
+    if (saved_as_half) *saved_as_half = false;
     const std::uint32_t count = c.get<std::uint32_t>("metadata count");
     c.need(std::uint64_t(count) * 12, "metadata count");  // two empty names and a size at least
     for (std::uint32_t i = 0; i < count; ++i) {
@@ -90,8 +100,12 @@ void walk_metadata(Cursor& c) {
         const std::uint32_t fixed = metadata_size(type);
         if (fixed && size != fixed)
             c.fail("metadata '" + name + "'", "a " + type + " of " + std::to_string(size) + " bytes (expected " + std::to_string(fixed) + ")");
+        if (saved_as_half && name == "is_saved_as_half_float" && type != "bool")
+            c.fail("metadata '" + name + "'", "a " + type + " where OpenVDB writes a bool");
         if (type == "bool") {
-            if (c.get<std::uint8_t>("metadata value") > 1) c.fail("metadata '" + name + "'", "a bool that is neither 0 nor 1");
+            const std::uint8_t value = c.get<std::uint8_t>("metadata value");
+            if (value > 1) c.fail("metadata '" + name + "'", "a bool that is neither 0 nor 1");
+            if (saved_as_half && name == "is_saved_as_half_float") *saved_as_half = value == 1;
         } else {
             c.need(size, "metadata '" + name + "'");
             c.skip(size, "metadata value");
@@ -247,7 +261,9 @@ void walk_grid(Cursor& c, const Descriptor& d, const std::vector<Descriptor>& ea
         c.fail("type", "'" + d.type + "': sombra reads files whose grids are float, double, int32, int64 or vec3 trees");
     const std::uint32_t compression = c.get<std::uint32_t>("compression");
     if (compression & ~(kZip | kActiveMask | kBlosc)) c.fail("compression", "unknown flags " + std::to_string(compression));
-    walk_metadata(c);
+    bool saved_as_half = false;
+    walk_metadata(c, &saved_as_half);
+    type.set_half(saved_as_half);
     walk_transform(c);
     if (!d.parent.empty()) {  // an instance shares an earlier grid's tree: nothing more is stored
         for (const Descriptor& e : earlier)
