@@ -44,6 +44,18 @@ int shared_axis(const SatFrame& frame, const D3& towards_light, bool& positive) 
     return -1;
 }
 
+// The 8 world corners of volume v's voxel-coordinate box [lo, hi], appended to `corners`.
+void add_box_corners(const packing::PackedScene& packed, std::size_t v, const double lo[3], const double hi[3], std::vector<D3>& corners) {
+    const auto& m = packed.voxel_to_world[v];
+    for (int corner = 0; corner < 8; ++corner) {
+        double q[3];
+        for (int a = 0; a < 3; ++a) q[a] = (corner >> a) & 1 ? hi[a] : lo[a];
+        D3 p;
+        for (int r = 0; r < 3; ++r) p[std::size_t(r)] = m[std::size_t(4 * r)] * q[0] + m[std::size_t(4 * r + 1)] * q[1] + m[std::size_t(4 * r + 2)] * q[2] + m[std::size_t(4 * r + 3)];
+        corners.push_back(p);
+    }
+}
+
 }  // namespace
 
 std::vector<D3> scene_corners(const packing::PackedScene& packed, double& voxel_size) {
@@ -53,13 +65,8 @@ std::vector<D3> scene_corners(const packing::PackedScene& packed, double& voxel_
         const auto& m = packed.voxel_to_world[v];
         const auto& dims = packed.volumes[v].dims.s;
         for (int c = 0; c < 3; ++c) voxel_size = std::min(voxel_size, std::sqrt(double(m[c]) * m[c] + double(m[4 + c]) * m[4 + c] + double(m[8 + c]) * m[8 + c]));
-        for (int corner = 0; corner < 8; ++corner) {
-            double q[3];
-            for (int a = 0; a < 3; ++a) q[a] = (corner >> a) & 1 ? dims[a] - 0.5 : -0.5;
-            D3 p;
-            for (int r = 0; r < 3; ++r) p[std::size_t(r)] = m[std::size_t(4 * r)] * q[0] + m[std::size_t(4 * r + 1)] * q[1] + m[std::size_t(4 * r + 2)] * q[2] + m[std::size_t(4 * r + 3)];
-            corners.push_back(p);
-        }
+        const double lo[3] = {-0.5, -0.5, -0.5}, hi[3] = {dims[0] - 0.5, dims[1] - 0.5, dims[2] - 0.5};
+        add_box_corners(packed, v, lo, hi, corners);
     }
     return corners;
 }
@@ -85,14 +92,7 @@ std::vector<D3> occupied_corners(const packing::PackedScene& packed, double& vox
             q_lo[a] = SOMBRA_BRICK_SIZE * lo[a] - 0.5;
             q_hi[a] = std::min(SOMBRA_BRICK_SIZE * hi[a] + SOMBRA_BRICK_SIZE, g.dims.s[a] - 1) + 0.5;
         }
-        const auto& m = packed.voxel_to_world[v];
-        for (int corner = 0; corner < 8; ++corner) {
-            D3 p;
-            double q[3];
-            for (int a = 0; a < 3; ++a) q[a] = (corner >> a) & 1 ? q_hi[a] : q_lo[a];
-            for (int r = 0; r < 3; ++r) p[std::size_t(r)] = m[std::size_t(4 * r)] * q[0] + m[std::size_t(4 * r + 1)] * q[1] + m[std::size_t(4 * r + 2)] * q[2] + m[std::size_t(4 * r + 3)];
-            corners.push_back(p);
-        }
+        add_box_corners(packed, v, q_lo, q_hi, corners);
     }
     return corners.empty() ? whole : corners;
 }
@@ -112,12 +112,17 @@ std::array<D3, 3> csat_axes(const D3& towards_light) {
     D3 u = perpendicular(w), v = cross(w, u);
     return {u, v, w};
 }
+
+// A frame with `axes` around the volumes' occupied bricks (the CSATs).
+SatFrame make_occupied_frame(const packing::PackedScene& packed, const std::array<D3, 3>& axes, std::size_t max_entries) {
+    double voxel = 0;
+    std::vector<D3> corners = occupied_corners(packed, voxel);
+    return make_sat_frame(corners, voxel, axes, max_entries);
+}
 }  // namespace
 
 SatFrame make_csat_frame(const packing::PackedScene& packed, const D3& towards_light, std::size_t max_entries) {
-    double voxel = 0;
-    std::vector<D3> corners = occupied_corners(packed, voxel);
-    return make_sat_frame(corners, voxel, csat_axes(towards_light), max_entries);
+    return make_occupied_frame(packed, csat_axes(towards_light), max_entries);
 }
 
 SatFrame make_shared_csat_frame(const packing::PackedScene& packed, const D3& towards_light, std::size_t max_entries) {
@@ -135,9 +140,7 @@ SatFrame make_shared_csat_frame(const packing::PackedScene& packed, const D3& to
     std::sort(axes.begin(), axes.end(), [&](const D3& a, const D3& b) {
         return major(a) != major(b) ? major(a) < major(b) : a < b;
     });
-    double voxel = 0;
-    std::vector<D3> corners = occupied_corners(packed, voxel);
-    return make_sat_frame(corners, voxel, axes, max_entries);
+    return make_occupied_frame(packed, axes, max_entries);
 }
 
 SatFrame make_volume_sat_frame(const packing::PackedScene& packed, std::size_t max_entries) {
