@@ -10,7 +10,8 @@ declare -A rank=(
     [shadows]=3 [clustering]=3           # DSM generation, summed-area tables, reference; object clusters
     [techniques]=4                       # shadow techniques as modules
     [render]=5                           # the orchestrator
-    [cli]=6                              # the command line
+    [view]=6                             # the viewer's session and HTTP server
+    [cli]=7                              # the command line
 )
 status=0
 for dir in src/*/; do

@@ -29,6 +29,9 @@ packages=(
   # sanitizer build and fuzzing (scripts/sanitize.sh, scripts/fuzz.sh): clang, libFuzzer and the
   # sanitizer runtimes, llvm-symbolizer for readable reports
   clang libclang-rt-dev llvm
+  # `sombra view` (issue 31): cpp-httplib's HTTP server; its browser test drives Debian's chromium
+  # headless through chromium-driver and selenium (tests/view/test_view_browser.py)
+  libcpp-httplib-dev chromium chromium-driver python3-selenium
 )
 if [ "${1:-}" = "--list" ]; then
   printf '%s\n' "${packages[@]}"

@@ -171,6 +171,10 @@ void check_render_options(const RenderOptions& options);
 // unknown key or a refused value throws "FILE: render.KEY: …". The CLI starts from them (its
 // flags override), as the Python module does when no options object is given.
 RenderOptions scene_render_options(const Scene& scene);
+// One option given as a JSON value (`true`, `512`, `"dsm"`), as a scene file's "render" block and
+// `sombra view`'s requests give them: an unknown key throws "WHERE: unknown key 'K'" (with a
+// suggestion), a refused value "WHERE.KEY: …" (WHERE: "FILE: render", "options").
+void set_render_option_json(RenderOptions& options, const std::string& key, const std::string& json_value, const std::string& where);
 
 // Linear RGB + alpha (coverage = 1 − t_acc), background already composited into RGB.
 struct Image {
@@ -289,5 +293,7 @@ std::vector<DeepShadowMap> build_prefilter_sub_maps(Context& context, const Scen
 // file in the same folder and renames it, so a failed write leaves no partial file.
 void write_image(const Image& image, const std::string& path);
 Image read_image(const std::string& path);  // for tests and tools
+// The image as PNG file bytes (8-bit sRGB, as write_image writes a .png), in memory: `sombra view`'s frames.
+std::vector<unsigned char> encode_png(const Image& image);
 
 }  // namespace sombra

@@ -197,8 +197,16 @@ VolumeScene volume_scene(const std::string& path, TransferPreset preset, int wid
 // The scene as a scene file that loads back to the same scene (for volume scenes: every volume
 // read from a file, where its file places it, and no meshes; otherwise throws naming the volume
 // or mesh). Volume paths are written relative to scene_path's folder (absolute when they share
-// none); `render` is written as the file's "render" block (an object, may be empty).
+// none, or when scene_path is empty); `render` is written as the file's "render" block (an
+// object, may be empty).
 std::string scene_file_text(const Scene& scene, const std::string& scene_path, const std::string& render_block_json = "{}");
+// The scene as a scene file that loads back to it from any folder, for a scene whose camera, image
+// size, lights or volumes' transfer functions were changed after loading (`sombra view`'s "save
+// scene"): the file it came from (scene.source) with those written over it, its "render" block
+// replaced and its relative file paths made absolute; a scene made from a volume file as
+// scene_file_text writes it with absolute paths. Throws naming the file when it no longer holds
+// the scene's volumes and meshes.
+std::string edited_scene_file_text(const Scene& scene, const std::string& render_block_json = "{}");
 
 // What `sombra info` prints, as one JSON object (docs/volume-scenes.md): for a volume file (read
 // with NaN/Inf counted and set to 0) its format, voxel type, dims, spacing, world bounds,

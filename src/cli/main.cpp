@@ -22,6 +22,7 @@
 
 #include "cli/clusters_command.h"
 #include "cli/info_command.h"
+#include "cli/view_command.h"
 #include "render/staged_outputs.h"
 #include "scene/input_file.h"
 #include "scene/suggest.h"
@@ -502,6 +503,8 @@ int run(int argc_given, char** argv_given) {
     }
     sombra::cli::InfoCommand info;
     sombra::cli::add_info_command(app, info);
+    sombra::cli::ViewCommand view;
+    sombra::cli::add_view_command(app, view);
     sombra::cli::ClustersCommand clusters;
     sombra::cli::add_clusters_command(app, clusters);
     clusters.app->get_option("--clusters")->check(in_range<int>(1, 64));
@@ -517,10 +520,11 @@ int run(int argc_given, char** argv_given) {
         return parse_error(app, e, argc, argv);
     }
 #ifdef SOMBRA_FUZZ_CLI  // fuzz/fuzz_cli.cpp: no device, and nothing written
-    if (devices->parsed() || clusters.app->parsed()) return 0;
+    if (devices->parsed() || clusters.app->parsed() || view.app->parsed()) return 0;
 #endif
     if (devices->parsed()) return list_devices();
     if (info.app->parsed()) return sombra::cli::run_info_command(info);
+    if (view.app->parsed()) return sombra::cli::run_view_command(view);
     if (clusters.app->parsed()) return sombra::cli::run_clusters_command(clusters, sombra::load_scene(clusters.scene_path));
 
     const RenderOptionFlags& flags = render->parsed() ? render_flags : dsm->parsed() ? dsm_flags : visibility_flags;

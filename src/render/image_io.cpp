@@ -1,3 +1,4 @@
+#include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
 
 #include <algorithm>
@@ -23,23 +24,45 @@ float linear_to_srgb(float c) {
     return c <= 0.0031308f ? 12.92f * c : 1.055f * std::pow(c, 1.f / 2.4f) - 0.055f;
 }
 
+// 8-bit sRGB, alpha dropped: the background is already composited.
+std::vector<unsigned char> srgb8(const Image& image) {
+    std::vector<unsigned char> rgb(std::size_t(image.width) * image.height * 3);
+    for (std::size_t i = 0, n = rgb.size() / 3; i < n; ++i)
+        for (int c = 0; c < 3; ++c) rgb[i * 3 + c] = (unsigned char)std::lround(255.f * linear_to_srgb(image.rgba[i * 4 + c]));
+    return rgb;
+}
+
+bool has_pixels(const Image& image) {
+    return image.width >= 1 && image.height >= 1 && image.rgba.size() == std::size_t(image.width) * image.height * 4;
+}
+
 }  // namespace
+
+std::vector<unsigned char> encode_png(const Image& image) {
+    if (!has_pixels(image)) throw Error("PNG: image has no pixels");
+    std::vector<unsigned char> bytes;
+    OIIO::Filesystem::IOVecOutput memory(bytes);
+    auto out = OIIO::ImageOutput::create("png");
+    if (!out || !out->supports("ioproxy")) throw Error("PNG: OpenImageIO cannot write PNG to memory");
+    if (!out->set_ioproxy(&memory)) throw Error("PNG: " + out->geterror());
+    const std::vector<unsigned char> rgb = srgb8(image);
+    OIIO::ImageSpec spec(image.width, image.height, 3, OIIO::TypeDesc::UINT8);
+    if (!(out->open("memory.png", spec) && out->write_image(OIIO::TypeDesc::UINT8, rgb.data()) && out->close()))
+        throw Error("PNG: cannot encode image (" + out->geterror() + ")");
+    return bytes;
+}
 
 void write_image(const Image& image, const std::string& path) {
     std::string ext = lower_extension(path);
     if (ext != ".png" && ext != ".exr") throw Error(path + ": output must end in .png or .exr");
-    if (image.width < 1 || image.height < 1 || image.rgba.size() != std::size_t(image.width) * image.height * 4)
-        throw Error(path + ": image has no pixels");
+    if (!has_pixels(image)) throw Error(path + ": image has no pixels");
     // Write under a temporary name next to the target, then rename: no partial file on failure.
     std::string temporary = path + ".part" + ext;
     auto out = OIIO::ImageOutput::create(temporary);
     if (!out) throw Error(path + ": OpenImageIO cannot write this format (" + OIIO::geterror() + ")");
     bool ok;
-    if (ext == ".png") {  // 8-bit sRGB, alpha dropped: the background is already composited
-        std::vector<unsigned char> rgb(std::size_t(image.width) * image.height * 3);
-        for (std::size_t i = 0, n = rgb.size() / 3; i < n; ++i)
-            for (int c = 0; c < 3; ++c)
-                rgb[i * 3 + c] = (unsigned char)std::lround(255.f * linear_to_srgb(image.rgba[i * 4 + c]));
+    if (ext == ".png") {
+        const std::vector<unsigned char> rgb = srgb8(image);
         OIIO::ImageSpec spec(image.width, image.height, 3, OIIO::TypeDesc::UINT8);
         ok = out->open(temporary, spec) && out->write_image(OIIO::TypeDesc::UINT8, rgb.data()) && out->close();
     } else {  // linear float RGBA, premultiplied: the background (transmittance × background) taken out

@@ -266,22 +266,24 @@ void check_render_options(const RenderOptions& options) {
     for (const OptionSpec& spec : render_option_specs()) check_option_value(spec, spec.get(options), spec.key);
 }
 
+void set_render_option_json(RenderOptions& options, const std::string& key, const std::string& json_value, const std::string& where) {
+    const std::string label = where + "." + key;
+    const OptionSpec* spec = find_render_option(key);
+    if (!spec || spec->key != key) throw Error(where + ": unknown key '" + key + "'" + closest_key(key));
+    const nlohmann::json v = nlohmann::json::parse(json_value, nullptr, false);
+    OptionValue value;
+    if (v.is_boolean()) value = v.get<bool>();
+    else if (v.is_number_integer() && (v.is_number_unsigned() ? v.get<unsigned long long>() <= 1ull << 62 : true))
+        value = v.get<long long>();
+    else if (v.is_number()) value = v.get<double>();
+    else if (v.is_string()) value = v.get<std::string>();
+    else throw Error(label + ": expected " + std::string(kind_name(spec->kind)) + ", got " + std::string(v.type_name()));
+    set_option(options, *spec, value, label);
+}
+
 RenderOptions scene_render_options(const Scene& scene) {
     RenderOptions options;
-    for (const auto& [key, text] : scene.render_settings) {
-        const std::string label = scene.source + ": render." + key;
-        const OptionSpec* spec = find_render_option(key);
-        if (!spec || spec->key != key) throw Error(scene.source + ": render: unknown key '" + key + "'" + closest_key(key));
-        const nlohmann::json v = nlohmann::json::parse(text);
-        OptionValue value;
-        if (v.is_boolean()) value = v.get<bool>();
-        else if (v.is_number_integer() && (v.is_number_unsigned() ? v.get<unsigned long long>() <= 1ull << 62 : true))
-            value = v.get<long long>();
-        else if (v.is_number()) value = v.get<double>();
-        else if (v.is_string()) value = v.get<std::string>();
-        else throw Error(label + ": expected " + std::string(kind_name(spec->kind)) + ", got " + std::string(v.type_name()));
-        set_option(options, *spec, value, label);
-    }
+    for (const auto& [key, text] : scene.render_settings) set_render_option_json(options, key, text, scene.source + ": render");
     return options;
 }
 

@@ -168,17 +168,55 @@ VolumeScene volume_scene(const std::string& path, TransferPreset preset, int wid
     return out;
 }
 
+namespace {
+
+nlohmann::json vec_json(const Vec3& v) { return nlohmann::json::array({v[0], v[1], v[2]}); }
+
+nlohmann::json camera_json(const Camera& c) {
+    return {{"position", vec_json(c.position)}, {"look_at", vec_json(c.look_at)}, {"up", vec_json(c.up)}, {"fov_y_deg", c.fov_y_deg}};
+}
+
+nlohmann::json transfer_function_json(const TransferFunction& tf) {
+    nlohmann::json j = {{"rgb_points", nlohmann::json::array()}, {"opacity_points", nlohmann::json::array()}};
+    for (const auto& p : tf.color_points) j["rgb_points"].insert(j["rgb_points"].end(), {p.x, p.r, p.g, p.b});
+    for (const auto& p : tf.opacity_points) j["opacity_points"].insert(j["opacity_points"].end(), {p.x, p.alpha});
+    return j;
+}
+
+nlohmann::json lights_json(const std::vector<Light>& lights) {
+    nlohmann::json all = nlohmann::json::array();
+    for (const Light& l : lights) {
+        nlohmann::json light = {{"type", light_type_name(l.type)}, {"color", vec_json(l.color)}, {"intensity", l.intensity}};
+        if (l.type != LightType::Directional) {
+            light["position"] = vec_json(l.position);
+            light["attenuation"] = {l.att_constant, l.att_linear, l.att_quadratic};
+        }
+        if (l.type != LightType::Point) light["direction"] = vec_json(l.direction);
+        if (l.type == LightType::Spot) light["cone_angle_deg"] = l.cone_angle_deg, light["cone_softness"] = l.cone_softness;
+        all.push_back(light);
+    }
+    return all;
+}
+
+// A file path of a scene file, made absolute against the file's folder (`holder[key]`, when there).
+void make_path_absolute(nlohmann::json& holder, const char* key, const std::filesystem::path& folder) {
+    if (!holder.is_object() || !holder.contains(key) || !holder[key].is_string()) return;
+    const std::filesystem::path path = holder[key].get<std::string>();
+    if (path.is_relative()) holder[key] = (folder / path).lexically_normal().generic_string();
+}
+
+}  // namespace
+
 std::string scene_file_text(const Scene& scene, const std::string& scene_path, const std::string& render_block_json) {
     using nlohmann::json;
-    const auto vec = [](const Vec3& v) { return json::array({v[0], v[1], v[2]}); };
     json j;
-    j["camera"] = {{"position", vec(scene.camera.position)}, {"look_at", vec(scene.camera.look_at)},
-                   {"up", vec(scene.camera.up)}, {"fov_y_deg", scene.camera.fov_y_deg}};
+    j["camera"] = camera_json(scene.camera);
     j["image"] = {{"width", scene.width}, {"height", scene.height}};
-    j["background"] = vec(scene.background);
+    j["background"] = vec_json(scene.background);
     j["ambient_intensity"] = scene.ambient_intensity;
     if (!scene.meshes.empty()) throw file_error(scene_path, "meshes", "only scenes of volume files can be written");
-    const std::filesystem::path folder = std::filesystem::absolute(scene_path).parent_path();
+    const std::filesystem::path folder =
+        scene_path.empty() ? std::filesystem::path() : std::filesystem::absolute(scene_path).parent_path();
     for (std::size_t i = 0; i < scene.volumes.size(); ++i) {
         const VolumeInstance& vi = scene.volumes[i];
         const std::string field = "volumes[" + std::to_string(i) + "]";
@@ -186,29 +224,42 @@ std::string scene_file_text(const Scene& scene, const std::string& scene_path, c
             !std::filesystem::exists(vi.volume->source))
             throw file_error(scene_path, field, "only volumes read from a file, where the file places them, can be written");
         std::filesystem::path file = std::filesystem::absolute(vi.volume->source).lexically_normal();
-        std::filesystem::path relative = file.lexically_relative(folder);
-        json tf = {{"rgb_points", json::array()}, {"opacity_points", json::array()}};
-        for (const auto& p : vi.transfer_function.color_points) tf["rgb_points"].insert(tf["rgb_points"].end(), {p.x, p.r, p.g, p.b});
-        for (const auto& p : vi.transfer_function.opacity_points) tf["opacity_points"].insert(tf["opacity_points"].end(), {p.x, p.alpha});
+        std::filesystem::path relative = folder.empty() ? std::filesystem::path() : file.lexically_relative(folder);
         const Material& m = vi.material;
         j["volumes"].push_back({{"name", vi.name},
                                 {"file", (relative.empty() ? file : relative).generic_string()},
                                 {"step_voxels", vi.step_voxels},
                                 {"opacity_unit", vi.opacity_unit},
-                                {"transfer_function", tf},
+                                {"transfer_function", transfer_function_json(vi.transfer_function)},
                                 {"material", {{"ambient", m.ambient}, {"diffuse", m.diffuse}, {"specular", m.specular}, {"shininess", m.shininess}}}});
     }
-    for (const Light& l : scene.lights) {
-        json light = {{"type", light_type_name(l.type)},
-                      {"color", vec(l.color)}, {"intensity", l.intensity}};
-        if (l.type != LightType::Directional) {
-            light["position"] = vec(l.position);
-            light["attenuation"] = {l.att_constant, l.att_linear, l.att_quadratic};
-        }
-        if (l.type != LightType::Point) light["direction"] = vec(l.direction);
-        if (l.type == LightType::Spot) light["cone_angle_deg"] = l.cone_angle_deg, light["cone_softness"] = l.cone_softness;
-        j["lights"].push_back(light);
+    j["lights"] = lights_json(scene.lights);
+    j["render"] = json::parse(render_block_json);
+    return j.dump(2);
+}
+
+std::string edited_scene_file_text(const Scene& scene, const std::string& render_block_json) {
+    using nlohmann::json;
+    if (!is_scene_file(scene.source)) return scene_file_text(scene, "", render_block_json);
+    json j = detail::parse_json_file(scene.source);
+    const std::filesystem::path folder = std::filesystem::absolute(scene.source).parent_path();
+    json none = json::array();
+    const auto objects = [&](const char* key, std::size_t count) -> json& {
+        json& list = j.contains(key) ? j[key] : none;
+        if (!list.is_array() || list.size() != count)
+            throw file_error(scene.source, key, "does not hold the scene's " + std::to_string(count) + " objects any more");
+        return list;
+    };
+    json& volumes = objects("volumes", scene.volumes.size());
+    for (std::size_t i = 0; i < scene.volumes.size(); ++i) {
+        make_path_absolute(volumes[i], "file", folder);
+        if (volumes[i].contains("bounds")) make_path_absolute(volumes[i]["bounds"], "mesh", folder);
+        volumes[i]["transfer_function"] = transfer_function_json(scene.volumes[i].transfer_function);
     }
+    for (json& mesh : objects("meshes", scene.meshes.size())) make_path_absolute(mesh, "file", folder);
+    j["camera"] = camera_json(scene.camera);
+    j["image"] = {{"width", scene.width}, {"height", scene.height}};
+    j["lights"] = lights_json(scene.lights);
     j["render"] = json::parse(render_block_json);
     return j.dump(2);
 }
