@@ -10,7 +10,7 @@ cd "$(dirname "$0")/.."
 seconds=${1:-60}
 shift || true
 names=("$@")
-[ ${#names[@]} -gt 0 ] || names=(nifti nifti_gz npy npz den inr vtk raw mesh_ply mesh_obj scene points nrrd metaimage tiff vdb dicom deep_exr cli)
+[ ${#names[@]} -gt 0 ] || names=(nifti nifti_gz npy npz den inr vtk raw mesh_ply mesh_obj scene points nrrd metaimage tiff vdb dicom deep_exr cli view_request)
 # Harnesses that run ITK's readers: ITK 5.2 leaks on its own error paths (NrrdIO's gzip reader,
 # TIFFImageIO's strip buffer: a few hundred bytes per refused file, found in the first seconds), so
 # for them leaks are not findings; crashes, sanitizer reports, hangs and big allocations still are.

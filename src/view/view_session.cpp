@@ -127,9 +127,9 @@ json ViewSession::state() {
     return j;
 }
 
-ViewFrame ViewSession::frame(const json& request) const {
+ViewFrame view_frame(const Scene& scene, const RenderOptions& options, const json& request) {
     object_field(request, "", {"options", "camera", "lights", "opacity_scale"});
-    ViewFrame f{scene_, options_, json::object()};
+    ViewFrame f{scene, options, json::object()};
     if (request.contains("options")) {
         if (!request["options"].is_object()) throw Error("options: expected an object");
         for (const auto& [key, value] : request["options"].items()) set_render_option_json(f.options, key, value.dump(), "options");

@@ -28,6 +28,10 @@ struct ViewFrame {
     nlohmann::json render_block;  // the options that differ from the defaults, as a scene file writes them
 };
 
+// The frame a request asks of `scene` with its render block's `options` (no device needed: the
+// request fuzz harness calls it); throws sombra::Error naming the field.
+ViewFrame view_frame(const Scene& scene, const RenderOptions& options, const nlohmann::json& request);
+
 class ViewSession {
 public:
     // `scene` as loaded (a scene file, or volume_scene's), `options` its render block's.
@@ -36,7 +40,7 @@ public:
     // What the page builds its controls from: the scene's camera, lights, bounds and image size,
     // the techniques, and every render option's declaration with its value (sombra/options.h).
     nlohmann::json state();
-    ViewFrame frame(const nlohmann::json& request) const;
+    ViewFrame frame(const nlohmann::json& request) const { return view_frame(scene_, options_, request); }
 
     struct Rendered {
         std::vector<unsigned char> png;

@@ -210,3 +210,7 @@ def test_a_volume_file_is_viewed_with_its_fitted_scene():
         assert state["lights"][0]["type"] == "directional"
         reply = frame(v)
         assert reply["width"] == 48
+        status, text = v.post("/api/scene", {"options": dict(SMALL)})
+        saved = json.loads(text)
+        assert status == 200 and saved["volumes"][0]["file"] == os.path.join(ROOT, "data", "volumes", "cloud_shape_128.json")
+        assert saved["render"] == {"dsm_resolution": 64} and saved["image"] == {"width": 48, "height": 48}
