@@ -2,6 +2,8 @@
 
 #include <httplib.h>
 
+#include <arpa/inet.h>
+
 #include <chrono>
 #include <condition_variable>
 #include <deque>
@@ -119,6 +121,23 @@ ViewServer::~ViewServer() = default;
 void ViewServer::add_routes() {
     auto& s = *server_;
     s.set_default_headers({{"Cache-Control", "no-store"}, {"X-Content-Type-Options", "nosniff"}});
+    // Against other web pages the user's browser visits: a request must name this server by an IP
+    // address, localhost or the --host name (DNS rebinding — a foreign name resolved to this
+    // machine — is refused), and a POST must be JSON (a cross-origin JSON POST needs a CORS
+    // preflight, which this server never grants).
+    s.set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
+        const std::string host = req.get_header_value("Host");
+        if (!host_names_this_server(host)) {
+            reply_error(res, 403, "Host '" + host + "' does not name this server (an IP address, localhost or " + options_.host +
+                                      ", port " + std::to_string(port_) + ")");
+            return httplib::Server::HandlerResponse::Handled;
+        }
+        if (req.method == "POST" && req.get_header_value("Content-Type").rfind("application/json", 0) != 0) {
+            reply_error(res, 415, "a POST body must be Content-Type: application/json");
+            return httplib::Server::HandlerResponse::Handled;
+        }
+        return httplib::Server::HandlerResponse::Unhandled;
+    });
     s.Get("/", [](const httplib::Request&, httplib::Response& res) {
         // everything the page needs is in it: no request leaves for another host
         res.set_header("Content-Security-Policy",
@@ -176,6 +195,16 @@ void ViewServer::add_routes() {
         reply_error(res, res.status, what);
         return httplib::Server::HandlerResponse::Handled;
     }));
+}
+
+bool ViewServer::host_names_this_server(const std::string& host) const {
+    const std::size_t colon = host.rfind(':');
+    if (colon == std::string::npos || host.substr(colon + 1) != std::to_string(port_)) return false;
+    std::string name = host.substr(0, colon);
+    unsigned char address[16];
+    if (name.size() > 2 && name.front() == '[' && name.back() == ']')
+        return inet_pton(AF_INET6, name.substr(1, name.size() - 2).c_str(), address) == 1;
+    return inet_pton(AF_INET, name.c_str(), address) == 1 || name == "localhost" || name == options_.host;
 }
 
 int ViewServer::bind() {

@@ -42,6 +42,8 @@ public:
 
 private:
     void add_routes();
+    // Whether a request's Host header names this server: an IP address, localhost or --host, with its port.
+    bool host_names_this_server(const std::string& host) const;
     ViewSession& session_;
     ViewServerOptions options_;
     std::unique_ptr<httplib::Server> server_;

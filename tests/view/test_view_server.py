@@ -6,6 +6,8 @@ import os
 import socket
 import subprocess
 import threading
+import urllib.error
+import urllib.request
 
 import pytest
 
@@ -55,6 +57,31 @@ def test_page_is_served_and_nothing_from_the_file_system(viewer):
         status, body = viewer.get(path)
         assert status == 404, path
         assert b"root:" not in body
+
+
+def test_foreign_hosts_and_non_json_posts_are_refused(viewer):
+    # a foreign name resolved to 127.0.0.1 (DNS rebinding) cannot read the page or the API
+    for path in ["/", "/api/state"]:
+        request = urllib.request.Request(viewer.url + path, headers={"Host": "evil.example:" + viewer.url.rsplit(":", 1)[1]})
+        with pytest.raises(urllib.error.HTTPError) as refused:
+            urllib.request.urlopen(request, timeout=60)
+        assert refused.value.code == 403 and b"does not name this server" in refused.value.read()
+    # a text/plain POST (what another origin may send without a CORS preflight) renders nothing
+    request = urllib.request.Request(viewer.url + "/api/frame", data=b"{}", headers={"Content-Type": "text/plain"})
+    with pytest.raises(urllib.error.HTTPError) as refused:
+        urllib.request.urlopen(request, timeout=60)
+    assert refused.value.code == 415
+    port = viewer.url.rsplit(":", 1)[1]
+    for host in ["localhost:" + port, "127.0.0.1:" + port, "10.1.2.3:" + port]:  # any IP address: no name to rebind
+        assert call_with_host(viewer.url + "/api/state", host) == 200
+    with pytest.raises(urllib.error.HTTPError) as refused:
+        call_with_host(viewer.url + "/api/state", "localhost:1")  # another port
+    assert refused.value.code == 403
+
+
+def call_with_host(url, host):
+    with urllib.request.urlopen(urllib.request.Request(url, headers={"Host": host}), timeout=60) as reply:
+        return reply.status
 
 
 def test_a_frame_is_a_png_of_the_asked_size_with_stats(viewer):
@@ -122,7 +149,8 @@ def test_a_client_that_disconnects_mid_frame_leaves_it_running(viewer):
     body = json.dumps({"options": {"width": 200, "height": 200, "dsm_resolution": 64}}).encode()
     for _ in range(3):
         with _connect(viewer) as s:
-            s.sendall(b"POST /api/frame HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\nContent-Length: "
+            s.sendall(b"POST /api/frame HTTP/1.1\r\nHost: " + viewer.url[len("http://"):].encode() +
+                      b"\r\nContent-Type: application/json\r\nContent-Length: "
                       + str(len(body)).encode() + b"\r\n\r\n" + body)
         # closed before the frame is rendered and written
     assert frame(viewer)["width"] == 48
