@@ -45,9 +45,10 @@ static inline lmask segment_in_empty_bricks(__global const uchar* occupancy, __g
 }
 
 /* ∫σ of volume i over each lane's part [t0, t1] of the ray (lanes `inside`; t0, t1 finite in every
- * lane), *density the density at t0: in steps of at most the volume's ray step, each split at the
- * voxel-centre planes it crosses and pre-integrated (traversal.h split_interval_depth, whatever
- * the volume's stiffness: a table is built once per light). *density becomes the density at t1. */
+ * lane), *density the density at t0: in steps of at most the volume's ray step, each integrated
+ * as the other light passes integrate it (traversal.h interval_volume_depth: split at the
+ * voxel-centre planes it crosses when the volume is stiff, else one pre-integrated interval).
+ * *density becomes the density at t1. */
 static inline lfloat part_optical_depth(VOLUME_DATA_PARAM, __global const VolumeGpu* v, __global const float* tf_tables,
                                         const VolumeRay* ray, uint i, lfloat t0, lfloat t1, lfloat* density, lmask inside) {
     lint steps = lclamp(LCONVERT_INT(ceil((t1 - t0) / v->step - 1e-3f)), 1, 4096); /* 1e-3: the same count in double */
@@ -57,7 +58,7 @@ static inline lfloat part_optical_depth(VOLUME_DATA_PARAM, __global const Volume
         if (!lany(more)) break;
         lfloat tb = select(ta, select(t0 + (float)s * h, t1, steps == s), more);
         lfloat db = density_at_point(volume_data, v, ray, i, tb);
-        depth += select((lfloat)(0.0f), split_interval_depth(volume_data, v, tf_tables, ray, i, ta, tb, da, db, more), more);
+        depth += select((lfloat)(0.0f), interval_volume_depth(volume_data, v, tf_tables, ray, i, ta, tb, da, db, more), more);
         ta = tb, da = select(da, db, more);
     }
     *density = da;
@@ -201,6 +202,16 @@ __kernel void ssat_resample(VOLUME_DATA_PARAM, __global const float* tf_tables, 
                            stretch_optical_depth(volume_data, occupancy, volumes, volume_count, tf_tables, &ray, (lfloat)(r0), (lfloat)(r1),
                                                  active, &ends) * w_theta, running);
     }
+}
+
+/* Work-item (a, b): entry (a, b) of the table's face where index `axis` is 0 (the other two axes in
+ * increasing order, each 0 … n), set to 0 — the zero borders S(0, ·, ·), S(·, 0, ·), S(·, ·, 0),
+ * the only entries the resamples do not write. */
+__kernel void sat_clear_face(__global ulong* sat, uint data_offset, int4 n, uint axis) {
+    int a = get_global_id(0), b = get_global_id(1);
+    int3 e = axis == 0 ? (int3)(0, a, b) : axis == 1 ? (int3)(a, 0, b) : (int3)(a, b, 0);
+    if (e.x > n.x || e.y > n.y || e.z > n.z) return;
+    sat[data_offset + sat_entry(n, e.x, e.y, e.z)] = 0;
 }
 
 /* Work-item (a, b): the line along `axis` (0 or 1) through entries a + 1, b + 1 of the other two

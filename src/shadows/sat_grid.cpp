@@ -373,13 +373,25 @@ std::string sat_table_geometry_key(const DeviceSat& sat, std::size_t table) {
            std::to_string(sat_frame_light_axes(sat, table));
 }
 
+// The zero borders S(0, ·, ·), S(·, 0, ·), S(·, ·, 0) of a table of n cells: the resamples write
+// every other entry, so only these ((n+1)² per face, not the whole table) are cleared.
+double clear_table_borders(host::Runtime& runtime, cl::Program& program, const cl::Buffer& data, std::size_t offset, cl_int4 n) {
+    cl::Kernel clear(program, "sat_clear_face");
+    double ms = 0;
+    cl::Event event;
+    for (cl_uint axis = 0; axis < 3; ++axis) {
+        host::KernelArgs{clear}("sat", data)("data_offset", cl_uint(offset))("n", n)("axis", axis).done();
+        const std::size_t a = std::size_t(axis == 0 ? n.s[1] : n.s[0]) + 1, b = std::size_t(axis == 2 ? n.s[1] : n.s[2]) + 1;
+        runtime.queue().enqueueNDRangeKernel(clear, cl::NullRange, cl::NDRange(a, b), cl::NullRange, nullptr, &event);
+        event.wait();
+        ms += host::Runtime::event_ms(event);
+    }
+    return ms;
+}
+
 void build_sat_table(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
                      const packing::DeviceScene& device_scene, DeviceSat& sat, std::size_t table) {
-    std::size_t offset = sat_table_offset(sat, table), entries = sat_table_entries(sat, table);
-    cl::Event event;  // the zero borders S(0, ·, ·), … (the kernels write every other entry)
-    runtime.queue().enqueueFillBuffer(sat.data, cl_ulong(0), offset * sizeof(cl_ulong), entries * sizeof(cl_ulong), nullptr, &event);
-    event.wait();
-    sat.stage_ms["sat_clear"] += host::Runtime::event_ms(event);
+    std::size_t offset = sat_table_offset(sat, table);
     // the resamples march packets of neighbouring columns, as DSM generation does its texels (a
     // table does not depend on the width: it is not in the tables' keys)
     const int lanes = host::generation_lanes(runtime, sat.lanes);
@@ -391,6 +403,7 @@ void build_sat_table(host::Runtime& runtime, const Scene& scene, const packing::
         cl::Kernel resample(program, "sat_resample");
         const SatFrame& f = sat.frames[table];
         cl_int4 n = {{f.dims[0], f.dims[1], f.dims[2], 1}};
+        sat.stage_ms["sat_clear"] += clear_table_borders(runtime, program, sat.data, offset, n);
         host::KernelArgs args(resample);
         bind_volumes(args, packed, device_scene, sat.data);
         args("data_offset", cl_uint(offset))("n", n)("origin", f4(f.origin));
@@ -407,6 +420,7 @@ void build_sat_table(host::Runtime& runtime, const Scene& scene, const packing::
     // Ament Alg. 1: recomputeSSAT, one per point light
     cl::Kernel resample_sphere(program, "ssat_resample");
     const SsatGridGpu& sphere = sat.spheres[sphere_lights(sat).at(table - sat.frames.size())];
+    sat.stage_ms["sat_clear"] += clear_table_borders(runtime, program, sat.data, offset, sphere.dims);
     cl::Buffer grid = host::make_buffer(runtime, CL_MEM_READ_ONLY, sizeof(SsatGridGpu), &sphere, "SSAT grid");
     host::KernelArgs args(resample_sphere);
     bind_volumes(args, packed, device_scene, sat.data);

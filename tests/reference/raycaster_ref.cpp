@@ -301,7 +301,6 @@ double segment_optical_depth(const Scene& scene, const Vec3& a, const Vec3& b) {
     double depth = 0;
     for (const auto& vi : scene.volumes) {
         RefVolume rv = prepare(vi);
-        rv.stiff = true;  // cells always split at voxel planes (cl/sat_build.cl)
         double t0, t1;
         box_span(rv, o, d, 0.0, length, t0, t1);
         if (!(t0 < t1)) continue;

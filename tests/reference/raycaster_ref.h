@@ -32,8 +32,9 @@ std::vector<VisibilitySample> visibility_samples(const Scene& scene, const Vec3&
 double extinction_at_point(const Scene& scene, const Vec3& p);
 
 // Optical depth ∫σ of the segment from a to b (world points) as cl/sat_build.cl integrates a cell:
-// each volume's part inside its box in equal steps of at most its ray step, split at voxel-centre
-// planes and pre-integrated between the values at the piece ends, in double.
+// each volume's part inside its box in equal steps of at most its ray step, each pre-integrated
+// between the values at its ends, split first at the voxel-centre planes when the volume is stiff
+// (as the shadow rays integrate), in double.
 double segment_optical_depth(const Scene& scene, const Vec3& a, const Vec3& b);
 
 // Trilinear density at a continuous voxel position, clamped to the edge (for unit tests).
