@@ -1,6 +1,7 @@
 // sombra — what `sombra info` tells about a volume file or a scene, as JSON (docs/volume-scenes.md).
 #include <nlohmann/json.hpp>
 
+#include "scene/scene_json.h"
 #include "sombra/scene.h"
 
 namespace sombra {
@@ -8,7 +9,6 @@ namespace {
 
 using nlohmann::json;
 
-json vec_json(const Vec3& v) { return json::array({v[0], v[1], v[2]}); }
 json box_json(const Box3& b) { return {{"min", vec_json(b.lo)}, {"max", vec_json(b.hi)}}; }
 
 json percentiles_json(const std::array<double, 7>& values) {
@@ -52,22 +52,14 @@ json scene_json(const std::string& path, const Scene& scene) {
     for (const MeshInstance& mi : scene.meshes)
         objects.push_back({{"type", "mesh"}, {"name", mi.name}, {"file", mi.mesh ? mi.mesh->source : ""},
                            {"triangles", mi.mesh ? mi.mesh->triangles.size() : 0}, {"world_bounds", box_json(world_bounds(mi))}});
-    json lights = json::array();
-    for (const Light& l : scene.lights) {
-        json light = {{"type", light_type_name(l.type)}, {"color", vec_json(l.color)}, {"intensity", l.intensity}};
-        if (l.type != LightType::Directional) light["position"] = vec_json(l.position);
-        if (l.type != LightType::Point) light["direction"] = vec_json(l.direction);
-        if (l.type == LightType::Spot) light["cone_angle_deg"] = l.cone_angle_deg;
-        lights.push_back(light);
-    }
-    const Camera& c = scene.camera;
+    json camera = camera_json(scene.camera);
+    camera["fitted"] = scene.camera_fitted;
     return {{"file", path},
             {"kind", "scene"},
             {"objects", objects},
             {"world_bounds", box_json(world_bounds(scene))},
-            {"lights", lights},
-            {"camera", {{"position", vec_json(c.position)}, {"look_at", vec_json(c.look_at)}, {"up", vec_json(c.up)},
-                        {"fov_y_deg", c.fov_y_deg}, {"fitted", scene.camera_fitted}}},
+            {"lights", lights_json(scene.lights)},
+            {"camera", camera},
             {"image", {{"width", scene.width}, {"height", scene.height}}}};
 }
 

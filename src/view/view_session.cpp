@@ -4,6 +4,7 @@
 #include <cmath>
 #include <variant>
 
+#include "scene/scene_json.h"
 #include "scene/suggest.h"
 #include "sombra/error.h"
 #include "sombra/options.h"
@@ -13,7 +14,6 @@ namespace {
 
 using nlohmann::json;
 
-json vec_json(const Vec3& v) { return json::array({v[0], v[1], v[2]}); }
 
 // A request field that must be an object; its keys must be among `known`.
 const json& object_field(const json& j, const std::string& field, const std::vector<std::string>& known) {
@@ -89,17 +89,10 @@ json ViewSession::state() {
     j["source"] = scene_.source;
     j["device"] = context_.device().name;
     j["image"] = {{"width", scene_.width}, {"height", scene_.height}};
-    j["camera"] = {{"position", vec_json(scene_.camera.position)}, {"look_at", vec_json(scene_.camera.look_at)},
-                   {"up", vec_json(scene_.camera.up)}, {"fov_y_deg", scene_.camera.fov_y_deg}};
+    j["camera"] = camera_json(scene_.camera);
     const Box3 box = world_bounds(scene_);
     j["bounds"] = {{"lo", vec_json(box.lo)}, {"hi", vec_json(box.hi)}};
-    j["lights"] = json::array();
-    for (const Light& l : scene_.lights) {
-        json light = {{"type", light_type_name(l.type)}, {"color", vec_json(l.color)}, {"intensity", l.intensity}};
-        if (l.type != LightType::Directional) light["position"] = vec_json(l.position);
-        if (l.type != LightType::Point) light["direction"] = vec_json(l.direction);
-        j["lights"].push_back(light);
-    }
+    j["lights"] = lights_json(scene_.lights);
     j["techniques"] = json::array();
     for (const std::string& name : shadow_technique_names())
         j["techniques"].push_back({{"name", name}, {"summary", shadow_technique_summary(parse_shadow_technique(name))}});
