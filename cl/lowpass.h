@@ -249,8 +249,16 @@ static inline float ssat_filtered_depth(__global const ulong* sat, __global cons
     sat_real z = dot(d, convert_sat_real3(g->axes[2].xyz));
     sat_real r = sqrt(x * x + y * y + z * z);
     if (!(r > SR(1e-9))) return 0.0f; /* at the light */
+    /* a table the pyramid cannot reach adds 0, before any trigonometry (a light may have one table
+     * per group of volumes): p no farther than the table's first radius, or the pyramid (half
+     * angle β, tan β = √2·U/r, the patch's corners) outside the table's cone (α: cos_reach) */
+    if (r <= (sat_real)g->start.z) return 0.0f;
+    sat_real u = g->half_width, slant = sqrt(r * r + SR(2) * u * u);
+    sat_real cos_beta = r / slant, sin_beta = sqrt(SR(2)) * u / slant;
+    sat_real cos_a = g->cos_reach, sin_a = g->sin_reach;
+    if (sin_a * cos_beta + cos_a * sin_beta > SR(0) && x < r * (cos_a * cos_beta - sin_a * sin_beta)) return 0.0f; /* α + β < π */
     sat_real theta = acos(clamp(z / r, SR(-1), SR(1))), phi = atan2(y, x);
-    sat_real u = g->half_width, h_theta = fmin(u / r, SAT_PI), h_phi = u / (r * fmax(sin(theta), SR(1e-9)));
+    sat_real h_theta = fmin(u / r, SAT_PI), h_phi = u / (r * fmax(sin(theta), SR(1e-9)));
     bool all_phi = h_phi >= SAT_PI;
     sat_real3 start = convert_sat_real3(g->start.xyz), cell = convert_sat_real3(g->cell.xyz);
     sat_real3 lo = ((sat_real3)(phi - h_phi, theta - h_theta, start.z) - start) / cell;

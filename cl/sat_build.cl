@@ -192,6 +192,7 @@ __kernel void ssat_resample(VOLUME_DATA_PARAM, __global const float* tf_tables, 
     VolumeRay ray;
     make_volume_ray(&ray, volumes, volume_count, l3_splat(grid->light.xyz), dir, (lfloat)(grid->start.z),
                     (lfloat)(grid->start.z + n.z * grid->cell.z));
+    volume_ray_only(&ray, volume_count, grid->volume_mask); /* the table's group of volumes */
     PartEnds ends;
     no_part_ends(&ends);
     ulong running[SOMBRA_LANES];

@@ -251,7 +251,10 @@ typedef struct {
  * polar angle θ and radius r around the light, r along grid axis 2. A cell holds σ·Δr·w_θ with
  * w_θ = (cos θ_j − cos θ_j+1)/Δθ (its solid angle over Δφ·Δθ), so a box sum × Δφ·Δθ / (the box's
  * solid angle) is the solid-angle average of the optical depth of the rays in the spherical
- * pyramid (Eq. 22–24). Same fixed point and table layout as SatGridGpu. */
+ * pyramid (Eq. 22–24). Same fixed point and table layout as SatGridGpu. A light's volumes may be
+ * split over several tables, one per group of volumes (each over the angles its group subtends):
+ * the grid array holds light m's first table at index m and the others after every light's first,
+ * chained by `next`; a lookup sums the chain's optical depths (σ adds over volumes). */
 typedef struct {
     sb_float4 axes[3];    /* world directions of the spherical frame: x (φ = 0, θ = π/2), y, z (θ = 0) */
     sb_float4 light;      /* light position (xyz) */
@@ -262,6 +265,11 @@ typedef struct {
     sb_uint wrap_phi;     /* 1: the grid spans all φ (light inside the bounds), boxes wrap at ±π */
     float half_width;     /* U = V: half the filter width in world units (Eq. 16) */
     float tau_per_unit;
+    sb_uint volume_mask;  /* the volumes whose σ this table holds (bit i: volume i) */
+    sb_uint next;         /* the light's next SSAT in the grid array (the tables add up); 0: the last */
+    /* cos, sin of the largest angle between axes[0] and a direction from the light into the table
+     * (−1, 0 for the whole sphere): a lookup whose pyramid stays outside that cone adds 0 */
+    float cos_reach, sin_reach;
 } SsatGridGpu;
 
 /* The shadow cache (Ament Alg. 1; the EG 2009 course's 3D texture caching): for one volume and one

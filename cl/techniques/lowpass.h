@@ -21,9 +21,14 @@ static inline lfloat shadow_transmittance(VOLUME_DATA_PARAM, const SceneRefs* sc
         depth = LFROM_LANES(CSAT_LANE);
 #undef CSAT_LANE
     } else if (sphere->dims.w != 0) {
+        depth = (lfloat)(0.0f);
+        for (;;) { /* the light's tables, one per group of volumes: their depths add */
 #define SSAT_LANE(c) ssat_filtered_depth(s->tables.sat, sphere, SAT_LANE_POINT(p, c))
-        depth = LFROM_LANES(SSAT_LANE);
+            depth += LFROM_LANES(SSAT_LANE);
 #undef SSAT_LANE
+            if (sphere->next == 0) break;
+            sphere = &s->tables.ssat_grids[sphere->next];
+        }
     } else {
         return shadow_ray(volume_data, scene, &s->no_geometry, &scene->lights[m], p, lanes);
     }

@@ -1,5 +1,6 @@
 // sombra — rendering a scene into an image, with per-stage statistics.
 #pragma once
+#include <array>
 #include <cstddef>
 #include <map>
 #include <string>
@@ -116,8 +117,8 @@ struct SatOptions {
     // "box" (Ament Eq. 11–13) or "gauss": a Gaussian with σ = W/4 over the W × W patch, as 5 × 5
     // sub-boxes of the same tables (Ament §4.3, Eq. 25).
     std::string filter_kernel = "box";
-    // The tables hold at most max_entries 64-bit entries (cells coarsen beyond that; the default
-    // keeps them ≤ 128 MiB).
+    // Each table, and a point light's tables together, hold at most max_entries 64-bit entries
+    // (cells coarsen beyond that; the default keeps them ≤ 128 MiB).
     std::size_t max_entries = std::size_t(1) << 24;
     float cone_angle_deg = 10.f;  // cone: half angle of the cones
     // Arithmetic of the lookups' positions and weights (cl/lowpass.h): "auto" (double where the
@@ -220,6 +221,18 @@ struct RenderStats {
     // low-pass shadows (ShadowTechnique::Lowpass): summed-area tables and their memory
     int sat_tables = 0;
     unsigned long long sat_bytes = 0;
+    // each table: CSAT, SSAT or the baselines' volume-aligned SAT, the lights that read it, the
+    // volumes it holds, its cells and memory, and its build time this call (0 when kept)
+    struct SatTable {
+        std::string kind;
+        std::vector<int> lights;
+        std::vector<std::string> volumes;
+        std::array<int, 3> cells{0, 0, 0};
+        unsigned long long bytes = 0;
+        double build_ms = 0;
+        bool reused = false;
+    };
+    std::vector<SatTable> sat_table_list;
     // the shadow cache (ShadowCacheMode): whether this frame read it, its size, the lattice points
     // it had to fill (near possibly visible bricks), and what auto measured when it had to fill:
     // its small runs' kernel time and the frame's estimated fill, cached camera pass and per-sample

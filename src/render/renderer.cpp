@@ -258,8 +258,13 @@ std::string RenderStats::to_json() const {
             j["dsm"]["lights"] = lights;
         }
     }
-    if (sat_tables > 0)
+    if (sat_tables > 0) {
         j["sat"] = {{"tables", sat_tables}, {"bytes", sat_bytes}, {"tables_built", sat_tables_built}, {"tables_reused", sat_tables_reused}};
+        j["sat"]["per_table"] = nlohmann::json::array();
+        for (const SatTable& t : sat_table_list)
+            j["sat"]["per_table"].push_back({{"kind", t.kind}, {"lights", t.lights}, {"volumes", t.volumes}, {"cells", t.cells},
+                                             {"bytes", t.bytes}, {"build_ms", t.build_ms}, {"reused", t.reused}});
+    }
     if (shadow_cache_points_to_fill > 0 || shadow_cache_used || shadow_cache_surface_points > 0) {
         j["shadow_cache"] = {{"used", shadow_cache_used},
                              {"bytes", shadow_cache_bytes},

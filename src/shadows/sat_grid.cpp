@@ -71,8 +71,9 @@ std::vector<D3> scene_corners(const packing::PackedScene& packed, double& voxel_
     return corners;
 }
 
-std::vector<D3> occupied_corners(const packing::PackedScene& packed, double& voxel_size) {
-    std::vector<D3> whole = scene_corners(packed, voxel_size), corners;
+std::vector<std::vector<D3>> occupied_corners_per_volume(const packing::PackedScene& packed, double& voxel_size) {
+    scene_corners(packed, voxel_size);
+    std::vector<std::vector<D3>> out(packed.volumes.size());
     for (std::size_t v = 0; v < packed.volumes.size(); ++v) {
         const VolumeGpu& g = packed.volumes[v];
         int lo[3] = {INT_MAX, INT_MAX, INT_MAX}, hi[3] = {-1, -1, -1};  // occupied brick range
@@ -92,9 +93,15 @@ std::vector<D3> occupied_corners(const packing::PackedScene& packed, double& vox
             q_lo[a] = SOMBRA_BRICK_SIZE * lo[a] - 0.5;
             q_hi[a] = std::min(SOMBRA_BRICK_SIZE * hi[a] + SOMBRA_BRICK_SIZE, g.dims.s[a] - 1) + 0.5;
         }
-        add_box_corners(packed, v, q_lo, q_hi, corners);
+        add_box_corners(packed, v, q_lo, q_hi, out[v]);
     }
-    return corners.empty() ? whole : corners;
+    return out;
+}
+
+std::vector<D3> occupied_corners(const packing::PackedScene& packed, double& voxel_size) {
+    std::vector<D3> corners;
+    for (const std::vector<D3>& c : occupied_corners_per_volume(packed, voxel_size)) corners.insert(corners.end(), c.begin(), c.end());
+    return corners.empty() ? scene_corners(packed, voxel_size) : corners;
 }
 
 D3 SatFrame::cell_centre(int i, int j, int k) const {
@@ -188,10 +195,20 @@ std::uint64_t sat_fixed_point(double tau) {
     return std::uint64_t(std::nearbyint(float(float(clamped) * SOMBRA_SAT_UNITS_PER_TAU)));
 }
 
-SsatGridGpu make_ssat_grid(const packing::PackedScene& packed, const D3& light, std::size_t max_entries) {
-    double voxel = 0;
-    std::vector<D3> corners = occupied_corners(packed, voxel);
-    if (corners.empty() || !(voxel > 0)) throw Error("--shadows lowpass: the scene has no volume to build a summed-area table of");
+namespace {
+
+// What a light sees of a set of boxes (8 corners each) in spherical coordinates about it (Ament
+// §4.2.3): the frame (x towards the boxes' centre), the (φ, θ) rectangle and the radial range, or
+// the whole sphere when the light lies inside the boxes' bounds or sees them over more than 80°.
+struct SphereSpan {
+    D3 x, y, z;
+    double phi_lo = 0, phi_hi = 0, theta_lo = 0, theta_hi = 0, r_min = 0, r_max = 0;
+    double reach = M_PI;  // the largest angle from x to a direction into the boxes (with the margin)
+    double r_ref = 0;  // the distance at which an angular cell spans one voxel (k = 1)
+    bool whole = false;
+};
+
+SphereSpan sphere_span(const std::vector<D3>& corners, const D3& light) {
     D3 lo{INFINITY, INFINITY, INFINITY}, hi{-INFINITY, -INFINITY, -INFINITY};
     for (const D3& c : corners)
         for (std::size_t a = 0; a < 3; ++a) lo[a] = std::min(lo[a], c[a]), hi[a] = std::max(hi[a], c[a]);
@@ -200,19 +217,20 @@ SsatGridGpu make_ssat_grid(const packing::PackedScene& packed, const D3& light, 
         centre[a] = 0.5 * (lo[a] + hi[a]);
         outside[a] = std::max({lo[a] - light[a], light[a] - hi[a], 0.0});
     }
-    double r_min = std::sqrt(dot(outside, outside)), r_max = 0;
+    SphereSpan s;
+    s.r_min = std::sqrt(dot(outside, outside));
     for (const D3& c : corners) {
         D3 d = {c[0] - light[0], c[1] - light[1], c[2] - light[2]};
-        r_max = std::max(r_max, std::sqrt(dot(d, d)));
+        s.r_max = std::max(s.r_max, std::sqrt(dot(d, d)));
     }
     D3 to_centre = {centre[0] - light[0], centre[1] - light[1], centre[2] - light[2]};
     double centre_distance = std::sqrt(dot(to_centre, to_centre));
-    D3 x = centre_distance > 1e-9 * r_max ? normalized(to_centre) : D3{1, 0, 0};
-    D3 z = perpendicular(x), y = cross(z, x);
-    // angles the scene subtends: points along every box edge (θ's extremes may lie inside an edge)
-    bool whole = r_min <= 0;
-    double phi_lo = INFINITY, phi_hi = -INFINITY, theta_lo = INFINITY, theta_hi = -INFINITY;
-    for (std::size_t box = 0; !whole && box < corners.size(); box += 8)
+    s.x = centre_distance > 1e-9 * s.r_max ? normalized(to_centre) : D3{1, 0, 0};
+    s.z = perpendicular(s.x), s.y = cross(s.z, s.x);
+    // angles the boxes subtend: points along every box edge (θ's extremes may lie inside an edge)
+    s.whole = s.r_min <= 0;
+    double phi_lo = INFINITY, phi_hi = -INFINITY, theta_lo = INFINITY, theta_hi = -INFINITY, least_cos = 1;
+    for (std::size_t box = 0; !s.whole && box < corners.size(); box += 8)
         for (int c0 = 0; c0 < 8; ++c0)
             for (int axis = 0; axis < 3; ++axis) {
                 int c1 = c0 | (1 << axis);
@@ -221,35 +239,112 @@ SsatGridGpu make_ssat_grid(const packing::PackedScene& packed, const D3& light, 
                     D3 d;
                     for (std::size_t r = 0; r < 3; ++r)
                         d[r] = corners[box + std::size_t(c0)][r] + (corners[box + std::size_t(c1)][r] - corners[box + std::size_t(c0)][r]) * t / 32.0 - light[r];
-                    double len = std::sqrt(dot(d, d)), px = dot(d, x) / len;
-                    if (px < std::cos(80.0 * M_PI / 180.0)) whole = true;  // a cone wider than 80°
-                    double phi = std::atan2(dot(d, y), dot(d, x)), theta = std::acos(std::clamp(dot(d, z) / len, -1.0, 1.0));
+                    double len = std::sqrt(dot(d, d)), px = dot(d, s.x) / len;
+                    if (px < std::cos(80.0 * M_PI / 180.0)) s.whole = true;  // a cone wider than 80°
+                    least_cos = std::min(least_cos, px);
+                    double phi = std::atan2(dot(d, s.y), dot(d, s.x)), theta = std::acos(std::clamp(dot(d, s.z) / len, -1.0, 1.0));
                     phi_lo = std::min(phi_lo, phi), phi_hi = std::max(phi_hi, phi);
                     theta_lo = std::min(theta_lo, theta), theta_hi = std::max(theta_hi, theta);
                 }
             }
     double margin = 0.02 * std::max(phi_hi - phi_lo, theta_hi - theta_lo);
-    if (whole) phi_lo = -M_PI, phi_hi = M_PI, theta_lo = 0, theta_hi = M_PI, r_min = 0;
-    else phi_lo -= margin, phi_hi += margin, theta_lo = std::max(theta_lo - margin, 0.0), theta_hi = std::min(theta_hi + margin, M_PI);
-    double r_ref = whole ? 0.5 * r_max : centre_distance;
+    if (s.whole) s.phi_lo = -M_PI, s.phi_hi = M_PI, s.theta_lo = 0, s.theta_hi = M_PI, s.r_min = 0;
+    else s.phi_lo = phi_lo - margin, s.phi_hi = phi_hi + margin, s.theta_lo = std::max(theta_lo - margin, 0.0),
+         s.theta_hi = std::min(theta_hi + margin, M_PI);
+    s.r_ref = s.whole ? 0.5 * s.r_max : centre_distance;
+    // the silhouette of a box seen from outside is made of its edges: no direction into it lies
+    // farther from x than the farthest edge point, up to the sampling (covered by the margin) and
+    // the float cosine (1e-3 rad at least)
+    if (!s.whole) s.reach = std::min(std::acos(std::clamp(least_cos, -1.0, 1.0)) + std::max(2 * margin, 1e-3), M_PI);
+    return s;
+}
+
+// Cells along φ, θ, r: k voxels along r and at the reference distance across.
+std::array<int, 3> sphere_cells(const SphereSpan& s, double voxel, double k) {
+    double across = voxel * k / s.r_ref;
+    return {std::max(1, int(std::ceil((s.phi_hi - s.phi_lo) / across))), std::max(1, int(std::ceil((s.theta_hi - s.theta_lo) / across))),
+            std::max(1, int(std::ceil((s.r_max - s.r_min) / (voxel * k))))};
+}
+
+std::size_t cells_entries(const std::array<int, 3>& dims) {
+    return std::size_t(dims[0] + 1) * std::size_t(dims[1] + 1) * std::size_t(dims[2] + 1);
+}
+
+SsatGridGpu sphere_grid(const SphereSpan& s, const std::array<int, 3>& dims, const D3& light, cl_uint volume_mask) {
     SsatGridGpu g{};
-    int dims[3];
-    for (double k = 1;; k *= 1.05) {
-        double across = voxel * k / r_ref;
-        dims[0] = std::max(1, int(std::ceil((phi_hi - phi_lo) / across)));
-        dims[1] = std::max(1, int(std::ceil((theta_hi - theta_lo) / across)));
-        dims[2] = std::max(1, int(std::ceil((r_max - r_min) / (voxel * k))));
-        std::size_t entries = std::size_t(dims[0] + 1) * std::size_t(dims[1] + 1) * std::size_t(dims[2] + 1);
-        if (entries <= std::min<std::size_t>(max_entries, SOMBRA_SAT_MAX_ENTRIES)) break;
-    }
-    g.axes[0] = f4(x), g.axes[1] = f4(y), g.axes[2] = f4(z);
+    g.axes[0] = f4(s.x), g.axes[1] = f4(s.y), g.axes[2] = f4(s.z);
     g.light = f4(light);
-    g.start = f4({phi_lo, theta_lo, r_min});
-    g.cell = f4({(phi_hi - phi_lo) / dims[0], (theta_hi - theta_lo) / dims[1], (r_max - r_min) / dims[2]});
+    g.start = f4({s.phi_lo, s.theta_lo, s.r_min});
+    g.cell = f4({(s.phi_hi - s.phi_lo) / dims[0], (s.theta_hi - s.theta_lo) / dims[1], (s.r_max - s.r_min) / dims[2]});
     g.dims = {{dims[0], dims[1], dims[2], 1}};
-    g.wrap_phi = whole ? 1 : 0;
+    g.wrap_phi = s.whole ? 1 : 0;
     g.tau_per_unit = 1.f / SOMBRA_SAT_UNITS_PER_TAU;
+    g.volume_mask = volume_mask;
+    g.cos_reach = s.reach >= M_PI ? -1.f : float(std::cos(s.reach)), g.sin_reach = s.reach >= M_PI ? 0.f : float(std::sin(s.reach));
     return g;
+}
+
+// > 0: the distance between the axis-aligned bounds of two sets of points along the axis where
+// they are farthest apart; ≤ 0: the bounds overlap.
+double box_gap(const std::vector<D3>& a, const std::vector<D3>& b) {
+    double gap = -INFINITY;
+    for (std::size_t axis = 0; axis < 3; ++axis) {
+        double a_lo = INFINITY, a_hi = -INFINITY, b_lo = INFINITY, b_hi = -INFINITY;
+        for (const D3& p : a) a_lo = std::min(a_lo, p[axis]), a_hi = std::max(a_hi, p[axis]);
+        for (const D3& p : b) b_lo = std::min(b_lo, p[axis]), b_hi = std::max(b_hi, p[axis]);
+        gap = std::max({gap, b_lo - a_hi, a_lo - b_hi});
+    }
+    return gap;
+}
+
+}  // namespace
+
+std::vector<SsatGridGpu> plan_ssat_tables(const packing::PackedScene& packed, const D3& light, std::size_t max_entries) {
+    double voxel = 0;
+    std::vector<std::vector<D3>> per_volume = occupied_corners_per_volume(packed, voxel);
+    if (packed.volumes.empty() || !(voxel > 0)) throw Error("--shadows lowpass: the scene has no volume to build a summed-area table of");
+    // groups of volumes whose occupied boxes overlap (their union boxes, until none do); volumes
+    // without an occupied brick are left out, and when no volume has one, one table of all the
+    // volumes' whole boxes (of zeros)
+    struct Group {
+        std::vector<D3> corners;
+        cl_uint mask = 0;
+    };
+    std::vector<Group> groups;
+    for (std::size_t v = 0; v < per_volume.size(); ++v)
+        if (!per_volume[v].empty()) groups.push_back({per_volume[v], cl_uint(1) << v});
+    if (groups.empty()) {
+        Group all{scene_corners(packed, voxel), 0};
+        for (std::size_t v = 0; v < packed.volumes.size(); ++v) all.mask |= cl_uint(1) << v;
+        groups.push_back(all);
+    }
+    for (bool merged = true; merged;) {
+        merged = false;
+        for (std::size_t a = 0; a < groups.size() && !merged; ++a)
+            for (std::size_t b = a + 1; b < groups.size() && !merged; ++b)
+                if (box_gap(groups[a].corners, groups[b].corners) <= 0) {
+                    groups[a].corners.insert(groups[a].corners.end(), groups[b].corners.begin(), groups[b].corners.end());
+                    groups[a].mask |= groups[b].mask;
+                    groups.erase(groups.begin() + std::ptrdiff_t(b));
+                    merged = true;
+                }
+    }
+    // one cell size factor k for every table of the light: the smallest (in 5 % steps) at which
+    // they hold at most max_entries together and each at most SOMBRA_SAT_MAX_ENTRIES
+    std::vector<SphereSpan> spans;
+    for (const Group& g : groups) spans.push_back(sphere_span(g.corners, light));
+    double k = 1;
+    for (;; k *= 1.05) {
+        std::size_t total = 0, largest = 0;
+        for (const SphereSpan& s : spans) {
+            std::size_t e = cells_entries(sphere_cells(s, voxel, k));
+            total += e, largest = std::max(largest, e);
+        }
+        if (total <= max_entries && largest <= SOMBRA_SAT_MAX_ENTRIES) break;
+    }
+    std::vector<SsatGridGpu> tables;
+    for (std::size_t i = 0; i < groups.size(); ++i) tables.push_back(sphere_grid(spans[i], sphere_cells(spans[i], voxel, k), light, groups[i].mask));
+    return tables;
 }
 
 namespace {
@@ -306,7 +401,8 @@ std::string bits(const T& value) {
     return s;
 }
 
-// The lights with an SSAT, in light order: table frames.size() + i is the SSAT of light sphere_lights[i].
+// The SSATs, in the grid array's order (every light's first, in light order, then the rest): table
+// frames.size() + i is sat.spheres[sphere_lights[i]].
 std::vector<std::size_t> sphere_lights(const DeviceSat& sat) {
     std::vector<std::size_t> lights;
     for (std::size_t l = 0; l < sat.spheres.size(); ++l)
@@ -338,11 +434,33 @@ cl_uint sat_frame_light_axes(const DeviceSat& sat, std::size_t frame) {
     return axes;
 }
 
+std::vector<std::size_t> light_sat_tables(const DeviceSat& sat, std::size_t light) {
+    if (light < sat.light_frame.size() && sat.light_frame[light] >= 0) return {std::size_t(sat.light_frame[light])};
+    std::vector<std::size_t> tables, order = sphere_lights(sat);
+    if (light >= sat.spheres.size() || sat.spheres[light].dims.s[3] == 0) return tables;
+    for (std::size_t s = light;; s = sat.spheres[s].next) {
+        tables.push_back(sat.frames.size() + std::size_t(std::find(order.begin(), order.end(), s) - order.begin()));
+        if (sat.spheres[s].next == 0) break;
+    }
+    return tables;
+}
+
 std::size_t sat_table_count(const DeviceSat& sat) { return sat.frames.size() + sphere_lights(sat).size(); }
 
 std::size_t sat_table_entries(const DeviceSat& sat, std::size_t table) {
     if (table < sat.frames.size()) return sat.frames[table].entries();
     return ssat_entries(sat.spheres[sphere_lights(sat).at(table - sat.frames.size())]);
+}
+
+std::array<int, 3> sat_table_cells(const DeviceSat& sat, std::size_t table) {
+    if (table < sat.frames.size()) return sat.frames[table].dims;
+    const SsatGridGpu& g = sat.spheres[sphere_lights(sat).at(table - sat.frames.size())];
+    return {g.dims.s[0], g.dims.s[1], g.dims.s[2]};
+}
+
+cl_uint sat_table_volumes(const DeviceSat& sat, std::size_t table, std::size_t volume_count) {
+    if (table >= sat.frames.size()) return sat.spheres[sphere_lights(sat).at(table - sat.frames.size())].volume_mask;
+    return volume_count >= 32 ? ~cl_uint(0) : (cl_uint(1) << volume_count) - 1;
 }
 
 std::size_t sat_table_offset(const DeviceSat& sat, std::size_t table) {
@@ -365,7 +483,7 @@ void place_sat_table(DeviceSat& sat, std::size_t table, std::size_t offset) {
 std::string sat_table_geometry_key(const DeviceSat& sat, std::size_t table) {
     if (table >= sat.frames.size()) {
         SsatGridGpu g = sat.spheres[sphere_lights(sat).at(table - sat.frames.size())];
-        g.data_offset = 0, g.half_width = 0;  // where it is stored, and the filter: not its cells
+        g.data_offset = 0, g.half_width = 0, g.next = 0;  // where it is stored, the filter, the chain: not its cells
         return "SSAT " + bits(g);
     }
     const SatFrame& f = sat.frames[table];
@@ -389,7 +507,26 @@ double clear_table_borders(host::Runtime& runtime, cl::Program& program, const c
     return ms;
 }
 
+namespace {
+double total_ms(const DeviceSat& sat) {
+    double ms = 0;
+    for (const auto& stage : sat.stage_ms) ms += stage.second;
+    return ms;
+}
+void build_one_table(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
+                     const packing::DeviceScene& device_scene, DeviceSat& sat, std::size_t table);
+}  // namespace
+
 void build_sat_table(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
+                     const packing::DeviceScene& device_scene, DeviceSat& sat, std::size_t table) {
+    const double before = total_ms(sat);
+    build_one_table(runtime, scene, packed, device_scene, sat, table);
+    sat.table_build_ms.resize(sat_table_count(sat), 0.0);
+    sat.table_build_ms[table] = total_ms(sat) - before;
+}
+
+namespace {
+void build_one_table(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
                      const packing::DeviceScene& device_scene, DeviceSat& sat, std::size_t table) {
     std::size_t offset = sat_table_offset(sat, table);
     // the resamples march packets of neighbouring columns, as DSM generation does its texels (a
@@ -428,10 +565,12 @@ void build_sat_table(host::Runtime& runtime, const Scene& scene, const packing::
     sat.stage_ms["ssat_resample"] += host::run_packets(runtime, resample_sphere, sphere.dims.s[0], sphere.dims.s[1], lanes);
     sat.stage_ms["sat_scan"] += scan_table(runtime, scan, sat.data, offset, sphere.dims);
 }
+}  // namespace
 
 DeviceSat plan_light_sats(const packing::PackedScene& packed, std::size_t max_entries) {
     DeviceSat sat;
     scene_corners(packed, sat.voxel_size);
+    std::vector<std::vector<SsatGridGpu>> extra;  // per light: its SSATs after the first
     for (std::size_t l = 0; l < packed.lights.size(); ++l) {
         const LightGpu& light = packed.lights[l];
         SatGridGpu g{};
@@ -451,11 +590,23 @@ DeviceSat plan_light_sats(const packing::PackedScene& packed, std::size_t max_en
             }
             g = sat_grid(sat.frames[std::size_t(frame)], 0, axis, positive);
         } else {
-            sphere = make_ssat_grid(packed, {light.position.s[0], light.position.s[1], light.position.s[2]}, max_entries);
+            extra.push_back(plan_ssat_tables(packed, {light.position.s[0], light.position.s[1], light.position.s[2]}, max_entries));
+            sphere = extra.back().front();
+            extra.back().erase(extra.back().begin());
         }
         sat.grids.push_back(g);
         sat.spheres.push_back(sphere);
         sat.light_frame.push_back(frame);
+        if (light.type == SOMBRA_LIGHT_DIRECTIONAL) extra.emplace_back();
+    }
+    // each light's further SSATs after every light's first, chained from it
+    for (std::size_t l = 0; l < extra.size(); ++l) {
+        cl_uint* link = &sat.spheres[l].next;
+        for (const SsatGridGpu& g : extra[l]) {
+            *link = cl_uint(sat.spheres.size());
+            sat.spheres.push_back(g);
+            link = &sat.spheres.back().next;
+        }
     }
     return sat;
 }

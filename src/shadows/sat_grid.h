@@ -24,6 +24,8 @@ std::vector<D3> scene_corners(const packing::PackedScene& packed, double& voxel_
 // the occupied bricks reads only voxels of unoccupied ones). A volume with no occupied brick has
 // no corners; when no volume has one, the whole boxes (a table of zeros, as before).
 std::vector<D3> occupied_corners(const packing::PackedScene& packed, double& voxel_size);
+// The same per volume (in volume order; empty for a volume with no occupied brick).
+std::vector<std::vector<D3>> occupied_corners_per_volume(const packing::PackedScene& packed, double& voxel_size);
 
 // A grid aligned with a light: axes[2] points towards the (first) light, axes[0] × axes[1] =
 // axes[2] (Ament Eq. 9). Cell (i, j, k) covers origin + [i, i+1]·h·axes[0] + … ; the grid is
@@ -54,12 +56,14 @@ SatFrame make_volume_sat_frame(const packing::PackedScene& packed, std::size_t m
 SatFrame make_sat_frame(const packing::PackedScene& packed, const std::array<D3, 3>& axes, std::size_t max_entries);
 SatFrame make_sat_frame(const std::vector<D3>& corners, double voxel_size, const std::array<D3, 3>& axes, std::size_t max_entries);
 
-// A point (or spot) light's spherical grid (SSAT, Ament §4.2.3): φ, θ around a frame whose x axis
-// points from the light to the scene, r from the light. A light outside the scene's bounds gets
-// the angles the scene subtends; a light inside them (or seeing it over more than 80°) the whole
-// sphere, wrapping at φ = ±π. Cells of one voxel along r and of one voxel at the scene's distance
-// across, coarsened until the table has at most `max_entries` entries. half_width is left 0.
-SsatGridGpu make_ssat_grid(const packing::PackedScene& packed, const D3& light_position, std::size_t max_entries);
+// A point (or spot) light's spherical grids (SSAT, Ament §4.2.3), one per group of volumes whose
+// occupied boxes overlap (volume_mask; their optical depths add up at lookup): φ, θ around a frame
+// whose x axis points from the light to the group, r from the light. A light outside the group's
+// bounds gets the angles the group subtends; a light inside them (or seeing it over more than 80°)
+// the whole sphere, wrapping at φ = ±π. Cells of one voxel along r and of one voxel at the group's
+// distance across, all coarsened by one factor until the tables have at most `max_entries` entries
+// together. half_width and next are left 0.
+std::vector<SsatGridGpu> plan_ssat_tables(const packing::PackedScene& packed, const D3& light_position, std::size_t max_entries);
 inline std::size_t ssat_entries(const SsatGridGpu& g) {
     return std::size_t(g.dims.s[0] + 1) * std::size_t(g.dims.s[1] + 1) * std::size_t(g.dims.s[2] + 1);
 }
@@ -71,38 +75,44 @@ struct DeviceSat {
     std::vector<SatFrame> frames;      // one per CSAT
     std::vector<int> light_frame;      // per light: its frame in `frames`, or −1
     std::vector<SatGridGpu> grids;     // one per light; dims.w = 0: the light has no CSAT
-    std::vector<SsatGridGpu> spheres;  // one per light; dims.w = 0: the light has no SSAT
+    std::vector<SsatGridGpu> spheres;  // light m's first at m (dims.w = 0: the light has no SSAT), its others chained by `next`
     std::vector<std::size_t> offsets;  // first entry of each CSAT in `data`
     double voxel_size = 0;             // the unit of the filter width
     int lanes = 0;                     // the resamples' packet width as requested (host::generation_lanes; 0: the device's)
     cl::Buffer data;                   // every table, cl_ulong entries
     std::size_t bytes = 0;
     std::map<std::string, double> stage_ms;
+    std::vector<double> table_build_ms;  // per table: its kernels' time when this call built it, else 0
 };
 
 // The tables of a DeviceSat, numbered: first its CSAT frames, then the SSAT of each point or spot
 // light in light order. A plan (below) has every table at offset 0 and no data; place each table
 // (place_sat_table), allocate `data`, then build each table into it (build_sat_table).
 std::size_t sat_table_count(const DeviceSat& sat);
+// The tables light `light`'s lookups read: its CSAT frame, or its SSATs (none for a light without).
+std::vector<std::size_t> light_sat_tables(const DeviceSat& sat, std::size_t light);
 // The grid axes the lights of CSAT frame `frame` shine along (bit a: axis a); 0 for a table no
 // light is aligned with (the volume-aligned SAT of the baselines). Its cells integrate σ along
 // those axes (cl/sat_build.cl sat_resample).
 cl_uint sat_frame_light_axes(const DeviceSat& sat, std::size_t frame);
 std::size_t sat_table_entries(const DeviceSat& sat, std::size_t table);
+// A table's cells per grid axis, and the volumes its cells hold (bit i: volume i of `volume_count`).
+std::array<int, 3> sat_table_cells(const DeviceSat& sat, std::size_t table);
+cl_uint sat_table_volumes(const DeviceSat& sat, std::size_t table, std::size_t volume_count);
 std::size_t sat_table_offset(const DeviceSat& sat, std::size_t table);
 void place_sat_table(DeviceSat& sat, std::size_t table, std::size_t offset);
 // Everything but the voxels that a table's cells depend on: its kind, frame or spherical grid
 // (bit-exact), and its size. Two tables with equal keys built from equal volumes are equal.
 std::string sat_table_geometry_key(const DeviceSat& sat, std::size_t table);
 // Resamples and sums one table into sat.data at its offset (its entries are cleared first);
-// adds the kernels' times to sat.stage_ms.
+// adds the kernels' times to sat.stage_ms and sets sat.table_build_ms[table].
 void build_sat_table(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
                      const packing::DeviceScene& device_scene, DeviceSat& sat, std::size_t table);
 
 // The plan of Ament Alg. 1's tables for the lights: one CSAT per group of directional lights whose
 // directions are ± the axes of one frame (orthodirectional lights, §4.2.2; the group's first
-// light founds the shared frame), one SSAT per point or spot light (§4.2.3). Both are fitted to the
-// occupied bricks (occupied_corners); the baselines' volume-aligned SAT covers the whole boxes (a
+// light founds the shared frame), per point or spot light one SSAT per group of overlapping volumes
+// (§4.2.3, plan_ssat_tables). Both are fitted to the occupied bricks (occupied_corners); the baselines' volume-aligned SAT covers the whole boxes (a
 // cone leaving its grid stops there: cl/lowpass.h sat_cone_depth).
 DeviceSat plan_light_sats(const packing::PackedScene& packed, std::size_t max_entries);
 // The plan of the baselines' one volume-aligned SAT (see build_volume_sat).

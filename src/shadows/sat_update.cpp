@@ -79,11 +79,16 @@ DeviceSat update_sats(host::Runtime& runtime, const Scene& scene, const packing:
                       SatPool& pool, SatUpdateCounts& counts) {
     DeviceSat sat = light_aligned ? plan_light_sats(packed, max_entries) : plan_volume_sat(packed, max_entries);
     sat.lanes = lanes;
-    std::string volumes;  // every table holds every volume
-    for (const std::string& k : extinction_keys(scene, packed, device_scene.uses_images)) volumes += k + ';';
+    sat.table_build_ms.assign(sat_table_count(sat), 0.0);
+    const std::vector<std::string> extinction = extinction_keys(scene, packed, device_scene.uses_images);
     std::size_t n = sat_table_count(sat), needed = 0;
     std::vector<std::string> keys(n);
-    for (std::size_t t = 0; t < n; ++t) keys[t] = sat_table_geometry_key(sat, t) + " | " + volumes;
+    for (std::size_t t = 0; t < n; ++t) {  // a table depends on the volumes it holds only
+        keys[t] = sat_table_geometry_key(sat, t) + " |";
+        const cl_uint held = sat_table_volumes(sat, t, extinction.size());
+        for (std::size_t v = 0; v < extinction.size(); ++v)
+            if (held & (cl_uint(1) << v)) keys[t] += ' ' + std::to_string(v) + ' ' + extinction[v] + ';';
+    }
 
     // the tables whose inputs did not change stay where they are
     std::vector<int> kept(n, -1);
@@ -160,10 +165,13 @@ bool influences(const packing::PackedScene& packed, const DeviceSat& sat, const 
     double cell = 0;
     if (options.shadows == ShadowTechnique::Ao || sat.light_frame[m] >= 0) {
         cell = sat.frames[std::size_t(std::max(sat.light_frame[m], 0))].cell_size;
-    } else {  // an SSAT cell at its farthest
-        const SsatGridGpu& g = sat.spheres[m];
-        double r_max = double(g.start.s[2]) + double(g.dims.s[2]) * double(g.cell.s[2]);
-        cell = std::max({double(g.cell.s[2]), r_max * double(g.cell.s[0]), r_max * double(g.cell.s[1])});
+    } else {  // an SSAT cell at its farthest, over the light's tables
+        for (std::size_t t = m;; t = sat.spheres[t].next) {
+            const SsatGridGpu& g = sat.spheres[t];
+            double r_max = double(g.start.s[2]) + double(g.dims.s[2]) * double(g.cell.s[2]);
+            cell = std::max({cell, double(g.cell.s[2]), r_max * double(g.cell.s[0]), r_max * double(g.cell.s[1])});
+            if (g.next == 0) break;
+        }
     }
     // the cells a lookup reads: the cell of each patch corner and its trilinear neighbour
     WorldBox target = boxes[j].grown(width + 2.0 * std::sqrt(3.0) * cell);
@@ -185,9 +193,7 @@ std::vector<std::string> shadow_cache_keys(const Scene& scene, const packing::Pa
         for (std::size_t m = 0; m < scene.lights.size(); ++m) {
             std::string key = common.str() + " | lattice " + hash_of(packed.voxel_to_world[i]) + hash_of(packed.volumes[i].dims);
             bool ao = options.shadows == ShadowTechnique::Ao;  // the same term for every light
-            std::size_t table = sat.light_frame[m] >= 0 ? std::size_t(sat.light_frame[m]) : sat.frames.size();
-            for (std::size_t l = 0; l < m && sat.light_frame[m] < 0; ++l) table += sat.spheres[l].dims.s[3] != 0;
-            key += " | table " + sat_table_geometry_key(sat, table);
+            for (std::size_t table : light_sat_tables(sat, m)) key += " | table " + sat_table_geometry_key(sat, table);
             if (!ao) {
                 const Light& l = scene.lights[m];
                 key += " | light " + hash_of(l.type) + hash_of(l.position) + hash_of(l.direction) + hash_of(l.cone_angle_deg) +

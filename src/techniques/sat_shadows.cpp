@@ -4,6 +4,7 @@
 // shadow term from the shadow cache filled from them (Ament Alg. 1). The tables live in a pool
 // the module keeps between calls: a table whose inputs did not change is not rebuilt
 // (src/shadows/sat_update.h).
+#include <algorithm>
 #include <ostream>
 
 #include "shadows/sat_update.h"
@@ -27,7 +28,7 @@ const std::vector<OptionSpec>& sat_option_specs() {
                     "lowpass: box (one SAT box) or gauss (5×5 sub-boxes, Ament Eq. 25)")
                 .choices({"box", "gauss"}).only({T::Lowpass}).commands(kRenderCommand | kVisibilityCommand),
             declare("lowpass_max_entries", "--sat-max-entries", [](auto& o) -> auto& { return o.sat.max_entries; },
-                    "summed-area tables: at most this many 64-bit entries (cells coarsen beyond)")
+                    "summed-area tables: at most this many 64-bit entries per table (a point light's tables together; cells coarsen beyond)")
                 .range(1 << 12, double(SOMBRA_SAT_MAX_ENTRIES)).unit("entries").only(family).keys()
                 .commands(kRenderCommand | kVisibilityCommand),
             declare("lowpass_precision", "--sat-precision", [](auto& o) -> auto& { return o.sat.precision; },
@@ -78,6 +79,9 @@ public:
         sat_ = shadows::update_sats(s.runtime, s.scene, s.packed, s.device, s.options.shadows == ShadowTechnique::Lowpass,
                                     s.options.sat.max_entries, s.options.lanes, pool_, counts);
         for (auto& [stage, ms] : sat_.stage_ms) stats.stage_ms[stage] = ms;
+        volume_names_.clear();
+        for (std::size_t v = 0; v < s.scene.volumes.size(); ++v)
+            volume_names_.push_back(s.scene.volumes[v].name.empty() ? "volume " + std::to_string(v) : s.scene.volumes[v].name);
         stats.sat_tables_built = counts.built, stats.sat_tables_reused = counts.reused;
     }
 
@@ -92,6 +96,23 @@ public:
         stats.sat_tables = int(sat_.frames.size());
         for (const SsatGridGpu& g : sat_.spheres) stats.sat_tables += g.dims.s[3] != 0;
         stats.sat_bytes = sat_.bytes;
+        stats.sat_table_list.clear();
+        for (std::size_t t = 0; t < shadows::sat_table_count(sat_); ++t) {
+            RenderStats::SatTable table;
+            table.kind = t >= sat_.frames.size() ? "SSAT" : shadows::sat_frame_light_axes(sat_, t) ? "CSAT" : "volume SAT";
+            for (std::size_t l = 0; l < sat_.grids.size(); ++l) {
+                std::vector<std::size_t> read = shadows::light_sat_tables(sat_, l);
+                if (std::find(read.begin(), read.end(), t) != read.end()) table.lights.push_back(int(l));
+            }
+            const cl_uint volumes = shadows::sat_table_volumes(sat_, t, volume_names_.size());
+            for (std::size_t v = 0; v < volume_names_.size(); ++v)
+                if (volumes & (cl_uint(1) << v)) table.volumes.push_back(volume_names_[v]);
+            table.cells = shadows::sat_table_cells(sat_, t);
+            table.bytes = shadows::sat_table_entries(sat_, t) * sizeof(cl_ulong);
+            table.build_ms = t < sat_.table_build_ms.size() ? sat_.table_build_ms[t] : 0.0;
+            table.reused = !(table.build_ms > 0);
+            stats.sat_table_list.push_back(table);
+        }
     }
 
     // finer than the renderer's keys: an entry depends on the tables its lookups read (Ament Alg. 1)
@@ -105,6 +126,7 @@ private:
     std::string device_name_;
     shadows::SatPool pool_;
     shadows::DeviceSat sat_;
+    std::vector<std::string> volume_names_;  // for the per-table stats
     mutable shadows::SatGridBuffers grids_;  // kept alive while the kernel that binds them runs
 };
 

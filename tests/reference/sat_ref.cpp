@@ -32,7 +32,11 @@ CellGrid sat_cells(const Scene& scene, const shadows::SatFrame& frame, unsigned 
     return g;
 }
 
-CellGrid ssat_cells(const Scene& scene, const SsatGridGpu& grid) {
+CellGrid ssat_cells(const Scene& whole_scene, const SsatGridGpu& grid) {
+    Scene scene = whole_scene;  // the volumes of the table's group only
+    scene.volumes.clear();
+    for (std::size_t v = 0; v < whole_scene.volumes.size(); ++v)
+        if (grid.volume_mask & (1u << v)) scene.volumes.push_back(whole_scene.volumes[v]);
     CellGrid g;
     g.dims = {grid.dims.s[0], grid.dims.s[1], grid.dims.s[2]};
     auto v = [](const cl_float4& f, int i) { return double(f.s[i]); };

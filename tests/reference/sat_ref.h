@@ -23,7 +23,8 @@ struct CellGrid {
 CellGrid sat_cells(const Scene& scene, const shadows::SatFrame& frame, unsigned light_axes);
 
 // Cells of a point light's spherical grid (SSAT, Ament §4.2.3): ∫σ over the cell's radial segment
-// through its centre angles times w_θ = (cos θ_j − cos θ_j+1)/Δθ.
+// through its centre angles times w_θ = (cos θ_j − cos θ_j+1)/Δθ, over the volumes of the grid's
+// volume_mask.
 CellGrid ssat_cells(const Scene& scene, const SsatGridGpu& grid);
 
 // The cells of a device table (exclusive SAT, fixed point), recovered by differencing, as τ.
