@@ -159,6 +159,14 @@ static inline float csat_filtered_depth(__global const ulong* sat, __global cons
     float c[3];
     for (int a = 0; a < 3; ++a) c[a] = dot(g->to_grid[a].xyz, p) + g->to_grid[a].w;
     int axis = (int)g->light_axis;
+    /* a table the box cannot reach adds 0 (a light may have one table per group of volumes): the
+     * box (lateral W/2 and the blend's next cell around c) misses the grid across the light, or
+     * the table lies behind the sample, away from the light */
+    for (int a = 0; a < 3; ++a) {
+        float extent = a == 0 ? n.x : a == 1 ? n.y : n.z;
+        if (a != axis && (c[a] + 0.5f * width + 1.0f < 0.0f || c[a] - 0.5f * width - 1.0f > extent)) return 0.0f;
+        if (a == axis && (g->light_positive ? c[a] - 1.0f > extent : c[a] + 1.0f < 0.0f)) return 0.0f;
+    }
 #ifdef SOMBRA_LOWPASS_GAUSS
     {
         int a0 = axis == 0 ? 1 : 0, a1 = axis == 2 ? 1 : 2; /* the lateral axes, in order */

@@ -102,10 +102,11 @@ static inline lfloat stretch_optical_depth(VOLUME_DATA_PARAM, __global const uch
     return depth;
 }
 
-/* Optical depth of each lane's segment from a to b (lanes `active`): stretch_optical_depth of a
- * ray of its own. */
+/* Optical depth of each lane's segment from a to b (lanes `active`) through the volumes of
+ * `volume_mask`: stretch_optical_depth of a ray of its own. */
 static inline lfloat segment_optical_depth(VOLUME_DATA_PARAM, __global const uchar* occupancy, __global const VolumeGpu* volumes,
-                                           uint volume_count, __global const float* tf_tables, lfloat3 a, lfloat3 b, lmask active) {
+                                           uint volume_count, uint volume_mask, __global const float* tf_tables, lfloat3 a, lfloat3 b,
+                                           lmask active) {
     lfloat3 ab = l3_sub(b, a);
     lfloat length = sqrt(l3_dot(ab, ab));
     lmask live = active & (length > 0.0f);
@@ -113,6 +114,7 @@ static inline lfloat segment_optical_depth(VOLUME_DATA_PARAM, __global const uch
     VolumeRay ray;
     length = select((lfloat)(0.0f), length, live);
     make_volume_ray(&ray, volumes, volume_count, a, l3_scale(ab, 1.0f / select((lfloat)(1.0f), length, live)), (lfloat)(0.0f), length);
+    volume_ray_only(&ray, volume_count, volume_mask);
     PartEnds ends;
     no_part_ends(&ends);
     return stretch_optical_depth(volume_data, occupancy, volumes, volume_count, tf_tables, &ray, (lfloat)(0.0f), length, live, &ends);
@@ -134,12 +136,13 @@ static inline void write_running_sums(__global ulong* s, int4 n, int i0, int j, 
  * axes through its centre, face to face (the mean over the axes in light_axes: bit a = a light
  * shines along grid axis a; a table no light is aligned with uses all three) — ∫σ over the cell
  * under the renderer's model, not σ at its centre times the cell, so a thin near-opaque feature
- * inside a cell counts in full. Clamped to SOMBRA_SAT_MAX_CELL_TAU and rounded to fixed point; the
+ * inside a cell counts in full; the volumes of volume_mask only (a table per group of volumes,
+ * src/shadows/sat_grid.h). Clamped to SOMBRA_SAT_MAX_CELL_TAU and rounded to fixed point; the
  * column's running sums go to S(i + 1, j + 1, k + 1); the zero border S(0, ·, ·) … is cleared by
  * the host. */
 __kernel void sat_resample(VOLUME_DATA_PARAM, __global const float* tf_tables, __global const VolumeGpu* volumes,
                            uint volume_count, __global const uchar* occupancy, __global ulong* sat, uint data_offset, int4 n, float4 origin,
-                           float4 cell_u, float4 cell_v, float4 cell_w, float cell_length, uint light_axes) {
+                           float4 cell_u, float4 cell_v, float4 cell_w, float cell_length, uint light_axes, uint volume_mask) {
     int i0 = get_global_id(0) * SOMBRA_LANES, j = get_global_id(1);
     if (i0 >= n.x || j >= n.y) return;
     lint i = i0 + LANE_INDEX;
@@ -154,6 +157,7 @@ __kernel void sat_resample(VOLUME_DATA_PARAM, __global const float* tf_tables, _
     float w_length = length(cell_w.xyz);
     VolumeRay column;
     make_volume_ray(&column, volumes, volume_count, base, l3_splat(cell_w.xyz / w_length), (lfloat)(0.0f), (lfloat)(n.z * w_length));
+    volume_ray_only(&column, volume_count, volume_mask); /* the table's group of volumes */
     PartEnds ends;
     no_part_ends(&ends);
     ulong running[SOMBRA_LANES];
@@ -163,7 +167,8 @@ __kernel void sat_resample(VOLUME_DATA_PARAM, __global const float* tf_tables, _
         lfloat tau = (lfloat)(0.0f);
         for (int a = 0; a < 2; ++a)
             if (axes & (1u << a))
-                tau += segment_optical_depth(volume_data, occupancy, volumes, volume_count, tf_tables, l3_sub(centre, l3_splat(0.5f * axis[a])),
+                tau += segment_optical_depth(volume_data, occupancy, volumes, volume_count, volume_mask, tf_tables,
+                                             l3_sub(centre, l3_splat(0.5f * axis[a])),
                                              l3_add(centre, l3_splat(0.5f * axis[a])), active);
         if (axes & 4u)
             tau += stretch_optical_depth(volume_data, occupancy, volumes, volume_count, tf_tables, &column, (lfloat)(k * w_length),

@@ -51,7 +51,7 @@ class RenderOptions:
     dsm_cluster_hysteresis: float  # keep the previous frame's clusters while their spread is within 1 + H of new ones (API re-renders)
     lowpass_filter_width: float  # lowpass: filter width W (the softness of the shadows); ao: the cube's side
     lowpass_filter_kernel: Literal['box', 'gauss']  # lowpass: box (one SAT box) or gauss (5×5 sub-boxes, Ament Eq. 25)
-    lowpass_max_entries: int  # summed-area tables: at most this many 64-bit entries (cells coarsen beyond)
+    lowpass_max_entries: int  # summed-area tables: at most this many 64-bit entries in the tables of one frame or point light (cells coarsen beyond)
     lowpass_precision: Literal['auto', 'double', 'float']  # summed-area-table lookups in auto (double where the device has it), double or float arithmetic
     cone_angle_deg: float  # cone: half angle of the shadow cones
     shadow_ray_step: float  # rays: factor on each volume's step for the shadow rays (< 1: finer)

@@ -69,28 +69,28 @@ TEST_CASE("Ament Alg. 1 first pass: a changed scene rebuilds only its changed ta
         o.shadows = ShadowTechnique::Lowpass;
         o.shadow_cache = cached ? ShadowCacheMode::On : ShadowCacheMode::Off;
         INFO("shadow cache " << cached);
-        // one CSAT (both directional lights), one SSAT per cloud (apart: plan_ssat_tables); 2
-        // volumes × 3 lights
-        check_step(context, fresh, scene, o, {3, 0, 6, 0}, "first render");
-        check_step(context, fresh, scene, o, {0, 3, 0, 6}, "again");
+        // one CSAT frame (both directional lights) and one SSAT, each a table per cloud (apart:
+        // plan_csat_tables, plan_ssat_tables); 2 volumes × 3 lights
+        check_step(context, fresh, scene, o, {4, 0, 6, 0}, "first render");
+        check_step(context, fresh, scene, o, {0, 4, 0, 6}, "again");
         // light 0 leaves the frame: its own CSAT; light 1 founds the same (canonical) frame again,
         // but alone on it its cells integrate along its axis only (cl/sat_build.cl): rebuilt too
         scene.lights[0].direction = {0.3f, -0.2f, -1.f};
-        check_step(context, fresh, scene, o, {2, 2, 4, 2}, "light 0 moved");
+        check_step(context, fresh, scene, o, {4, 2, 4, 2}, "light 0 moved");
         scene.lights[1].color = {1.f, 0.3f, 0.2f};
         scene.lights[1].intensity = 2.f;
-        check_step(context, fresh, scene, o, {0, 4, 0, 6}, "light 1 colour and intensity");
-        // the right cloud's opacity: both CSATs and its own SSAT hold it (the left cloud's SSAT is
-        // kept); of the left cloud's entries only the one towards light 1 (whose light crosses the
-        // right cloud first) sees it
+        check_step(context, fresh, scene, o, {0, 6, 0, 6}, "light 1 colour and intensity");
+        // the right cloud's opacity: its own table of each CSAT frame and its SSAT hold it (the left
+        // cloud's three are kept); of the left cloud's entries only the one towards light 1 (whose
+        // light crosses the right cloud first) sees it
         for (auto& a : scene.volumes[1].transfer_function.opacity_points) a.alpha *= 0.5f;
-        check_step(context, fresh, scene, o, {3, 1, 4, 2}, "right cloud's opacity");
+        check_step(context, fresh, scene, o, {3, 3, 4, 2}, "right cloud's opacity");
         for (auto& c : scene.volumes[0].transfer_function.color_points) c.g = 0.1f;  // colour only: no σ changes
-        check_step(context, fresh, scene, o, {0, 4, 0, 6}, "left cloud's colour");
+        check_step(context, fresh, scene, o, {0, 6, 0, 6}, "left cloud's colour");
         scene.lights[2].position = {-0.8f, -0.3f, 2.2f};
-        check_step(context, fresh, scene, o, {2, 2, 2, 4}, "point light moved");
+        check_step(context, fresh, scene, o, {2, 4, 2, 4}, "point light moved");
         o.sat.filter_width = 5.f;  // the filter: no table, every entry
-        check_step(context, fresh, scene, o, {0, 4, 6, 0}, "filter width");
+        check_step(context, fresh, scene, o, {0, 6, 6, 0}, "filter width");
     }
 }
 

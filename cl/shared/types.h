@@ -233,7 +233,10 @@ typedef struct {
  * src/shadows/sat_grid.h). The grid holds cells of optical depth σ·h (h = cell length) as 64-bit
  * fixed-point integers; the table is exclusive: (dims+1)³ entries, S(i,j,k) = Σ cells < (i,j,k),
  * entry (i,j,k) at data_offset + i + (dims.x+1)·(j + (dims.y+1)·k). Lights whose directions are
- * ± the same grid axes share one table (orthodirectional lights, Ament Eq. 14–15). */
+ * ± the same grid axes share one table (orthodirectional lights, Ament Eq. 14–15). A light's
+ * volumes may be split over several tables on one lattice, one per group of volumes: light m's
+ * first table at index m, the others after every light's first, chained by `next`; a lookup sums
+ * the chain (σ adds over volumes). */
 typedef struct {
     sb_float4 to_grid[3];  /* grid coordinate a (in cells) = dot(to_grid[a].xyz, p) + to_grid[a].w */
     sb_int4 dims;          /* cells along the three grid axes; w: 0 = no table for this light */
@@ -244,7 +247,7 @@ typedef struct {
     float tau_per_unit;    /* optical depth of one fixed-point unit */
     float cell_size;       /* world length of a cell */
     float cone_tan;        /* cone shadows: tangent of the cone's half angle */
-    sb_uint pad1;
+    sb_uint next;          /* the light's next CSAT in the grid array (the tables add up); 0: the last */
 } SatGridGpu;
 
 /* A point light's spherical summed-area table (SSAT, Ament §4.2.3): a regular grid over azimuth φ,

@@ -17,9 +17,14 @@ static inline lfloat shadow_transmittance(VOLUME_DATA_PARAM, const SceneRefs* sc
     __global const SsatGridGpu* sphere = &s->tables.ssat_grids[m];
     lfloat depth;
     if (g->dims.w != 0) {
+        depth = (lfloat)(0.0f);
+        for (;;) { /* the light's tables, one per group of volumes: their depths add */
 #define CSAT_LANE(c) csat_filtered_depth(s->tables.sat, g, SAT_LANE_POINT(p, c))
-        depth = LFROM_LANES(CSAT_LANE);
+            depth += LFROM_LANES(CSAT_LANE);
 #undef CSAT_LANE
+            if (g->next == 0) break;
+            g = &s->tables.sat_grids[g->next];
+        }
     } else if (sphere->dims.w != 0) {
         depth = (lfloat)(0.0f);
         for (;;) { /* the light's tables, one per group of volumes: their depths add */

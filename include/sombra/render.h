@@ -117,8 +117,9 @@ struct SatOptions {
     // "box" (Ament Eq. 11–13) or "gauss": a Gaussian with σ = W/4 over the W × W patch, as 5 × 5
     // sub-boxes of the same tables (Ament §4.3, Eq. 25).
     std::string filter_kernel = "box";
-    // Each table, and a point light's tables together, hold at most max_entries 64-bit entries
-    // (cells coarsen beyond that; the default keeps them ≤ 128 MiB).
+    // The tables of one CSAT frame or one point light (a table per group of volumes) hold at most
+    // max_entries 64-bit entries together (cells coarsen beyond that; the default keeps them
+    // ≤ 128 MiB).
     std::size_t max_entries = std::size_t(1) << 24;
     float cone_angle_deg = 10.f;  // cone: half angle of the cones
     // Arithmetic of the lookups' positions and weights (cl/lowpass.h): "auto" (double where the

@@ -133,6 +133,10 @@ SatFrame make_csat_frame(const packing::PackedScene& packed, const D3& towards_l
 }
 
 SatFrame make_shared_csat_frame(const packing::PackedScene& packed, const D3& towards_light, std::size_t max_entries) {
+    return make_occupied_frame(packed, shared_csat_axes(towards_light), max_entries);
+}
+
+std::array<D3, 3> shared_csat_axes(const D3& towards_light) {
     std::array<D3, 3> axes = csat_axes(towards_light);
     auto major = [](const D3& a) {  // index of the largest |component| (the first of equals)
         std::size_t m = 0;
@@ -147,7 +151,7 @@ SatFrame make_shared_csat_frame(const packing::PackedScene& packed, const D3& to
     std::sort(axes.begin(), axes.end(), [&](const D3& a, const D3& b) {
         return major(a) != major(b) ? major(a) < major(b) : a < b;
     });
-    return make_occupied_frame(packed, axes, max_entries);
+    return axes;
 }
 
 SatFrame make_volume_sat_frame(const packing::PackedScene& packed, std::size_t max_entries) {
@@ -297,24 +301,20 @@ double box_gap(const std::vector<D3>& a, const std::vector<D3>& b) {
     return gap;
 }
 
-}  // namespace
-
-std::vector<SsatGridGpu> plan_ssat_tables(const packing::PackedScene& packed, const D3& light, std::size_t max_entries) {
-    double voxel = 0;
-    std::vector<std::vector<D3>> per_volume = occupied_corners_per_volume(packed, voxel);
-    if (packed.volumes.empty() || !(voxel > 0)) throw Error("--shadows lowpass: the scene has no volume to build a summed-area table of");
-    // groups of volumes whose occupied boxes overlap (their union boxes, until none do); volumes
-    // without an occupied brick are left out, and when no volume has one, one table of all the
-    // volumes' whole boxes (of zeros)
-    struct Group {
-        std::vector<D3> corners;
-        cl_uint mask = 0;
-    };
-    std::vector<Group> groups;
+// Groups of volumes whose occupied boxes overlap (merged by their union boxes until no two
+// overlap), each with its volumes' corners; volumes without an occupied brick are left out, and
+// when no volume has one, one group of all the volumes' whole boxes (a table of zeros).
+struct VolumeGroup {
+    std::vector<D3> corners;
+    cl_uint mask = 0;
+};
+std::vector<VolumeGroup> volume_groups(const packing::PackedScene& packed, const std::vector<std::vector<D3>>& per_volume) {
+    std::vector<VolumeGroup> groups;
     for (std::size_t v = 0; v < per_volume.size(); ++v)
         if (!per_volume[v].empty()) groups.push_back({per_volume[v], cl_uint(1) << v});
     if (groups.empty()) {
-        Group all{scene_corners(packed, voxel), 0};
+        double voxel = 0;
+        VolumeGroup all{scene_corners(packed, voxel), 0};
         for (std::size_t v = 0; v < packed.volumes.size(); ++v) all.mask |= cl_uint(1) << v;
         groups.push_back(all);
     }
@@ -329,10 +329,66 @@ std::vector<SsatGridGpu> plan_ssat_tables(const packing::PackedScene& packed, co
                     merged = true;
                 }
     }
+    return groups;
+}
+
+}  // namespace
+
+std::vector<SatFrame> plan_csat_tables(const packing::PackedScene& packed, const std::array<D3, 3>& axes, std::size_t max_entries) {
+    double voxel = 0;
+    std::vector<std::vector<D3>> per_volume = occupied_corners_per_volume(packed, voxel);
+    if (packed.volumes.empty() || !(voxel > 0)) throw Error("--shadows lowpass: the scene has no volume to build a summed-area table of");
+    std::vector<VolumeGroup> groups = volume_groups(packed, per_volume);
+    // each group's bounds along the axes, and all groups' (the lattice's frame, as make_sat_frame)
+    std::vector<D3> lo(groups.size(), D3{INFINITY, INFINITY, INFINITY}), hi(groups.size(), D3{-INFINITY, -INFINITY, -INFINITY});
+    D3 all_lo{INFINITY, INFINITY, INFINITY}, all_hi{-INFINITY, -INFINITY, -INFINITY};
+    for (std::size_t g = 0; g < groups.size(); ++g)
+        for (const D3& p : groups[g].corners)
+            for (std::size_t a = 0; a < 3; ++a) {
+                double c = dot(p, axes[a]);
+                lo[g][a] = std::min(lo[g][a], c), hi[g][a] = std::max(hi[g][a], c);
+                all_lo[a] = std::min(all_lo[a], c), all_hi[a] = std::max(all_hi[a], c);
+            }
+    // the finest cell (the smallest voxel, 5 % steps coarser) at which the tables hold at most
+    // max_entries together and each at most SOMBRA_SAT_MAX_ENTRIES; each table covers its group's
+    // cells of one lattice centred on all the groups' bounds (one group: make_sat_frame's frame)
+    std::vector<SatFrame> tables;
+    for (double h = voxel;; h *= 1.05) {
+        tables.clear();
+        std::size_t total = 0, largest = 0;
+        double start[3];
+        int all_dims[3];
+        for (std::size_t a = 0; a < 3; ++a) {
+            all_dims[a] = std::max(1, int(std::ceil((all_hi[a] - all_lo[a]) / h - 1e-6)));
+            start[a] = 0.5 * (all_lo[a] + all_hi[a]) - 0.5 * all_dims[a] * h;
+        }
+        for (std::size_t g = 0; g < groups.size(); ++g) {
+            SatFrame f;
+            f.axes = axes, f.cell_size = h, f.voxel_size = voxel, f.volume_mask = groups[g].mask;
+            f.origin = {0, 0, 0};
+            for (std::size_t a = 0; a < 3; ++a) {
+                int first = std::clamp(int(std::floor((lo[g][a] - start[a]) / h + 1e-6)), 0, all_dims[a] - 1);
+                int last = std::clamp(int(std::ceil((hi[g][a] - start[a]) / h - 1e-6)), first + 1, all_dims[a]);
+                f.dims[a] = last - first;
+                for (std::size_t r = 0; r < 3; ++r) f.origin[r] += (start[a] + first * h) * axes[a][r];
+            }
+            total += f.entries(), largest = std::max(largest, f.entries());
+            tables.push_back(f);
+        }
+        if (total <= max_entries && largest <= SOMBRA_SAT_MAX_ENTRIES) break;
+    }
+    return tables;
+}
+
+std::vector<SsatGridGpu> plan_ssat_tables(const packing::PackedScene& packed, const D3& light, std::size_t max_entries) {
+    double voxel = 0;
+    std::vector<std::vector<D3>> per_volume = occupied_corners_per_volume(packed, voxel);
+    if (packed.volumes.empty() || !(voxel > 0)) throw Error("--shadows lowpass: the scene has no volume to build a summed-area table of");
+    std::vector<VolumeGroup> groups = volume_groups(packed, per_volume);
     // one cell size factor k for every table of the light: the smallest (in 5 % steps) at which
     // they hold at most max_entries together and each at most SOMBRA_SAT_MAX_ENTRIES
     std::vector<SphereSpan> spans;
-    for (const Group& g : groups) spans.push_back(sphere_span(g.corners, light));
+    for (const VolumeGroup& g : groups) spans.push_back(sphere_span(g.corners, light));
     double k = 1;
     for (;; k *= 1.05) {
         std::size_t total = 0, largest = 0;
@@ -429,14 +485,18 @@ void build_all(host::Runtime& runtime, const Scene& scene, const packing::Packed
 
 cl_uint sat_frame_light_axes(const DeviceSat& sat, std::size_t frame) {
     cl_uint axes = 0;
-    for (std::size_t l = 0; l < sat.grids.size() && l < sat.light_frame.size(); ++l)
-        if (sat.light_frame[l] == int(frame)) axes |= 1u << sat.grids[l].light_axis;
+    for (std::size_t g = 0; g < sat.grids.size() && g < sat.grid_frame.size(); ++g)
+        if (sat.grid_frame[g] == int(frame)) axes |= 1u << sat.grids[g].light_axis;
     return axes;
 }
 
 std::vector<std::size_t> light_sat_tables(const DeviceSat& sat, std::size_t light) {
-    if (light < sat.light_frame.size() && sat.light_frame[light] >= 0) return {std::size_t(sat.light_frame[light])};
-    std::vector<std::size_t> tables, order = sphere_lights(sat);
+    std::vector<std::size_t> tables;
+    if (light < sat.light_frame.size() && sat.light_frame[light] >= 0) {
+        for (int t = sat.light_frame[light]; t >= 0; t = sat.frames[std::size_t(t)].next) tables.push_back(std::size_t(t));
+        return tables;
+    }
+    std::vector<std::size_t> order = sphere_lights(sat);
     if (light >= sat.spheres.size() || sat.spheres[light].dims.s[3] == 0) return tables;
     for (std::size_t s = light;; s = sat.spheres[s].next) {
         tables.push_back(sat.frames.size() + std::size_t(std::find(order.begin(), order.end(), s) - order.begin()));
@@ -460,7 +520,7 @@ std::array<int, 3> sat_table_cells(const DeviceSat& sat, std::size_t table) {
 
 cl_uint sat_table_volumes(const DeviceSat& sat, std::size_t table, std::size_t volume_count) {
     if (table >= sat.frames.size()) return sat.spheres[sphere_lights(sat).at(table - sat.frames.size())].volume_mask;
-    return volume_count >= 32 ? ~cl_uint(0) : (cl_uint(1) << volume_count) - 1;
+    return sat.frames[table].volume_mask & (volume_count >= 32 ? ~cl_uint(0) : (cl_uint(1) << volume_count) - 1);
 }
 
 std::size_t sat_table_offset(const DeviceSat& sat, std::size_t table) {
@@ -476,8 +536,8 @@ void place_sat_table(DeviceSat& sat, std::size_t table, std::size_t offset) {
         return;
     }
     sat.offsets[table] = offset;
-    for (std::size_t l = 0; l < sat.grids.size(); ++l)
-        if (sat.light_frame[l] == int(table)) sat.grids[l].data_offset = cl_uint(offset);
+    for (std::size_t g = 0; g < sat.grids.size(); ++g)
+        if (sat.grid_frame[g] == int(table)) sat.grids[g].data_offset = cl_uint(offset);
 }
 
 std::string sat_table_geometry_key(const DeviceSat& sat, std::size_t table) {
@@ -487,7 +547,7 @@ std::string sat_table_geometry_key(const DeviceSat& sat, std::size_t table) {
         return "SSAT " + bits(g);
     }
     const SatFrame& f = sat.frames[table];
-    return "CSAT " + bits(f.axes) + ' ' + bits(f.origin) + ' ' + bits(f.dims) + ' ' + bits(f.cell_size) + " axes " +
+    return "CSAT " + bits(f.axes) + ' ' + bits(f.origin) + ' ' + bits(f.dims) + ' ' + bits(f.cell_size) + ' ' + bits(f.volume_mask) + " axes " +
            std::to_string(sat_frame_light_axes(sat, table));
 }
 
@@ -549,7 +609,7 @@ void build_one_table(host::Runtime& runtime, const Scene& scene, const packing::
             const D3& r = f.axes[axis];
             args(cell_names[axis], f4({r[0] * f.cell_size, r[1] * f.cell_size, r[2] * f.cell_size}));
         }
-        args("cell_length", float(f.cell_size))("light_axes", sat_frame_light_axes(sat, table)).done();
+        args("cell_length", float(f.cell_size))("light_axes", sat_frame_light_axes(sat, table))("volume_mask", f.volume_mask).done();
         sat.stage_ms["sat_resample"] += host::run_packets(runtime, resample, f.dims[0], f.dims[1], lanes);
         sat.stage_ms["sat_scan"] += scan_table(runtime, scan, sat.data, offset, n);
         return;
@@ -570,7 +630,10 @@ void build_one_table(host::Runtime& runtime, const Scene& scene, const packing::
 DeviceSat plan_light_sats(const packing::PackedScene& packed, std::size_t max_entries) {
     DeviceSat sat;
     scene_corners(packed, sat.voxel_size);
-    std::vector<std::vector<SsatGridGpu>> extra;  // per light: its SSATs after the first
+    std::vector<std::vector<SatGridGpu>> extra_grids(packed.lights.size());     // per light: its CSATs after the first
+    std::vector<std::vector<int>> extra_frames(packed.lights.size());          // … and their tables
+    std::vector<std::vector<SsatGridGpu>> extra_spheres(packed.lights.size());  // per light: its SSATs after the first
+    std::vector<int> first_tables;  // the first table of each lattice (a set of tables, one per group of volumes)
     for (std::size_t l = 0; l < packed.lights.size(); ++l) {
         const LightGpu& light = packed.lights[l];
         SatGridGpu g{};
@@ -580,29 +643,45 @@ DeviceSat plan_light_sats(const packing::PackedScene& packed, std::size_t max_en
             D3 towards = {-light.direction.s[0], -light.direction.s[1], -light.direction.s[2]};
             bool positive = true;
             int axis = -1;
-            for (std::size_t t = 0; t < sat.frames.size() && axis < 0; ++t)
-                if ((axis = shared_axis(sat.frames[t], towards, positive)) >= 0) frame = int(t);
-            if (axis < 0) {  // a new table, founded by this light
-                sat.frames.push_back(make_shared_csat_frame(packed, towards, max_entries));
-                sat.offsets.push_back(0);
-                frame = int(sat.frames.size()) - 1;
-                axis = shared_axis(sat.frames.back(), towards, positive);
+            for (std::size_t i = 0; i < first_tables.size() && axis < 0; ++i)
+                if ((axis = shared_axis(sat.frames[std::size_t(first_tables[i])], towards, positive)) >= 0) frame = first_tables[i];
+            if (axis < 0) {  // new tables, founded by this light
+                std::vector<SatFrame> tables = plan_csat_tables(packed, shared_csat_axes(towards), max_entries);
+                frame = int(sat.frames.size());
+                first_tables.push_back(frame);
+                for (std::size_t i = 0; i < tables.size(); ++i) {
+                    tables[i].next = i + 1 < tables.size() ? frame + int(i) + 1 : -1;
+                    sat.frames.push_back(tables[i]);
+                    sat.offsets.push_back(0);
+                }
+                axis = shared_axis(sat.frames[std::size_t(frame)], towards, positive);
             }
             g = sat_grid(sat.frames[std::size_t(frame)], 0, axis, positive);
+            for (int t = sat.frames[std::size_t(frame)].next; t >= 0; t = sat.frames[std::size_t(t)].next) {
+                extra_grids[l].push_back(sat_grid(sat.frames[std::size_t(t)], 0, axis, positive));
+                extra_frames[l].push_back(t);
+            }
         } else {
-            extra.push_back(plan_ssat_tables(packed, {light.position.s[0], light.position.s[1], light.position.s[2]}, max_entries));
-            sphere = extra.back().front();
-            extra.back().erase(extra.back().begin());
+            extra_spheres[l] = plan_ssat_tables(packed, {light.position.s[0], light.position.s[1], light.position.s[2]}, max_entries);
+            sphere = extra_spheres[l].front();
+            extra_spheres[l].erase(extra_spheres[l].begin());
         }
         sat.grids.push_back(g);
+        sat.grid_frame.push_back(frame);
         sat.spheres.push_back(sphere);
         sat.light_frame.push_back(frame);
-        if (light.type == SOMBRA_LIGHT_DIRECTIONAL) extra.emplace_back();
     }
-    // each light's further SSATs after every light's first, chained from it
-    for (std::size_t l = 0; l < extra.size(); ++l) {
-        cl_uint* link = &sat.spheres[l].next;
-        for (const SsatGridGpu& g : extra[l]) {
+    // each light's further tables after every light's first, chained from it
+    for (std::size_t l = 0; l < packed.lights.size(); ++l) {
+        cl_uint* link = &sat.grids[l].next;
+        for (std::size_t i = 0; i < extra_grids[l].size(); ++i) {
+            *link = cl_uint(sat.grids.size());
+            sat.grids.push_back(extra_grids[l][i]);
+            sat.grid_frame.push_back(extra_frames[l][i]);
+            link = &sat.grids.back().next;
+        }
+        link = &sat.spheres[l].next;
+        for (const SsatGridGpu& g : extra_spheres[l]) {
             *link = cl_uint(sat.spheres.size());
             sat.spheres.push_back(g);
             link = &sat.spheres.back().next;
@@ -617,6 +696,7 @@ DeviceSat plan_volume_sat(const packing::PackedScene& packed, std::size_t max_en
     sat.frames.push_back(make_volume_sat_frame(packed, max_entries));
     sat.offsets.push_back(0);
     sat.grids.assign(std::max<std::size_t>(packed.lights.size(), 1), sat_grid(sat.frames[0], 0, 2, true));
+    sat.grid_frame.assign(sat.grids.size(), 0);
     sat.spheres.assign(sat.grids.size(), SsatGridGpu{});
     sat.light_frame.assign(sat.grids.size(), 0);
     return sat;

@@ -36,6 +36,8 @@ struct SatFrame {
     std::array<int, 3> dims{0, 0, 0};
     double cell_size = 0;   // h, world units
     double voxel_size = 0;  // smallest world voxel of the scene: the unit of the filter width
+    cl_uint volume_mask = ~cl_uint(0);  // the volumes whose σ the table holds (bit i: volume i)
+    int next = -1;  // the next table on the same lattice for the same lights (a group of volumes each), or −1
     std::size_t entries() const { return std::size_t(dims[0] + 1) * std::size_t(dims[1] + 1) * std::size_t(dims[2] + 1); }
     D3 cell_centre(int i, int j, int k) const;  // world position
 };
@@ -49,6 +51,14 @@ SatFrame make_csat_frame(const packing::PackedScene& packed, const D3& towards_l
 // axes ordered by that component), so that every light of the group founds the same frame — bit
 // for bit when the axes are the world axes. The light lies along any of its axes.
 SatFrame make_shared_csat_frame(const packing::PackedScene& packed, const D3& towards_light, std::size_t max_entries);
+// The canonical axes of make_shared_csat_frame.
+std::array<D3, 3> shared_csat_axes(const D3& towards_light);
+// The CSATs of one frame with `axes` (Ament §4.2.1), one per group of volumes whose occupied boxes
+// overlap (volume_mask; their optical depths add up at lookup), each over its group's cells of one
+// lattice centred on all the groups' bounds (`next` left −1: the caller chains them where it puts them),
+// cells of the smallest voxel coarsened in 5 % steps until they hold at most `max_entries`
+// together. One group: make_sat_frame's frame over the occupied corners.
+std::vector<SatFrame> plan_csat_tables(const packing::PackedScene& packed, const std::array<D3, 3>& axes, std::size_t max_entries);
 // The same for a frame aligned with the first volume's axes (the volume-aligned SAT of the
 // baselines, Schlegel et al. 2011), and for any orthonormal axes.
 SatFrame make_volume_sat_frame(const packing::PackedScene& packed, std::size_t max_entries);
@@ -72,9 +82,10 @@ inline std::size_t ssat_entries(const SsatGridGpu& g) {
 std::uint64_t sat_fixed_point(double tau);
 
 struct DeviceSat {
-    std::vector<SatFrame> frames;      // one per CSAT
-    std::vector<int> light_frame;      // per light: its frame in `frames`, or −1
-    std::vector<SatGridGpu> grids;     // one per light; dims.w = 0: the light has no CSAT
+    std::vector<SatFrame> frames;      // one per CSAT; a light's tables are chained by SatFrame::next
+    std::vector<int> light_frame;      // per light: its first table in `frames`, or −1
+    std::vector<SatGridGpu> grids;     // light m's view of its first CSAT at m (dims.w = 0: none), of its others chained by `next`
+    std::vector<int> grid_frame;       // per entry of `grids`: its table in `frames`, or −1
     std::vector<SsatGridGpu> spheres;  // light m's first at m (dims.w = 0: the light has no SSAT), its others chained by `next`
     std::vector<std::size_t> offsets;  // first entry of each CSAT in `data`
     double voxel_size = 0;             // the unit of the filter width
@@ -111,8 +122,8 @@ void build_sat_table(host::Runtime& runtime, const Scene& scene, const packing::
 
 // The plan of Ament Alg. 1's tables for the lights: one CSAT per group of directional lights whose
 // directions are ± the axes of one frame (orthodirectional lights, §4.2.2; the group's first
-// light founds the shared frame), per point or spot light one SSAT per group of overlapping volumes
-// (§4.2.3, plan_ssat_tables). Both are fitted to the occupied bricks (occupied_corners); the baselines' volume-aligned SAT covers the whole boxes (a
+// light founds the shared frame; one table per group of overlapping volumes, plan_csat_tables), per
+// point or spot light one SSAT per group of overlapping volumes (§4.2.3, plan_ssat_tables). Both are fitted to the occupied bricks (occupied_corners); the baselines' volume-aligned SAT covers the whole boxes (a
 // cone leaving its grid stops there: cl/lowpass.h sat_cone_depth).
 DeviceSat plan_light_sats(const packing::PackedScene& packed, std::size_t max_entries);
 // The plan of the baselines' one volume-aligned SAT (see build_volume_sat).

@@ -28,7 +28,7 @@ const std::vector<OptionSpec>& sat_option_specs() {
                     "lowpass: box (one SAT box) or gauss (5×5 sub-boxes, Ament Eq. 25)")
                 .choices({"box", "gauss"}).only({T::Lowpass}).commands(kRenderCommand | kVisibilityCommand),
             declare("lowpass_max_entries", "--sat-max-entries", [](auto& o) -> auto& { return o.sat.max_entries; },
-                    "summed-area tables: at most this many 64-bit entries per table (a point light's tables together; cells coarsen beyond)")
+                    "summed-area tables: at most this many 64-bit entries in the tables of one frame or point light (cells coarsen beyond)")
                 .range(1 << 12, double(SOMBRA_SAT_MAX_ENTRIES)).unit("entries").only(family).keys()
                 .commands(kRenderCommand | kVisibilityCommand),
             declare("lowpass_precision", "--sat-precision", [](auto& o) -> auto& { return o.sat.precision; },

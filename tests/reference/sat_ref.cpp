@@ -7,7 +7,11 @@
 
 namespace sombra::reference {
 
-CellGrid sat_cells(const Scene& scene, const shadows::SatFrame& frame, unsigned light_axes) {
+CellGrid sat_cells(const Scene& whole_scene, const shadows::SatFrame& frame, unsigned light_axes) {
+    Scene scene = whole_scene;  // the volumes of the table's group only
+    scene.volumes.clear();
+    for (std::size_t v = 0; v < whole_scene.volumes.size(); ++v)
+        if (frame.volume_mask & (1u << v)) scene.volumes.push_back(whole_scene.volumes[v]);
     unsigned axes = light_axes & 7u ? light_axes & 7u : 7u;
     CellGrid g;
     g.dims = frame.dims;

@@ -19,7 +19,8 @@ struct CellGrid {
 
 // Optical depth of every cell of `frame`: the mean over the grid axes in light_axes (bit a: axis a;
 // 0: all three) of ∫σ along that axis through the cell's centre, face to face
-// (segment_optical_depth, the transfer function evaluated directly), as cl/sat_build.cl.
+// (segment_optical_depth, the transfer function evaluated directly), as cl/sat_build.cl, over the
+// volumes of frame.volume_mask.
 CellGrid sat_cells(const Scene& scene, const shadows::SatFrame& frame, unsigned light_axes);
 
 // Cells of a point light's spherical grid (SSAT, Ament §4.2.3): ∫σ over the cell's radial segment
