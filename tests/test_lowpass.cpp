@@ -540,6 +540,21 @@ TEST_CASE("CSAT per group of volumes: one lattice, a table per group, and the lo
     INFO("|ΔT| mean " << mean << ", " << shadowed << " points in a shadow");
     CHECK(shadowed > 30);
     CHECK(mean < 0.01);
+    // --stats names each table's kind and the one light that reads it (grids also holds the
+    // light's further tables, which are no lights)
+    RenderOptions o;
+    o.shadows = ShadowTechnique::Lowpass;
+    scene.width = scene.height = 16;
+    RenderStats stats = render(test::context(), scene, o).stats;
+    REQUIRE(stats.sat_table_list.size() == 2);
+    for (const RenderStats::SatTable& t : stats.sat_table_list) {
+        CHECK(t.kind == "CSAT");
+        CHECK(t.lights == std::vector<int>{0});
+    }
+    o.shadows = ShadowTechnique::Ao;
+    stats = render(test::context(), scene, o).stats;
+    REQUIRE(stats.sat_table_list.size() == 1);
+    CHECK(stats.sat_table_list[0].kind == "volume SAT");
 }
 
 TEST_CASE("SSAT per group of volumes: apart each its own fitted table, overlapping one, and the lookups add up", "[lowpass]") {

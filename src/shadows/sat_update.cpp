@@ -79,7 +79,6 @@ DeviceSat update_sats(host::Runtime& runtime, const Scene& scene, const packing:
                       SatPool& pool, SatUpdateCounts& counts) {
     DeviceSat sat = light_aligned ? plan_light_sats(packed, max_entries) : plan_volume_sat(packed, max_entries);
     sat.lanes = lanes;
-    sat.table_build_ms.assign(sat_table_count(sat), 0.0);
     const std::vector<std::string> extinction = extinction_keys(scene, packed, device_scene.uses_images);
     std::size_t n = sat_table_count(sat), needed = 0;
     std::vector<std::string> keys(n);

@@ -79,6 +79,7 @@ public:
         sat_ = shadows::update_sats(s.runtime, s.scene, s.packed, s.device, s.options.shadows == ShadowTechnique::Lowpass,
                                     s.options.sat.max_entries, s.options.lanes, pool_, counts);
         for (auto& [stage, ms] : sat_.stage_ms) stats.stage_ms[stage] = ms;
+        light_aligned_ = s.options.shadows == ShadowTechnique::Lowpass;
         volume_names_.clear();
         for (std::size_t v = 0; v < s.scene.volumes.size(); ++v)
             volume_names_.push_back(s.scene.volumes[v].name.empty() ? "volume " + std::to_string(v) : s.scene.volumes[v].name);
@@ -99,8 +100,8 @@ public:
         stats.sat_table_list.clear();
         for (std::size_t t = 0; t < shadows::sat_table_count(sat_); ++t) {
             RenderStats::SatTable table;
-            table.kind = t >= sat_.frames.size() ? "SSAT" : shadows::sat_frame_light_axes(sat_, t) ? "CSAT" : "volume SAT";
-            for (std::size_t l = 0; l < sat_.grids.size(); ++l) {
+            table.kind = t >= sat_.frames.size() ? "SSAT" : light_aligned_ ? "CSAT" : "volume SAT";
+            for (std::size_t l = 0; l < sat_.light_frame.size(); ++l) {  // the lights (grids also holds their further tables)
                 std::vector<std::size_t> read = shadows::light_sat_tables(sat_, l);
                 if (std::find(read.begin(), read.end(), t) != read.end()) table.lights.push_back(int(l));
             }
@@ -127,6 +128,7 @@ private:
     shadows::SatPool pool_;
     shadows::DeviceSat sat_;
     std::vector<std::string> volume_names_;  // for the per-table stats
+    bool light_aligned_ = true;              // lowpass's CSAT/SSAT, not AO's or cone's volume-aligned SAT
     mutable shadows::SatGridBuffers grids_;  // kept alive while the kernel that binds them runs
 };
 
