@@ -69,6 +69,12 @@ static inline void make_volume_ray(VolumeRay* ray, __global const VolumeGpu* vol
         intersect_box(o, d, lo, hi, &t0, &t1);
         t0 = fmax(t0, t_min);
         t1 = fmin(t1, t_max);
+#ifdef SOMBRA_VOLUME_CLIP
+        lfloat c0, c1;
+        intersect_box(origin, dir, l3_splat(v->clip_min.xyz), l3_splat(v->clip_max.xyz), &c0, &c1);
+        t0 = fmax(t0, c0);
+        t1 = fmin(t1, c1);
+#endif
         lmask missed = !(t0 < t1);
         ray->vox_origin[i] = o;
         ray->vox_dir[i] = d;

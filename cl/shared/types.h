@@ -46,6 +46,10 @@ typedef struct {
     sb_float4 world_to_voxel[3];
     sb_int4 dims;        /* x, y, z, unused */
     sb_int4 brick_dims;  /* bricks along x, y, z, unused */
+    /* World box the volume is active in, besides its voxel box (VolumeInstance::clip_min/max): a
+     * rank of a distributed render owns a region of the world, and its voxel grid holds a ghost
+     * layer past the region for interpolation. Read only with SOMBRA_VOLUME_CLIP (xyz; w unused). */
+    sb_float4 clip_min, clip_max;
     sb_uint data_offset;   /* first voxel in the volume buffer (buffer path) */
     sb_uint brick_offset;  /* first brick flag in the occupancy buffer */
     sb_uint tf_offset;     /* first entry of this volume's transfer-function table */

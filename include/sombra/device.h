@@ -20,6 +20,7 @@ struct DeviceInfo {
 std::vector<DeviceInfo> list_devices();
 
 namespace host { class Runtime; }
+class RankExchange;
 namespace detail { struct KeptScenes; }
 
 // An OpenCL context, device, queue and program cache. Create one per process and share it: it is
@@ -40,6 +41,10 @@ public:
     // render prepares everything anew. Compiled programs stay.
     void release_prepared_scenes();
     detail::KeptScenes& kept_scenes();  // the renderer's (src/render/preparation.h)
+    // The ranks a distributed render exchanges its maps with (render_distributed sets it for the
+    // call; sombra/distributed.h); nullptr: a render of one process.
+    RankExchange* rank_exchange() const { return rank_exchange_; }
+    void set_rank_exchange(RankExchange* exchange) { rank_exchange_ = exchange; }
     // Held by each call on this Context for its duration (recursive: a call may make another).
     std::unique_lock<std::recursive_mutex> exclusive() { return std::unique_lock<std::recursive_mutex>(mutex_); }
 
@@ -47,6 +52,7 @@ private:
     std::recursive_mutex mutex_;
     std::unique_ptr<host::Runtime> runtime_;
     std::unique_ptr<detail::KeptScenes> kept_;
+    RankExchange* rank_exchange_ = nullptr;
 };
 
 }  // namespace sombra

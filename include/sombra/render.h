@@ -263,6 +263,15 @@ struct RenderStats {
     // that did not move are reused too (dsm_views_generated counts those regenerated)
     bool reused_preparation = false;
     int width = 0, height = 0;
+    // A distributed render (sombra/distributed.h): this rank of how many, its region's objects,
+    // the bytes of compressed maps it sent to the others and received from them, of its partial
+    // image sent to rank 0, and the process's peak resident memory; on rank 0, every rank's stats
+    // as JSON, in rank order.
+    int rank = -1, ranks = 0;
+    int region_volumes = 0, region_meshes = 0;
+    unsigned long long region_voxels = 0;
+    unsigned long long map_bytes_sent = 0, map_bytes_received = 0, image_bytes_sent = 0, peak_memory_bytes = 0;
+    std::vector<std::string> rank_stats;
     std::string to_json() const;
 };
 

@@ -1,6 +1,7 @@
 // sombra — scene description: volumes, lights, camera, background. Loaded from JSON.
 #pragma once
 #include <array>
+#include <cmath>
 #include <memory>
 #include <optional>
 #include <string>
@@ -40,6 +41,15 @@ struct VolumeInstance {
     Material material;
     VolumeBound bound;           // JSON "bounds": {"mesh": FILE, "transform": …}
     std::string name;
+    // World box the volume is active in, on top of its voxel box: everything by default. A rank of
+    // a distributed render (sombra/distributed.h) holds its region's voxels plus a ghost layer for
+    // interpolation, and this box stops every ray at the region's faces.
+    Vec3 clip_min{-INFINITY, -INFINITY, -INFINITY}, clip_max{INFINITY, INFINITY, INFINITY};
+    bool clipped() const {
+        for (int a = 0; a < 3; ++a)
+            if (std::isfinite(clip_min[std::size_t(a)]) || std::isfinite(clip_max[std::size_t(a)])) return true;
+        return false;
+    }
 };
 
 // A mesh placed in the scene: translucent geometry. Its triangles are rasterized into the camera

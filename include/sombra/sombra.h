@@ -1,6 +1,7 @@
 // sombra — public API. Include this one header.
 #pragma once
 #include "sombra/device.h"
+#include "sombra/distributed.h"
 #include "sombra/error.h"
 #include "sombra/mesh.h"
 #include "sombra/progress.h"

@@ -21,6 +21,7 @@
 #include <nlohmann/json.hpp>
 
 #include "cli/clusters_command.h"
+#include "cli/distributed_mpi.h"
 #include "cli/info_command.h"
 #include "cli/view_command.h"
 #include "render/staged_outputs.h"
@@ -400,6 +401,7 @@ struct SceneCommandArgs {
     std::string preset = "auto", write_scene;  // render: a volume file's scene
     int light_index = 0;
     bool quiet = false;
+    bool distributed = false;  // render: one region per rank of mpirun (docs/distributed.md)
 };
 
 void add_scene_command_args(CLI::App& sub, SceneCommandArgs& a) {
@@ -438,12 +440,20 @@ void check_output_name(const std::string& output, bool image) {
 
 // --write-scene: the scene made for a volume file, its "render" block the options given as flags
 // (the image size is the scene's), written with the image.
+// --distributed: every rank renders its region, rank 0 writes what the others sent.
 int render_image(sombra::Context& context, const sombra::Scene& scene, const StatsContext& stats_context, const SceneCommandArgs& a,
-                 const StageTimes& stages, const nlohmann::json& given_options) {
+                 const StageTimes& stages, const nlohmann::json& given_options, sombra::cli::MpiRanks* ranks) {
     const sombra::RenderOptions& options = stats_context.options;
     const std::string scene_text =
         a.write_scene.empty() ? "" : sombra::scene_file_text(scene, a.write_scene, given_options.dump());  // fails before the work
-    sombra::RenderResult result = sombra::render(context, scene, options);
+    sombra::RenderResult result;
+    if (ranks) {
+        result = sombra::render_distributed(context, scene, options, *ranks);
+        ranks->finish();
+        if (ranks->rank() != 0) return 0;
+    } else {
+        result = sombra::render(context, scene, options);
+    }
     sombra::detail::StagedOutputs outputs;
     outputs.write(a.output, [&](const std::string& staged) { sombra::write_image(result.image, staged); });
     if (!a.write_scene.empty()) outputs.write(a.write_scene, [&](const std::string& staged) { write_text_file(staged, scene_text); });
@@ -455,6 +465,9 @@ int render_image(sombra::Context& context, const sombra::Scene& scene, const Sta
                   << shadow_cache_note(result.stats, options) << stages.summary() << ")\n";
     return 0;
 }
+
+int run_scene_command(SceneCommandArgs& a, const RenderOptionFlags& flags, CLI::App* render, CLI::App* dsm, CLI::App* visibility,
+                      const std::vector<std::string>& visibility_shadows, sombra::cli::MpiRanks* ranks);
 
 int run(int argc_given, char** argv_given) {
     const std::vector<std::string> args = current_spellings(argc_given, argv_given);
@@ -480,6 +493,9 @@ int run(int argc_given, char** argv_given) {
         ->check(CLI::IsMember({"auto", "ct", "mri", "fog"}));
     render->add_option("--write-scene", a.write_scene,
                        "also write the scene made for a volume file as a scene file (JSON) to edit and render again");
+    render->add_flag("--distributed", a.distributed,
+                     "under `mpirun -np N`: each rank renders one region of the world, the ranks exchange their deep shadow "
+                     "maps, rank 0 composites and writes (docs/distributed.md)");
     dsm->add_option("-o,--output", a.output,
                     "output .exr (a point light writes NAME.+x.exr … NAME.-z.exr; clustered maps NAME.cluster<k>.<j>.exr)")
         ->required();
@@ -527,7 +543,23 @@ int run(int argc_given, char** argv_given) {
     if (view.app->parsed()) return sombra::cli::run_view_command(view);
     if (clusters.app->parsed()) return sombra::cli::run_clusters_command(clusters, sombra::load_scene(clusters.scene_path));
 
-    const RenderOptionFlags& flags = render->parsed() ? render_flags : dsm->parsed() ? dsm_flags : visibility_flags;
+    std::unique_ptr<sombra::cli::MpiRanks> ranks;
+    if (render->parsed() && a.distributed) ranks = sombra::cli::MpiRanks::start();
+    try {
+        return run_scene_command(a, render->parsed() ? render_flags : dsm->parsed() ? dsm_flags : visibility_flags, render, dsm,
+                                 visibility, visibility_shadows, ranks.get());
+    } catch (const sombra::OtherRankFailed&) {
+        return 1;  // the rank that failed said why
+    } catch (...) {
+        if (ranks && ranks->open()) ranks->all_ok(false);  // the collective the other ranks wait in
+        if (ranks && ranks->first_failed() >= 0 && ranks->first_failed() != ranks->rank()) return 1;  // a lower rank says it
+        throw;
+    }
+}
+
+// render, dsm and visibility: load the scene (or a volume file's), then the command's work.
+int run_scene_command(SceneCommandArgs& a, const RenderOptionFlags& flags, CLI::App* render, CLI::App* dsm, CLI::App* visibility,
+                      const std::vector<std::string>& visibility_shadows, sombra::cli::MpiRanks* ranks) {
     if (!visibility->parsed()) check_output_name(a.output, render->parsed());
     if (!a.write_scene.empty() && lower_extension(a.write_scene) != ".json")
         throw sombra::Error(a.write_scene + ": --write-scene: a scene file's name must end in .json");
@@ -555,12 +587,13 @@ int run(int argc_given, char** argv_given) {
 #endif
     sombra::Context context(a.device);
     StageTimes stages;
-    options.progress = stages.callback(a.quiet);
+    options.progress = stages.callback(a.quiet || (ranks && ranks->rank() != 0));  // one rank reports
     const StatsContext stats_context{a.scene_path, options, flags.command};
     if (dsm->parsed()) return write_dsm(context, scene, a.light_index, stats_context, a.output, a.stats_path, a.quiet);
     if (visibility->parsed())
         return print_visibility(context, scene, a.light_index, stats_context, visibility_shadows, a.points_path, a.stats_path, a.quiet);
-    return render_image(context, scene, stats_context, a, stages, given_options_json(flags));
+    if (ranks && !ranks->all_ok(true)) throw sombra::OtherRankFailed();  // every rank loaded the scene
+    return render_image(context, scene, stats_context, a, stages, given_options_json(flags), ranks);
 }
 
 }  // namespace

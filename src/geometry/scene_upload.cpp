@@ -1,6 +1,7 @@
 #include "geometry/scene_upload.h"
 
 #include <algorithm>
+#include <cfloat>
 #include <cmath>
 #include <glm/glm.hpp>
 
@@ -130,6 +131,10 @@ PackedScene pack_scene(const Scene& scene) {
 
         BrickRanges bricks = compute_brick_ranges(vol);
         g.dims = {{vol.dims[0], vol.dims[1], vol.dims[2], 0}};
+        // ±FLT_MAX for an unclipped axis: OpenCL's fast-math builds may assume no infinities
+        auto finite = [](float f) { return std::clamp(f, -FLT_MAX, FLT_MAX); };
+        g.clip_min = f4(finite(vi.clip_min[0]), finite(vi.clip_min[1]), finite(vi.clip_min[2]));
+        g.clip_max = f4(finite(vi.clip_max[0]), finite(vi.clip_max[1]), finite(vi.clip_max[2]));
         g.brick_dims = {{bricks.brick_dims[0], bricks.brick_dims[1], bricks.brick_dims[2], 0}};
         g.data_offset = cl_uint(data_offset);
         g.image_z_offset = float(image_z);

@@ -66,6 +66,11 @@ struct PackedNodes {
     void bind(host::KernelArgs& args) const { args("texel_first", texel_first_buffer)("nodes", nodes); }
     DeepShadowMap read_back(host::Runtime& runtime, const DsmViewGpu& view) const;
 };
+// PackedNodes on the host: what a rank of a distributed render sends (src/distributed/map_exchange.h).
+struct HostPackedNodes {
+    std::vector<cl_uint> texel_first;  // texels + 1 entries
+    std::vector<float> nodes;          // (depth, opacity) pairs, texel_first.back() of them
+};
 // Offsets of consecutive runs of counts[i] nodes (a prefix sum, counts.size() + 1 entries);
 // throws sombra::Error past 2^31 nodes.
 std::vector<cl_uint> run_offsets(const std::vector<cl_uint>& counts);
@@ -96,6 +101,9 @@ public:
     DeepShadowMap read_back(host::Runtime& runtime, const DsmViewGpu& view, cl_uint view_number) const {
         return packed_lookups_ ? packed_.read_back(runtime, view) : read_back_native(runtime, view, view_number);
     }
+    // Every view's nodes on the host in the compact layout: the packed copy, or the compact storage
+    // itself. Throws sombra::Error for another backend read natively (--dsm-lookup native).
+    HostPackedNodes read_packed(host::Runtime& runtime) const;
 
 protected:
     virtual void bind_native(host::KernelArgs& args) const = 0;
@@ -115,6 +123,10 @@ protected:
 // `lookup`: "packed" or "native" (RenderOptions::dsm_lookup). Throws sombra::Error naming
 // --storage or --dsm-lookup otherwise.
 std::unique_ptr<DsmStorage> make_dsm_storage(const std::string& name, const std::string& lookup = "packed");
+
+// A storage of nodes made elsewhere (the maps of every rank of a distributed render, merged),
+// read by the compact lookup; it cannot generate.
+std::unique_ptr<DsmStorage> make_received_storage(host::Runtime& runtime, const HostPackedNodes& nodes);
 
 // Shared helpers of the backends.
 // Nodes per texel of every view, from a counting march (dsm_count, SOMBRA_DSM_COUNT_ONLY) over

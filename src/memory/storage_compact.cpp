@@ -2,6 +2,7 @@
 #include <chrono>
 
 #include "memory/dsm_storage.h"
+#include "sombra/error.h"
 
 namespace sombra::memory {
 namespace {
@@ -60,8 +61,43 @@ private:
     std::vector<cl_uint> counts_;
 };
 
+// Nodes uploaded from the host (make_received_storage): lookups only.
+class ReceivedStorage : public DsmStorage {
+public:
+    ReceivedStorage(host::Runtime& rt, const HostPackedNodes& host) {
+        packed_.texel_first = host.texel_first;
+        packed_.texel_first_buffer = host::make_buffer(rt, CL_MEM_READ_ONLY, host.texel_first.size() * sizeof(cl_uint),
+                                                       host.texel_first.data(), "received deep shadow map offsets");
+        std::vector<float> nodes = host.nodes;
+        nodes.resize(nodes.size() + 2, 0.f);  // the spare node (PackedNodes)
+        packed_.nodes = host::make_buffer(rt, CL_MEM_READ_ONLY, nodes.size() * sizeof(float), nodes.data(), "received deep shadow map nodes");
+    }
+    std::string name() const override { return "received"; }
+    std::vector<std::string> defines() const override { return {}; }
+    void build(BuildContext&, DsmStats&) override { throw Error("internal: received deep shadow maps cannot be generated"); }
+
+protected:
+    void bind_native(host::KernelArgs& args) const override { packed_.bind(args); }
+    DeepShadowMap read_back_native(host::Runtime& rt, const DsmViewGpu& view, cl_uint) const override {
+        return packed_.read_back(rt, view);
+    }
+};
+
 }  // namespace
 
 std::unique_ptr<DsmStorage> make_compact_storage() { return std::make_unique<CompactStorage>(); }
+
+std::unique_ptr<DsmStorage> make_received_storage(host::Runtime& runtime, const HostPackedNodes& nodes) {
+    return std::make_unique<ReceivedStorage>(runtime, nodes);
+}
+
+HostPackedNodes DsmStorage::read_packed(host::Runtime& rt) const {
+    if (packed_.texel_first.empty())
+        throw Error("--dsm-lookup native: a distributed render sends the packed maps; use --dsm-lookup packed");
+    HostPackedNodes host{packed_.texel_first, std::vector<float>(packed_.node_count() * 2)};
+    if (!host.nodes.empty())
+        rt.queue().enqueueReadBuffer(packed_.nodes, CL_TRUE, 0, host.nodes.size() * sizeof(float), host.nodes.data());
+    return host;
+}
 
 }  // namespace sombra::memory

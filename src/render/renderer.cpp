@@ -49,6 +49,8 @@ SceneKeys scene_keys(const Scene& scene, const RenderOptions& o, bool use_images
         placement << v.dims[0] << ' ' << v.dims[1] << ' ' << v.dims[2];
         for (float f : vi.transform) placement << ' ' << f;
         for (float f : vi.spacing) placement << ' ' << f;
+        for (float f : vi.clip_min) placement << ' ' << f;
+        for (float f : vi.clip_max) placement << ' ' << f;
         keys.volume_identity.push_back(shadows::volume_identity(v));
         content << shadows::volume_sample_key(v);
         for (auto& c : vi.transfer_function.color_points) content << ' ' << c.x << ' ' << c.r << ' ' << c.g << ' ' << c.b;
@@ -164,6 +166,10 @@ Prepared prepare(Context& context, const Scene& scene, const RenderOptions& opti
         kept.technique_family = family;
     }
     techniques::ShadowModule& technique = *kept.technique;
+    RankExchange* exchange = context.rank_exchange();
+    if (exchange && !technique.crosses_ranks())
+        throw Error(std::string("--shadows ") + shadow_technique_name(options.shadows) +
+                    ": a distributed render exchanges deep shadow maps between ranks; use dsm, shadowmap or none");
     SceneKeys keys = scene_keys(scene, options, use_images, technique, host::packet_lanes(runtime, options.lanes));
     std::string key = keys.whole();
     std::vector<std::string> light_keys;
@@ -178,7 +184,8 @@ Prepared prepare(Context& context, const Scene& scene, const RenderOptions& opti
         auto start = clock_type::now();
         upload_lights(runtime, scene, options, p, technique);
         stats.stage_ms["host_prepare"] = ms_since(start);
-        technique.update_lights({runtime, scene, p.packed, p.packed_surfaces, p.device, options, p.use_images, &needed}, moved, stats);
+        technique.update_lights({runtime, scene, p.packed, p.packed_surfaces, p.device, options, p.use_images, &needed, exchange}, moved,
+                                stats);
         p.light_keys = light_keys;
     } else {
         kept.prepared.reset();  // the shadow cache stays: its entries have their own keys
@@ -187,8 +194,8 @@ Prepared prepare(Context& context, const Scene& scene, const RenderOptions& opti
         fresh->keys = keys;
         fresh->light_keys = light_keys;
         try {
-            technique.prepare({runtime, scene, fresh->packed, fresh->packed_surfaces, fresh->device, options, fresh->use_images, &needed},
-                              stats);
+            technique.prepare(
+                {runtime, scene, fresh->packed, fresh->packed_surfaces, fresh->device, options, fresh->use_images, &needed, exchange}, stats);
         } catch (...) {
             kept = detail::KeptScenes();  // nothing half-built stays for the next call
             throw;
@@ -284,6 +291,21 @@ std::string RenderStats::to_json() const {
                                              {"entries_reused", shadow_cache_surface_entries_reused},
                                              {"points_to_fill", shadow_cache_surface_points_to_fill},
                                              {"estimated_fragments", shadow_cache_estimated_fragments}};
+    }
+    if (ranks > 0) {
+        j["distributed"] = {{"rank", rank},
+                            {"ranks", ranks},
+                            {"region_volumes", region_volumes},
+                            {"region_meshes", region_meshes},
+                            {"region_voxels", region_voxels},
+                            {"map_bytes_sent", map_bytes_sent},
+                            {"map_bytes_received", map_bytes_received},
+                            {"image_bytes_sent", image_bytes_sent},
+                            {"peak_memory_bytes", peak_memory_bytes}};
+        if (!rank_stats.empty()) {
+            j["distributed"]["per_rank"] = nlohmann::json::array();
+            for (const std::string& r : rank_stats) j["distributed"]["per_rank"].push_back(nlohmann::json::parse(r));
+        }
     }
     return j.dump(2);
 }

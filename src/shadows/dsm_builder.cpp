@@ -17,6 +17,11 @@ std::vector<std::string> volume_pass_defines(const Scene& scene, bool use_images
     std::vector<std::string> defines{"SOMBRA_VOLUME_SLOTS=" + std::to_string(std::max<std::size_t>(scene.volumes.size(), 1))};
     if (use_images) defines.push_back("SOMBRA_USE_IMAGES");
     if (skip_empty) defines.push_back("SOMBRA_SKIP_EMPTY");
+    for (const VolumeInstance& vi : scene.volumes)
+        if (vi.clipped()) {  // traversal.h make_volume_ray: the world box as well
+            defines.push_back("SOMBRA_VOLUME_CLIP");
+            break;
+        }
     return defines;
 }
 

@@ -140,6 +140,7 @@ struct PreparedVolume {
     Affine world_to_voxel;
     double voxel_size = 0;    // smallest world voxel size
     double opacity_unit = 0;  // world length the TF opacities refer to
+    Vec3 clip_min, clip_max;  // VolumeInstance's world clip box
 };
 
 PreparedVolume prepare(const VolumeInstance& vi, const std::string& where) {
@@ -154,6 +155,7 @@ PreparedVolume prepare(const VolumeInstance& vi, const std::string& where) {
     pv.world_to_voxel = inverse(voxel_to_world, where);
     pv.voxel_size = smallest_voxel_size(voxel_to_world);
     pv.opacity_unit = vi.opacity_unit > 0.f ? double(vi.opacity_unit) : pv.voxel_size;  // 0 = one voxel
+    pv.clip_min = vi.clip_min, pv.clip_max = vi.clip_max;
     return pv;
 }
 
@@ -206,24 +208,29 @@ struct Interval {
     bool empty() const { return !(t1 > t0); }
 };
 
-// Clips the segment against the volume's box [−½, dims − ½]³ in voxel space (slab method).
-// An affine map sends origin + t·dir to o' + t·d', so the parameter t is the same in both spaces.
-Interval clip_to_box(const PreparedVolume& pv, const Segment& s) {
-    const D3 o = pv.world_to_voxel.apply_point(s.origin);
-    const D3 d = pv.world_to_voxel.apply_linear(s.dir);
-    Interval in{0.0, s.t_end};
-    for (int a = 0; a < 3; ++a) {
-        const double lo = -0.5, hi = double(pv.volume->dims[std::size_t(a)]) - 0.5;
-        if (d[std::size_t(a)] == 0.0) {  // parallel to this pair of faces: inside the slab or never
-            if (o[std::size_t(a)] < lo || o[std::size_t(a)] > hi) return {0.0, 0.0};
+// Narrows `in` to where o + t·d lies in the box [lo, hi] (slab method).
+Interval clip_to_slabs(Interval in, const D3& o, const D3& d, const D3& lo, const D3& hi) {
+    for (std::size_t a = 0; a < 3; ++a) {
+        if (d[a] == 0.0) {  // parallel to this pair of faces: inside the slab or never
+            if (o[a] < lo[a] || o[a] > hi[a]) return {0.0, 0.0};
             continue;
         }
-        double ta = (lo - o[std::size_t(a)]) / d[std::size_t(a)], tb = (hi - o[std::size_t(a)]) / d[std::size_t(a)];
+        double ta = (lo[a] - o[a]) / d[a], tb = (hi[a] - o[a]) / d[a];
         if (ta > tb) std::swap(ta, tb);
         in.t0 = std::max(in.t0, ta);
         in.t1 = std::min(in.t1, tb);
     }
     return in;
+}
+
+// Clips the segment against the volume's box [−½, dims − ½]³ in voxel space, and against its
+// world clip box. An affine map sends origin + t·dir to o' + t·d', so the parameter t is the same
+// in both spaces.
+Interval clip_to_box(const PreparedVolume& pv, const Segment& s) {
+    const D3 dims{double(pv.volume->dims[0]), double(pv.volume->dims[1]), double(pv.volume->dims[2])};
+    Interval in = clip_to_slabs({0.0, s.t_end}, pv.world_to_voxel.apply_point(s.origin), pv.world_to_voxel.apply_linear(s.dir),
+                                {-0.5, -0.5, -0.5}, {dims[0] - 0.5, dims[1] - 0.5, dims[2] - 0.5});
+    return clip_to_slabs(in, s.origin, s.dir, to_d3(pv.clip_min), to_d3(pv.clip_max));
 }
 
 // −ln u capped as `extinction` caps σ (u = 1 − α ≥ 10⁻⁶), and its antiderivative in u.

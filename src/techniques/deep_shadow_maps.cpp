@@ -5,7 +5,9 @@
 #include <cstring>
 #include <ostream>
 
+#include "distributed/map_exchange.h"
 #include "shadows/dsm_views.h"
+#include "sombra/distributed.h"
 #include "techniques/option_declarations.h"
 
 namespace sombra::techniques {
@@ -135,6 +137,33 @@ void DeepShadowMaps::prepare(const SceneOnDevice& s, RenderStats& stats) {
     dsm_ = shadows::build_deep_shadow_maps(s.runtime, s.scene, s.packed, s.device, views_, s.options.dsm, s.options.lanes, meshes_,
                                            generate);
     note_built(generate, stats);
+    if (s.exchange) exchange_maps(s, stats);
+}
+
+void DeepShadowMaps::exchange_maps(const SceneOnDevice& s, RenderStats& stats) {
+    if (clusters_) throw Error("--clusters: a distributed render's ranks build one map per light of their own region; use --clusters 0");
+    auto start = std::chrono::steady_clock::now();
+    distributed::MapSet own{dsm_.views, light_views_, dsm_.storage->read_packed(s.runtime), dsm_.optical_depth};
+    const std::vector<unsigned char> bytes = distributed::serialize(own);
+    if (!s.exchange->all_ok(true)) throw OtherRankFailed();
+    const std::vector<std::vector<unsigned char>> received = s.exchange->all_gather(bytes);
+    std::vector<distributed::MapSet> sets;
+    map_bytes_sent_ = bytes.size(), map_bytes_received_ = 0;
+    for (std::size_t r = 0; r < received.size(); ++r) {
+        sets.push_back(distributed::deserialize(received[r], "rank " + std::to_string(r)));
+        if (int(r) != s.exchange->rank()) map_bytes_received_ += received[r].size();
+    }
+    distributed::MapSet merged = distributed::merge_map_sets(sets);
+    dsm_.views = merged.views;
+    dsm_.views_buffer = host::make_buffer(s.runtime, CL_MEM_READ_ONLY, merged.views.size() * sizeof(DsmViewGpu), merged.views.data(),
+                                          "received deep shadow map views");
+    dsm_.storage = memory::make_received_storage(s.runtime, merged.nodes);
+    views_ = built_views_ = merged.views;
+    meshes_.clear(), built_meshes_.clear();
+    generated_.assign(views_.size(), true);
+    light_views_ = merged.light_views;
+    light_views_buffer_ = cl::Buffer();
+    stats.stage_ms["dsm_exchange"] = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
 }
 
 namespace {
@@ -173,6 +202,7 @@ void DeepShadowMaps::update_lights(const SceneOnDevice& s, const std::vector<boo
         }
     }
     if (!any && !anew) return;
+    if (s.exchange) throw Error("internal: the maps of a distributed render are built once per render (render_distributed)");
     // superseded nodes stay in the pools of the on-demand backends until the set is built anew
     if (anew || dsm_.storage->garbage_fraction() > 0.5) {
         for (std::size_t v = 0; v < views_.size(); ++v) regenerate[v] = needed[v];  // what was kept goes too
@@ -243,6 +273,7 @@ void DeepShadowMaps::add_stats(RenderStats& stats) const {
     stats.dsm_bytes_used = d.bytes_used;
     stats.dsm_bytes_wasted = d.bytes_wasted;
     stats.dsm_capped_texels = d.capped_texels;
+    stats.map_bytes_sent = map_bytes_sent_, stats.map_bytes_received = map_bytes_received_;
     if (clusters_) {
         add_cluster_stats(*clusters_, stats);
         stats.stage_ms["dsm_clustering"] = clustering_ms_;

@@ -23,6 +23,7 @@ public:
     void add_stats(RenderStats& stats) const override;
     std::string light_data_key(std::size_t light) const override;
     std::vector<DeepShadowMap> read_back_maps(host::Runtime& runtime, std::size_t light) const override;
+    bool crosses_ranks() const override { return true; }
 
 private:
     // planned for the lights (and, clustered, the camera) as they are now
@@ -43,6 +44,11 @@ private:
     std::vector<bool> needed_views(const SceneOnDevice& s) const;
     // After a build or regeneration of the views marked in `generate`.
     void note_built(const std::vector<bool>& generate, RenderStats& stats);
+    // A distributed render: this rank's maps sent to every rank, and every rank's merged into the
+    // maps the lookups read (src/distributed/map_exchange.h); the views of each rank become
+    // clusters of their light.
+    void exchange_maps(const SceneOnDevice& s, RenderStats& stats);
+    unsigned long long map_bytes_sent_ = 0, map_bytes_received_ = 0;
 };
 
 }  // namespace sombra::techniques

@@ -30,6 +30,9 @@ struct SceneOnDevice {
     // module may leave the others' data unbuilt, and must build it when a later call needs it.
     const std::vector<bool>* lights_needed = nullptr;
     bool needs_light(std::size_t light) const { return !lights_needed || (light < lights_needed->size() && (*lights_needed)[light]); }
+    // A distributed render: the module exchanges its shadow data with the other ranks
+    // (sombra/distributed.h); nullptr: one process.
+    RankExchange* exchange = nullptr;
 };
 
 class ShadowModule {
@@ -40,6 +43,9 @@ public:
     virtual void add_defines(const Scene& scene, const RenderOptions& options, std::vector<std::string>& defines) const = 0;
     // Whether the technique attenuates light (SHADOW_TERM of its kernel header; none: false).
     virtual bool has_shadow_term() const { return true; }
+    // Whether its shadow data can be exchanged between the ranks of a distributed render, so that
+    // every rank's lookups see every region's objects (a technique without shadows trivially can).
+    virtual bool crosses_ranks() const { return !has_shadow_term(); }
     // Appends what the module's device data depend on among the options (the renderer keys the
     // scene's preparation by it; the volumes, meshes and light count are keyed already).
     virtual void add_key(const RenderOptions& options, int lanes, std::ostream& key) const;

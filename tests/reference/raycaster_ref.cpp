@@ -161,6 +161,16 @@ void box_span(const RefVolume& rv, V3 origin, V3 dir, double t_min, double t_max
             t1 = std::min(t1, std::max(ta, tb));
         }
     }
+    for (int a = 0; a < 3; ++a) {  // the instance's world clip box (infinite unless clipped)
+        double lo = rv.instance->clip_min[a], hi = rv.instance->clip_max[a];
+        if (std::fabs(dir[a]) < 1e-30) {
+            if (origin[a] < lo || origin[a] > hi) t0 = INFINITY, t1 = -INFINITY;
+        } else {
+            double ta = (lo - origin[a]) / dir[a], tb = (hi - origin[a]) / dir[a];
+            t0 = std::max(t0, std::min(ta, tb));
+            t1 = std::min(t1, std::max(ta, tb));
+        }
+    }
 }
 
 // Calls visit(t, delta, active volumes) for every point of the ray origin + t·dir, t in [0, t_max],
@@ -321,7 +331,8 @@ double extinction_at_point(const Scene& scene, const Vec3& p) {
         RefVolume rv = prepare(vi);
         V3 q = rv.world_to_voxel.point(from(p));
         bool inside = true;
-        for (int a = 0; a < 3; ++a) inside = inside && q[a] >= -0.5 && q[a] <= vi.volume->dims[a] - 0.5;
+        for (int a = 0; a < 3; ++a)
+            inside = inside && q[a] >= -0.5 && q[a] <= vi.volume->dims[a] - 0.5 && p[a] >= vi.clip_min[a] && p[a] <= vi.clip_max[a];
         if (inside) sigma += extinction(vi.transfer_function, sample_trilinear(*vi.volume, q[0], q[1], q[2]), rv.opacity_unit);
     }
     return sigma;
