@@ -8,6 +8,7 @@ declare -A rank=(
     [host]=1 [scene]=1                   # OpenCL runtime; scene files and readers
     [memory]=2 [geometry]=2              # DSM storage backends; rasterizer, fragments, BVH, packing
     [shadows]=3 [clustering]=3           # DSM generation, summed-area tables, reference; object clusters
+    [distributed]=3                      # regions of a distributed render, the maps its ranks exchange
     [techniques]=4                       # shadow techniques as modules
     [render]=5                           # the orchestrator
     [view]=6                             # the viewer's session and HTTP server

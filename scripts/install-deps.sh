@@ -32,6 +32,9 @@ packages=(
   # `sombra view` (issue 31): cpp-httplib's HTTP server; its browser test drives Debian's chromium
   # headless through chromium-driver and selenium (tests/view/test_view_browser.py)
   libcpp-httplib-dev chromium chromium-driver python3-selenium
+  # `mpirun -np N sombra render … --distributed` (issue 32, docs/distributed.md): Open MPI's
+  # library and headers (CMake's FindMPI) and its mpirun
+  libopenmpi-dev openmpi-bin
 )
 if [ "${1:-}" = "--list" ]; then
   printf '%s\n' "${packages[@]}"
