@@ -7,6 +7,8 @@
 #include <cstdlib>
 #include <mutex>
 #include <random>
+#include <filesystem>
+#include <fstream>
 #include <thread>
 
 #include "distributed/map_exchange.h"
@@ -76,7 +78,7 @@ struct RankOutcome {
 };
 
 // Every rank of a distributed render as a thread with its own Context.
-std::vector<RankOutcome> render_on_threads(const Scene& scene, const RenderOptions& options, int count) {
+std::vector<RankOutcome> render_on_threads(const Scene& scene, const RenderOptions& options, int count, const VolumeLoadOptions& load = {}) {
     ThreadRanks ranks(count);
     std::vector<RankOutcome> outcomes(static_cast<std::size_t>(count));
     std::vector<std::thread> threads;
@@ -86,7 +88,7 @@ std::vector<RankOutcome> render_on_threads(const Scene& scene, const RenderOptio
             RankOutcome& out = outcomes[std::size_t(r)];
             try {
                 Context context(test::device_selector());
-                out.result = render_distributed(context, scene, options, exchange);
+                out.result = render_distributed(context, scene, options, exchange, load);
             } catch (const OtherRankFailed&) {
                 out.other_failed = true;
             } catch (const std::exception& e) {
@@ -180,7 +182,7 @@ TEST_CASE("distributed: the regions' transmittances multiply to the whole scene'
     }
 }
 
-TEST_CASE("distributed: no cut passes through a mesh and each mesh goes to one rank; a mesh across every cut is an error", "[distributed]") {
+TEST_CASE("distributed: no cut passes through a mesh and each mesh goes to one rank, and a mesh across every cut is an error", "[distributed]") {
     Scene scene = test::sphere_scene(24);
     scene.volumes[0].transform = {0.05f, 0, 0, 0, 0, 0.05f, 0, 0, 0, 0, 0.05f, 0, 0, 0, 0, 1};  // 1.2 units wide
     MeshInstance small = test::quad(0.1f, 0.f, 0.5f);
@@ -308,6 +310,45 @@ TEST_CASE("distributed: ranks as threads render the image of one process, also w
             for (std::size_t r = 1; r < ranks.size(); ++r) CHECK(ranks[r].result.image.rgba.empty());
         }
     }
+}
+
+TEST_CASE("distributed: ranks that read only their box of an npy file render the image of one process", "[distributed]") {
+    // the sphere scene's volume as a float32 .npy, and a scene file that places it alike
+    const Scene whole = test::sphere_scene(32);
+    const Volume& v = *whole.volumes[0].volume;
+    std::string dict = "{'descr': '<f4', 'fortran_order': False, 'shape': (" + std::to_string(v.dims[2]) + ", " +
+                       std::to_string(v.dims[1]) + ", " + std::to_string(v.dims[0]) + "), }";
+    while ((10 + dict.size() + 1) % 64 != 0) dict += ' ';
+    dict += '\n';
+    const std::string dir = test::temp_dir(), npy = dir + "/sphere32.npy", scene_path = dir + "/sphere32.json";
+    {
+        std::ofstream out(npy, std::ios::binary);
+        const unsigned char head[10] = {0x93, 'N', 'U', 'M', 'P', 'Y', 1, 0, (unsigned char)(dict.size() & 0xff), (unsigned char)(dict.size() >> 8)};
+        out.write(reinterpret_cast<const char*>(head), 10);
+        out << dict;
+        out.write(reinterpret_cast<const char*>(v.voxels.data()), std::streamsize(v.voxels.size() * sizeof(float)));
+    }
+    Scene from_file = whole;
+    VolumeLoadOptions header;
+    header.header_only = true;
+    from_file.volumes[0].volume = std::make_shared<const Volume>(load_volume(npy, header));
+    REQUIRE(from_file.volumes[0].volume->header_only);
+    RenderOptions options;
+    options.dsm.resolution = 96;
+    std::vector<RankOutcome> parted = render_on_threads(from_file, options, 3);
+    for (const RankOutcome& r : parted) REQUIRE(r.error == "");
+    unsigned long long voxels = 0;
+    for (const RankOutcome& r : parted) {
+        CHECK(r.result.stats.region_voxels < v.voxel_count());  // no rank read the whole volume
+        voxels += r.result.stats.region_voxels;
+    }
+    CHECK(voxels >= v.voxel_count());
+    // a header has no voxels to tell occupied bricks: the split weighs every brick, so the
+    // regions differ from those of the whole volume; the image is one process's within the maps' grids
+    const test::ImageDifference d = test::compare(parted[0].result.image, render(test::context(), whole, options).image);
+    INFO("max |Δ| " << d.max_abs << ", mean " << d.mean_abs);
+    CHECK(d.max_abs < 0.04);
+    CHECK(d.mean_abs < 0.001);
 }
 
 TEST_CASE("distributed: a rank that fails stops every rank with its error, none waits", "[distributed]") {

@@ -235,6 +235,46 @@ TEST_CASE("extensions are matched case-insensitively — unknown or missing file
     }
 }
 
+TEST_CASE("parts: npy and raw files read a box of voxels alone, other formats crop, and a box outside is an error", "[volume_io]") {
+    TempDir tmp;
+    std::vector<double> values;  // v(x, y, z) = x + 10 y + 100 z on 5 × 4 × 3
+    for (int z = 0; z < 3; ++z)
+        for (int y = 0; y < 4; ++y)
+            for (int x = 0; x < 5; ++x) values.push_back(x + 10 * y + 100 * z);
+    const std::string npy_path = tmp.file("v.npy", npy(">i2", "(3, 4, 5)", encode<std::int16_t>(values, true)));
+    tmp.file("v.raw", Bytes(7, 0xee) + encode<std::uint16_t>(values));
+    const std::string raw_path = tmp.file("v.json", text_bytes(raw_json(R"("dims": [5, 4, 3], "type": "uint16", "header_bytes": 7, "spacing": [1, 2, 3])")));
+    const sombra::VoxelBox box{{1, 1, 0}, {3, 2, 2}};
+    for (const std::string& path : {npy_path, raw_path, data_file("heart.vtk")}) {
+        INFO(path);
+        const Volume whole = load_volume(path);
+        sombra::VolumeLoadOptions header;
+        header.header_only = true;
+        const Volume h = load_volume(path, header);
+        const bool parted = path != data_file("heart.vtk");  // legacy VTK has no parts: read whole
+        CHECK(h.header_only == parted);
+        CHECK(h.dims == whole.dims);
+        CHECK(h.spacing == whole.spacing);
+        CHECK(h.voxels.size() == (parted ? 0 : whole.voxel_count()));
+        sombra::VolumeLoadOptions part;
+        part.read_part = true;
+        part.part = box;
+        const Volume p = load_volume(path, part);
+        REQUIRE(p.dims == std::array<int, 3>{3, 2, 3});
+        for (int z = 0; z < 3; ++z)
+            for (int y = 0; y < 2; ++y)
+                for (int x = 0; x < 3; ++x) CHECK(p.at(x, y, z) == whole.at(x + 1, y + 1, z));
+        part.part.last[0] = whole.dims[0];  // one past the end
+        CHECK_THAT(error_of([&] { load_volume(path, part); }), Catch::Contains(path) && Catch::Contains("part: "));
+    }
+    // the header's size check still holds: a truncated .npy fails before any part is read
+    const Bytes full = read_bytes(npy_path);
+    const std::string cut = tmp.file("cut.npy", head(full, full.size() - 2));
+    sombra::VolumeLoadOptions header;
+    header.header_only = true;
+    CHECK_THAT(error_of([&] { load_volume(cut, header); }), Catch::Contains("cut.npy: data: "));
+}
+
 TEST_CASE("npy: dtypes and byte orders — npz with one stored member", "[volume_io]") {
     TempDir tmp;
     check_ramp(load_volume(tmp.file("a.npy", npy("<i2", "(4, 3, 2)", encode<std::int16_t>(ramp())))));

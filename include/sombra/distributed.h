@@ -64,8 +64,9 @@ RegionSplit split_regions(const Scene& scene, int count);
 // a ghost layer of two voxels (trilinear interpolation and central differences at the faces see
 // the neighbours' voxels) and clipped to the region (VolumeInstance::clip_min/max); the meshes
 // whose box centre lies in it (split_regions never cuts one); every light; the camera; a black
-// background, so that the image is the region's premultiplied contribution.
-Scene region_scene(const Scene& scene, const Box& region);
+// background, so that the image is the region's premultiplied contribution. A volume loaded by
+// its header only (VolumeLoadOptions::header_only) is read here, its box alone, with `load`.
+Scene region_scene(const Scene& scene, const Box& region, const VolumeLoadOptions& load = {});
 
 // Composites premultiplied partial images in front-to-back order ("over"), then the background
 // behind what light is left: the image one render of the whole scene gives.
@@ -76,7 +77,10 @@ Image composite_front_to_back(const std::vector<const Image*>& front_to_back, co
 // which returns the image and its stats with every rank's (RenderStats::rank_stats); the other
 // ranks return their own stats and no image. Only deep shadow maps (dsm, shadowmap) and none
 // cross ranks; other techniques, clustered maps (--clusters) and native map lookups throw
-// sombra::Error. A rank that fails throws its error; the others throw OtherRankFailed.
-RenderResult render_distributed(Context& context, const Scene& scene, const RenderOptions& options, RankExchange& exchange);
+// sombra::Error. A rank that fails throws its error; the others throw OtherRankFailed. A scene
+// loaded with VolumeLoadOptions::header_only has each rank read only its region's voxels (with
+// `load`), so that no rank holds a whole volume (.npy and raw files; see VolumeLoadOptions::part).
+RenderResult render_distributed(Context& context, const Scene& scene, const RenderOptions& options, RankExchange& exchange,
+                                const VolumeLoadOptions& load = {});
 
 }  // namespace sombra

@@ -6,6 +6,9 @@
 namespace sombra::limits {
 
 constexpr std::uint64_t kMaxVolumeVoxels = std::uint64_t(1) << 30;   // per volume (1024³; 4 GiB as floats)
+// per volume file read in parts (VolumeLoadOptions::header_only: the ranks of a distributed render
+// each read a box of at most kMaxVolumeVoxels; 2^40 = 10240³)
+constexpr std::uint64_t kMaxPartedVolumeVoxels = std::uint64_t(1) << 40;
 constexpr int kMaxGeneratorSize = 1024;                              // generator "size" (voxels per side)
 constexpr int kMaxGeneratorBlobs = 256;                              // blobs generator "count"
 constexpr int kMaxImageSide = 16384;                                 // image width and height

@@ -37,6 +37,15 @@ struct Volume {
         return voxels[std::size_t(x) + std::size_t(dims[0]) * (std::size_t(y) + std::size_t(dims[1]) * std::size_t(z))];
     }
     void update_range();  // recomputes value_min / value_max
+    // Loaded with VolumeLoadOptions::header_only from a format that reads parts: dims, spacing,
+    // placement and stored_type as the file says, no voxels; load_volume with
+    // VolumeLoadOptions::part reads a box of it (a rank of a distributed render, sombra/distributed.h).
+    bool header_only = false;
+};
+
+// Voxels first[a] … last[a] (inclusive) along each axis a of a volume file.
+struct VoxelBox {
+    std::array<int, 3> first{0, 0, 0}, last{0, 0, 0};
 };
 
 // What to do with NaN or Inf voxels found in a file.
@@ -51,6 +60,14 @@ struct VolumeLoadOptions {
     // .vdb: the grid to read, by name; empty: "density" if the file has that scalar grid, else the
     // first float or double grid in OpenVDB's listing (by name)
     std::string grid;
+    // Only the header of formats that can read parts (.npy and raw .json files): Volume::header_only,
+    // no voxels, and dims up to limits::kMaxPartedVolumeVoxels in all; other formats read whole.
+    bool header_only = false;
+    // Only this box of the file's voxels: the Volume's dims are the box's. .npy and raw .json files
+    // read just those bytes (so no process holds the whole volume); the other formats read the
+    // whole file and crop. max_voxels applies to the box.
+    bool read_part = false;
+    VoxelBox part;
 };
 
 struct VolumeLoadReport {

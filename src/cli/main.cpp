@@ -442,13 +442,14 @@ void check_output_name(const std::string& output, bool image) {
 // (the image size is the scene's), written with the image.
 // --distributed: every rank renders its region, rank 0 writes what the others sent.
 int render_image(sombra::Context& context, const sombra::Scene& scene, const StatsContext& stats_context, const SceneCommandArgs& a,
-                 const StageTimes& stages, const nlohmann::json& given_options, sombra::cli::MpiRanks* ranks) {
+                 const StageTimes& stages, const nlohmann::json& given_options, sombra::cli::MpiRanks* ranks,
+                 const sombra::VolumeLoadOptions& load) {
     const sombra::RenderOptions& options = stats_context.options;
     const std::string scene_text =
         a.write_scene.empty() ? "" : sombra::scene_file_text(scene, a.write_scene, given_options.dump());  // fails before the work
     sombra::RenderResult result;
     if (ranks) {
-        result = sombra::render_distributed(context, scene, options, *ranks);
+        result = sombra::render_distributed(context, scene, options, *ranks, load);
         ranks->finish();
         if (ranks->rank() != 0) return 0;
     } else {
@@ -571,8 +572,10 @@ int run_scene_command(SceneCommandArgs& a, const RenderOptionFlags& flags, CLI::
     for (const char* flag : {"--preset", "--write-scene"})
         if (!volume_file && render->count(flag) > 0)
             throw sombra::Error(std::string(flag) + ": applies to a volume file, not a scene (" + a.scene_path + ")");
+    sombra::VolumeLoadOptions headers = load;  // --distributed: each rank reads its region of .npy and raw volumes
+    headers.header_only = ranks != nullptr;
     sombra::Scene scene = volume_file ? sombra::volume_scene(a.scene_path, sombra::parse_transfer_preset(a.preset), 512, 512, load).scene
-                                      : sombra::load_scene(a.scene_path, load);
+                                      : sombra::load_scene(a.scene_path, headers);
     if (visibility->parsed()) sombra::detail::regular_file_size(a.points_path);  // an input, read below
     check_outputs();  // again, now that the inputs are known: no output may name one (before any work)
     sombra::RenderOptions options = effective_options(flags, scene);
@@ -593,7 +596,7 @@ int run_scene_command(SceneCommandArgs& a, const RenderOptionFlags& flags, CLI::
     if (visibility->parsed())
         return print_visibility(context, scene, a.light_index, stats_context, visibility_shadows, a.points_path, a.stats_path, a.quiet);
     if (ranks && !ranks->all_ok(true)) throw sombra::OtherRankFailed();  // every rank loaded the scene
-    return render_image(context, scene, stats_context, a, stages, given_options_json(flags), ranks);
+    return render_image(context, scene, stats_context, a, stages, given_options_json(flags), ranks, load);
 }
 
 }  // namespace

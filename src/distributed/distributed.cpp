@@ -55,24 +55,33 @@ Box world_box(const std::array<float, 16>& voxel_to_world, const Corner& lo, con
 }
 
 // The world centres of the bricks some transfer-function entry makes visible (pack_scene's
-// occupancy): what the split divides between the ranks.
-std::vector<Corner> occupied_brick_centres(const Scene& scene, const packing::PackedScene& packed) {
+// occupancy), or of every brick of a volume known by its header only: what the split divides
+// between the ranks.
+std::vector<Corner> occupied_brick_centres(const Scene& scene) {
     std::vector<Corner> centres;
-    for (std::size_t i = 0; i < packed.volumes.size(); ++i) {
-        const VolumeGpu& g = packed.volumes[i];
-        const auto& dims = scene.volumes[i].volume->dims;
-        for (int z = 0; z < g.brick_dims.s[2]; ++z)
-            for (int y = 0; y < g.brick_dims.s[1]; ++y)
-                for (int x = 0; x < g.brick_dims.s[0]; ++x) {
-                    const std::size_t b = g.brick_offset + std::size_t(x + g.brick_dims.s[0] * (y + g.brick_dims.s[1] * z));
-                    if (!packed.occupancy[b]) continue;
+    for (const VolumeInstance& vi : scene.volumes) {
+        const auto& dims = vi.volume->dims;
+        std::vector<unsigned char> occupied;  // per brick; empty: all (a header)
+        if (!vi.volume->header_only) {
+            Scene one;
+            one.volumes = {vi};
+            occupied = packing::pack_scene(one).occupancy;
+        }
+        const std::array<float, 16> voxel_to_world = packing::voxel_to_world_matrix(vi);
+        const int bricks[3] = {(dims[0] + SOMBRA_BRICK_SIZE - 1) / SOMBRA_BRICK_SIZE, (dims[1] + SOMBRA_BRICK_SIZE - 1) / SOMBRA_BRICK_SIZE,
+                               (dims[2] + SOMBRA_BRICK_SIZE - 1) / SOMBRA_BRICK_SIZE};
+        std::size_t b = 0;
+        for (int z = 0; z < bricks[2]; ++z)
+            for (int y = 0; y < bricks[1]; ++y)
+                for (int x = 0; x < bricks[0]; ++x, ++b) {
+                    if (!occupied.empty() && !occupied[b]) continue;
                     Corner centre;
                     const int index[3] = {x, y, z};
                     for (std::size_t a = 0; a < 3; ++a) {  // the middle of the brick's voxels
                         const int first = index[a] * SOMBRA_BRICK_SIZE, last = std::min(first + SOMBRA_BRICK_SIZE, dims[a]) - 1;
                         centre[a] = 0.5 * (first + last);
                     }
-                    centres.push_back(transform_point(packed.voxel_to_world[i], centre));
+                    centres.push_back(transform_point(voxel_to_world, centre));
                 }
     }
     return centres;
@@ -217,11 +226,10 @@ std::vector<int> RegionSplit::front_to_back(const Vec3& eye) const {
 
 RegionSplit split_regions(const Scene& scene, int count) {
     if (count < 1) throw Error("--distributed: needs at least one rank");
-    const packing::PackedScene packed = packing::pack_scene(scene);
     Box world = empty_box();
-    for (std::size_t i = 0; i < scene.volumes.size(); ++i) {
-        const auto& dims = scene.volumes[i].volume->dims;
-        Box b = world_box(packed.voxel_to_world[i], {-0.5, -0.5, -0.5}, {dims[0] - 0.5, dims[1] - 0.5, dims[2] - 0.5});
+    for (const VolumeInstance& vi : scene.volumes) {
+        const auto& dims = vi.volume->dims;
+        Box b = world_box(packing::voxel_to_world_matrix(vi), {-0.5, -0.5, -0.5}, {dims[0] - 0.5, dims[1] - 0.5, dims[2] - 0.5});
         grow(world, {b.min[0], b.min[1], b.min[2]});
         grow(world, {b.max[0], b.max[1], b.max[2]});
     }
@@ -235,27 +243,21 @@ RegionSplit split_regions(const Scene& scene, int count) {
     if (!(world.max[0] >= world.min[0])) world = {{-1, -1, -1}, {1, 1, 1}};  // nothing in the scene
     RegionSplit split;
     const float inf = std::numeric_limits<float>::infinity();
-    Splitter{split, meshes}.node(world, {{-inf, -inf, -inf}, {inf, inf, inf}}, occupied_brick_centres(scene, packed), count);
+    Splitter{split, meshes}.node(world, {{-inf, -inf, -inf}, {inf, inf, inf}}, occupied_brick_centres(scene), count);
     return split;
 }
 
-Scene region_scene(const Scene& scene, const Box& region) {
+Scene region_scene(const Scene& scene, const Box& region, const VolumeLoadOptions& load) {
     Scene part = scene;
     part.volumes.clear();
     part.meshes.clear();
     part.background = {0, 0, 0};
-    const packing::PackedScene packed = packing::pack_scene(scene);
-    for (std::size_t i = 0; i < scene.volumes.size(); ++i) {
-        const VolumeInstance& vi = scene.volumes[i];
+    for (const VolumeInstance& vi : scene.volumes) {
         const Volume& v = *vi.volume;
         // the region in voxel space: its corners through world → voxel, clamped to the volume's box
-        const VolumeGpu& g = packed.volumes[i];
-        std::array<float, 16> world_to_voxel{};
-        for (std::size_t r = 0; r < 3; ++r)
-            for (std::size_t c = 0; c < 4; ++c) world_to_voxel[4 * r + c] = g.world_to_voxel[r].s[c];
-        world_to_voxel[15] = 1;
+        const std::array<float, 16> world_to_voxel = packing::world_to_voxel_matrix(vi);
         Corner lo{-0.5, -0.5, -0.5}, hi{v.dims[0] - 0.5, v.dims[1] - 0.5, v.dims[2] - 0.5};
-        const Box in_world = world_box(packed.voxel_to_world[i], lo, hi);
+        const Box in_world = world_box(packing::voxel_to_world_matrix(vi), lo, hi);
         Box clamped;
         for (std::size_t a = 0; a < 3; ++a) {
             clamped.min[a] = std::max(region.min[a], in_world.min[a]);
@@ -274,23 +276,23 @@ Scene region_scene(const Scene& scene, const Box& region) {
             dims[a] = last[a] - first[a] + 1;
         }
         auto cropped = std::make_shared<Volume>();
-        cropped->dims = dims;
+        if (v.header_only) {  // read from the file: this rank's box only
+            VolumeLoadOptions part = load;
+            part.header_only = false, part.read_part = true;
+            part.part = {first, last};
+            *cropped = load_volume(v.source, part);
+        } else {
+            cropped->dims = dims;
+            cropped->voxels.reserve(cropped->voxel_count());
+            for (int z = first[2]; z <= last[2]; ++z)
+                for (int y = first[1]; y <= last[1]; ++y)
+                    for (int x = first[0]; x <= last[0]; ++x) cropped->voxels.push_back(v.at(x, y, z));
+            cropped->update_range();
+        }
         cropped->spacing = v.spacing;
         cropped->placement = v.placement;
         cropped->source = v.source;
         cropped->stored_type = v.stored_type;
-        cropped->voxels.resize(std::size_t(dims[0]) * std::size_t(dims[1]) * std::size_t(dims[2]));
-        float value_min = std::numeric_limits<float>::infinity(), value_max = -value_min;
-        std::size_t out = 0;
-        for (int z = first[2]; z <= last[2]; ++z)
-            for (int y = first[1]; y <= last[1]; ++y)
-                for (int x = first[0]; x <= last[0]; ++x) {
-                    const float value = v.at(x, y, z);
-                    cropped->voxels[out++] = value;
-                    if (std::isfinite(value)) value_min = std::min(value_min, value), value_max = std::max(value_max, value);
-                }
-        cropped->value_min = value_min <= value_max ? value_min : v.value_min;
-        cropped->value_max = value_min <= value_max ? value_max : v.value_max;
         VolumeInstance part_vi = vi;
         part_vi.volume = cropped;
         // the cropped grid is centred on its own middle: shift by where that middle lies in the old
@@ -341,7 +343,8 @@ Image composite_front_to_back(const std::vector<const Image*>& front_to_back, co
     return out;
 }
 
-RenderResult render_distributed(Context& context, const Scene& scene, const RenderOptions& options, RankExchange& exchange) {
+RenderResult render_distributed(Context& context, const Scene& scene, const RenderOptions& options, RankExchange& exchange,
+                                const VolumeLoadOptions& load) {
     const int rank = exchange.rank(), ranks = exchange.size();
     const bool maps = !scene.lights.empty() && (options.shadows == ShadowTechnique::Dsm || options.shadows == ShadowTechnique::ShadowMap);
     RenderResult result;
@@ -355,7 +358,7 @@ RenderResult render_distributed(Context& context, const Scene& scene, const Rend
         if (maps && options.dsm.clusters > 0)
             throw Error("--clusters: a distributed render's ranks build one map per light of their own region; use --clusters 0");
         split = split_regions(scene, ranks);
-        part = region_scene(scene, split.regions[std::size_t(rank)]);
+        part = region_scene(scene, split.regions[std::size_t(rank)], load);
         if (const char* fail = std::getenv("SOMBRA_TEST_FAIL_RANK"); fail && std::atoi(fail) == rank)  // tests/distributed
             throw Error(scene.source + ": rank " + std::to_string(rank) + ": SOMBRA_TEST_FAIL_RANK asks this rank to fail");
     });

@@ -105,24 +105,39 @@ std::vector<LightGpu> pack_lights(const Scene& scene) {
     return lights;
 }
 
+std::array<float, 16> voxel_to_world_matrix(const VolumeInstance& vi) {
+    const Volume& vol = *vi.volume;
+    // voxel → object: centred grid scaled by the spacing; then object → world
+    std::array<float, 16> grid{vi.spacing[0], 0, 0, -0.5f * (vol.dims[0] - 1) * vi.spacing[0],
+                               0, vi.spacing[1], 0, -0.5f * (vol.dims[1] - 1) * vi.spacing[1],
+                               0, 0, vi.spacing[2], -0.5f * (vol.dims[2] - 1) * vi.spacing[2],
+                               0, 0, 0, 1};
+    glm::mat4 voxel_to_world = from_row_major(vi.transform) * from_row_major(grid);
+    std::array<float, 16> m{};
+    for (int r = 0; r < 4; ++r)
+        for (int c = 0; c < 4; ++c) m[std::size_t(r * 4 + c)] = voxel_to_world[c][r];
+    return m;
+}
+
+std::array<float, 16> world_to_voxel_matrix(const VolumeInstance& vi) {
+    glm::mat4 world_to_voxel = glm::inverse(from_row_major(voxel_to_world_matrix(vi)));
+    std::array<float, 16> m{};
+    for (int r = 0; r < 4; ++r)
+        for (int c = 0; c < 4; ++c) m[std::size_t(r * 4 + c)] = world_to_voxel[c][r];
+    return m;
+}
+
 PackedScene pack_scene(const Scene& scene) {
     PackedScene packed;
     std::size_t data_offset = 0, image_z = 0;
     for (const VolumeInstance& vi : scene.volumes) {
         const Volume& vol = *vi.volume;
         VolumeGpu g{};
-        // voxel → object: centred grid scaled by the spacing; then object → world
-        std::array<float, 16> grid{vi.spacing[0], 0, 0, -0.5f * (vol.dims[0] - 1) * vi.spacing[0],
-                                   0, vi.spacing[1], 0, -0.5f * (vol.dims[1] - 1) * vi.spacing[1],
-                                   0, 0, vi.spacing[2], -0.5f * (vol.dims[2] - 1) * vi.spacing[2],
-                                   0, 0, 0, 1};
-        glm::mat4 voxel_to_world = from_row_major(vi.transform) * from_row_major(grid);
+        const std::array<float, 16> v2w = voxel_to_world_matrix(vi);
+        glm::mat4 voxel_to_world = from_row_major(v2w);
         glm::mat4 world_to_voxel = glm::inverse(voxel_to_world);
-        std::array<float, 16> v2w{};
-        for (int r = 0; r < 4; ++r) {
-            for (int c = 0; c < 4; ++c) v2w[std::size_t(r * 4 + c)] = voxel_to_world[c][r];
-            if (r < 3) g.world_to_voxel[r] = f4(world_to_voxel[0][r], world_to_voxel[1][r], world_to_voxel[2][r], world_to_voxel[3][r]);
-        }
+        for (int r = 0; r < 3; ++r)
+            g.world_to_voxel[r] = f4(world_to_voxel[0][r], world_to_voxel[1][r], world_to_voxel[2][r], world_to_voxel[3][r]);
         packed.voxel_to_world.push_back(v2w);
         float voxel_size = INFINITY;  // smallest world length of one voxel step
         for (int c = 0; c < 3; ++c) voxel_size = std::min(voxel_size, glm::length(glm::vec3(voxel_to_world[c])));

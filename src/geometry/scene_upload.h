@@ -23,6 +23,10 @@ struct BrickRanges {
 };
 BrickRanges compute_brick_ranges(const Volume& volume);
 
+// A volume's voxel (continuous index, voxel centres at integers) → world map, row-major, and its inverse.
+std::array<float, 16> voxel_to_world_matrix(const VolumeInstance& vi);
+std::array<float, 16> world_to_voxel_matrix(const VolumeInstance& vi);
+
 // Host-side packing, independent of OpenCL devices (the CPU references read it too).
 struct PackedScene {
     std::vector<VolumeGpu> volumes;

@@ -88,6 +88,25 @@ const Reader& reader_for(const std::string& path) {
 
 }  // namespace
 
+namespace {
+// Voxels `box` of `whole`, for the formats that cannot read a part alone.
+Volume crop(const std::string& path, const Volume& whole, const VoxelBox& box) {
+    Volume part = whole;
+    for (std::size_t a = 0; a < 3; ++a) {
+        if (box.first[a] < 0 || box.first[a] > box.last[a] || box.last[a] >= whole.dims[a])
+            throw file_error(path, "part", "voxels " + std::to_string(box.first[a]) + "…" + std::to_string(box.last[a]) + " of axis " +
+                                               std::to_string(a) + " lie outside the file's " + std::to_string(whole.dims[a]));
+        part.dims[a] = box.last[a] - box.first[a] + 1;
+    }
+    part.voxels.clear();
+    part.voxels.reserve(part.voxel_count());
+    for (int z = box.first[2]; z <= box.last[2]; ++z)
+        for (int y = box.first[1]; y <= box.last[1]; ++y)
+            for (int x = box.first[0]; x <= box.last[0]; ++x) part.voxels.push_back(whole.at(x, y, z));
+    return part;
+}
+}  // namespace
+
 Volume load_volume(const std::string& path, const VolumeLoadOptions& options, VolumeLoadReport* report) {
     std::error_code ec;
     const auto status = std::filesystem::status(path, ec);
@@ -99,7 +118,21 @@ Volume load_volume(const std::string& path, const VolumeLoadOptions& options, Vo
     if (&reader != &kDicomSeries)
         detail::regular_file_size(path);  // no directory, FIFO or device, whatever the reader
     VolumeLoadReport local;
-    Volume volume = reader.read(path, options, local);
+    Volume volume;
+    std::optional<volume_io::RawLayout> layout;
+    if (options.header_only || options.read_part) layout = volume_io::raw_layout(path, reader.format, volume);
+    if (layout && options.header_only) {  // dims, type and geometry; the voxels come in parts
+        volume.header_only = true;
+        if (report) *report = local, report->format = reader.format;
+        return volume;
+    }
+    if (layout) {
+        volume.voxels = volume_io::read_raw_box(path, *layout, options.part);
+        for (std::size_t a = 0; a < 3; ++a) volume.dims[a] = options.part.last[a] - options.part.first[a] + 1;
+    } else {
+        volume = reader.read(path, options, local);
+        if (options.read_part) volume = crop(path, volume, options.part);  // read whole: the format cannot seek
+    }
 
     const std::size_t count = volume_io::checked_voxel_count(
         path, {volume.dims[0], volume.dims[1], volume.dims[2]});

@@ -34,15 +34,14 @@ std::vector<unsigned char> read_file(const std::string& path) {
     return detail::read_regular_file(path, kMaxVolumeFileBytes);
 }
 
-std::size_t checked_voxel_count(const std::string& file, const std::array<long long, 3>& dims) {
+std::size_t checked_voxel_count(const std::string& file, const std::array<long long, 3>& dims, std::uint64_t limit) {
     const std::string text = std::to_string(dims[0]) + " x " + std::to_string(dims[1]) + " x " +
                              std::to_string(dims[2]);
     std::uint64_t count = 1;
     for (long long d : dims) {
         if (d <= 0) throw file_error(file, "dims", "empty volume " + text + " (every dimension must be > 0)");
-        if (std::uint64_t(d) > limits::kMaxVolumeVoxels / count)  // count * d would pass the limit (or overflow)
-            throw file_error(file, "dims", "volume " + text + " has more than " +
-                                               std::to_string(limits::kMaxVolumeVoxels) + " voxels");
+        if (std::uint64_t(d) > limit / count)  // count * d would pass the limit (or overflow)
+            throw file_error(file, "dims", "volume " + text + " has more than " + std::to_string(limit) + " voxels");
         count *= std::uint64_t(d);
     }
     return static_cast<std::size_t>(count);

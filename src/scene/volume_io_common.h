@@ -7,6 +7,7 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -26,7 +27,8 @@ std::vector<unsigned char> read_file(const std::string& path);
 
 // Checks that every dimension is positive and that the voxel count is at most
 // limits::kMaxVolumeVoxels; throws "FILE: dims: ..." otherwise. Returns the voxel count.
-std::size_t checked_voxel_count(const std::string& file, const std::array<long long, 3>& dims);
+std::size_t checked_voxel_count(const std::string& file, const std::array<long long, 3>& dims,
+                                std::uint64_t limit = limits::kMaxVolumeVoxels);
 
 // Throws "FILE: FIELD: [SUBJECT is ]truncated: ..." when actual < expected and
 // "FILE: FIELD: [SUBJECT ]has N extra bytes ..." when actual > expected.
@@ -53,6 +55,30 @@ void set_geometry(Volume& v, const std::string& file, const std::string& field,
 
 // One line from a library's message: newlines and runs of blanks become one space, trimmed.
 std::string one_line(const std::string& text);
+
+// Formats whose voxels lie in one file as contiguous data, x fastest (C order (z, y, x)): a
+// box of them can be read without the rest (VolumeLoadOptions::part).
+struct RawLayout {
+    std::string data_file;  // the file that holds the voxels
+    std::uint64_t offset = 0;  // of voxel (0, 0, 0) in it
+    std::array<long long, 3> dims{};
+    ScalarType type = ScalarType::u8;
+    Endian endian = Endian::little;
+};
+// The layout of a .npy or raw .json file, its geometry and stored type in `header` (dims up to
+// limits::kMaxPartedVolumeVoxels); nullopt for other formats. Checks the data's size against the
+// file's. Throws "FILE: FIELD: …".
+std::optional<RawLayout> raw_layout(const std::string& path, const std::string& format, Volume& header);
+// The voxels of `box` (inside layout.dims), read row by row; throws "FILE: part: …".
+std::vector<float> read_raw_box(const std::string& path, const RawLayout& layout, const VoxelBox& box);
+// The header of a .npy file (data at data_start in a file of `size` bytes; the header is
+// bytes [0, header_size)): its layout; throws for a malformed header. `name` names the file in messages.
+RawLayout parse_npy_header(const std::string& name, const unsigned char* data, std::size_t header_size,
+                           std::uint64_t file_size, std::uint64_t voxel_limit = limits::kMaxVolumeVoxels);
+// The bytes a .npy header spans: 8 + its length field + the dict (from its first 12 bytes).
+std::size_t npy_header_size(const std::string& name, const unsigned char* data, std::size_t size);
+// The layout and geometry of a raw .json file (see volume_io_raw.cpp).
+RawLayout raw_json_layout(const std::string& path, Volume& header, std::uint64_t voxel_limit = limits::kMaxVolumeVoxels);
 
 // Per-format readers. Each returns a volume with dims, spacing, voxels and source set; the
 // NaN/Inf policy, the empty-volume check and the value range are applied by load_volume.

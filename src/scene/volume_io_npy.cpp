@@ -105,18 +105,24 @@ std::array<long long, 3> shape(const std::string& name, const std::string& text)
 
 }  // namespace
 
-Volume parse_npy(const std::string& name, const unsigned char* data, std::size_t size) {
+std::size_t npy_header_size(const std::string& name, const unsigned char* data, std::size_t size) {
     static const unsigned char kMagic[6] = {0x93, 'N', 'U', 'M', 'P', 'Y'};
     if (size < 10 || !std::equal(kMagic, kMagic + 6, data)) throw file_error(name, "magic", "not a .npy file");
     const int version = data[6];
     if (version < 1 || version > 3) throw file_error(name, "version", "unsupported .npy version " + std::to_string(version));
     const std::size_t len_bytes = version == 1 ? 2 : 4;
+    if (size < 8 + len_bytes) throw file_error(name, "header", "truncated header");
     std::size_t header_len = 0;
-    for (std::size_t i = 0; i < len_bytes && 8 + i < size; ++i) header_len |= std::size_t(data[8 + i]) << (8 * i);
-    const std::size_t data_start = 8 + len_bytes + header_len;
-    if (size < 8 + len_bytes || data_start > size) throw file_error(name, "header", "truncated header");
+    for (std::size_t i = 0; i < len_bytes; ++i) header_len |= std::size_t(data[8 + i]) << (8 * i);
+    return 8 + len_bytes + header_len;
+}
 
-    const std::string header(reinterpret_cast<const char*>(data) + 8 + len_bytes, header_len);
+RawLayout parse_npy_header(const std::string& name, const unsigned char* data, std::size_t header_size, std::uint64_t file_size,
+                           std::uint64_t voxel_limit) {
+    const std::size_t data_start = npy_header_size(name, data, header_size);
+    if (data_start > header_size) throw file_error(name, "header", "truncated header");
+    const std::size_t len_bytes = data[6] == 1 ? 2 : 4;
+    const std::string header(reinterpret_cast<const char*>(data) + 8 + len_bytes, data_start - 8 - len_bytes);
     std::map<std::string, std::string> dict = DictParser(name, header).parse();
     for (const auto& [key, value] : dict)
         if (key != "descr" && key != "fortran_order" && key != "shape")
@@ -126,16 +132,22 @@ Volume parse_npy(const std::string& name, const unsigned char* data, std::size_t
     if (dict["fortran_order"] != "False")
         throw file_error(name, "fortran_order", "must be False (C order), found " + dict["fortran_order"]);
 
-    Endian endian;
-    const ScalarType type = dtype(name, dict["descr"], &endian);
-    const std::array<long long, 3> dims = shape(name, dict["shape"]);
-    const std::size_t count = checked_voxel_count(name, dims);
-    check_exact_size(name, "data", std::uint64_t(count) * type_size(type), size - data_start);
+    RawLayout layout;
+    layout.data_file = name;
+    layout.offset = data_start;
+    layout.type = dtype(name, dict["descr"], &layout.endian);
+    layout.dims = shape(name, dict["shape"]);
+    const std::size_t count = checked_voxel_count(name, layout.dims, voxel_limit);
+    check_exact_size(name, "data", std::uint64_t(count) * type_size(layout.type), file_size - std::min<std::uint64_t>(file_size, data_start));
+    return layout;
+}
 
+Volume parse_npy(const std::string& name, const unsigned char* data, std::size_t size) {
+    const RawLayout layout = parse_npy_header(name, data, size, size);
     Volume volume;
-    volume.dims = {int(dims[0]), int(dims[1]), int(dims[2])};
-    volume.voxels = to_float(data + data_start, count, type, endian);
-    volume.stored_type = type_name(type);
+    volume.dims = {int(layout.dims[0]), int(layout.dims[1]), int(layout.dims[2])};
+    volume.voxels = to_float(data + layout.offset, volume.voxel_count(), layout.type, layout.endian);
+    volume.stored_type = type_name(layout.type);
     volume.source = name;
     return volume;
 }

@@ -48,7 +48,7 @@ const json& triple(const std::string& path, const json& v, const char* key) {
 
 }  // namespace
 
-Volume read_raw_json(const std::string& path) {
+RawLayout raw_json_layout(const std::string& path, Volume& volume, std::uint64_t voxel_limit) {
     const std::vector<unsigned char> text = detail::read_regular_file(path, limits::kMaxInputFileBytes);
     json doc;
     try {
@@ -83,7 +83,6 @@ Volume read_raw_json(const std::string& path) {
                                              : detail::integer_in(skip, 0, std::numeric_limits<std::int64_t>::max());
     if (!header_bytes) throw file_error(path, "header_bytes", "must be an integer in [0, 2^63 - 1]");
 
-    Volume volume;
     const json& spacing = field(path, doc, "spacing", false);
     if (!spacing.is_null()) {
         const json& s = triple(path, spacing, "spacing");
@@ -95,7 +94,7 @@ Volume read_raw_json(const std::string& path) {
     }
 
     const ScalarType type = type_it->second;
-    const std::size_t count = checked_voxel_count(path, dims);
+    const std::size_t count = checked_voxel_count(path, dims, voxel_limit);
     const std::string raw_path = (std::filesystem::path(path).parent_path() / raw).string();
     // Sizes against the file's real size before anything is read (count * size < 2^34: no overflow).
     std::uint64_t raw_size = 0;
@@ -110,18 +109,25 @@ Volume read_raw_json(const std::string& path) {
                                                    "' (" + std::to_string(raw_size) + " bytes)");
     check_exact_size(path, "raw", data_bytes, raw_size - std::uint64_t(*header_bytes),
                      "'" + raw_path + "' after " + std::to_string(*header_bytes) + " header bytes");
+    volume.dims = {int(dims[0]), int(dims[1]), int(dims[2])};
+    volume.stored_type = volume_io::type_name(type);
+    volume.source = path;
+    return {raw_path, std::uint64_t(*header_bytes), dims, type, endian == "big" ? Endian::big : Endian::little};
+}
+
+Volume read_raw_json(const std::string& path) {
+    Volume volume;
+    const RawLayout layout = raw_json_layout(path, volume);
+    const std::string& raw_path = layout.data_file;
+    const std::size_t count = volume.voxel_count();
     std::vector<unsigned char> bytes;
     try {
         bytes = read_file(raw_path);
     } catch (const Error& e) {
         throw file_error(path, "raw", e.what());
     }
-    check_exact_size(path, "raw", std::uint64_t(*header_bytes) + data_bytes, bytes.size(), "'" + raw_path + "'");
-
-    volume.dims = {int(dims[0]), int(dims[1]), int(dims[2])};
-    volume.voxels = to_float(bytes.data() + *header_bytes, count, type, endian == "big" ? Endian::big : Endian::little);
-    volume.stored_type = volume_io::type_name(type);
-    volume.source = path;
+    check_exact_size(path, "raw", layout.offset + std::uint64_t(count) * type_size(layout.type), bytes.size(), "'" + raw_path + "'");
+    volume.voxels = to_float(bytes.data() + layout.offset, count, layout.type, layout.endian);
     return volume;
 }
 
