@@ -24,7 +24,8 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
-STAGES = ["distributed_split", "dsm_build", "dsm_exchange", "camera_pass", "distributed_composite"]
+STAGES = ["distributed_region", "dsm_build", "dsm_exchange_send", "dsm_exchange_wait", "dsm_exchange_gather", "dsm_exchange_merge",
+          "camera_pass", "distributed_composite"]
 
 
 def render(scene, ranks, size, work, extra=()):
@@ -40,6 +41,35 @@ def render(scene, ranks, size, work, extra=()):
     return wall_ms, json.loads(stats.read_text())["distributed"]["per_rank"]
 
 
+def cloud_scene(size, folder):
+    """A SIZE³ uint8 .npy cloud (a few Gaussian blobs and noise; fixed seed) and a scene file that
+    renders it: ranks read only their box of it."""
+    import numpy as np
+    rng = np.random.default_rng(5)
+    axis = np.linspace(-1, 1, size, dtype=np.float32)
+    z, y, x = np.meshgrid(axis, axis, axis, indexing="ij", sparse=True)
+    density = np.zeros((size, size, size), dtype=np.float32)
+    for _ in range(6):
+        c = rng.uniform(-0.45, 0.45, 3).astype(np.float32)
+        r = np.float32(rng.uniform(0.25, 0.45))
+        density += np.exp(-((x - c[0]) ** 2 + (y - c[1]) ** 2 + (z - c[2]) ** 2) / (2 * r * r))
+    density *= np.float32(0.75) + np.float32(0.5) * rng.random(density.shape, dtype=np.float32)
+    np.save(Path(folder) / f"cloud{size}.npy", np.clip(density * 120, 0, 255).astype(np.uint8))
+    scene = {
+        "camera": {"position": [1.6 * size, -1.4 * size, 0.9 * size], "look_at": [0, 0, 0], "up": [0, 0, 1], "fov_y_deg": 40},
+        "background": [0.55, 0.6, 0.7],
+        "volumes": [{"name": "cloud", "file": f"cloud{size}.npy", "step_voxels": 0.75, "opacity_unit": 4,
+                     "transfer_function": {"rgb_points": [0, 0.85, 0.85, 0.9, 255, 1, 1, 1],
+                                           "opacity_points": [0, 0, 60, 0, 160, 0.3, 255, 0.7]},
+                     "material": {"ambient": 1.0, "diffuse": 1.0, "specular": 0.0, "shininess": 1}}],
+        "lights": [{"type": "directional", "direction": [0.6, 0.3, -0.75], "intensity": 1.2},
+                   {"type": "point", "position": [-0.8 * size, 0.7 * size, size], "color": [1, 0.8, 0.6], "intensity": 0.8}],
+    }
+    path = Path(folder) / f"cloud{size}.json"
+    path.write_text(json.dumps(scene, indent=1))
+    return path
+
+
 def mib(b):
     return f"{b / 2**20:.1f}"
 
@@ -48,15 +78,21 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--size", type=int, default=128)
     parser.add_argument("--runs", type=int, default=3)
-    parser.add_argument("--scenes", default="default,smoke")
+    parser.add_argument("--scenes", default="cloud384,default,smoke",
+                        help="shipped scenes by name; cloudN: a generated N³ .npy cloud (read in parts)")
     parser.add_argument("--out", default="")
     args = parser.parse_args()
     lines = [f"Distributed renders at {args.size}², PoCL, 2 cores; median of {args.runs} runs after a warm-up "
-             "(`bench/distributed.py`). Per rank: max over the ranks (sum in brackets) of the stage in ms; "
-             "bytes per rank (max); memory: peak resident set of the largest rank.", ""]
+             "(`bench/distributed.py`). Per stage: the slowest rank's ms (the sum over ranks in brackets); "
+             "distributed_region: the split and reading (or cropping) the rank's box; dsm_exchange_wait: waiting "
+             "for the slowest rank's maps; dsm_exchange_send: reading back and serializing a rank's maps; _gather: "
+             "MPI_Allgatherv; _merge: checking, merging and uploading every rank's. "
+             "Bytes and memory: the largest rank's (memory: peak resident set).", ""]
+    scenes = {}
     with tempfile.TemporaryDirectory() as work:
         for name in args.scenes.split(","):
-            scene = ROOT / "data" / "scenes" / f"{name}.json"
+            scene = cloud_scene(int(name[5:]), work) if name.startswith("cloud") else ROOT / "data" / "scenes" / f"{name}.json"
+            scenes[name] = scene
             lines += [f"### {name}", "",
                       "| N | wall ms (rank 0 process) | " + " | ".join(STAGES) +
                       " | map MiB sent | map MiB received | image MiB to rank 0 | region voxels (max) | peak MiB |",
@@ -78,7 +114,7 @@ def main():
                 print(lines[-1], flush=True)
             lines.append("")
         # map bytes against resolution and ε: 2 ranks, the first scene
-        scene = ROOT / "data" / "scenes" / f"{args.scenes.split(',')[0]}.json"
+        scene = scenes[args.scenes.split(",")[0]]
         lines += [f"### Map bytes per rank against --dsm-res and --eps ({scene.stem}, 2 ranks)", "",
                   "| --dsm-res | --eps | MiB sent (max rank) | nodes (max rank) | texel offsets MiB (4 B · res² · views) |", "|---|---|---|---|---|"]
         for res in (256, 512, 1024):
@@ -89,10 +125,14 @@ def main():
                 views = per_rank[0]["dsm"]["views"]
                 lines.append(f"| {res} | {eps} | {mib(sent)} | {nodes:,} | {mib(4 * res * res * views)} |")
                 print(lines[-1], flush=True)
-    text = "\n".join(lines) + "\n"
+    publish("\n".join(lines) + "\n", args.out)
+
+
+def publish(text, out):
+    """The table on stdout, and in `out` when given."""
     print(text)
-    if args.out:
-        Path(args.out).write_text(text)
+    if out:
+        Path(out).write_text(text)
 
 
 if __name__ == "__main__":

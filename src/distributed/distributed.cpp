@@ -392,13 +392,13 @@ RenderResult render_distributed(Context& context, const Scene& scene, const Rend
         result = render(context, part, options);
     });
     RenderStats& stats = result.stats;
-    stats.stage_ms["distributed_split"] = split_ms;
+    stats.stage_ms["distributed_region"] = split_ms;  // the split, and reading or cropping the region
     stats.rank = rank, stats.ranks = ranks;
     stats.region_volumes = int(part.volumes.size()), stats.region_meshes = int(part.meshes.size());
     for (const VolumeInstance& vi : part.volumes) stats.region_voxels += vi.volume->voxel_count();
     stats.peak_memory_bytes = peak_memory_bytes();
+    stats.image_bytes_sent = rank == 0 ? 0 : result.image.rgba.size() * sizeof(float);  // the pixels (and a short header and the stats)
     const std::vector<unsigned char> partial = pack_partial(result.image, stats.to_json());
-    stats.image_bytes_sent = rank == 0 ? 0 : partial.size();
     auto composite_start = std::chrono::steady_clock::now();
     const std::vector<std::vector<unsigned char>> gathered = exchange.gather_to_root(partial);
     if (rank != 0) {

@@ -142,11 +142,20 @@ void DeepShadowMaps::prepare(const SceneOnDevice& s, RenderStats& stats) {
 
 void DeepShadowMaps::exchange_maps(const SceneOnDevice& s, RenderStats& stats) {
     if (clusters_) throw Error("--clusters: a distributed render's ranks build one map per light of their own region; use --clusters 0");
-    auto start = std::chrono::steady_clock::now();
+    using clock = std::chrono::steady_clock;
+    auto lap = clock::now();
+    auto stage = [&](const char* name) {  // the time since the last stage, as `name`
+        const auto now = clock::now();
+        stats.stage_ms[name] = std::chrono::duration<double, std::milli>(now - lap).count();
+        lap = now;
+    };
     distributed::MapSet own{dsm_.views, light_views_, dsm_.storage->read_packed(s.runtime), dsm_.optical_depth};
     const std::vector<unsigned char> bytes = distributed::serialize(own);
+    stage("dsm_exchange_send");  // read back and serialized
     if (!s.exchange->all_ok(true)) throw OtherRankFailed();
+    stage("dsm_exchange_wait");  // for the slowest rank's maps
     const std::vector<std::vector<unsigned char>> received = s.exchange->all_gather(bytes);
+    stage("dsm_exchange_gather");
     std::vector<distributed::MapSet> sets;
     map_bytes_sent_ = bytes.size(), map_bytes_received_ = 0;
     for (std::size_t r = 0; r < received.size(); ++r) {
@@ -163,7 +172,7 @@ void DeepShadowMaps::exchange_maps(const SceneOnDevice& s, RenderStats& stats) {
     generated_.assign(views_.size(), true);
     light_views_ = merged.light_views;
     light_views_buffer_ = cl::Buffer();
-    stats.stage_ms["dsm_exchange"] = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    stage("dsm_exchange_merge");  // checked, merged and uploaded
 }
 
 namespace {
