@@ -5,6 +5,7 @@
 #include <catch2/catch.hpp>
 #include <condition_variable>
 #include <cstdlib>
+#include <memory>
 #include <mutex>
 #include <random>
 #include <filesystem>
@@ -81,14 +82,17 @@ struct RankOutcome {
 std::vector<RankOutcome> render_on_threads(const Scene& scene, const RenderOptions& options, int count, const VolumeLoadOptions& load = {}) {
     ThreadRanks ranks(count);
     std::vector<RankOutcome> outcomes(static_cast<std::size_t>(count));
+    // the Contexts first, one at a time: OpenCL's first platform query is not safe from many
+    // threads at once (in a fresh process three threads creating theirs waited forever)
+    std::vector<std::unique_ptr<Context>> contexts;
+    for (int r = 0; r < count; ++r) contexts.push_back(std::make_unique<Context>(test::device_selector()));
     std::vector<std::thread> threads;
     for (int r = 0; r < count; ++r)
         threads.emplace_back([&, r] {
             ThreadExchange exchange(ranks, r);
             RankOutcome& out = outcomes[std::size_t(r)];
             try {
-                Context context(test::device_selector());
-                out.result = render_distributed(context, scene, options, exchange, load);
+                out.result = render_distributed(*contexts[std::size_t(r)], scene, options, exchange, load);
             } catch (const OtherRankFailed&) {
                 out.other_failed = true;
             } catch (const std::exception& e) {
