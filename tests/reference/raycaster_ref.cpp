@@ -146,31 +146,30 @@ double preintegrated_extinction(const TransferFunction& tf, double front, double
     return sum / n;
 }
 
-// The part [t0, t1] ⊂ [t_min, t_max] of origin + t·dir inside the volume's box [−0.5, dims − 0.5]
-// (slab test in voxel space; affine maps keep t); empty when t0 ≥ t1.
-void box_span(const RefVolume& rv, V3 origin, V3 dir, double t_min, double t_max, double& t0, double& t1) {
-    V3 o = rv.world_to_voxel.point(origin), d = rv.world_to_voxel.direction(dir);
-    t0 = t_min, t1 = t_max;
+// Narrows [t0, t1] to where o + t·d lies in the box [lo, hi] (slab test); empty when t0 ≥ t1.
+void narrow_to_box(V3 o, V3 d, V3 lo, V3 hi, double& t0, double& t1) {
     for (int a = 0; a < 3; ++a) {
-        double lo = -0.5, hi = rv.instance->volume->dims[a] - 0.5;
         if (std::fabs(d[a]) < 1e-30) {
-            if (o[a] < lo || o[a] > hi) t0 = INFINITY, t1 = -INFINITY;
+            if (o[a] < lo[a] || o[a] > hi[a]) t0 = INFINITY, t1 = -INFINITY;
         } else {
-            double ta = (lo - o[a]) / d[a], tb = (hi - o[a]) / d[a];
+            double ta = (lo[a] - o[a]) / d[a], tb = (hi[a] - o[a]) / d[a];
             t0 = std::max(t0, std::min(ta, tb));
             t1 = std::min(t1, std::max(ta, tb));
         }
     }
-    for (int a = 0; a < 3; ++a) {  // the instance's world clip box (infinite unless clipped)
-        double lo = rv.instance->clip_min[a], hi = rv.instance->clip_max[a];
-        if (std::fabs(dir[a]) < 1e-30) {
-            if (origin[a] < lo || origin[a] > hi) t0 = INFINITY, t1 = -INFINITY;
-        } else {
-            double ta = (lo - origin[a]) / dir[a], tb = (hi - origin[a]) / dir[a];
-            t0 = std::max(t0, std::min(ta, tb));
-            t1 = std::min(t1, std::max(ta, tb));
-        }
-    }
+}
+
+// The part [t0, t1] ⊂ [t_min, t_max] of origin + t·dir inside the volume's box [−0.5, dims − 0.5]
+// (slab test in voxel space; affine maps keep t) and inside the instance's world clip box
+// (infinite unless clipped); empty when t0 ≥ t1.
+void box_span(const RefVolume& rv, V3 origin, V3 dir, double t_min, double t_max, double& t0, double& t1) {
+    const auto& dims = rv.instance->volume->dims;
+    const auto& clip_min = rv.instance->clip_min;
+    const auto& clip_max = rv.instance->clip_max;
+    t0 = t_min, t1 = t_max;
+    narrow_to_box(rv.world_to_voxel.point(origin), rv.world_to_voxel.direction(dir), {-0.5, -0.5, -0.5},
+                  {dims[0] - 0.5, dims[1] - 0.5, dims[2] - 0.5}, t0, t1);
+    narrow_to_box(origin, dir, {clip_min[0], clip_min[1], clip_min[2]}, {clip_max[0], clip_max[1], clip_max[2]}, t0, t1);
 }
 
 // Calls visit(t, delta, active volumes) for every point of the ray origin + t·dir, t in [0, t_max],
