@@ -763,3 +763,66 @@ TEST_CASE("hostile input: DICOM positions, orientations and spacings are checked
     require_one_line(error_of([&] { load_volume(tmp.path("zero")); }), zero[0], "PixelSpacing: must be > 0");
     require_one_line(error_of([&] { load_volume(zero[0]); }), zero[0], "PixelSpacing: must be > 0");  // one file alone
 }
+
+TEST_CASE("parts: NRRD files (raw and gzip - attached or detached) read a box alone with the whole read's geometry",
+          "[volume_io]") {
+    TempDir tmp;
+    const std::array<int, 3> dims{16, 12, 8};
+    const std::vector<float> values = distinct_values(dims);
+    volume_io::write_itk(tmp.path("raw.nrrd"), dims, values, oblique_geometry(), false);
+    volume_io::write_itk(tmp.path("gzip.nrrd"), dims, values, oblique_geometry(), true);
+    volume_io::write_itk(tmp.path("detached.nhdr"), dims, values, oblique_geometry(), true);
+    // written by hand: big-endian int16 in a data file after two lines of text and three bytes
+    {
+        std::ofstream header(tmp.path("skips.nhdr"));
+        header << "NRRD0004\ntype: short\ndimension: 3\nsizes: 16 12 8\nspacings: 0.5 1 2\nendian: big\n"
+                  "encoding: raw\ndata file: skips.dat\nline skip: 2\nbyte skip: 3\n";
+        std::ofstream data(tmp.path("skips.dat"), std::ios::binary);
+        data << "first line\nsecond line\nxyz";
+        for (float v : values) data.put(char((int(v) >> 8) & 0xff)).put(char(int(v) & 0xff));
+        std::ofstream ascii(tmp.path("ascii.nrrd"));  // an encoding without parts: read whole, then cropped
+        ascii << "NRRD0004\ntype: float\ndimension: 3\nsizes: 16 12 8\nencoding: ascii\n\n";
+        for (float v : values) ascii << v << '\n';
+    }
+    const VoxelBox box{{3, 2, 1}, {12, 10, 7}};
+    for (const char* name : {"raw.nrrd", "gzip.nrrd", "detached.nhdr", "skips.nhdr", "ascii.nrrd"}) {
+        INFO(name);
+        const std::string path = tmp.path(name);
+        const Volume whole = load_volume(path);
+        REQUIRE(whole.voxels == values);
+        VolumeLoadOptions header;
+        header.header_only = true;
+        const Volume h = load_volume(path, header);
+        const bool parted = std::string(name) != "ascii.nrrd";
+        CHECK(h.header_only == parted);
+        CHECK(h.dims == whole.dims);
+        CHECK(h.spacing == whole.spacing);
+        CHECK(h.placement == whole.placement);
+        CHECK(h.stored_type == whole.stored_type);
+        VolumeLoadOptions part;
+        part.read_part = true;
+        part.part = box;
+        const Volume p = load_volume(path, part);
+        REQUIRE(p.dims == std::array<int, 3>{10, 9, 7});
+        for (int z = 0; z < 7; ++z)
+            for (int y = 0; y < 9; ++y)
+                for (int x = 0; x < 10; ++x) REQUIRE(p.at(x, y, z) == whole.at(x + 3, y + 2, z + 1));
+    }
+    // a gzip stream cut short: the header reads, the box past the cut is one error line
+    const std::vector<char> bytes = bytes_of(tmp.path("gzip.nrrd"));
+    const std::string cut = tmp.path("cut.nrrd");
+    write_bytes(cut, bytes.data(), bytes.size() * 3 / 4);
+    VolumeLoadOptions part;
+    part.read_part = true;
+    part.part = {{0, 0, 6}, {15, 11, 7}};
+    require_one_line(error_of([&] { load_volume(cut, part); }), cut);
+    // raw data shorter than the header declares: refused at the header
+    const std::vector<char> raw = bytes_of(tmp.path("raw.nrrd"));
+    const std::string short_raw = tmp.path("short.nrrd");
+    write_bytes(short_raw, raw.data(), raw.size() - 10);
+    VolumeLoadOptions header;
+    header.header_only = true;
+    const std::string message = error_of([&] { load_volume(short_raw, header); });
+    require_one_line(message, short_raw);
+    CHECK_THAT(message, Catch::Contains("truncated"));
+}

@@ -79,7 +79,7 @@ Image composite_front_to_back(const std::vector<const Image*>& front_to_back, co
 // cross ranks; other techniques, clustered maps (--clusters) and native map lookups throw
 // sombra::Error. A rank that fails throws its error; the others throw OtherRankFailed. A scene
 // loaded with VolumeLoadOptions::header_only has each rank read only its region's voxels (with
-// `load`), so that no rank holds a whole volume (.npy and raw files; see VolumeLoadOptions::part).
+// `load`), so that no rank holds a whole volume (.npy, raw and NRRD files; see VolumeLoadOptions::part).
 RenderResult render_distributed(Context& context, const Scene& scene, const RenderOptions& options, RankExchange& exchange,
                                 const VolumeLoadOptions& load = {});
 

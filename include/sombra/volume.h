@@ -60,12 +60,14 @@ struct VolumeLoadOptions {
     // .vdb: the grid to read, by name; empty: "density" if the file has that scalar grid, else the
     // first float or double grid in OpenVDB's listing (by name)
     std::string grid;
-    // Only the header of formats that can read parts (.npy and raw .json files): Volume::header_only,
-    // no voxels, and dims up to limits::kMaxPartedVolumeVoxels in all; other formats read whole.
+    // Only the header of formats that can read parts (.npy, raw .json, and NRRD with raw or gzip data
+    // in one file): Volume::header_only, no voxels, and dims up to limits::kMaxPartedVolumeVoxels in
+    // all; other formats read whole.
     bool header_only = false;
-    // Only this box of the file's voxels: the Volume's dims are the box's. .npy and raw .json files
-    // read just those bytes (so no process holds the whole volume); the other formats read the
-    // whole file and crop. max_voxels applies to the box.
+    // Only this box of the file's voxels: the Volume's dims are the box's. Those formats read just
+    // those bytes, so no process holds the whole volume (a gzip NRRD inflates its stream up to the
+    // box's last row and keeps only the box); the other formats read the whole file and crop.
+    // max_voxels applies to the box.
     bool read_part = false;
     VoxelBox part;
 };

@@ -572,7 +572,7 @@ int run_scene_command(SceneCommandArgs& a, const RenderOptionFlags& flags, CLI::
     for (const char* flag : {"--preset", "--write-scene"})
         if (!volume_file && render->count(flag) > 0)
             throw sombra::Error(std::string(flag) + ": applies to a volume file, not a scene (" + a.scene_path + ")");
-    sombra::VolumeLoadOptions headers = load;  // --distributed: each rank reads its region of .npy and raw volumes
+    sombra::VolumeLoadOptions headers = load;  // --distributed: each rank reads its region of .npy, raw and NRRD (raw or gzip) volumes
     headers.header_only = ranks != nullptr;
     sombra::Scene scene = volume_file ? sombra::volume_scene(a.scene_path, sombra::parse_transfer_preset(a.preset), 512, 512, load).scene
                                       : sombra::load_scene(a.scene_path, headers);

@@ -370,17 +370,10 @@ RenderResult render_distributed(Context& context, const Scene& scene, const Rend
             result.stats.height = options.height > 0 ? options.height : scene.height;
             result.image.width = result.stats.width, result.image.height = result.stats.height;
             result.image.rgba.assign(std::size_t(result.image.width) * std::size_t(result.image.height) * 4, 0.f);
-            if (maps) {
-                distributed::MapSet none;
-                none.light_views.assign(scene.lights.size(), DsmLightViews{0, 0});
-                none.nodes.texel_first = {0};
-                none.optical_depth = options.dsm.error == "relative";
-                const std::vector<unsigned char> bytes = distributed::serialize(none);
-                if (!exchange.all_ok(true)) throw OtherRankFailed();
-                auto received = exchange.all_gather(bytes);
-                result.stats.map_bytes_sent = bytes.size();
-                for (std::size_t r = 0; r < received.size(); ++r)
-                    if (int(r) != rank) result.stats.map_bytes_received += received[r].size();
+            if (maps) {  // the others wait for this rank's maps: none
+                const distributed::ReceivedMaps received = distributed::exchange_maps(
+                    exchange, distributed::no_maps(scene.lights.size(), options.dsm.error == "relative"), [](const char*) {});
+                result.stats.map_bytes_sent = received.bytes_sent, result.stats.map_bytes_received = received.bytes_received;
             }
             return;
         }

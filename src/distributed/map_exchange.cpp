@@ -3,6 +3,7 @@
 
 #include <cstring>
 
+#include "sombra/distributed.h"
 #include "sombra/error.h"
 
 namespace sombra::distributed {
@@ -120,6 +121,28 @@ MapSet merge_map_sets(const std::vector<MapSet>& ranks) {
     }
     if (merged.nodes.nodes.size() / 2 > 0x7fffffffull) throw Error("distributed maps: more than 2^31 deep shadow map nodes in all");
     return merged;
+}
+
+MapSet no_maps(std::size_t lights, bool optical_depth) {
+    MapSet none;
+    none.light_views.assign(lights, DsmLightViews{0, 0});
+    none.nodes.texel_first = {0};
+    none.optical_depth = optical_depth;
+    return none;
+}
+
+ReceivedMaps exchange_maps(RankExchange& exchange, const MapSet& own, const std::function<void(const char*)>& stage) {
+    ReceivedMaps out;
+    const std::vector<unsigned char> bytes = serialize(own);
+    stage("dsm_exchange_send");  // read back (by the caller) and serialized
+    if (!exchange.all_ok(true)) throw OtherRankFailed();
+    stage("dsm_exchange_wait");  // for the slowest rank's maps
+    out.ranks = exchange.all_gather(bytes);
+    stage("dsm_exchange_gather");
+    out.bytes_sent = bytes.size();
+    for (std::size_t r = 0; r < out.ranks.size(); ++r)
+        if (int(r) != exchange.rank()) out.bytes_received += out.ranks[r].size();
+    return out;
 }
 
 }  // namespace sombra::distributed

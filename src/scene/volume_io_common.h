@@ -64,12 +64,18 @@ struct RawLayout {
     std::array<long long, 3> dims{};
     ScalarType type = ScalarType::u8;
     Endian endian = Endian::little;
+    // gzip-encoded (NRRD): the voxels lie in a gzip stream that starts at byte stream_start of
+    // data_file, and offset counts decompressed bytes
+    bool gzip = false;
+    std::uint64_t stream_start = 0;
 };
-// The layout of a .npy or raw .json file, its geometry and stored type in `header` (dims up to
-// limits::kMaxPartedVolumeVoxels); nullopt for other formats. Checks the data's size against the
-// file's. Throws "FILE: FIELD: …".
+// The layout of a .npy, raw .json or NRRD file (raw or gzip, one data file), its geometry and
+// stored type in `header` (dims up to limits::kMaxPartedVolumeVoxels); nullopt for other formats
+// and other NRRD encodings. Checks the data's size against the file's (not a gzip stream's).
+// Throws "FILE: FIELD: …".
 std::optional<RawLayout> raw_layout(const std::string& path, const std::string& format, Volume& header);
-// The voxels of `box` (inside layout.dims), read row by row; throws "FILE: part: …".
+// The voxels of `box` (inside layout.dims), read row by row (a gzip stream is decompressed up to
+// the box's last row and the rest of it discarded); throws "FILE: part: …".
 std::vector<float> read_raw_box(const std::string& path, const RawLayout& layout, const VoxelBox& box);
 // The header of a .npy file (data at data_start in a file of `size` bytes; the header is
 // bytes [0, header_size)): its layout; throws for a malformed header. `name` names the file in messages.
@@ -86,6 +92,15 @@ RawLayout raw_json_layout(const std::string& path, Volume& header, std::uint64_t
 Volume read_vdb(const std::string& path, const VolumeLoadOptions& options, VolumeLoadReport& report);
 enum class ItkFormat { nrrd, metaimage, tiff, dicom, dicom_series };
 Volume read_itk(const std::string& path, ItkFormat format, const VolumeLoadOptions& options);
+// A file's header read by ITK alone (NRRD, MetaImage): dims, spacing, placement and stored_type in
+// `volume` exactly as a whole read gives them, and the voxels' type and byte order; dims up to
+// voxel_limit. nullopt for types sombra cannot read in parts (64-bit integers).
+struct ItkHeader {
+    Volume volume;
+    ScalarType type = ScalarType::u8;
+    Endian endian = Endian::little;
+};
+std::optional<ItkHeader> read_itk_header(const std::string& path, ItkFormat format, std::uint64_t voxel_limit);
 Volume read_nifti(const std::string& path);
 Volume read_npy(const std::string& path);
 Volume read_npz(const std::string& path);

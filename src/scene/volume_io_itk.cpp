@@ -121,7 +121,7 @@ const char* format_name(ItkFormat format) {
 
 // Checks what the header (of the first file) declares, before any voxel is read.
 void check_header(const std::string& path, itk::ImageIOBase& io, std::size_t slices, std::uint64_t input_bytes,
-                  const VolumeLoadOptions& options) {
+                  const VolumeLoadOptions& options, std::uint64_t voxel_limit = limits::kMaxVolumeVoxels) {
     const unsigned n = io.GetNumberOfDimensions();
     std::array<long long, 3> dims{1, 1, 1};
     for (unsigned d = 0; d < n; ++d) {
@@ -139,7 +139,7 @@ void check_header(const std::string& path, itk::ImageIOBase& io, std::size_t sli
     if (io.GetNumberOfComponents() != 1)
         throw file_error(path, "components", std::to_string(io.GetNumberOfComponents()) +
                                                  " components per voxel (colour or vector data); expected one (grey)");
-    const std::size_t count = checked_voxel_count(path, dims);
+    const std::size_t count = checked_voxel_count(path, dims, voxel_limit);
     if (count > options.max_voxels)
         throw file_error(path, "dims", std::to_string(count) + " voxels exceed the limit of " +
                                            std::to_string(options.max_voxels));
@@ -265,6 +265,26 @@ std::vector<std::string> series_files(const std::string& dir) {
     return names->GetFileNames(uids.front());
 }
 
+// Places `volume` (dims set) as ITK's geometry says: direction(r, a) is row r of index axis a's
+// direction, in LPS for the patient-frame formats.
+template <typename Direction, typename Spacing, typename Origin>
+void place(Volume& volume, const std::string& path, ItkFormat format, const Direction& direction,
+           const Spacing& spacing, const Origin& origin_lps) {
+    std::array<std::array<double, 3>, 3> axes{};
+    std::array<double, 3> origin{};
+    const bool patient_frame = format != ItkFormat::tiff;
+    for (int r = 0; r < 3; ++r) {
+        const double sign = patient_frame && r < 2 ? -1.0 : 1.0;  // LPS → RAS
+        for (int a = 0; a < 3; ++a)
+            axes[std::size_t(a)][std::size_t(r)] = sign * (patient_frame ? direction(r, a) : (r == a ? 1.0 : 0.0)) * spacing(a);
+        origin[std::size_t(r)] = patient_frame ? sign * origin_lps(r) : 0.0;
+    }
+    set_geometry(volume, path, "spacing", axes, origin);
+    if (!patient_frame) {  // centred, axes as stored
+        volume.placement[3] = volume.placement[7] = volume.placement[11] = 0.f;
+    }
+}
+
 Volume to_volume(const std::string& path, const Image& image, ItkFormat format) {
     Volume volume;
     const Image::SizeType size = image.GetLargestPossibleRegion().GetSize();
@@ -275,19 +295,8 @@ Volume to_volume(const std::string& path, const Image& image, ItkFormat format) 
     const Image::DirectionType& d = image.GetDirection();
     const Image::SpacingType& s = image.GetSpacing();
     const Image::PointType& o = image.GetOrigin();
-    std::array<std::array<double, 3>, 3> axes{};
-    std::array<double, 3> origin{};
-    const bool patient_frame = format != ItkFormat::tiff;
-    for (int r = 0; r < 3; ++r) {
-        const double sign = patient_frame && r < 2 ? -1.0 : 1.0;  // LPS → RAS
-        for (int a = 0; a < 3; ++a)
-            axes[std::size_t(a)][std::size_t(r)] = sign * (patient_frame ? d[r][a] : (r == a ? 1.0 : 0.0)) * s[a];
-        origin[std::size_t(r)] = patient_frame ? sign * o[r] : 0.0;
-    }
-    set_geometry(volume, path, "spacing", axes, origin);
-    if (!patient_frame) {  // centred, axes as stored
-        volume.placement[3] = volume.placement[7] = volume.placement[11] = 0.f;
-    }
+    place(volume, path, format, [&](int r, int a) { return d[r][a]; }, [&](int a) { return s[a]; },
+          [&](int r) { return o[r]; });
     return volume;
 }
 
@@ -352,6 +361,55 @@ Volume read_file(const std::string& path, ItkFormat format, const VolumeLoadOpti
 }
 
 }  // namespace
+
+std::optional<ItkHeader> read_itk_header(const std::string& path, ItkFormat format, std::uint64_t voxel_limit) {
+    quiet_once();
+    try {
+        detail::StderrCapture capture;
+        const std::uint64_t input_bytes = check_detached_header(path, format == ItkFormat::nrrd);
+        itk::ImageIOBase::Pointer io = make_io(format);
+        if (!io->CanReadFile(path.c_str()))
+            throw file_error(path, "header", std::string("not a readable ") + format_name(format) + " file");
+        io->SetFileName(path);
+        io->ReadImageInformation();  // NRRD: teem reads the header and skips the data
+        VolumeLoadOptions options;
+        options.max_voxels = voxel_limit;
+        check_header(path, *io, 1, input_bytes, options, voxel_limit);
+        ItkHeader header;
+        using C = itk::IOComponentEnum;
+        switch (io->GetComponentType()) {
+            case C::UCHAR: header.type = ScalarType::u8; break;
+            case C::CHAR: header.type = ScalarType::i8; break;
+            case C::USHORT: header.type = ScalarType::u16; break;
+            case C::SHORT: header.type = ScalarType::i16; break;
+            case C::UINT: header.type = ScalarType::u32; break;
+            case C::INT: header.type = ScalarType::i32; break;
+            case C::FLOAT: header.type = ScalarType::f32; break;
+            case C::DOUBLE: header.type = ScalarType::f64; break;
+            default: return std::nullopt;  // 64-bit integers: read whole
+        }
+        if (io->GetComponentSize() != type_size(header.type)) return std::nullopt;
+        header.endian = io->GetByteOrder() == itk::IOByteOrderEnum::BigEndian ? Endian::big : Endian::little;
+        Volume& volume = header.volume;
+        const unsigned n = io->GetNumberOfDimensions();
+        for (unsigned a = 0; a < 3; ++a) volume.dims[a] = a < n ? int(io->GetDimensions(a)) : 1;
+        const auto axis = [&](unsigned a) { return a < n ? io->GetDirection(a) : std::vector<double>{}; };
+        place(volume, path, format,
+              [&](int r, int a) {
+                  const std::vector<double> d = axis(unsigned(a));
+                  return d.empty() ? (r == a ? 1.0 : 0.0) : (std::size_t(r) < d.size() ? d[std::size_t(r)] : 0.0);
+              },
+              [&](int a) { return unsigned(a) < n ? io->GetSpacing(unsigned(a)) : 1.0; },
+              [&](int r) { return unsigned(r) < n ? io->GetOrigin(unsigned(r)) : 0.0; });
+        volume.stored_type = stored_type_name(*io);
+        volume.source = path;
+        return header;
+    } catch (const Error&) {
+        throw;
+    } catch (const itk::ExceptionObject& e) {
+        throw file_error(path, "header", std::string("not a readable ") + format_name(format) + " file: " + one_line(e.GetDescription()));
+    }
+}
 
 Volume read_itk(const std::string& path, ItkFormat format, const VolumeLoadOptions& options) {
     quiet_once();

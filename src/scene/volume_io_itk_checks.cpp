@@ -314,6 +314,59 @@ std::uint64_t check_detached_header(const std::string& header, bool nrrd) {
     return nrrd ? check_nrrd(header, bytes) : check_metaimage(header, bytes);
 }
 
+std::optional<NrrdDataLocation> nrrd_data_location(const std::string& header) {
+    std::ifstream in(header, std::ios::binary);
+    if (!in) throw file_error(header, "", "cannot open");
+    NrrdDataLocation where;
+    std::string encoding = "raw", line;
+    long long line_skip = 0;
+    bool detached = false, ended = false;
+    for (std::size_t n = 0; n < kMaxHeaderLines && std::getline(in, line); ++n) {
+        if (!line.empty() && line.back() == '\r') line.pop_back();
+        if (line.empty()) {
+            ended = true;
+            break;
+        }
+        if (line[0] == '#' || line.find(":=") != std::string::npos) continue;
+        const std::size_t colon = line.find(':');
+        if (colon == std::string::npos) continue;
+        const std::string key = lower(trim(line.substr(0, colon))), value = trim(line.substr(colon + 1));
+        if (key == "encoding") encoding = lower(value);
+        else if (key == "line skip" || key == "lineskip") line_skip = parse_int(header, key, value);
+        else if (key == "byte skip" || key == "byteskip") where.byte_skip = parse_int(header, key, value);
+        else if (key == "data file" || key == "datafile") {
+            const std::vector<std::string> words = tokens(value);
+            if (words.empty() || words[0] == "LIST" || words.size() > 1) return std::nullopt;  // several files
+            const std::filesystem::path p(words[0]);
+            where.data_file = (p.is_absolute() ? p : std::filesystem::path(header).parent_path() / p).string();
+            detached = true;
+        }
+    }
+    if (encoding == "gzip" || encoding == "gz") where.gzip = true;
+    else if (encoding != "raw") return std::nullopt;  // ascii, hex, bzip2: read whole
+    if (line_skip < 0) throw file_error(header, "line skip", std::to_string(line_skip) + " (must be ≥ 0)");
+    if (where.byte_skip < -1 || (where.gzip && where.byte_skip < 0))
+        throw file_error(header, "byte skip", std::to_string(where.byte_skip) + (where.gzip ? " (must be ≥ 0 with gzip)" : " (must be ≥ −1)"));
+    if (!detached) {
+        if (!ended) throw file_error(header, "header", "no blank line ends the header and no data file is named");
+        where.data_file = header;
+        where.start = std::uint64_t(in.tellg());
+    }
+    if (line_skip > 0) {  // lines of text before the data
+        std::ifstream data(where.data_file, std::ios::binary);
+        data.seekg(std::streamoff(where.start));
+        for (long long skipped = 0; skipped < line_skip;) {
+            const int c = data.get();
+            if (c == std::char_traits<char>::eof())
+                throw file_error(header, "line skip", "'" + where.data_file + "' ends after " + std::to_string(skipped) +
+                                                          " of " + std::to_string(line_skip) + " lines");
+            ++where.start;
+            if (c == '\n') ++skipped;
+        }
+    }
+    return where;
+}
+
 void check_tiff_pages(const std::string& path, std::uint64_t max_voxels) {
     TiffBytes f(path, detail::regular_file_size(path));
     const std::uint64_t order = f.read(0, 2, "the byte-order mark");

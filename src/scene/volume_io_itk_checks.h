@@ -2,6 +2,7 @@
 // (src/scene/volume_io_itk_checks.cpp). Internal to src/scene.
 #pragma once
 #include <cstdint>
+#include <optional>
 #include <string>
 
 #include "scene/volume_io_common.h"
@@ -14,6 +15,19 @@ namespace sombra::volume_io {
 // can come from: the header file's own size when the data is attached, else the data files' sum.
 // Throws "HEADER: FIELD: …".
 std::uint64_t check_detached_header(const std::string& header, bool nrrd);
+
+// Where a NRRD file's voxels lie, for reading a box of them (volume_io_parts.cpp): the data file
+// (the header itself when attached), the byte at which its encoded data starts (after the header
+// and the "line skip" lines), and "byte skip" (for gzip, counted in the decompressed stream; −1:
+// the raw data ends the file). nullopt for encodings other than raw and gzip and for data split
+// over several files (LIST or a pattern): such files are read whole. Throws "HEADER: FIELD: …".
+struct NrrdDataLocation {
+    std::string data_file;
+    std::uint64_t start = 0;
+    long long byte_skip = 0;
+    bool gzip = false;
+};
+std::optional<NrrdDataLocation> nrrd_data_location(const std::string& header);
 
 // Walks a TIFF's (or BigTIFF's) chain of image directories: throws "FILE: pages: …" for a loop,
 // an offset or entry table past the end of the file, more than 65,536 pages, a tag given twice,

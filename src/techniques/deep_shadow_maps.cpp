@@ -149,19 +149,12 @@ void DeepShadowMaps::exchange_maps(const SceneOnDevice& s, RenderStats& stats) {
         stats.stage_ms[name] = std::chrono::duration<double, std::milli>(now - lap).count();
         lap = now;
     };
-    distributed::MapSet own{dsm_.views, light_views_, dsm_.storage->read_packed(s.runtime), dsm_.optical_depth};
-    const std::vector<unsigned char> bytes = distributed::serialize(own);
-    stage("dsm_exchange_send");  // read back and serialized
-    if (!s.exchange->all_ok(true)) throw OtherRankFailed();
-    stage("dsm_exchange_wait");  // for the slowest rank's maps
-    const std::vector<std::vector<unsigned char>> received = s.exchange->all_gather(bytes);
-    stage("dsm_exchange_gather");
+    const distributed::MapSet own{dsm_.views, light_views_, dsm_.storage->read_packed(s.runtime), dsm_.optical_depth};
+    const distributed::ReceivedMaps received = distributed::exchange_maps(*s.exchange, own, stage);
+    map_bytes_sent_ = received.bytes_sent, map_bytes_received_ = received.bytes_received;
     std::vector<distributed::MapSet> sets;
-    map_bytes_sent_ = bytes.size(), map_bytes_received_ = 0;
-    for (std::size_t r = 0; r < received.size(); ++r) {
-        sets.push_back(distributed::deserialize(received[r], "rank " + std::to_string(r)));
-        if (int(r) != s.exchange->rank()) map_bytes_received_ += received[r].size();
-    }
+    for (std::size_t r = 0; r < received.ranks.size(); ++r)
+        sets.push_back(distributed::deserialize(received.ranks[r], "rank " + std::to_string(r)));
     distributed::MapSet merged = distributed::merge_map_sets(sets);
     dsm_.views = merged.views;
     dsm_.views_buffer = host::make_buffer(s.runtime, CL_MEM_READ_ONLY, merged.views.size() * sizeof(DsmViewGpu), merged.views.data(),
