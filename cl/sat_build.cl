@@ -210,11 +210,11 @@ __kernel void ssat_resample(VOLUME_DATA_PARAM, __global const float* tf_tables, 
     }
 }
 
-/* Work-item (a, b): entry (a, b) of the table's face where index `axis` is 0 (the other two axes in
- * increasing order, each 0 … n), set to 0 — the zero borders S(0, ·, ·), S(·, 0, ·), S(·, ·, 0),
- * the only entries the resamples do not write. */
-__kernel void sat_clear_face(__global ulong* sat, uint data_offset, int4 n, uint axis) {
-    int a = get_global_id(0), b = get_global_id(1);
+/* Work-item (a, b, axis): entry (a, b) of the table's face where index `axis` is 0 (the other two
+ * axes in increasing order, each 0 … n), set to 0 — the zero borders S(0, ·, ·), S(·, 0, ·),
+ * S(·, ·, 0), the only entries the resamples do not write. One launch for the three faces. */
+__kernel void sat_clear_borders(__global ulong* sat, uint data_offset, int4 n) {
+    int a = get_global_id(0), b = get_global_id(1), axis = get_global_id(2);
     int3 e = axis == 0 ? (int3)(0, a, b) : axis == 1 ? (int3)(a, 0, b) : (int3)(a, b, 0);
     if (e.x > n.x || e.y > n.y || e.z > n.z) return;
     sat[data_offset + sat_entry(n, e.x, e.y, e.z)] = 0;

@@ -552,19 +552,16 @@ std::string sat_table_geometry_key(const DeviceSat& sat, std::size_t table) {
 }
 
 // The zero borders S(0, ·, ·), S(·, 0, ·), S(·, ·, 0) of a table of n cells: the resamples write
-// every other entry, so only these ((n+1)² per face, not the whole table) are cleared.
+// every other entry, so only these ((n+1)² per face, not the whole table) are cleared, in one launch.
 double clear_table_borders(host::Runtime& runtime, cl::Program& program, const cl::Buffer& data, std::size_t offset, cl_int4 n) {
-    cl::Kernel clear(program, "sat_clear_face");
-    double ms = 0;
+    cl::Kernel clear(program, "sat_clear_borders");
+    host::KernelArgs{clear}("sat", data)("data_offset", cl_uint(offset))("n", n).done();
+    // faces (y, z), (x, z), (x, y): the first index spans x or y, the second y or z
+    const std::size_t a = std::size_t(std::max(n.s[0], n.s[1])) + 1, b = std::size_t(std::max(n.s[1], n.s[2])) + 1;
     cl::Event event;
-    for (cl_uint axis = 0; axis < 3; ++axis) {
-        host::KernelArgs{clear}("sat", data)("data_offset", cl_uint(offset))("n", n)("axis", axis).done();
-        const std::size_t a = std::size_t(axis == 0 ? n.s[1] : n.s[0]) + 1, b = std::size_t(axis == 2 ? n.s[1] : n.s[2]) + 1;
-        runtime.queue().enqueueNDRangeKernel(clear, cl::NullRange, cl::NDRange(a, b), cl::NullRange, nullptr, &event);
-        event.wait();
-        ms += host::Runtime::event_ms(event);
-    }
-    return ms;
+    runtime.queue().enqueueNDRangeKernel(clear, cl::NullRange, cl::NDRange(a, b, 3), cl::NullRange, nullptr, &event);
+    event.wait();
+    return host::Runtime::event_ms(event);
 }
 
 namespace {
