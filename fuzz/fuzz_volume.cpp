@@ -4,6 +4,8 @@
 #include "fuzz_support.h"
 #include "sombra/volume.h"
 
+#include <algorithm>
+
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
     const std::string path = sombra::fuzz::input_file(SOMBRA_FUZZ_FILE, data, size);
     // Volumes are held to 2^24 voxels (64 MiB as floats), under the fuzzer's 1 GiB allocation limit:
@@ -11,5 +13,21 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     sombra::VolumeLoadOptions options;
     options.max_voxels = std::uint64_t(1) << 24;
     sombra::fuzz::expect_clean([&] { sombra::load_volume(path, options); });
+    // as a rank of a distributed render reads it: the header, then a corner box and the last box
+    // (.npy, raw, NRRD raw/gzip read just those bytes; the other formats read whole and crop)
+    sombra::VolumeLoadOptions header = options;
+    header.header_only = true;
+    sombra::fuzz::expect_clean([&] {
+        const sombra::Volume h = sombra::load_volume(path, header);
+        sombra::VolumeLoadOptions part = options;
+        part.read_part = true;
+        for (int corner = 0; corner < 2; ++corner) {
+            for (std::size_t a = 0; a < 3; ++a) {
+                part.part.first[a] = corner == 0 ? 0 : std::max(0, h.dims[a] - 3);
+                part.part.last[a] = std::min(h.dims[a] - 1, part.part.first[a] + 2);
+            }
+            sombra::load_volume(path, part);
+        }
+    });
     return 0;
 }
