@@ -9,7 +9,7 @@ peak resident memory and region voxels. On a machine of 2 cores, N > 2 ranks sha
 per-rank work (summed over ranks) and the bytes are what these runs measure; docs/distributed.md
 models time and traffic for more ranks from them.
 
-usage: python3 bench/distributed.py [--size 128] [--runs 3] [--scenes default,smoke] [--out FILE]
+usage: python3 bench/distributed.py [--size 128] [--runs 3] [--scenes cloud384,cloud384.nrrd,default] [--out FILE]
 """
 import argparse
 import json
@@ -41,9 +41,9 @@ def render(scene, ranks, size, work, extra=()):
     return wall_ms, json.loads(stats.read_text())["distributed"]["per_rank"]
 
 
-def cloud_scene(size, folder):
-    """A SIZE³ uint8 .npy cloud (a few Gaussian blobs and noise; fixed seed) and a scene file that
-    renders it: ranks read only their box of it."""
+def cloud_scene(size, folder, nrrd=False):
+    """A SIZE³ uint8 .npy cloud (a few Gaussian blobs and noise; fixed seed), or the same voxels as a
+    gzip NRRD, and a scene file that renders it: ranks read only their box of it."""
     import numpy as np
     rng = np.random.default_rng(5)
     axis = np.linspace(-1, 1, size, dtype=np.float32)
@@ -54,18 +54,25 @@ def cloud_scene(size, folder):
         r = np.float32(rng.uniform(0.25, 0.45))
         density += np.exp(-((x - c[0]) ** 2 + (y - c[1]) ** 2 + (z - c[2]) ** 2) / (2 * r * r))
     density *= np.float32(0.75) + np.float32(0.5) * rng.random(density.shape, dtype=np.float32)
-    np.save(Path(folder) / f"cloud{size}.npy", np.clip(density * 120, 0, 255).astype(np.uint8))
+    voxels = np.clip(density * 120, 0, 255).astype(np.uint8)
+    name = f"cloud{size}.nrrd" if nrrd else f"cloud{size}.npy"
+    if nrrd:  # x fastest, as NRRD stores it: the array's C order (z, y, x)
+        import gzip
+        header = f"NRRD0004\ntype: uint8\ndimension: 3\nsizes: {size} {size} {size}\nspacings: 1 1 1\nencoding: gzip\n\n"
+        (Path(folder) / name).write_bytes(header.encode() + gzip.compress(voxels.tobytes(), 6))
+    else:
+        np.save(Path(folder) / name, voxels)
     scene = {
         "camera": {"position": [1.6 * size, -1.4 * size, 0.9 * size], "look_at": [0, 0, 0], "up": [0, 0, 1], "fov_y_deg": 40},
         "background": [0.55, 0.6, 0.7],
-        "volumes": [{"name": "cloud", "file": f"cloud{size}.npy", "step_voxels": 0.75, "opacity_unit": 4,
+        "volumes": [{"name": "cloud", "file": name, "step_voxels": 0.75, "opacity_unit": 4,
                      "transfer_function": {"rgb_points": [0, 0.85, 0.85, 0.9, 255, 1, 1, 1],
                                            "opacity_points": [0, 0, 60, 0, 160, 0.3, 255, 0.7]},
                      "material": {"ambient": 1.0, "diffuse": 1.0, "specular": 0.0, "shininess": 1}}],
         "lights": [{"type": "directional", "direction": [0.6, 0.3, -0.75], "intensity": 1.2},
                    {"type": "point", "position": [-0.8 * size, 0.7 * size, size], "color": [1, 0.8, 0.6], "intensity": 0.8}],
     }
-    path = Path(folder) / f"cloud{size}.json"
+    path = Path(folder) / (name.replace(".", "_") + ".json")
     path.write_text(json.dumps(scene, indent=1))
     return path
 
@@ -79,7 +86,8 @@ def main():
     parser.add_argument("--size", type=int, default=128)
     parser.add_argument("--runs", type=int, default=3)
     parser.add_argument("--scenes", default="cloud384,default,smoke",
-                        help="shipped scenes by name; cloudN: a generated N³ .npy cloud (read in parts)")
+                        help="shipped scenes by name; cloudN: a generated N³ .npy cloud, cloudN.nrrd: the same "
+                             "as a gzip NRRD (both read in parts)")
     parser.add_argument("--out", default="")
     args = parser.parse_args()
     lines = [f"Distributed renders at {args.size}², PoCL, 2 cores; median of {args.runs} runs after a warm-up "
@@ -91,7 +99,8 @@ def main():
     scenes = {}
     with tempfile.TemporaryDirectory() as work:
         for name in args.scenes.split(","):
-            scene = cloud_scene(int(name[5:]), work) if name.startswith("cloud") else ROOT / "data" / "scenes" / f"{name}.json"
+            scene = (cloud_scene(int(name[5:].removesuffix(".nrrd")), work, name.endswith(".nrrd")) if name.startswith("cloud")
+                     else ROOT / "data" / "scenes" / f"{name}.json")
             scenes[name] = scene
             lines += [f"### {name}", "",
                       "| N | wall ms (rank 0 process) | " + " | ".join(STAGES) +
