@@ -13,8 +13,11 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     sombra::VolumeLoadOptions options;
     options.max_voxels = std::uint64_t(1) << 24;
     sombra::fuzz::expect_clean([&] { sombra::load_volume(path, options); });
-    // as a rank of a distributed render reads it: the header, then a corner box and the last box
-    // (.npy, raw, NRRD raw/gzip read just those bytes; the other formats read whole and crop)
+    // as a rank of a distributed render reads it: the header, then a corner box and the last box;
+    // only the formats that read parts (.npy, NRRD; raw .json has its own harness): the others
+    // would read the whole file three more times for no new code
+    const std::string name = SOMBRA_FUZZ_FILE;
+    if (name != "v.npy" && name != "v.nrrd") return 0;
     sombra::VolumeLoadOptions header = options;
     header.header_only = true;
     sombra::fuzz::expect_clean([&] {
