@@ -80,19 +80,28 @@ void quiet_once() {
 }
 
 // ITK's component type as Volume::stored_type spells it ("uint8", "int16", "float32", …).
-std::string stored_type_name(const itk::ImageIOBase& io) {
+// The voxel type as sombra's readers hold it; nullopt for the 64-bit integers.
+std::optional<ScalarType> scalar_type(const itk::ImageIOBase& io) {
     using C = itk::IOComponentEnum;
     switch (io.GetComponentType()) {
-        case C::UCHAR: return "uint8";
-        case C::CHAR: return "int8";
-        case C::USHORT: return "uint16";
-        case C::SHORT: return "int16";
-        case C::UINT: return "uint32";
-        case C::INT: return "int32";
+        case C::UCHAR: return ScalarType::u8;
+        case C::CHAR: return ScalarType::i8;
+        case C::USHORT: return ScalarType::u16;
+        case C::SHORT: return ScalarType::i16;
+        case C::UINT: return ScalarType::u32;
+        case C::INT: return ScalarType::i32;
+        case C::FLOAT: return ScalarType::f32;
+        case C::DOUBLE: return ScalarType::f64;
+        default: return std::nullopt;
+    }
+}
+
+std::string stored_type_name(const itk::ImageIOBase& io) {
+    using C = itk::IOComponentEnum;
+    if (const std::optional<ScalarType> type = scalar_type(io)) return type_name(*type);
+    switch (io.GetComponentType()) {
         case C::ULONG: case C::ULONGLONG: return "uint64";
         case C::LONG: case C::LONGLONG: return "int64";
-        case C::FLOAT: return "float32";
-        case C::DOUBLE: return "float64";
         default: return "";
     }
 }
@@ -328,14 +337,10 @@ Volume read_series(const std::string& dir, const VolumeLoadOptions& options) {
     return to_volume(dir, image, ItkFormat::dicom_series);
 }
 
-Volume read_file(const std::string& path, ItkFormat format, const VolumeLoadOptions& options) {
-    const std::uint64_t file_bytes = detail::regular_file_size(path);
-    // MetaIO prints to std::cerr what it cannot parse (ITK's exception says it again), and reports a
-    // short compressed stream only there, carrying on with a part-filled buffer: caught and made
-    // the error. libtiff, libjpeg and OpenJPEG print to stderr: kept from the user too.
-    detail::StderrCapture capture;
-    if (format == ItkFormat::dicom) check_dicom_file(path);
-    if (format == ItkFormat::tiff) check_tiff_pages(path, options.max_voxels);
+// The ImageIO of one file with its header read (no voxels) and checked: dims up to voxel_limit
+// and options.max_voxels, against the bytes the voxels can come from.
+itk::ImageIOBase::Pointer read_header(const std::string& path, ItkFormat format, std::uint64_t file_bytes,
+                                      const VolumeLoadOptions& options, std::uint64_t voxel_limit) {
     // the bytes the voxels can come from: this file, or the data files a detached header names
     const std::uint64_t input_bytes = format == ItkFormat::nrrd || format == ItkFormat::metaimage
                                           ? check_detached_header(path, format == ItkFormat::nrrd)
@@ -344,9 +349,21 @@ Volume read_file(const std::string& path, ItkFormat format, const VolumeLoadOpti
     if (!io->CanReadFile(path.c_str()))
         throw file_error(path, "header", std::string("not a readable ") + format_name(format) + " file");
     io->SetFileName(path);
-    io->ReadImageInformation();
+    io->ReadImageInformation();  // NRRD: teem reads the header and skips the data
     if (format == ItkFormat::dicom) dicom_geometry(io->GetMetaDataDictionary(), path);
-    check_header(path, *io, 1, input_bytes, options);
+    check_header(path, *io, 1, input_bytes, options, voxel_limit);
+    return io;
+}
+
+Volume read_file(const std::string& path, ItkFormat format, const VolumeLoadOptions& options) {
+    const std::uint64_t file_bytes = detail::regular_file_size(path);
+    // MetaIO prints to std::cerr what it cannot parse (ITK's exception says it again), and reports a
+    // short compressed stream only there, carrying on with a part-filled buffer: caught and made
+    // the error. libtiff, libjpeg and OpenJPEG print to stderr: kept from the user too.
+    detail::StderrCapture capture;
+    if (format == ItkFormat::dicom) check_dicom_file(path);
+    if (format == ItkFormat::tiff) check_tiff_pages(path, options.max_voxels);
+    itk::ImageIOBase::Pointer io = read_header(path, format, file_bytes, options, limits::kMaxVolumeVoxels);
 
     auto reader = itk::ImageFileReader<Image>::New();
     reader->SetImageIO(io);
@@ -366,28 +383,13 @@ std::optional<ItkHeader> read_itk_header(const std::string& path, ItkFormat form
     quiet_once();
     try {
         detail::StderrCapture capture;
-        const std::uint64_t input_bytes = check_detached_header(path, format == ItkFormat::nrrd);
-        itk::ImageIOBase::Pointer io = make_io(format);
-        if (!io->CanReadFile(path.c_str()))
-            throw file_error(path, "header", std::string("not a readable ") + format_name(format) + " file");
-        io->SetFileName(path);
-        io->ReadImageInformation();  // NRRD: teem reads the header and skips the data
         VolumeLoadOptions options;
         options.max_voxels = voxel_limit;
-        check_header(path, *io, 1, input_bytes, options, voxel_limit);
+        itk::ImageIOBase::Pointer io = read_header(path, format, detail::regular_file_size(path), options, voxel_limit);
+        const std::optional<ScalarType> type = scalar_type(*io);
+        if (!type) return std::nullopt;  // 64-bit integers: read whole
         ItkHeader header;
-        using C = itk::IOComponentEnum;
-        switch (io->GetComponentType()) {
-            case C::UCHAR: header.type = ScalarType::u8; break;
-            case C::CHAR: header.type = ScalarType::i8; break;
-            case C::USHORT: header.type = ScalarType::u16; break;
-            case C::SHORT: header.type = ScalarType::i16; break;
-            case C::UINT: header.type = ScalarType::u32; break;
-            case C::INT: header.type = ScalarType::i32; break;
-            case C::FLOAT: header.type = ScalarType::f32; break;
-            case C::DOUBLE: header.type = ScalarType::f64; break;
-            default: return std::nullopt;  // 64-bit integers: read whole
-        }
+        header.type = *type;
         if (io->GetComponentSize() != type_size(header.type)) return std::nullopt;
         header.endian = io->GetByteOrder() == itk::IOByteOrderEnum::BigEndian ? Endian::big : Endian::little;
         Volume& volume = header.volume;

@@ -143,18 +143,28 @@ void check_length(const std::string& header, const std::string& field, double le
                                             " (must be > 0 and finite)");
 }
 
-std::uint64_t check_nrrd(const std::string& header, std::uint64_t header_bytes) {
-    std::ifstream in(header, std::ios::binary);
+// Reads a NRRD header's "field: value" lines from `in` (comments and "key:=value" pairs skipped,
+// keys lower-case) up to the blank line that ends an attached header, handing each to `field`,
+// which returns false to stop. Returns whether the blank line was reached.
+template <typename Field>
+bool read_nrrd_fields(std::istream& in, Field&& field) {
     std::string line;
-    std::vector<std::string> names;
-    bool detached = false;
     for (std::size_t n = 0; n < kMaxHeaderLines && std::getline(in, line); ++n) {
         if (!line.empty() && line.back() == '\r') line.pop_back();
-        if (line.empty()) break;  // the end of the header
+        if (line.empty()) return true;  // the end of the header
         if (line[0] == '#' || line.find(":=") != std::string::npos) continue;  // comments, key/value pairs
         const std::size_t colon = line.find(':');
         if (colon == std::string::npos) continue;
-        const std::string key = lower(trim(line.substr(0, colon))), value = trim(line.substr(colon + 1));
+        if (!field(lower(trim(line.substr(0, colon))), trim(line.substr(colon + 1)))) return false;
+    }
+    return false;
+}
+
+std::uint64_t check_nrrd(const std::string& header, std::uint64_t header_bytes) {
+    std::ifstream in(header, std::ios::binary);
+    std::vector<std::string> names;
+    bool detached = false;
+    read_nrrd_fields(in, [&](const std::string& key, const std::string& value) {
         if (key == "dimension") {
             const long long d = parse_int(header, "dimension", value);
             if (d < 1 || d > 4) throw file_error(header, "dimension", std::to_string(d) + " (must be 1 … 4)");
@@ -174,9 +184,10 @@ std::uint64_t check_nrrd(const std::string& header, std::uint64_t header_bytes) 
         } else if (key == "data file" || key == "datafile") {
             names = data_file_names(header, key, value, in);
             detached = true;
-            if (tokens(value).front() == "LIST") break;  // the names took the rest of the file
+            if (tokens(value).front() == "LIST") return false;  // the names took the rest of the file
         }
-    }
+        return true;
+    });
     return detached ? data_file_bytes(header, "data file", names) : header_bytes;
 }
 
@@ -318,30 +329,24 @@ std::optional<NrrdDataLocation> nrrd_data_location(const std::string& header) {
     std::ifstream in(header, std::ios::binary);
     if (!in) throw file_error(header, "", "cannot open");
     NrrdDataLocation where;
-    std::string encoding = "raw", line;
+    std::string encoding = "raw";
     long long line_skip = 0;
-    bool detached = false, ended = false;
-    for (std::size_t n = 0; n < kMaxHeaderLines && std::getline(in, line); ++n) {
-        if (!line.empty() && line.back() == '\r') line.pop_back();
-        if (line.empty()) {
-            ended = true;
-            break;
-        }
-        if (line[0] == '#' || line.find(":=") != std::string::npos) continue;
-        const std::size_t colon = line.find(':');
-        if (colon == std::string::npos) continue;
-        const std::string key = lower(trim(line.substr(0, colon))), value = trim(line.substr(colon + 1));
+    bool detached = false, several_files = false;
+    const bool ended = read_nrrd_fields(in, [&](const std::string& key, const std::string& value) {
         if (key == "encoding") encoding = lower(value);
         else if (key == "line skip" || key == "lineskip") line_skip = parse_int(header, key, value);
         else if (key == "byte skip" || key == "byteskip") where.byte_skip = parse_int(header, key, value);
         else if (key == "data file" || key == "datafile") {
             const std::vector<std::string> words = tokens(value);
-            if (words.empty() || words[0] == "LIST" || words.size() > 1) return std::nullopt;  // several files
+            several_files = words.empty() || words[0] == "LIST" || words.size() > 1;
+            if (several_files) return false;
             const std::filesystem::path p(words[0]);
             where.data_file = (p.is_absolute() ? p : std::filesystem::path(header).parent_path() / p).string();
             detached = true;
         }
-    }
+        return true;
+    });
+    if (several_files) return std::nullopt;
     if (encoding == "gzip" || encoding == "gz") where.gzip = true;
     else if (encoding != "raw") return std::nullopt;  // ascii, hex, bzip2: read whole
     if (line_skip < 0) throw file_error(header, "line skip", std::to_string(line_skip) + " (must be ≥ 0)");
@@ -350,7 +355,7 @@ std::optional<NrrdDataLocation> nrrd_data_location(const std::string& header) {
     if (!detached) {
         if (!ended) throw file_error(header, "header", "no blank line ends the header and no data file is named");
         where.data_file = header;
-        where.start = std::uint64_t(in.tellg());
+        where.start = std::uint64_t(in.tellg());  // just after the blank line
     }
     if (line_skip > 0) {  // lines of text before the data
         std::ifstream data(where.data_file, std::ios::binary);
