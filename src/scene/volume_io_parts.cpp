@@ -42,7 +42,6 @@ std::optional<RawLayout> nrrd_layout(const std::string& path, Volume& header) {
                                                std::to_string(where->byte_skip == -1 ? where->start : layout.offset));
     }
     header = std::move(itk->volume);
-    header.header_only = false;
     return layout;
 }
 
