@@ -47,66 +47,73 @@ static inline long sat_box(__global const ulong* s, int4 n, int3 lo, int3 hi) {
     return (long)sum; /* wraps modulo 2^64 in between, exact in the end */
 }
 
-/* The cells of real intervals along one grid axis as weighted integer ranges [begin, end): the
- * integral of a cell-wise constant σ over [lo, hi) is Σ weight · Σ σ(cells of the range) (a
- * partial first cell, the whole cells between, a partial last cell). */
-#define SAT_SPAN_TERMS 6
+/* The cells of a real interval [lo, hi) along one grid axis as consecutive weighted integer
+ * ranges [bound[r], bound[r + 1]): the integral of a cell-wise constant σ over [lo, hi) is
+ * Σ weight[r] · Σ σ(cells of range r) (a partial first cell, the whole cells between, a partial
+ * last cell). The interval is clamped to the axis's n cells (σ is 0 outside them). */
 typedef struct {
-    int begin[SAT_SPAN_TERMS], end[SAT_SPAN_TERMS];
-    sat_real weight[SAT_SPAN_TERMS];
-    int count;
-} SatSpan;
+    int bound[4];
+    sat_real weight[3];
+    int ranges;
+} SatAxis;
 
-static inline void sat_span_term(SatSpan* span, int begin, int end, sat_real weight) {
-    if (begin >= end || weight == SR(0)) return;
-    span->begin[span->count] = begin, span->end[span->count] = end, span->weight[span->count] = weight;
-    ++span->count;
-}
-
-/* [lo, hi) clamped to the axis's n cells (σ is 0 outside them). */
-static inline void sat_span_interval(SatSpan* span, sat_real lo, sat_real hi, int n) {
+static inline SatAxis sat_axis(sat_real lo, sat_real hi, int n) {
+    SatAxis axis;
     lo = clamp(lo, SR(0), (sat_real)n);
     hi = clamp(hi, lo, (sat_real)n);
     int first = min((int)floor(lo), n - 1), last = min((int)floor(hi), n - 1);
     sat_real f_lo = lo - (sat_real)first, f_hi = hi - (sat_real)last;
+    axis.bound[0] = first, axis.bound[1] = first + 1;
     if (first == last) {
-        sat_span_term(span, first, first + 1, f_hi - f_lo);
-        return;
+        axis.weight[0] = f_hi - f_lo;
+        axis.ranges = axis.weight[0] != SR(0);
+        return axis;
     }
-    sat_span_term(span, first, first + 1, SR(1) - f_lo);
-    sat_span_term(span, first + 1, last, SR(1));
-    sat_span_term(span, last, last + 1, f_hi);
+    axis.weight[0] = SR(1) - f_lo, axis.ranges = 1;
+    if (last > first + 1) axis.bound[2] = last, axis.weight[1] = SR(1), axis.ranges = 2;
+    if (f_hi != SR(0)) axis.bound[axis.ranges + 1] = last + 1, axis.weight[axis.ranges] = f_hi, ++axis.ranges;
+    return axis;
 }
 
-/* With wrap the axis is periodic (φ of the SSAT): [lo, hi), shorter than the period, is moved into
- * the first period and split where it crosses the end. */
-static inline SatSpan sat_span(sat_real lo, sat_real hi, int n, bool wrap) {
-    SatSpan span;
-    span.count = 0;
-    if (!wrap) {
-        sat_span_interval(&span, lo, hi, n);
-        return span;
-    }
-    sat_real shift = floor(lo / (sat_real)n) * (sat_real)n;
-    lo -= shift, hi -= shift;
-    sat_span_interval(&span, lo, hi, n);
-    if (hi > (sat_real)n) sat_span_interval(&span, SR(0), hi - (sat_real)n, n);
-    return span;
-}
-
-/* Σ cells over the real box [lo, hi) (grid units; with wrap, axis 0 is periodic): the integer boxes
- * of the three axes' spans, blended. S is multilinear inside a cell, so this is the trilinear blend
- * of S at the box's corners (Ament Eq. 13 at real positions) without its cancellation. */
-static inline sat_real sat_box_real(__global const ulong* s, int4 n, sat_real3 lo, sat_real3 hi, bool wrap) {
-    SatSpan x = sat_span(lo.x, hi.x, n.x, wrap), y = sat_span(lo.y, hi.y, n.y, false), z = sat_span(lo.z, hi.z, n.z, false);
-    sat_real sum = SR(0);
-    for (int i = 0; i < x.count; ++i)
-        for (int j = 0; j < y.count; ++j)
-            for (int k = 0; k < z.count; ++k) {
-                long box = sat_box(s, n, (int3)(x.begin[i], y.begin[j], z.begin[k]), (int3)(x.end[i], y.end[j], z.end[k]));
-                sum += x.weight[i] * y.weight[j] * z.weight[k] * (sat_real)box;
+/* acc + Σ cells over the box of three axes' ranges: each of the ≤ 4 × 4 × 4 corner entries is
+ * read once; the ≤ 27 range boxes are exact integer differences of them, taken one axis after
+ * the other (S wraps modulo 2^64 in between, exact in the end); only their blend is sat_real. */
+static inline sat_real sat_box_axes(sat_real acc, __global const ulong* s, int4 n, const SatAxis* x, const SatAxis* y, const SatAxis* z) {
+    if (!x->ranges || !y->ranges || !z->ranges) return acc;
+    ulong dx[3][4][4]; /* [x range][y bound][z bound]: Σ over the x range at one (y, z) corner */
+    for (int q = 0; q <= y->ranges; ++q)
+        for (int r = 0; r <= z->ranges; ++r) {
+            ulong previous = s[sat_entry(n, x->bound[0], y->bound[q], z->bound[r])];
+            for (int i = 0; i < x->ranges; ++i) {
+                ulong next = s[sat_entry(n, x->bound[i + 1], y->bound[q], z->bound[r])];
+                dx[i][q][r] = next - previous, previous = next;
             }
-    return sum;
+        }
+    for (int i = 0; i < x->ranges; ++i)
+        for (int j = 0; j < y->ranges; ++j)
+            for (int k = 0; k < z->ranges; ++k) {
+                ulong box = (dx[i][j + 1][k + 1] - dx[i][j][k + 1]) - (dx[i][j + 1][k] - dx[i][j][k]);
+                acc += x->weight[i] * y->weight[j] * z->weight[k] * (sat_real)(long)box;
+            }
+    return acc;
+}
+
+/* Σ cells over the real box [lo, hi) (grid units; with wrap, axis 0 is periodic: [lo, hi), shorter
+ * than the period, is moved into the first period and split where it crosses the end). S is
+ * multilinear inside a cell, so this is the trilinear blend of S at the box's corners (Ament
+ * Eq. 13 at real positions) without its cancellation. */
+static inline sat_real sat_box_real(__global const ulong* s, int4 n, sat_real3 lo, sat_real3 hi, bool wrap) {
+    SatAxis y = sat_axis(lo.y, hi.y, n.y), z = sat_axis(lo.z, hi.z, n.z);
+    if (!wrap) {
+        SatAxis x = sat_axis(lo.x, hi.x, n.x);
+        return sat_box_axes(SR(0), s, n, &x, &y, &z);
+    }
+    sat_real shift = floor(lo.x / (sat_real)n.x) * (sat_real)n.x;
+    SatAxis x = sat_axis(lo.x - shift, hi.x - shift, n.x);
+    sat_real sum = sat_box_axes(SR(0), s, n, &x, &y, &z);
+    if (hi.x - shift <= (sat_real)n.x) return sum;
+    x = sat_axis(SR(0), hi.x - shift - (sat_real)n.x, n.x);
+    return sat_box_axes(sum, s, n, &x, &y, &z);
 }
 
 #ifdef SOMBRA_LOWPASS_GAUSS
