@@ -229,7 +229,12 @@ static inline float sat_ambient_depth(__global const ulong* sat, __global const 
 
 /* Cone shadows: the cone of half angle atan(cone_tan) from p towards the light (unit vector
  * `towards`, up to world distance `reach`) as a series of cubes of growing size along its axis,
- * each read from the SAT in constant time: τ = Σ mean σ(cube) · its length. */
+ * each read from the SAT in constant time: τ = Σ mean σ(cube) · its length. A cube of radius
+ * ≥ SOMBRA_CONE_SNAP_RADIUS cells has its faces moved to the nearest cell faces (by ≤ ½ cell, ≤ 1/8
+ * of its side): one integer box of 8 entries instead of the exact real box's up to 64. On the
+ * shipped scenes this moved the image by 1e-4 RMS against the technique's own 2e-3–2e-2 RMS error
+ * (docs/lowpass.md), and the march stops once the light is gone (SOMBRA_OPAQUE_DEPTH). */
+#define SOMBRA_CONE_SNAP_RADIUS 2
 static inline float sat_cone_depth(__global const ulong* sat, __global const SatGridGpu* g, float3 p, float3 towards, float reach) {
     __global const ulong* s = sat + g->data_offset;
     sat_real3 c, d;
@@ -239,13 +244,19 @@ static inline float sat_cone_depth(__global const ulong* sat, __global const Sat
     }
     sat_real3 n = convert_sat_real3(g->dims.xyz);
     sat_real t_max = fmin((sat_real)reach / (sat_real)g->cell_size, SR(4) * (n.x + n.y + n.z));
-    sat_real tau = SR(0), t = SR(0.5);
-    for (int i = 0; i < 256 && t < t_max; ++i) {
+    sat_real tau = SR(0), t = SR(0.5), opaque = (sat_real)SOMBRA_OPAQUE_DEPTH / (sat_real)g->tau_per_unit;
+    for (int i = 0; i < 256 && t < t_max && tau <= opaque; ++i) {
         sat_real radius = fmax(SR(0.5), t * (sat_real)g->cone_tan), span = fmin(SR(2) * radius, t_max - t);
         sat_real3 centre = c + (t + SR(0.5) * span) * d;
         if (any(centre + radius < SR(0)) || any(centre - radius > n)) break; /* left the grid */
-        sat_real box = sat_box_real(s, g->dims, centre - radius, centre + radius, false);
-        tau += box / (SR(8) * radius * radius * radius) * span;
+        sat_real mean;
+        if (radius >= SR(SOMBRA_CONE_SNAP_RADIUS)) { /* faces on the nearest cell faces: one integer box */
+            int3 lo = convert_int3(round(centre - radius)), hi = convert_int3(round(centre + radius));
+            int3 side = hi - lo;
+            mean = (sat_real)sat_box(s, g->dims, lo, hi) / ((sat_real)side.x * (sat_real)side.y * (sat_real)side.z);
+        } else
+            mean = sat_box_real(s, g->dims, centre - radius, centre + radius, false) / (SR(8) * radius * radius * radius);
+        tau += mean * span;
         t += span;
     }
     return (float)(tau * (sat_real)g->tau_per_unit);

@@ -79,7 +79,7 @@ static inline lfloat shadow_ray(VOLUME_DATA_PARAM, const SceneRefs* scene, const
     while (lany(sampling = segment_cursor_next(&cursor, &ray, scene->volumes, volume_count, scene->occupancy))) {
         lfloat t = select((lfloat)(0.0f), cursor.t, sampling); /* finite positions in idle lanes */
         optical_depth += interval_optical_depth(volume_data, scene->volumes, scene->tf_tables, &ray, &cursor, t, front, sampling);
-        cursor.alive &= !(optical_depth > 13.8155f); /* exp(−13.8) = 10⁻⁶ */
+        cursor.alive &= !(optical_depth > SOMBRA_OPAQUE_DEPTH);
     }
     /* scalar exp per lane: the same bits as 1 lane (PoCL's vector exp may differ in the last bit) */
     float depth_lane[SOMBRA_LANES];

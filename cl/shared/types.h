@@ -226,6 +226,9 @@ typedef struct {
     float extent_x, extent_y; /* perspective: tan(half field of view); orthographic: half width, height */
     float pixel_shift;      /* pixel (i, j) samples the image plane at (i + ½ + shift, j + ½ + shift) (DsmViewGpu.ray_shift) */
 } RasterScreenGpu;
+/* Optical depth past which a shadow march stops: exp(−13.8155) = 10⁻⁶ of the light is left. */
+#define SOMBRA_OPAQUE_DEPTH 13.8155f
+
 /* Fixed-point optical depth in the summed-area tables: units per unit of τ, and the most τ one
  * cell holds (stiffer cells are clamped: exp(−4096/W²) is 0 for every W up to 40 cells). With
  * (dims+1)³ ≤ 2^29 entries no sum overflows 2^63. */

@@ -186,6 +186,11 @@ double ambient_depth(const CellGrid& grid, const shadows::SatFrame& frame, int w
     return box_sum(grid, lo, hi) / (8.0 * radius * radius);
 }
 
+// The march stops once the light is gone, as the kernel does (SOMBRA_OPAQUE_DEPTH, cl/shared/types.h),
+// and the cubes from this radius on are snapped to cell faces.
+constexpr double kOpaqueDepth = 13.8155;
+constexpr double kConeSnapRadius = 2;  // SOMBRA_CONE_SNAP_RADIUS, cl/lowpass.h
+
 double cone_depth(const CellGrid& grid, const shadows::SatFrame& frame, double cone_tan, const std::array<double, 3>& p,
                   const std::array<double, 3>& towards, double reach) {
     std::array<double, 3> c = grid_coordinates(frame, p), d{};
@@ -193,7 +198,7 @@ double cone_depth(const CellGrid& grid, const shadows::SatFrame& frame, double c
         for (std::size_t r = 0; r < 3; ++r) d[a] += towards[r] * frame.axes[a][r];
     double t_max = std::min(reach / frame.cell_size, 4.0 * (grid.dims[0] + grid.dims[1] + grid.dims[2]));
     double tau = 0, t = 0.5;
-    for (int i = 0; i < 256 && t < t_max; ++i) {
+    for (int i = 0; i < 256 && t < t_max && tau <= kOpaqueDepth; ++i) {
         double radius = std::max(0.5, t * cone_tan), span = std::min(2 * radius, t_max - t);
         std::array<double, 3> lo, hi;
         bool outside = false;
@@ -203,7 +208,12 @@ double cone_depth(const CellGrid& grid, const shadows::SatFrame& frame, double c
             outside = outside || hi[a] < 0 || lo[a] > grid.dims[a];
         }
         if (outside) break;
-        tau += box_sum(grid, lo, hi) / (8 * radius * radius * radius) * span;
+        if (radius >= kConeSnapRadius) {  // faces on the nearest cell faces, as the kernel (SOMBRA_CONE_SNAP_RADIUS)
+            double volume = 1;
+            for (std::size_t a = 0; a < 3; ++a) lo[a] = std::round(lo[a]), hi[a] = std::round(hi[a]), volume *= hi[a] - lo[a];
+            tau += box_sum(grid, lo, hi) / volume * span;
+        } else
+            tau += box_sum(grid, lo, hi) / (8 * radius * radius * radius) * span;
         t += span;
     }
     return tau;
