@@ -186,13 +186,11 @@ double ambient_depth(const CellGrid& grid, const shadows::SatFrame& frame, int w
     return box_sum(grid, lo, hi) / (8.0 * radius * radius);
 }
 
-// The march stops once the light is gone, as the kernel does (SOMBRA_OPAQUE_DEPTH, cl/shared/types.h),
-// and the cubes from this radius on are snapped to cell faces.
+// The march stops once the light is gone, as the kernel does (SOMBRA_OPAQUE_DEPTH, cl/shared/types.h).
 constexpr double kOpaqueDepth = 13.8155;
-constexpr double kConeSnapRadius = 2;  // SOMBRA_CONE_SNAP_RADIUS, cl/lowpass.h
 
 double cone_depth(const CellGrid& grid, const shadows::SatFrame& frame, double cone_tan, const std::array<double, 3>& p,
-                  const std::array<double, 3>& towards, double reach) {
+                  const std::array<double, 3>& towards, double reach, double snap_radius) {
     std::array<double, 3> c = grid_coordinates(frame, p), d{};
     for (std::size_t a = 0; a < 3; ++a)
         for (std::size_t r = 0; r < 3; ++r) d[a] += towards[r] * frame.axes[a][r];
@@ -208,7 +206,7 @@ double cone_depth(const CellGrid& grid, const shadows::SatFrame& frame, double c
             outside = outside || hi[a] < 0 || lo[a] > grid.dims[a];
         }
         if (outside) break;
-        if (radius >= kConeSnapRadius) {  // faces on the nearest cell faces, as the kernel (SOMBRA_CONE_SNAP_RADIUS)
+        if (radius >= snap_radius) {  // faces on the nearest cell faces
             double volume = 1;
             for (std::size_t a = 0; a < 3; ++a) lo[a] = std::round(lo[a]), hi[a] = std::round(hi[a]), volume *= hi[a] - lo[a];
             tau += box_sum(grid, lo, hi) / volume * span;

@@ -54,9 +54,12 @@ double gauss_filtered_depth(const CellGrid& grid, const shadows::SatFrame& frame
 // The baselines on a volume-aligned grid (Schlegel et al. 2011), brute force over the cells:
 // ambient optical depth (mean σ·h in the cube of side `width` cells around p, × width/2) and cone
 // optical depth (cubes of half size max(½, t·tan) along `towards` from t = ½ cell, up to `reach`
-// world units or the grid's end).
+// world units or the grid's end; cubes of half size ≥ snap_radius cells have their faces on the
+// nearest cell faces, as the kernel's from SOMBRA_CONE_SNAP_RADIUS; +∞: every cube exact), stopping
+// at the opaque depth.
 double ambient_depth(const CellGrid& grid, const shadows::SatFrame& frame, int width, const std::array<double, 3>& p);
+constexpr double kConeSnapRadius = 2;  // SOMBRA_CONE_SNAP_RADIUS, cl/lowpass.h
 double cone_depth(const CellGrid& grid, const shadows::SatFrame& frame, double cone_tan, const std::array<double, 3>& p,
-                  const std::array<double, 3>& towards, double reach);
+                  const std::array<double, 3>& towards, double reach, double snap_radius = kConeSnapRadius);
 
 }  // namespace sombra::reference
