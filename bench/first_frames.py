@@ -2,7 +2,7 @@
 
 For each scene in data/scenes/ and each technique, `sombra render SCENE --shadows T` at SIZE² in a
 fresh process (nothing kept: a user's first frame; compiled programs come from the on-disk cache,
-filled by warm-up runs of each cell with the shadow cache auto, on and off), `--runs` times; the median of the process's own total
+filled by warm-up runs of each cell with the shadow cache auto, on and off at 32² and auto at SIZE²), `--runs` times; the median of the process's own total
 (`--stats` total_ms: preparation, tables or maps, camera pass, without process start) and the
 ratio to DSM's median on the same scene. Runs of one scene are interleaved technique by technique,
 so that load on the machine falls on every column alike. Writes a markdown table (stdout, and
@@ -59,6 +59,9 @@ def main():
             for t in techniques:
                 for mode in ("on", "off"):
                     render(scene, t, 32, stats_path, ("--shadow-cache", mode))
+                # and once at the timed size: whether the meshes' surface shadow cache pays (another
+                # program) depends on the fragments, so on the image size
+                render(scene, t, args.size, stats_path)
             totals = {t: [] for t in techniques}
             stages = {}
             compiled = set()  # cells whose timed runs compiled a program anyway (marked *)
