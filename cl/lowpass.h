@@ -235,7 +235,6 @@ static inline float sat_ambient_depth(__global const ulong* sat, __global const 
  * the shipped scenes' images by 1e-4 RMS, against the technique's own 2e-3–2e-2 RMS error, and T
  * by up to 0.06 at a point of a 20³ noise cloud (docs/lowpass.md). The march stops once the light
  * is gone (SOMBRA_OPAQUE_DEPTH). */
-#define SOMBRA_CONE_SNAP_RADIUS 2
 static inline float sat_cone_depth(__global const ulong* sat, __global const SatGridGpu* g, float3 p, float3 towards, float reach) {
     __global const ulong* s = sat + g->data_offset;
     sat_real3 c, d;

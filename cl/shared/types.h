@@ -228,6 +228,9 @@ typedef struct {
 } RasterScreenGpu;
 /* Optical depth past which a shadow march stops: exp(−13.8155) = 10⁻⁶ of the light is left. */
 #define SOMBRA_OPAQUE_DEPTH 13.8155f
+/* Cone shadows: cubes of at least this radius (cells) have their faces on the nearest cell faces
+ * (cl/lowpass.h, sat_cone_depth). */
+#define SOMBRA_CONE_SNAP_RADIUS 2
 
 /* Fixed-point optical depth in the summed-area tables: units per unit of τ, and the most τ one
  * cell holds (stiffer cells are clamped: exp(−4096/W²) is 0 for every W up to 40 cells). With

@@ -79,7 +79,6 @@ void quiet_once() {
     });
 }
 
-// ITK's component type as Volume::stored_type spells it ("uint8", "int16", "float32", …).
 // The voxel type as sombra's readers hold it; nullopt for the 64-bit integers.
 std::optional<ScalarType> scalar_type(const itk::ImageIOBase& io) {
     using C = itk::IOComponentEnum;
@@ -96,6 +95,7 @@ std::optional<ScalarType> scalar_type(const itk::ImageIOBase& io) {
     }
 }
 
+// ITK's component type as Volume::stored_type spells it ("uint8", "int16", "float32", …).
 std::string stored_type_name(const itk::ImageIOBase& io) {
     using C = itk::IOComponentEnum;
     if (const std::optional<ScalarType> type = scalar_type(io)) return type_name(*type);

@@ -186,9 +186,6 @@ double ambient_depth(const CellGrid& grid, const shadows::SatFrame& frame, int w
     return box_sum(grid, lo, hi) / (8.0 * radius * radius);
 }
 
-// The march stops once the light is gone, as the kernel does (SOMBRA_OPAQUE_DEPTH, cl/shared/types.h).
-constexpr double kOpaqueDepth = 13.8155;
-
 double cone_depth(const CellGrid& grid, const shadows::SatFrame& frame, double cone_tan, const std::array<double, 3>& p,
                   const std::array<double, 3>& towards, double reach, double snap_radius) {
     std::array<double, 3> c = grid_coordinates(frame, p), d{};
@@ -196,7 +193,7 @@ double cone_depth(const CellGrid& grid, const shadows::SatFrame& frame, double c
         for (std::size_t r = 0; r < 3; ++r) d[a] += towards[r] * frame.axes[a][r];
     double t_max = std::min(reach / frame.cell_size, 4.0 * (grid.dims[0] + grid.dims[1] + grid.dims[2]));
     double tau = 0, t = 0.5;
-    for (int i = 0; i < 256 && t < t_max && tau <= kOpaqueDepth; ++i) {
+    for (int i = 0; i < 256 && t < t_max && tau <= double(SOMBRA_OPAQUE_DEPTH); ++i) {
         double radius = std::max(0.5, t * cone_tan), span = std::min(2 * radius, t_max - t);
         std::array<double, 3> lo, hi;
         bool outside = false;

@@ -56,10 +56,9 @@ double gauss_filtered_depth(const CellGrid& grid, const shadows::SatFrame& frame
 // optical depth (cubes of half size max(½, t·tan) along `towards` from t = ½ cell, up to `reach`
 // world units or the grid's end; cubes of half size ≥ snap_radius cells have their faces on the
 // nearest cell faces, as the kernel's from SOMBRA_CONE_SNAP_RADIUS; +∞: every cube exact), stopping
-// at the opaque depth.
+// at the opaque depth (SOMBRA_OPAQUE_DEPTH), as the kernel does; both in cl/shared/types.h.
 double ambient_depth(const CellGrid& grid, const shadows::SatFrame& frame, int width, const std::array<double, 3>& p);
-constexpr double kConeSnapRadius = 2;  // SOMBRA_CONE_SNAP_RADIUS, cl/lowpass.h
 double cone_depth(const CellGrid& grid, const shadows::SatFrame& frame, double cone_tan, const std::array<double, 3>& p,
-                  const std::array<double, 3>& towards, double reach, double snap_radius = kConeSnapRadius);
+                  const std::array<double, 3>& towards, double reach, double snap_radius = SOMBRA_CONE_SNAP_RADIUS);
 
 }  // namespace sombra::reference
