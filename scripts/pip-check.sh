@@ -3,7 +3,8 @@
 # user would after scripts/install-deps.sh: the same CMake build through scikit-build-core
 # (pyproject.toml). Then the installed module and command are checked: sombra.__version__ is what
 # `sombra --version` prints, and the Python tests pass against the installed module (not the build
-# tree's). Needs PyPI (scikit-build-core, pybind11, numpy, pytest). ≈ 3 min on 2 cores.
+# tree's). Needs PyPI (scikit-build-core, pybind11, numpy, pytest). 90 s on 2 cores (pyproject.toml builds
+# the wheel as a unity build; file by file the check took 291 s).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 work=$(mktemp -d)

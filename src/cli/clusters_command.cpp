@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "clustering/clustering.h"
+#include "math_constants.h"
 #include "render/staged_outputs.h"
 #include "sombra/error.h"
 #include "sombra/render.h"
@@ -16,7 +17,6 @@
 namespace sombra::cli {
 namespace {
 
-constexpr double kDegrees = 180.0 / 3.14159265358979323846;
 
 // Six significant digits: enough to read, stable across platforms' last bits.
 double rounded(double value) {
@@ -42,7 +42,7 @@ nlohmann::json view_json(const clustering::FocusedView& v) {
     if (v.orthographic) {
         j["half_width"] = rounded(v.half_width), j["half_height"] = rounded(v.half_height);
     } else {
-        j["fov_x_deg"] = rounded(v.fov_x * kDegrees), j["fov_y_deg"] = rounded(v.fov_y * kDegrees);
+        j["fov_x_deg"] = rounded(v.fov_x * kDegreesPerRadian), j["fov_y_deg"] = rounded(v.fov_y * kDegreesPerRadian);
     }
     return j;
 }

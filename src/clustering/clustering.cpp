@@ -5,11 +5,11 @@
 #include <optional>
 
 #include "sombra/error.h"
+#include "math_constants.h"
 
 namespace sombra::clustering {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 constexpr double kFocusMargin = 1e-5;  // relative slack around focused views (float consumers)
 const double kMaxFocusTan = std::tan(60.0 * kPi / 180.0);  // wider: focus per cube face
 

@@ -10,7 +10,7 @@ namespace sombra::distributed {
 
 namespace {
 
-constexpr char kMagic[8] = {'s', 'o', 'm', 'b', 'r', 'a', 'M', '1'};
+constexpr char kExchangeMagic[8] = {'s', 'o', 'm', 'b', 'r', 'a', 'M', '1'};
 
 template <class T>
 void put_array(std::vector<unsigned char>& out, const std::vector<T>& items) {
@@ -44,7 +44,7 @@ struct Reader {
 }  // namespace
 
 std::vector<unsigned char> serialize(const MapSet& maps) {
-    std::vector<unsigned char> out(kMagic, kMagic + sizeof kMagic);
+    std::vector<unsigned char> out(kExchangeMagic, kExchangeMagic + sizeof kExchangeMagic);
     out.push_back(maps.optical_depth ? 1 : 0);
     put_array(out, maps.views);
     put_array(out, maps.light_views);
@@ -55,9 +55,9 @@ std::vector<unsigned char> serialize(const MapSet& maps) {
 
 MapSet deserialize(const std::vector<unsigned char>& bytes, const std::string& where) {
     Reader in{bytes, where};
-    char magic[sizeof kMagic];
+    char magic[sizeof kExchangeMagic];
     in.take(magic, sizeof magic);
-    if (std::memcmp(magic, kMagic, sizeof magic) != 0) throw Error(where + ": not a set of deep shadow maps");
+    if (std::memcmp(magic, kExchangeMagic, sizeof magic) != 0) throw Error(where + ": not a set of deep shadow maps");
     MapSet maps;
     unsigned char optical_depth = 0;
     in.take(&optical_depth, 1);

@@ -150,14 +150,14 @@ ProgramCache::ProgramCache(cl::Context context, cl::Device device, std::string d
 ProgramCache::Built ProgramCache::build(const std::string& source, const std::string& options) {
     const std::string digest = digest_of(identity_ + '\0' + driver_settings() + '\0' + options + '\0' + source);
     const std::string path = folder_.empty() ? std::string() : folder_ + "/" + digest + ".bin";
-    if (!path.empty())
-        if (auto cached = load(path, digest)) return std::move(*cached);
-    if (!dump_folder_.empty()) {
+    if (!dump_folder_.empty()) {  // every program asked for, whether built or loaded below
         std::error_code ignored;
         std::filesystem::create_directories(dump_folder_, ignored);
         std::ofstream(dump_folder_ + "/" + digest + ".cl", std::ios::binary) << source;
         std::ofstream(dump_folder_ + "/" + digest + ".options", std::ios::binary) << options << '\n';
     }
+    if (!path.empty())
+        if (auto cached = load(path, digest)) return std::move(*cached);
     Built built{cl::Program(context_, source), {}, false};
     try {
         built.program.build(std::vector<cl::Device>{device_}, options.c_str());

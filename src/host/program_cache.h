@@ -15,9 +15,10 @@
 // Folder: $SOMBRA_KERNEL_CACHE, else $XDG_CACHE_HOME/sombra/kernels, else ~/.cache/sombra/kernels;
 // SOMBRA_KERNEL_CACHE=off disables it.
 //
-// SOMBRA_DUMP_PROGRAMS=DIR also writes each program built from source as DIR/<digest>.cl (the
-// expanded source) and DIR/<digest>.options (its build options): the input of the portability
-// checks that compile every variant with another compiler (tests/portability/ptx_check.sh).
+// SOMBRA_DUMP_PROGRAMS=DIR also writes each program the process asks for (built from source or
+// loaded from the cache) as DIR/<digest>.cl (the expanded source) and DIR/<digest>.options (its
+// build options): the input of the portability checks that compile every variant with another
+// compiler (tests/portability/ptx_check.sh, no_fp64.sh).
 #pragma once
 #include <CL/opencl.hpp>
 

@@ -7,14 +7,13 @@
 #include <nlohmann/json.hpp>
 
 #include "scene/json_fields.h"
+#include "math_constants.h"
 #include "scene/scene_json.h"
 #include "sombra/error.h"
 #include "sombra/scene.h"
 
 namespace sombra {
 namespace {
-
-constexpr double kPi = 3.14159265358979;
 
 using D3 = std::array<double, 3>;
 D3 d3(const Vec3& v) { return {v[0], v[1], v[2]}; }

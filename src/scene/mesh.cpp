@@ -7,14 +7,12 @@
 #include <map>
 
 #include "scene/input_file.h"
+#include "math_constants.h"
 #include "scene/mesh_formats.h"
 #include "sombra/error.h"
 #include "sombra/limits.h"
 
 namespace sombra {
-namespace {
-constexpr float kPi = 3.14159265358979f;
-}  // namespace
 
 void validate_mesh(const Mesh& mesh, const std::string& where) {
     if (mesh.triangles.empty()) throw file_error(where, "", "mesh has no triangles");
@@ -71,9 +69,9 @@ Mesh make_uv_sphere(int stacks, int slices, float radius) {
     m.source = "uv_sphere";
     m.positions.push_back({0, 0, radius});  // north pole
     for (int i = 1; i < stacks; ++i) {
-        float theta = kPi * float(i) / float(stacks);
+        float theta = float(kPi) * float(i) / float(stacks);
         for (int j = 0; j < slices; ++j) {
-            float phi = 2.f * kPi * float(j) / float(slices);
+            float phi = 2.f * float(kPi) * float(j) / float(slices);
             m.positions.push_back({radius * std::sin(theta) * std::cos(phi), radius * std::sin(theta) * std::sin(phi),
                                    radius * std::cos(theta)});
         }

@@ -4,6 +4,7 @@
 #include <filesystem>
 
 #include "scene/json_fields.h"
+#include "math_constants.h"
 #include "sombra/limits.h"
 #include "shared/types.h"
 
@@ -12,8 +13,6 @@ namespace {
 
 using detail::JsonFields;
 using nlohmann::json;
-
-constexpr float kPi = 3.14159265358979f;
 
 std::array<float, 16> multiply(const std::array<float, 16>& a, const std::array<float, 16>& b) {
     std::array<float, 16> r{};
@@ -261,7 +260,7 @@ void check_point(const std::string& where, const std::string& field, const Vec3&
 
 std::array<float, 16> make_transform(const Vec3& t, const Vec3& r, const Vec3& s) {
     auto rot = [](int axis, float deg) {
-        float c = std::cos(deg * kPi / 180.f), sn = std::sin(deg * kPi / 180.f);
+        float c = std::cos(deg * float(kPi) / 180.f), sn = std::sin(deg * float(kPi) / 180.f);
         std::array<float, 16> m{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
         int a = (axis + 1) % 3, b = (axis + 2) % 3;
         m[a * 4 + a] = c, m[a * 4 + b] = -sn, m[b * 4 + a] = sn, m[b * 4 + b] = c;

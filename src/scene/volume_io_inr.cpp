@@ -9,7 +9,7 @@
 namespace sombra::volume_io {
 namespace {
 
-constexpr char kMagic[] = "#INRIMAGE-4#{";
+constexpr char kInrMagic[] = "#INRIMAGE-4#{";
 constexpr char kEnd[] = "##}\n";
 
 ScalarType inr_type(const std::string& path, const std::string& type, long long bits) {
@@ -36,7 +36,7 @@ Endian inr_endian(const std::string& path, const std::string& cpu) {
 Volume read_inr(const std::string& path) {
     const std::vector<unsigned char> bytes = read_file(path);
     const std::string text(bytes.begin(), bytes.begin() + std::min<std::size_t>(bytes.size(), 1 << 16));
-    if (text.compare(0, sizeof(kMagic) - 1, kMagic) != 0) throw file_error(path, "header", "not an INRIMAGE-4 file");
+    if (text.compare(0, sizeof(kInrMagic) - 1, kInrMagic) != 0) throw file_error(path, "header", "not an INRIMAGE-4 file");
     const std::size_t end = text.find(kEnd);
     if (end == std::string::npos) throw file_error(path, "header", "no end marker \"##}\" found");
     const std::size_t header_bytes = end + sizeof(kEnd) - 1;
@@ -44,7 +44,7 @@ Volume read_inr(const std::string& path) {
         throw file_error(path, "header", "size " + std::to_string(header_bytes) + " is not a multiple of 256 bytes");
 
     std::map<std::string, std::string> keys;
-    std::istringstream lines(text.substr(sizeof(kMagic) - 1, end - (sizeof(kMagic) - 1)));
+    std::istringstream lines(text.substr(sizeof(kInrMagic) - 1, end - (sizeof(kInrMagic) - 1)));
     for (std::string line; std::getline(lines, line);) {
         const std::size_t eq = line.find('=');
         if (line.empty() || line[0] == '#' || eq == std::string::npos) continue;

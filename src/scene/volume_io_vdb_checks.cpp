@@ -23,7 +23,7 @@ namespace sombra::volume_io {
 namespace {
 
 using Cursor = detail::ByteCursor;
-constexpr std::int64_t kMagic = 0x56444220;  // "VDB " (OPENVDB_MAGIC)
+constexpr std::int64_t kVdbMagic = 0x56444220;  // "VDB " (OPENVDB_MAGIC)
 constexpr std::uint32_t kOldestFormat = 222, kNewestFormat = 224;  // OpenVDB 3 … 10
 constexpr std::uint32_t kZip = 1, kActiveMask = 2, kBlosc = 4;     // io::COMPRESS_*
 constexpr std::uint64_t kMaxTreeBytes = std::uint64_t(4) << 30;    // the sparse tree in memory
@@ -73,7 +73,7 @@ std::uint32_t metadata_size(const std::string& type) {
 }
 
 void walk_header(Cursor& c) {
-    if (c.get<std::int64_t>("magic") != kMagic) c.fail("magic", "not an OpenVDB file");
+    if (c.get<std::int64_t>("magic") != kVdbMagic) c.fail("magic", "not an OpenVDB file");
     const std::uint32_t format = c.get<std::uint32_t>("format version");
     if (format < kOldestFormat || format > kNewestFormat)
         c.fail("format version", std::to_string(format) + "; sombra reads formats " + std::to_string(kOldestFormat) +

@@ -3,6 +3,7 @@
 
 #include <cmath>
 
+#include "math_constants.h"
 #include "sombra/error.h"
 
 namespace sombra::techniques {
@@ -14,7 +15,6 @@ cl_float4 f4(const clustering::Point& v, float w = 0.f) {
     return r;
 }
 
-constexpr double kDegrees = 180.0 / 3.14159265358979323846;
 
 }  // namespace
 
@@ -102,7 +102,7 @@ void add_cluster_stats(const ClusteredViews& clustered, RenderStats& stats) {
             cluster.light = int(light.light);
             for (std::size_t o : c.members) cluster.members.push_back(clustered.objects[o].name);
             for (const clustering::FocusedView& f : c.views)
-                cluster.views.push_back({f.orthographic, f.fov_x * kDegrees, f.fov_y * kDegrees, f.half_width, f.half_height, f.near, f.far});
+                cluster.views.push_back({f.orthographic, f.fov_x * kDegreesPerRadian, f.fov_y * kDegreesPerRadian, f.half_width, f.half_height, f.near, f.far});
             stats.dsm_clusters.push_back(cluster);
         }
     }

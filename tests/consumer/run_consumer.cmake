@@ -30,9 +30,10 @@ if(MODE STREQUAL "package")
   list(APPEND args -DCMAKE_PREFIX_PATH=${WORK}/prefix -DCMAKE_FIND_PACKAGE_NO_PACKAGE_REGISTRY=ON)
 elseif(MODE STREQUAL "subdirectory")
   # what is tested is that add_subdirectory configures, builds and links, not the code's speed:
-  # unoptimised and without debug information the library compiles in far less time
+  # unoptimised, without debug information and as a unity build (a batch of sources per compile)
+  # the library compiles in far less time
   list(APPEND args -DSOMBRA_SOURCE_DIR=${SOURCE_DIR} -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG=-O0
-       -DCMAKE_C_FLAGS_DEBUG=-O0)
+       -DCMAKE_C_FLAGS_DEBUG=-O0 -DCMAKE_UNITY_BUILD=ON)
 elseif(NOT MODE STREQUAL "pkg-config")
   message(FATAL_ERROR "run_consumer.cmake: unknown MODE ${MODE}")
 endif()

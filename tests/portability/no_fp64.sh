@@ -2,7 +2,7 @@
 # Devices without cl_khr_fp64 (many GPUs) must build every program: the low-pass family's lookups
 # have a float path (cl/lowpass.h, --sat-precision float, chosen by auto on such devices). This
 # collects the programs tiny renders of every technique build with float lookups
-# (SOMBRA_DUMP_PROGRAMS, the program cache off) and compiles each with clang's OpenCL front end
+# (SOMBRA_DUMP_PROGRAMS, also those loaded from the program cache) and compiles each with clang's OpenCL front end
 # with cl_khr_fp64 removed: any `double` in a program is an error there. A check of the check:
 # the same low-pass program with double lookups must fail. Usage: no_fp64.sh SOMBRA_CLI WORK_DIR.
 # Exit 77 (skipped) without clang.
@@ -17,7 +17,6 @@ cat >"$work/tiny.json" <<'JSON'
               "transfer_function": {"rgb_points": [0, 1, 1, 1, 1, 1, 0.5, 0.2], "opacity_points": [0, 0, 1, 0.5]}}],
  "lights": [{"type": "directional", "direction": [0, -1, -1]}, {"type": "point", "position": [0.3, 0.4, 0.5]}]}
 JSON
-export SOMBRA_KERNEL_CACHE=off
 # compile DIR: every dumped program with fp64 removed; prints the failures, returns their count
 compile() {
     local failed=0

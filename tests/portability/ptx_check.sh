@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Every kernel program variant compiles for NVIDIA sm_90 (issue 33, item 2). Collects the programs
 # the renderer really builds (SOMBRA_DUMP_PROGRAMS: expanded source and -D options of each program
-# compiled from source; SOMBRA_KERNEL_CACHE=off so that none is loaded from the disk cache instead)
+# it asks for, also those it loads from the program cache, which stays on)
 # from tiny renders on PoCL that cover the variant families (the list below): every --shadows
 # technique, lanes 1/4/8/16, every DSM storage and lookup and DSM option, the shadow cache on and
 # off, image volumes, Sobel, scattering, meshes, bounds, clusters, point/spot/directional lights,
@@ -129,7 +129,7 @@ add clusters clusters "$work/mesh.json" --image "$work/renders/clusters.png" --w
 
 # Runs "$@" at most $jobs at a time (the caller waits).
 throttle() { while [ "$(jobs -rp | wc -l)" -ge "$jobs" ]; do wait -n || true; done; }
-export SOMBRA_DUMP_PROGRAMS=$work/dump SOMBRA_KERNEL_CACHE=off
+export SOMBRA_DUMP_PROGRAMS=$work/dump
 renders=0
 while IFS=$'\t' read -r name args; do
     throttle
@@ -156,7 +156,7 @@ if [ -n "$tests" ]; then  # the test-only programs: the sample probe (buffer, im
     done
 fi
 wait
-unset SOMBRA_DUMP_PROGRAMS SOMBRA_KERNEL_CACHE
+unset SOMBRA_DUMP_PROGRAMS
 collected=$(date +%s)
 status=0
 for s in "$work"/renders/*.status; do
