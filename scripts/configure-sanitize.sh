@@ -2,7 +2,7 @@
 # Configures build-sanitize/: clang, AddressSanitizer + UndefinedBehaviorSanitizer (every report
 # fatal), coverage for libFuzzer, the libFuzzer harnesses (fuzz/) and the reader, scene and CLI
 # tests. Used by scripts/fuzz.sh and scripts/sanitize.sh. A unity build (CMAKE_UNITY_BUILD: the sources
-# of a target compiled a batch at a time): 3.3 min instead of ≈ 12 on 2 cores; scripts/build.sh
+# of a target compiled a batch at a time): 3.3–4 min instead of ≈ 12 on 2 cores; scripts/build.sh
 # compiles each file alone, so a file that misses an include still fails there.
 set -euo pipefail
 cd "$(dirname "$0")/.."

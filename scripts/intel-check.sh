@@ -2,7 +2,7 @@
 # The suite on Intel's OpenCL CPU runtime as the only platform (issue 33): installs it if missing
 # (scripts/intel-opencl.sh: PyPI, 276 MB once), then runs on it the tests that compare the kernels
 # with CPU references and closed forms (ctest names matching "reference|accuracy|against", not the
-# package tests: 42 tests). `--all` runs the whole suite instead, then compares every shipped scene
+# package tests: 44 tests). `--all` runs the whole suite instead, then compares every shipped scene
 # × technique on Intel with PoCL (tests/portability/intel.sh --all-scenes). Uses the build in
 # build/ (scripts/build.sh first). The library tests take the suite's device (SOMBRA_DEVICE=cpu:
 # Intel's device is a CPU), the CLI tests the CLI's default (auto: the only device). Intel compiles
