@@ -1,4 +1,4 @@
-// sombra — π, defined once for the host code (the kernels use OpenCL's M_PI_F).
+// sombra — π, defined once for the host code (the kernels use OpenCL's M_PI_F); every host file uses it.
 #pragma once
 
 namespace sombra {

@@ -17,7 +17,6 @@
 namespace sombra::cli {
 namespace {
 
-
 // Six significant digits: enough to read, stable across platforms' last bits.
 double rounded(double value) {
     if (value == 0 || !std::isfinite(value)) return value;

@@ -4,8 +4,8 @@
 #include <cmath>
 #include <optional>
 
-#include "sombra/error.h"
 #include "math_constants.h"
+#include "sombra/error.h"
 
 namespace sombra::clustering {
 namespace {

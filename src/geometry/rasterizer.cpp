@@ -1,5 +1,6 @@
 #include "geometry/rasterizer.h"
 #include "host/kernel_args.h"
+#include "math_constants.h"
 
 #include <algorithm>
 #include <cmath>
@@ -100,7 +101,7 @@ View camera_view(const Camera& camera, int width, int height, double near_depth)
     Vec forward = normalized(sub(to_vec(camera.look_at), to_vec(camera.position)));
     Vec right = normalized(cross(forward, to_vec(camera.up)));
     Vec up = cross(right, forward);
-    double tan_half = std::tan(0.5 * double(camera.fov_y_deg) * 3.14159265358979323846 / 180.0);
+    double tan_half = std::tan(0.5 * double(camera.fov_y_deg) * kPi / 180.0);
     v.origin = to_vec(camera.position);
     v.axis_x = right;
     v.axis_y = {-up[0], -up[1], -up[2]};  // screen y down (cl/render.cl: sy = 1 − 2(y + ½)/H)

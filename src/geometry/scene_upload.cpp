@@ -6,6 +6,7 @@
 #include <glm/glm.hpp>
 
 #include "geometry/surfaces.h"
+#include "math_constants.h"
 #include "sombra/error.h"
 
 namespace sombra::packing {
@@ -95,7 +96,7 @@ std::vector<LightGpu> pack_lights(const Scene& scene) {
         g.position = f4(l.position);
         g.direction = f4(normalized(l.direction));
         g.color = f4(l.color[0] * l.intensity, l.color[1] * l.intensity, l.color[2] * l.intensity);
-        float half = l.cone_angle_deg * 3.14159265358979f / 180.f;
+        float half = l.cone_angle_deg * float(kPi) / 180.f;
         g.cos_outer = std::cos(half);
         g.cos_inner = std::cos(half * (1.f - l.cone_softness));
         if (g.cos_inner <= g.cos_outer) g.cos_inner = g.cos_outer + 1e-6f;  // smoothstep needs edge0 < edge1
@@ -199,7 +200,7 @@ CameraGpu pack_camera(const Scene& scene, int width, int height) {
     Vec3 forward = normalized({c.look_at[0] - c.position[0], c.look_at[1] - c.position[1], c.look_at[2] - c.position[2]});
     Vec3 right = normalized(cross(forward, c.up));
     Vec3 up = cross(right, forward);
-    float tan_half = std::tan(0.5f * c.fov_y_deg * 3.14159265358979f / 180.f);
+    float tan_half = std::tan(0.5f * c.fov_y_deg * float(kPi) / 180.f);
     float aspect = float(width) / float(height);
     CameraGpu g{};
     g.position = f4(c.position);

@@ -6,8 +6,8 @@
 
 #include <nlohmann/json.hpp>
 
-#include "scene/json_fields.h"
 #include "math_constants.h"
+#include "scene/json_fields.h"
 #include "scene/scene_json.h"
 #include "sombra/error.h"
 #include "sombra/scene.h"

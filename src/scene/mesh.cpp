@@ -6,8 +6,8 @@
 #include <filesystem>
 #include <map>
 
-#include "scene/input_file.h"
 #include "math_constants.h"
+#include "scene/input_file.h"
 #include "scene/mesh_formats.h"
 #include "sombra/error.h"
 #include "sombra/limits.h"

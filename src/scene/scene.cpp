@@ -3,8 +3,8 @@
 #include <cmath>
 #include <filesystem>
 
-#include "scene/json_fields.h"
 #include "math_constants.h"
+#include "scene/json_fields.h"
 #include "sombra/limits.h"
 #include "shared/types.h"
 

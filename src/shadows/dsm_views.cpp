@@ -4,6 +4,7 @@
 #include <cmath>
 #include <glm/glm.hpp>
 
+#include "math_constants.h"
 #include "shared/hash.h"
 #include "sombra/error.h"
 
@@ -78,7 +79,7 @@ std::vector<DsmViewGpu> make_dsm_views(const Scene& scene, const packing::Packed
         glm::vec3 position(l.position[0], l.position[1], l.position[2]);
         glm::vec3 direction(l.direction[0], l.direction[1], l.direction[2]);
         if (l.type == LightType::Spot) {
-            views.push_back(perspective_view(position, direction, std::tan(l.cone_angle_deg * 3.14159265f / 180.f),
+            views.push_back(perspective_view(position, direction, std::tan(l.cone_angle_deg * float(kPi) / 180.f),
                                              corners, resolution));
         } else if (l.type == LightType::Point) {
             // cube faces +x, −x, +y, −y, +z, −z, each a 90° frustum (tan 45° = 1)

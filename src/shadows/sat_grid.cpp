@@ -8,6 +8,7 @@
 #include <type_traits>
 
 #include "host/tiled_launch.h"
+#include "math_constants.h"
 #include "shadows/dsm_builder.h"
 #include "sombra/error.h"
 
@@ -207,7 +208,7 @@ namespace {
 struct SphereSpan {
     D3 x, y, z;
     double phi_lo = 0, phi_hi = 0, theta_lo = 0, theta_hi = 0, r_min = 0, r_max = 0;
-    double reach = M_PI;  // the largest angle from x to a direction into the boxes (with the margin)
+    double reach = kPi;  // the largest angle from x to a direction into the boxes (with the margin)
     double r_ref = 0;  // the distance at which an angular cell spans one voxel (k = 1)
     bool whole = false;
 };
@@ -244,7 +245,7 @@ SphereSpan sphere_span(const std::vector<D3>& corners, const D3& light) {
                     for (std::size_t r = 0; r < 3; ++r)
                         d[r] = corners[box + std::size_t(c0)][r] + (corners[box + std::size_t(c1)][r] - corners[box + std::size_t(c0)][r]) * t / 32.0 - light[r];
                     double len = std::sqrt(dot(d, d)), px = dot(d, s.x) / len;
-                    if (px < std::cos(80.0 * M_PI / 180.0)) s.whole = true;  // a cone wider than 80°
+                    if (px < std::cos(80.0 * kPi / 180.0)) s.whole = true;  // a cone wider than 80°
                     least_cos = std::min(least_cos, px);
                     double phi = std::atan2(dot(d, s.y), dot(d, s.x)), theta = std::acos(std::clamp(dot(d, s.z) / len, -1.0, 1.0));
                     phi_lo = std::min(phi_lo, phi), phi_hi = std::max(phi_hi, phi);
@@ -252,14 +253,14 @@ SphereSpan sphere_span(const std::vector<D3>& corners, const D3& light) {
                 }
             }
     double margin = 0.02 * std::max(phi_hi - phi_lo, theta_hi - theta_lo);
-    if (s.whole) s.phi_lo = -M_PI, s.phi_hi = M_PI, s.theta_lo = 0, s.theta_hi = M_PI, s.r_min = 0;
+    if (s.whole) s.phi_lo = -kPi, s.phi_hi = kPi, s.theta_lo = 0, s.theta_hi = kPi, s.r_min = 0;
     else s.phi_lo = phi_lo - margin, s.phi_hi = phi_hi + margin, s.theta_lo = std::max(theta_lo - margin, 0.0),
-         s.theta_hi = std::min(theta_hi + margin, M_PI);
+         s.theta_hi = std::min(theta_hi + margin, kPi);
     s.r_ref = s.whole ? 0.5 * s.r_max : centre_distance;
     // the silhouette of a box seen from outside is made of its edges: no direction into it lies
     // farther from x than the farthest edge point, up to the sampling (covered by the margin) and
     // the float cosine (1e-3 rad at least)
-    if (!s.whole) s.reach = std::min(std::acos(std::clamp(least_cos, -1.0, 1.0)) + std::max(2 * margin, 1e-3), M_PI);
+    if (!s.whole) s.reach = std::min(std::acos(std::clamp(least_cos, -1.0, 1.0)) + std::max(2 * margin, 1e-3), kPi);
     return s;
 }
 
@@ -284,7 +285,7 @@ SsatGridGpu sphere_grid(const SphereSpan& s, const std::array<int, 3>& dims, con
     g.wrap_phi = s.whole ? 1 : 0;
     g.tau_per_unit = 1.f / SOMBRA_SAT_UNITS_PER_TAU;
     g.volume_mask = volume_mask;
-    g.cos_reach = s.reach >= M_PI ? -1.f : float(std::cos(s.reach)), g.sin_reach = s.reach >= M_PI ? 0.f : float(std::sin(s.reach));
+    g.cos_reach = s.reach >= kPi ? -1.f : float(std::cos(s.reach)), g.sin_reach = s.reach >= kPi ? 0.f : float(std::sin(s.reach));
     return g;
 }
 
@@ -722,7 +723,7 @@ SatGridBuffers upload_sat_grids(host::Runtime& runtime, const DeviceSat& sat, fl
     for (SatGridGpu& g : grids)
         if (g.dims.s[3] != 0) {
             g.filter_cells = cl_uint(std::clamp(std::round(width / g.cell_size), 1.0, 4096.0));
-            g.cone_tan = float(std::tan(double(cone_deg) * M_PI / 180.0));
+            g.cone_tan = float(std::tan(double(cone_deg) * kPi / 180.0));
         }
     for (SsatGridGpu& g : spheres) g.half_width = float(0.5 * width);  // Ament Eq. 16: U = V = W/2
     return {host::make_buffer(runtime, CL_MEM_READ_ONLY, grids.size() * sizeof(SatGridGpu), grids.data(), "SAT grids"),
