@@ -278,6 +278,11 @@ static inline void cache_fill_lanes(VOLUME_DATA_PARAM, SceneRefs scene, ShadowSt
     for (uint lane = 0; lane < SOMBRA_LANES && lane < count; ++lane) out[lane * stride] = read[lane] ? values[lane] : 1.0f;
 }
 
+/* Voxel coordinate of a lattice's index k along y or z (ShadowCacheGpu.row_block). */
+static inline float lattice_voxel(__global const ShadowCacheGpu* c, uint k, float spacing) {
+    return (k / c->row_block) * spacing + (k % c->row_block) * (spacing / c->row_block_stride);
+}
+
 /* The shadow cache's first pass (Ament Alg. 1, updateShadowCache): the shadow term of light
  * `light_index` at the lattice points of cache entry `cache_entry`, by the program's technique; a
  * work-item evaluates SOMBRA_LANES neighbouring points of a lattice row (rows: y + dims.y · z).
@@ -289,10 +294,11 @@ __kernel void shadow_cache_fill(SCENE_PARAMS, uint light_index, uint cache_entry
     if (row >= (uint)(c->dims.y * c->dims.z)) return;
     uint x0 = get_global_id(0) * SOMBRA_LANES;
     __global const VolumeGpu* volume = &volumes[cache_entry / camera->light_count];
+    const float voxel_y = lattice_voxel(c, row % c->dims.y, c->spacing.y), voxel_z = lattice_voxel(c, row / c->dims.y, c->spacing.z);
     int read[SOMBRA_LANES];
     bool any_read = false;
     for (uint lane = 0; lane < SOMBRA_LANES; ++lane) {
-        float3 v = (float3)((x0 + lane) * c->spacing.x, (row % c->dims.y) * c->spacing.y, (row / c->dims.y) * c->spacing.z);
+        float3 v = (float3)((x0 + lane) * c->spacing.x, voxel_y, voxel_z);
         read[lane] = x0 + lane < (uint)c->dims.x && cache_point_read(occupancy, volume, v, c->reach) ? -1 : 0;
         any_read = any_read || read[lane];
     }
@@ -302,8 +308,7 @@ __kernel void shadow_cache_fill(SCENE_PARAMS, uint light_index, uint cache_entry
         return;
     }
     lint xs = (int)x0 + LANE_INDEX;
-    lfloat3 voxel = l3(LCONVERT_FLOAT(xs) * c->spacing.x, (lfloat)((row % c->dims.y) * c->spacing.y),
-                       (lfloat)((row / c->dims.y) * c->spacing.z));
+    lfloat3 voxel = l3(LCONVERT_FLOAT(xs) * c->spacing.x, (lfloat)(voxel_y), (lfloat)(voxel_z));
     lfloat3 p;
     p.x = mad(voxel.x, c->voxel_to_world[0].x, mad(voxel.y, c->voxel_to_world[0].y, mad(voxel.z, c->voxel_to_world[0].z, c->voxel_to_world[0].w)));
     p.y = mad(voxel.x, c->voxel_to_world[1].x, mad(voxel.y, c->voxel_to_world[1].y, mad(voxel.z, c->voxel_to_world[1].z, c->voxel_to_world[1].w)));

@@ -4,6 +4,7 @@
 // technique's options change, and auto weighs filling against the frame's samples.
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cmath>
 
 #include "host/runtime.h"
@@ -202,6 +203,64 @@ TEST_CASE("shadow cache: a volume's change refills only the entries it can reach
         CHECK(render(context, s, o).stats.shadow_cache_entries_built == 3);
         s.volumes[0].transform[3] = -0.9f;  // a moved volume moves every light's maps: every entry
         CHECK(render(context, s, o).stats.shadow_cache_entries_built == 4);
+    }
+}
+
+// Voxel coordinate of index k of a lattice along y or z: render.cl lattice_voxel.
+float lattice_voxel_reference(const ShadowCacheGpu& c, unsigned k, float spacing) {
+    return float(k / c.row_block) * spacing + float(k % c.row_block) * (spacing / float(c.row_block_stride));
+}
+
+TEST_CASE("shadow cache auto: the probe's lattices are blocks of neighbouring rows inside each lattice", "[shadow_cache]") {
+    // frames' lattices: big cubes, a volume's halved one, thin ones (one row along y; 3 rows)
+    const int dims[][3] = {{112, 112, 112}, {181, 217, 181}, {64, 1, 40}, {20, 3, 100}, {8, 40, 33}};
+    std::vector<ShadowCacheGpu> layout;
+    cl_uint offset = 0;
+    for (const auto& d : dims) {
+        ShadowCacheGpu c{};
+        for (int a = 0; a < 3; ++a) c.dims.s[a] = d[a], c.spacing.s[a] = 1.25f + 0.5f * float(a);
+        c.row_block = c.row_block_stride = 1;
+        c.offset = offset;
+        offset += cl_uint(d[0] * d[1] * d[2]);
+        layout.push_back(c);
+    }
+    for (int block : {2, 4}) {
+        std::vector<ShadowCacheGpu> small = pipeline::probe_lattices(layout, block);
+        REQUIRE(small.size() == layout.size());
+        cl_uint next = 0;
+        for (std::size_t e = 0; e < small.size(); ++e) {
+            const ShadowCacheGpu &c = small[e], &full = layout[e];
+            INFO("block " << block << " entry " << e << ": " << c.dims.s[1] << " x " << c.dims.s[2] << " rows");
+            CHECK(c.offset == next);  // one after the other
+            next += cl_uint(c.dims.s[0] * c.dims.s[1] * c.dims.s[2]);
+            CHECK(c.dims.s[0] == full.dims.s[0]);  // whole rows along x
+            CHECK(c.spacing.s[0] == full.spacing.s[0]);
+            const int b = std::min({block, full.dims.s[1], full.dims.s[2]});
+            CHECK(int(c.row_block) == b);
+            for (int a = 1; a < 3; ++a) {
+                REQUIRE(c.dims.s[a] % b == 0);
+                REQUIRE(c.dims.s[a] >= b);
+                std::vector<int> rows;  // the frame lattice's row of each probe index
+                for (int k = 0; k < c.dims.s[a]; ++k) {
+                    const float voxel = lattice_voxel_reference(c, unsigned(k), c.spacing.s[a]);
+                    const float row = voxel / full.spacing.s[a];
+                    CHECK(std::abs(row - std::round(row)) < 1e-3f);  // on a lattice point
+                    rows.push_back(int(std::lround(row)));
+                }
+                CHECK(rows.front() == 0);
+                CHECK(rows.back() <= full.dims.s[a] - 1);  // inside
+                for (std::size_t k = 1; k < rows.size(); ++k)  // neighbours in a block, blocks 32 rows apart
+                    CHECK(rows[k] - rows[k - 1] == (k % std::size_t(b) ? 1 : 32 - b + 1));
+                CHECK(rows.back() + 32 > full.dims.s[a] - 1);  // as many blocks as fit: a next one would not
+            }
+            // big lattices: ≈ (block / 32)² of the points
+            if (full.dims.s[1] >= 64 && full.dims.s[2] >= 64) {
+                const double share = double(c.dims.s[1]) * c.dims.s[2] / (double(full.dims.s[1]) * full.dims.s[2]);
+                const double expected = double(block * block) / (32.0 * 32.0);
+                CHECK(share > 0.5 * expected);
+                CHECK(share < 2.0 * expected);
+            }
+        }
     }
 }
 

@@ -298,7 +298,12 @@ typedef struct {
      * one step of pre-integration, the voxel a sample interpolates): the fill evaluates only points
      * with a possibly visible brick that near (VolumeGpu.brick_offset) */
     float reach;
-    sb_uint pad0, pad1;
+    /* the lattice's points along y and z come in blocks of row_block neighbours, spacing /
+     * row_block_stride apart, the blocks spacing apart: index k at voxel (k / row_block) · spacing
+     * + (k % row_block) · spacing / row_block_stride (lattice_voxel in render.cl). The frame's
+     * lattices: 1 and 1 (k · spacing); auto's probe fills blocks of neighbouring points, which cost
+     * per point what the frame's fill does (src/render/shadow_cache.cpp probe_volume_costs) */
+    sb_uint row_block, row_block_stride;
     /* world = (dot(row.xyz, voxel) + row.w, …): the volume's voxel → world transform (the fill) */
     sb_float4 voxel_to_world[3];
 } ShadowCacheGpu;

@@ -126,6 +126,12 @@ constexpr bool shadow_cache_pays(double fill_ms, double cached_ms, double per_sa
     return kShadowCacheAutoMargin * (fill_ms + cached_ms) < per_sample_ms;
 }
 
+// Auto's probe lattices for a frame's `layout`: each lattice's rows (whole along x) in blocks of
+// block × block neighbours along y and z (fewer where the lattice is thinner), one block every
+// 32 rows of the lattice from row 0 on each axis, whole blocks only (at least one): ≈ (block/32)²
+// of the points, placed one after the other (ShadowCacheGpu.row_block, row_block_stride).
+std::vector<ShadowCacheGpu> probe_lattices(const std::vector<ShadowCacheGpu>& layout, int block);
+
 // The shadow cache this frame reads, its stale entries filled, or nullptr when every sample and
 // fragment evaluates the technique (options.shadow_cache). Auto weighs the volume part by
 // measuring (small runs of the fill and of the camera pass both ways) and the surface part by

@@ -27,8 +27,12 @@ constexpr std::size_t kShadowCachePoints = std::size_t(1) << 23;  // per volume 
 constexpr std::size_t kSurfacePoints = std::size_t(1) << 22;      // the surface part's, over all meshes (64 MiB + 4 MiB per light)
 constexpr int kSurfaceMaxSubdivision = 1024;                        // lattice intervals along a triangle's edge
 constexpr int kSurfaceRowPoints = 1024;                              // rows of the surface fill's launch
-constexpr int kProbeLatticeStride = 16;                     // auto's probe fills every 16th lattice row along y and z (4th: close calls)
+// auto's probe fills blocks of 2 × 2 neighbouring lattice rows (y, z) every 32 rows along y and z
+// (1/256 of the points), on close calls 4 × 4 (1/64)
+constexpr int kProbeBlockStride = 32, kProbeBlock = 2, kProbeCloseCallBlock = 4;
 constexpr int kProbeRowsPerLaunch = 4, kProbeLaunches = 4;  // and renders 4 image rows a launch, at most 16
+constexpr double kProbeWarmupMs = 10;                        // before its first fill, ≥ 10 ms of untimed fills
+constexpr int kProbeWarmupLaunches = 8;                      // (or 8 launches)
 constexpr double kProbeBudget = 0.05;                        // beyond its first launch, at most 5 % of the cheaper frame
 constexpr std::size_t kRememberedChoices = 4096;            // auto's choices kept per process (the oldest go first)
 
@@ -73,6 +77,7 @@ std::vector<ShadowCacheGpu> cache_layout(const Scene& scene, const packing::Pack
             // a sample reads the points of its lattice cell; it is shaded after pre-integrating one
             // step (≤ step_voxels voxels on every axis) and interpolates its voxel's corners
             c.reach = std::max({c.spacing.s[0], c.spacing.s[1], c.spacing.s[2]}) + scene.volumes[i].step_voxels + 1.f;
+            c.row_block = c.row_block_stride = 1;  // evenly spaced points (the probe's come in blocks)
             c.offset = cl_uint(total);
             total += lattice_points(c);
             if (total > 0xffffffffull) throw Error("shadow cache: more than 2^32 entries");
@@ -376,11 +381,32 @@ double fill_surface_entries(const FillLaunch& launch, SurfaceShadowCache& sc, co
     return ms;
 }
 
+}  // namespace
+
+std::vector<ShadowCacheGpu> probe_lattices(const std::vector<ShadowCacheGpu>& layout, int block) {
+    std::vector<ShadowCacheGpu> small = layout;
+    std::size_t total = 0;
+    for (ShadowCacheGpu& c : small) {
+        const int b = std::min({block, c.dims.s[1], c.dims.s[2]});
+        for (std::size_t a = 1; a < 3; ++a) {
+            c.dims.s[a] = std::max(1, (c.dims.s[a] - b) / kProbeBlockStride + 1) * b;  // whole blocks inside
+            c.spacing.s[a] *= float(kProbeBlockStride);
+        }
+        c.row_block = cl_uint(b), c.row_block_stride = cl_uint(kProbeBlockStride);
+        c.offset = cl_uint(total);  // c.reach stays: points near the same bricks are evaluated
+        total += lattice_points(c);
+    }
+    return small;
+}
+
+namespace {
+
 // Auto's measurement (issue 29 item 5): what the frame's shadow terms cost both ways, from small
-// runs of the real kernels before the frame. The fill: every lattice's rows along x at every 16th
-// y and z (1/256 of its points; whole rows, so that a packet's lanes are neighbours as in the
-// fill), the stale ones' time scaled by their points; when the result is a close call (within 2×),
-// again at every 4th (1/16) if that fits the budget. The camera pass: image rows at full width (lanes as coherent as the frame's), 4 a
+// runs of the real kernels before the frame. The fill: every lattice's rows along x in blocks of
+// 2 × 2 neighbouring rows along y and z every 32 rows (1/256 of its points; whole rows, so that a
+// packet's lanes are neighbours as in the fill), after 10 ms of untimed warm-up, the stale ones'
+// time scaled by their points; when the result is a close call (within 2×), again in blocks of
+// 4 × 4 (1/64) if that fits the budget. The camera pass: image rows at full width (lanes as coherent as the frame's), 4 a
 // launch a quarter of the image apart, the launches' offsets in van der Corput order (the middle
 // of each quarter, then of each eighth, …), each launch once evaluating the technique per sample
 // and once reading the small lattices (a lattice costs the same to read at any size; its values
@@ -397,25 +423,29 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
     // the probe's short launches must not make the frame's long ones run unbanded (tiled_launch.cpp)
     const double last_launch_ms = runtime.progress().last_launch_ms;
     VolumeCosts costs;
-    // the lattices at every stride-th row along y and z (whole rows along x), filled and timed;
-    // returns the stale ones' fill time scaled by their points
+    // the lattices' rows (whole along x) in blocks of block × block neighbours along y and z, the
+    // blocks kProbeBlockStride rows apart, filled and timed; returns the stale ones' fill time
+    // scaled by their points. Blocks, not rows as far apart: a point's shadow ray reads what its
+    // neighbours' read, so that evenly spread rows (every 16th) cost 1.2–1.9× as much per point as
+    // the frame's fill (bench/README.md "sombra_bench_cache_auto")
     std::vector<ShadowCacheGpu> small;
     cl::Buffer values, table;
-    auto fill_rows = [&](int stride) {
-        small = plan.layout;
-        std::size_t total = 0;
-        for (ShadowCacheGpu& c : small) {
-            for (std::size_t a = 1; a < 3; ++a) {
-                c.dims.s[a] = (c.dims.s[a] - 1) / stride + 1;
-                c.spacing.s[a] *= float(stride);
-            }
-            c.offset = cl_uint(total);  // c.reach stays: points near the same bricks are evaluated
-            total += lattice_points(c);
-        }
+    double warm_ms = 0;
+    auto fill_blocks = [&](int block, bool warm_up) {
+        small = probe_lattices(plan.layout, block);
+        const std::size_t total = small.back().offset + lattice_points(small.back());
         values = host::make_buffer(runtime, CL_MEM_READ_WRITE, total * sizeof(float), nullptr, "shadow cache probe");
         table = host::make_buffer(runtime, CL_MEM_READ_ONLY, small.size() * sizeof(ShadowCacheGpu), small.data(), "shadow cache probe table");
         cl::Kernel kernel(launch.program, "shadow_cache_fill");
         double fill_ms = 0;
+        // the first milliseconds of launches after the frame's preparation run slow (smoke, rays at
+        // 256²: the 1/256 lattices' 2–4 ms launches took up to 2× their later time): the first
+        // small lattice is filled untimed first (bench/README.md "sombra_bench_cache_auto")
+        if (warm_up) {
+            for (int k = 0; warm_ms < kProbeWarmupMs && k < kProbeWarmupLaunches; ++k)
+                warm_ms += fill_lattice(launch, kernel, 0, small[0], lights, table, values);
+            costs.probe_ms += warm_ms;
+        }
         for (std::size_t e = 0; e < small.size(); ++e) {
             const double ms = fill_lattice(launch, kernel, e, small[e], lights, table, values);
             costs.probe_ms += ms;
@@ -423,7 +453,8 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
         }
         return fill_ms;
     };
-    costs.fill_ms = fill_rows(kProbeLatticeStride);
+    costs.fill_ms = fill_blocks(kProbeBlock, true);
+    const double first_fill_probe_ms = costs.probe_ms - warm_ms;
     CameraGpu camera = frame_camera(launch.scene, launch.options, width, height);
     camera.row_stride = cl_uint(std::max(1, height / kProbeRowsPerLaunch));  // a launch: 4 rows a quarter of the image apart
     CameraPassReads per_sample, cached;
@@ -459,12 +490,12 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
         if (costs.per_sample_ms > 2 * with_cache || 2 * costs.per_sample_ms < with_cache || costs.rows >= kProbeRowsPerLaunch * kProbeLaunches)
             break;
     }
-    // a close call: the fill again on 1/16 of the rows (small lattices' 1/256 can be mostly a
-    // launch's fixed cost, which leans the estimate towards evaluating per sample), when 16 times
-    // the first fill probe fits the budget
-    const double with_cache = costs.fill_ms + costs.cached_ms, first_fill_probe_ms = costs.probe_ms;
+    // a close call: the fill again on 1/64 of the rows (1/256 in 2 × 2 blocks is few blocks: its
+    // estimates spread by ± 40 % on 112³ lattices), when 4 times the first fill probe fits the budget
+    const double with_cache = costs.fill_ms + costs.cached_ms;
     const bool close_call = costs.per_sample_ms <= 2 * with_cache && 2 * costs.per_sample_ms >= with_cache;
-    if (close_call && within_budget(16 * first_fill_probe_ms)) costs.fill_ms = fill_rows(kProbeLatticeStride / 4);
+    constexpr double kCloseCallPoints = double(kProbeCloseCallBlock * kProbeCloseCallBlock) / (kProbeBlock * kProbeBlock);
+    if (close_call && within_budget(kCloseCallPoints * first_fill_probe_ms)) costs.fill_ms = fill_blocks(kProbeCloseCallBlock, false);
     costs.probe_ms += per_sample_sum + cached_sum;
     runtime.progress().last_launch_ms = last_launch_ms;
     return costs;
