@@ -279,8 +279,8 @@ static inline void cache_fill_lanes(VOLUME_DATA_PARAM, SceneRefs scene, ShadowSt
 }
 
 /* Voxel coordinate of a lattice's index k along y or z (ShadowCacheGpu.row_block). */
-static inline float lattice_voxel(__global const ShadowCacheGpu* c, uint k, float spacing) {
-    return (k / c->row_block) * spacing + (k % c->row_block) * (spacing / c->row_block_stride);
+static inline float lattice_voxel(__global const ShadowCacheGpu* c, uint k, float spacing, float origin) {
+    return (k / c->row_block) * spacing + (k % c->row_block) * (spacing / c->row_block_stride) + origin;
 }
 
 /* The shadow cache's first pass (Ament Alg. 1, updateShadowCache): the shadow term of light
@@ -294,7 +294,8 @@ __kernel void shadow_cache_fill(SCENE_PARAMS, uint light_index, uint cache_entry
     if (row >= (uint)(c->dims.y * c->dims.z)) return;
     uint x0 = get_global_id(0) * SOMBRA_LANES;
     __global const VolumeGpu* volume = &volumes[cache_entry / camera->light_count];
-    const float voxel_y = lattice_voxel(c, row % c->dims.y, c->spacing.y), voxel_z = lattice_voxel(c, row / c->dims.y, c->spacing.z);
+    const float voxel_y = lattice_voxel(c, row % c->dims.y, c->spacing.y, c->block_origin.y);
+    const float voxel_z = lattice_voxel(c, row / c->dims.y, c->spacing.z, c->block_origin.z);
     int read[SOMBRA_LANES];
     bool any_read = false;
     for (uint lane = 0; lane < SOMBRA_LANES; ++lane) {

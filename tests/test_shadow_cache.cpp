@@ -207,11 +207,11 @@ TEST_CASE("shadow cache: a volume's change refills only the entries it can reach
 }
 
 // Voxel coordinate of index k of a lattice along y or z: render.cl lattice_voxel.
-float lattice_voxel_reference(const ShadowCacheGpu& c, unsigned k, float spacing) {
-    return float(k / c.row_block) * spacing + float(k % c.row_block) * (spacing / float(c.row_block_stride));
+float lattice_voxel_reference(const ShadowCacheGpu& c, unsigned k, float spacing, float origin) {
+    return float(k / c.row_block) * spacing + float(k % c.row_block) * (spacing / float(c.row_block_stride)) + origin;
 }
 
-TEST_CASE("shadow cache auto: the probe's lattices are blocks of neighbouring rows inside each lattice", "[shadow_cache]") {
+TEST_CASE("shadow cache auto: the probe's lattices are centred blocks of neighbouring rows inside each lattice", "[shadow_cache]") {
     // frames' lattices: big cubes, a volume's halved one, thin ones (one row along y; 3 rows)
     const int dims[][3] = {{112, 112, 112}, {181, 217, 181}, {64, 1, 40}, {20, 3, 100}, {8, 40, 33}};
     std::vector<ShadowCacheGpu> layout;
@@ -242,13 +242,14 @@ TEST_CASE("shadow cache auto: the probe's lattices are blocks of neighbouring ro
                 REQUIRE(c.dims.s[a] >= b);
                 std::vector<int> rows;  // the frame lattice's row of each probe index
                 for (int k = 0; k < c.dims.s[a]; ++k) {
-                    const float voxel = lattice_voxel_reference(c, unsigned(k), c.spacing.s[a]);
+                    const float voxel = lattice_voxel_reference(c, unsigned(k), c.spacing.s[a], c.block_origin.s[a]);
                     const float row = voxel / full.spacing.s[a];
                     CHECK(std::abs(row - std::round(row)) < 1e-3f);  // on a lattice point
                     rows.push_back(int(std::lround(row)));
                 }
-                CHECK(rows.front() == 0);
-                CHECK(rows.back() <= full.dims.s[a] - 1);  // inside
+                CHECK(rows.front() >= 0);  // inside, centred
+                CHECK(rows.back() <= full.dims.s[a] - 1);
+                CHECK(std::abs(rows.front() - (full.dims.s[a] - 1 - rows.back())) <= 1);
                 for (std::size_t k = 1; k < rows.size(); ++k)  // neighbours in a block, blocks 32 rows apart
                     CHECK(rows[k] - rows[k - 1] == (k % std::size_t(b) ? 1 : 32 - b + 1));
                 CHECK(rows.back() + 32 > full.dims.s[a] - 1);  // as many blocks as fit: a next one would not

@@ -299,13 +299,15 @@ typedef struct {
      * with a possibly visible brick that near (VolumeGpu.brick_offset) */
     float reach;
     /* the lattice's points along y and z come in blocks of row_block neighbours, spacing /
-     * row_block_stride apart, the blocks spacing apart: index k at voxel (k / row_block) · spacing
-     * + (k % row_block) · spacing / row_block_stride (lattice_voxel in render.cl). The frame's
-     * lattices: 1 and 1 (k · spacing); auto's probe fills blocks of neighbouring points, which cost
-     * per point what the frame's fill does (src/render/shadow_cache.cpp probe_volume_costs) */
+     * row_block_stride apart, the blocks spacing apart, the first at block_origin: index k at voxel
+     * block_origin + (k / row_block) · spacing + (k % row_block) · spacing / row_block_stride
+     * (lattice_voxel in render.cl). The frame's lattices: 1, 1 and 0 (k · spacing); auto's probe
+     * fills blocks of neighbouring points, which cost per point what the frame's fill does
+     * (src/render/shadow_cache.cpp probe_volume_costs) */
     sb_uint row_block, row_block_stride;
     /* world = (dot(row.xyz, voxel) + row.w, …): the volume's voxel → world transform (the fill) */
     sb_float4 voxel_to_world[3];
+    sb_float4 block_origin; /* voxel coordinates of the first block along y and z (x and w unused) */
 } ShadowCacheGpu;
 
 #endif /* SOMBRA_SHARED_TYPES_H */

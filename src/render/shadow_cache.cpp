@@ -389,7 +389,10 @@ std::vector<ShadowCacheGpu> probe_lattices(const std::vector<ShadowCacheGpu>& la
     for (ShadowCacheGpu& c : small) {
         const int b = std::min({block, c.dims.s[1], c.dims.s[2]});
         for (std::size_t a = 1; a < 3; ++a) {
-            c.dims.s[a] = std::max(1, (c.dims.s[a] - b) / kProbeBlockStride + 1) * b;  // whole blocks inside
+            const int n = c.dims.s[a], blocks = std::max(1, (n - b) / kProbeBlockStride + 1);  // whole blocks inside
+            // centred: a lattice's border rows are mostly empty space, cheap to fill
+            c.block_origin.s[a] = float((n - ((blocks - 1) * kProbeBlockStride + b)) / 2) * c.spacing.s[a];
+            c.dims.s[a] = blocks * b;
             c.spacing.s[a] *= float(kProbeBlockStride);
         }
         c.row_block = cl_uint(b), c.row_block_stride = cl_uint(kProbeBlockStride);
