@@ -250,14 +250,16 @@ TEST_CASE("shadow cache auto: the probe's lattices are centred blocks of neighbo
                 CHECK(rows.front() >= 0);  // inside, centred
                 CHECK(rows.back() <= full.dims.s[a] - 1);
                 CHECK(std::abs(rows.front() - (full.dims.s[a] - 1 - rows.back())) <= 1);
-                for (std::size_t k = 1; k < rows.size(); ++k)  // neighbours in a block, blocks 32 rows apart
-                    CHECK(rows[k] - rows[k - 1] == (k % std::size_t(b) ? 1 : 32 - b + 1));
-                CHECK(rows.back() + 32 > full.dims.s[a] - 1);  // as many blocks as fit: a next one would not
+                const int stride = int(c.row_block_stride);
+                for (std::size_t k = 1; k < rows.size(); ++k)  // neighbours in a block, blocks `stride` rows apart
+                    CHECK(rows[k] - rows[k - 1] == (k % std::size_t(b) ? 1 : stride - b + 1));
+                CHECK(rows.back() + stride > full.dims.s[a] - 1);  // as many blocks as fit: a next one would not
             }
-            // big lattices: ≈ (block / 32)² of the points
+            // big lattices: ≈ (block / stride)² of the points
+            CHECK(c.row_block_stride >= 8);  // few enough points to be a probe
             if (full.dims.s[1] >= 64 && full.dims.s[2] >= 64) {
                 const double share = double(c.dims.s[1]) * c.dims.s[2] / (double(full.dims.s[1]) * full.dims.s[2]);
-                const double expected = double(block * block) / (32.0 * 32.0);
+                const double expected = double(block * block) / (double(c.row_block_stride) * c.row_block_stride);
                 CHECK(share > 0.5 * expected);
                 CHECK(share < 2.0 * expected);
             }
