@@ -128,7 +128,7 @@ constexpr bool shadow_cache_pays(double fill_ms, double cached_ms, double per_sa
 
 // Auto's probe lattices for a frame's `layout`: each lattice's rows (whole along x) in blocks of
 // block × block neighbours along y and z (fewer where the lattice is thinner), one block every
-// 16 rows of the lattice on each axis, whole blocks only (at least one), centred: ≈ (block/16)²
+// 32 rows of the lattice on each axis, whole blocks only (at least one), centred: ≈ (block/32)²
 // of the points, placed one after the other (ShadowCacheGpu.row_block, row_block_stride).
 std::vector<ShadowCacheGpu> probe_lattices(const std::vector<ShadowCacheGpu>& layout, int block);
 

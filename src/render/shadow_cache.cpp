@@ -27,9 +27,9 @@ constexpr std::size_t kShadowCachePoints = std::size_t(1) << 23;  // per volume 
 constexpr std::size_t kSurfacePoints = std::size_t(1) << 22;      // the surface part's, over all meshes (64 MiB + 4 MiB per light)
 constexpr int kSurfaceMaxSubdivision = 1024;                        // lattice intervals along a triangle's edge
 constexpr int kSurfaceRowPoints = 1024;                              // rows of the surface fill's launch
-// auto's probe fills blocks of 2 × 2 neighbouring lattice rows (y, z) every 16 rows along y and z
-// (1/64 of the points), on close calls 4 × 4 (1/16)
-constexpr int kProbeBlockStride = 16, kProbeBlock = 2, kProbeCloseCallBlock = 4;
+// auto's probe fills blocks of 2 × 2 neighbouring lattice rows (y, z) every 32 rows along y and z
+// (1/256 of the points), on close calls 4 × 4 (1/64)
+constexpr int kProbeBlockStride = 32, kProbeBlock = 2, kProbeCloseCallBlock = 4;
 constexpr int kProbeRowsPerLaunch = 4, kProbeLaunches = 4;  // and renders 4 image rows a launch, at most 16
 constexpr double kProbeWarmupMs = 10;                        // before its first fill, ≥ 10 ms of untimed fills
 constexpr int kProbeWarmupLaunches = 8;                      // (or 8 launches)
@@ -406,10 +406,10 @@ namespace {
 
 // Auto's measurement (issue 29 item 5): what the frame's shadow terms cost both ways, from small
 // runs of the real kernels before the frame. The fill: every lattice's rows along x in blocks of
-// 2 × 2 neighbouring rows along y and z every 16 rows, centred (1/64 of its points; whole rows, so that a
+// 2 × 2 neighbouring rows along y and z every 32 rows, centred (1/256 of its points; whole rows, so that a
 // packet's lanes are neighbours as in the fill), after 10 ms of untimed warm-up, the stale ones'
 // time scaled by their points; when the result is a close call (within 2×), again in blocks of
-// 4 × 4 (1/16) if that fits the budget. The camera pass: image rows at full width (lanes as coherent as the frame's), 4 a
+// 4 × 4 (1/64) if that fits the budget. The camera pass: image rows at full width (lanes as coherent as the frame's), 4 a
 // launch a quarter of the image apart, the launches' offsets in van der Corput order (the middle
 // of each quarter, then of each eighth, …), each launch once evaluating the technique per sample
 // and once reading the small lattices (a lattice costs the same to read at any size; its values
@@ -493,8 +493,8 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
         if (costs.per_sample_ms > 2 * with_cache || 2 * costs.per_sample_ms < with_cache || costs.rows >= kProbeRowsPerLaunch * kProbeLaunches)
             break;
     }
-    // a close call: the fill again on 1/16 of the rows (4 × 4 blocks: single estimates from the
-    // first spread by ± 30 %), when 4 times the first fill probe fits the budget
+    // a close call: the fill again on 1/64 of the rows (4 × 4 blocks: single estimates from the
+    // first's few blocks spread by ± 40 %), when 4 times the first fill probe fits the budget
     const double with_cache = costs.fill_ms + costs.cached_ms;
     const bool close_call = costs.per_sample_ms <= 2 * with_cache && 2 * costs.per_sample_ms >= with_cache;
     constexpr double kCloseCallPoints = double(kProbeCloseCallBlock * kProbeCloseCallBlock) / (kProbeBlock * kProbeBlock);
