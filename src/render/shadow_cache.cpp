@@ -426,16 +426,14 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
     // the probe's short launches must not make the frame's long ones run unbanded (tiled_launch.cpp)
     const double last_launch_ms = runtime.progress().last_launch_ms;
     VolumeCosts costs;
-    // the lattices' rows (whole along x) in blocks of block × block neighbours along y and z, the
-    // blocks kProbeBlockStride rows apart, filled and timed; returns the stale ones' fill time
-    // scaled by their points. Blocks, not rows as far apart: a point's shadow ray reads what its
+    // the probe lattices (probe_lattices) filled and timed; returns the stale ones' fill time scaled
+    // by their points. Blocks, not rows as far apart: a point's shadow ray reads what its
     // neighbours' read, so that evenly spread rows (every 16th) cost 1.2–1.9× as much per point as
-    // the frame's fill (bench/README.md "sombra_bench_cache_auto")
-    std::vector<ShadowCacheGpu> small;
+    // the frame's fill (bench/README.md "sombra_bench_cache_auto"). The camera pass reads the last.
     cl::Buffer values, table;
     double warm_ms = 0;
     auto fill_blocks = [&](int block, bool warm_up) {
-        small = probe_lattices(plan.layout, block);
+        const std::vector<ShadowCacheGpu> small = probe_lattices(plan.layout, block);
         const std::size_t total = small.back().offset + lattice_points(small.back());
         values = host::make_buffer(runtime, CL_MEM_READ_WRITE, total * sizeof(float), nullptr, "shadow cache probe");
         table = host::make_buffer(runtime, CL_MEM_READ_ONLY, small.size() * sizeof(ShadowCacheGpu), small.data(), "shadow cache probe table");
