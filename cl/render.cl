@@ -8,7 +8,9 @@
  * SOMBRA_SOBEL (Sobel gradients), SOMBRA_SKIP_EMPTY (brick skipping), SOMBRA_HAS_LIGHTS (any light
  * in the scene), SOMBRA_SCATTERING (single scattering instead of Phong), SOMBRA_TECHNIQUE_<NAME>
  * (the shadow technique and its own defines: src/techniques/), SOMBRA_SHADOW_CACHE (the shadow
- * term read from the shadow cache), SOMBRA_HAS_MESHES (per-pixel fragment lists of surfaces and
+ * term read from the shadow cache), SOMBRA_SHADOW_CACHE_MARK (with SOMBRA_SHADOW_CACHE: the visible
+ * fill's marking pass, which marks the lattice cells the cached pass will read and takes every
+ * shadow term as 1; the samples are the same), SOMBRA_HAS_MESHES (per-pixel fragment lists of surfaces and
  * polyhedral volume bounds merged into the segment cursor's boundaries, traversal.h; surfaces
  * composited at their depth: surfaces.h), SOMBRA_SURFACE_SHADOW_CACHE (surface fragments read the
  * shadow term from the surface shadow cache, surfaces.h). The host binds the kernels' arguments by these names
@@ -21,7 +23,9 @@
 #include "traversal.h"
 #include "scene_refs.h"
 #include "techniques/technique.h"
-#ifdef SOMBRA_SHADOW_CACHE
+#ifdef SOMBRA_SHADOW_CACHE_MARK
+#define SHADOW_CACHE_PARAMS , __global uint *shadow_cache_marks, __global const ShadowCacheGpu *shadow_cache_table
+#elif defined(SOMBRA_SHADOW_CACHE)
 #define SHADOW_CACHE_PARAMS , __global const float *shadow_cache, __global const ShadowCacheGpu *shadow_cache_table
 #else
 #define SHADOW_CACHE_PARAMS
@@ -41,8 +45,13 @@ typedef struct {
     SceneRefs scene;
     ShadowState shadow;
 #ifdef SOMBRA_SHADOW_CACHE
-    __global const float* shadow_cache;
     __global const ShadowCacheGpu* shadow_cache_table;
+#ifdef SOMBRA_SHADOW_CACHE_MARK
+    __global uint* shadow_cache_marks;
+    uint last_mark_word[SOMBRA_LIGHT_SLOTS][SOMBRA_LANES], last_mark_bit[SOMBRA_LIGHT_SLOTS][SOMBRA_LANES]; /* per light and lane */
+#else
+    __global const float* shadow_cache;
+#endif
 #endif
 #ifdef SOMBRA_SURFACE_SHADOW_CACHE
     __global const float* surface_shadow_cache;  /* point · light_count + light */
@@ -59,16 +68,49 @@ static inline lfloat light_transmittance(VOLUME_DATA_PARAM, CameraState* state, 
 #endif
 
 #ifdef SOMBRA_SHADOW_CACHE
-/* The shadow term of light m at voxel point pv of volume i, read trilinearly from the shadow
- * cache (Ament Alg. 1, second pass) instead of evaluating the technique per sample. */
-static inline lfloat cached_shadow(const CameraState* state, uint i, uint m, lfloat3 pv) {
-    __global const ShadowCacheGpu* c = &state->shadow_cache_table[i * state->scene.camera->light_count + m];
+/* The lattice cell of cache entry c around voxel point pv: its first corner and the trilinear
+ * weights of the far corners (the cached read's, and the marking pass's). */
+typedef struct {
+    lint x0, y0, z0;
+    lfloat fx, fy, fz;
+} LatticeCell;
+
+static inline LatticeCell lattice_cell(__global const ShadowCacheGpu* c, lfloat3 pv) {
     lfloat qx = clamp_index(pv.x / c->spacing.x, (float)(c->dims.x - 1));
     lfloat qy = clamp_index(pv.y / c->spacing.y, (float)(c->dims.y - 1));
     lfloat qz = clamp_index(pv.z / c->spacing.z, (float)(c->dims.z - 1));
     lfloat bx = floor(qx), by = floor(qy), bz = floor(qz);
-    lfloat fx = qx - bx, fy = qy - by, fz = qz - bz;
-    lint x0 = LCONVERT_INT(bx), y0 = LCONVERT_INT(by), z0 = LCONVERT_INT(bz);
+    LatticeCell cell = {LCONVERT_INT(bx), LCONVERT_INT(by), LCONVERT_INT(bz), qx - bx, qy - by, qz - bz};
+    return cell;
+}
+
+#ifdef SOMBRA_SHADOW_CACHE_MARK
+/* The marking pass of the visible fill: sets the bit of the cell (its first corner) whose points a
+ * cached read of light m at voxel point pv of volume i interpolates, in the lanes `needed`;
+ * shadow_cache_need adds the cell's other corners. A lane skips the cell it marked last for m. */
+static inline void mark_cached_cell(CameraState* state, uint i, uint m, lfloat3 pv, lmask needed) {
+    __global const ShadowCacheGpu* c = &state->shadow_cache_table[i * state->scene.camera->light_count + m];
+    LatticeCell cell = lattice_cell(c, pv);
+    int x0[SOMBRA_LANES], row[SOMBRA_LANES], on[SOMBRA_LANES];
+    LSTORE(cell.x0, x0);
+    LSTORE(cell.z0 * c->dims.y + cell.y0, row);
+    LSTORE(needed, on);
+    for (uint lane = 0; lane < SOMBRA_LANES; ++lane) {
+        if (!on[lane]) continue;
+        uint word = c->mark_offset + (uint)row[lane] * c->mark_row_words + (uint)x0[lane] / 32u, bit = 1u << ((uint)x0[lane] % 32u);
+        if (word == state->last_mark_word[m][lane] && bit == state->last_mark_bit[m][lane]) continue;
+        state->last_mark_word[m][lane] = word, state->last_mark_bit[m][lane] = bit;
+        atomic_or(&state->shadow_cache_marks[word], bit);
+    }
+}
+#else
+/* The shadow term of light m at voxel point pv of volume i, read trilinearly from the shadow
+ * cache (Ament Alg. 1, second pass) instead of evaluating the technique per sample. */
+static inline lfloat cached_shadow(const CameraState* state, uint i, uint m, lfloat3 pv) {
+    __global const ShadowCacheGpu* c = &state->shadow_cache_table[i * state->scene.camera->light_count + m];
+    LatticeCell cell = lattice_cell(c, pv);
+    lint x0 = cell.x0, y0 = cell.y0, z0 = cell.z0;
+    lfloat fx = cell.fx, fy = cell.fy, fz = cell.fz;
     lint x1 = lmin(x0 + 1, c->dims.x - 1), y1 = lmin(y0 + 1, c->dims.y - 1), z1 = lmin(z0 + 1, c->dims.z - 1);
     int sy = c->dims.x, sz = c->dims.x * c->dims.y, base = (int)c->offset;
 #define CACHE_AT(x, y, z) gather(state->shadow_cache, base + (x) + (y) * sy + (z) * sz)
@@ -77,6 +119,7 @@ static inline lfloat cached_shadow(const CameraState* state, uint i, uint m, lfl
 #undef CACHE_AT
     return mix(mix(c00, c10, fy), mix(c01, c11, fy), fz);
 }
+#endif
 #endif
 
 /* One point of all active volumes, closing the interval [t − delta, t] (traversal.h): the
@@ -138,7 +181,10 @@ static inline lmask shade_sample(VOLUME_DATA_PARAM, CameraState* state, const Vo
             if (!lany(needed)) continue;
             needed &= light_term_possible(&state->scene.lights[m], p_light, facing);
             if (!lany(needed)) continue;
-#ifdef SOMBRA_SHADOW_CACHE
+#ifdef SOMBRA_SHADOW_CACHE_MARK
+            mark_cached_cell(state, i, m, ray_voxel_point(ray, i, t_light), needed);
+            lfloat transmittance_to_light = (lfloat)(1.0f);
+#elif defined(SOMBRA_SHADOW_CACHE)
             lfloat transmittance_to_light = cached_shadow(state, i, m, ray_voxel_point(ray, i, t_light));
 #else
             lfloat transmittance_to_light = light_transmittance(volume_data, state, m, p_light, needed);
@@ -202,8 +248,14 @@ __kernel void render_camera(SCENE_PARAMS, __global float4* image, __global uint*
 #undef SOMBRA_JITTER_LANE
     SHADOW_STATE_INIT(state.shadow)
 #ifdef SOMBRA_SHADOW_CACHE
-    state.shadow_cache = shadow_cache;
     state.shadow_cache_table = shadow_cache_table;
+#ifdef SOMBRA_SHADOW_CACHE_MARK
+    state.shadow_cache_marks = shadow_cache_marks;
+    for (uint m = 0; m < SOMBRA_LIGHT_SLOTS; ++m)
+        for (uint lane = 0; lane < SOMBRA_LANES; ++lane) state.last_mark_word[m][lane] = state.last_mark_bit[m][lane] = 0u; /* no bit */
+#else
+    state.shadow_cache = shadow_cache;
+#endif
 #endif
 #ifdef SOMBRA_SURFACE_SHADOW_CACHE
     state.surface_shadow_cache = surface_shadow_cache;
@@ -266,16 +318,18 @@ static inline bool cache_point_read(__global const uchar* occupancy, __global co
 
 /* What a cache fill (shadow_cache_fill, surface_shadow_cache_fill) writes for SOMBRA_LANES
  * neighbouring points: the shadow term of light `light_index` at world points p by the program's
- * technique in the lanes where read[lane], 1 in the others; out[lane · stride] for lanes < count.
- * Shadow rays start jittered as the camera pass's pixels (xs, row) would. */
+ * technique in the lanes where read[lane], 1 in the others unless keep_unread (they keep their
+ * value); out[lane · stride] for lanes < count. Shadow rays start jittered as the camera pass's
+ * pixels (xs, row) would. */
 static inline void cache_fill_lanes(VOLUME_DATA_PARAM, SceneRefs scene, ShadowState* shadow, uint light_index, lfloat3 p, lint xs,
-                             uint row, const int* read, uint count, __global float* out, uint stride) {
+                             uint row, const int* read, bool keep_unread, uint count, __global float* out, uint stride) {
 #define SOMBRA_JITTER_LANE(k) sombra_pixel_jitter((uint)LC(xs, k), row, scene.camera->jitter_seed)
     scene.jitter = LFROM_LANES(SOMBRA_JITTER_LANE);
 #undef SOMBRA_JITTER_LANE
     float values[SOMBRA_LANES];
     LSTORE(shadow_transmittance(volume_data, &scene, shadow, light_index, p, LLOAD(read) != 0), values);
-    for (uint lane = 0; lane < SOMBRA_LANES && lane < count; ++lane) out[lane * stride] = read[lane] ? values[lane] : 1.0f;
+    for (uint lane = 0; lane < SOMBRA_LANES && lane < count; ++lane)
+        if (read[lane] || !keep_unread) out[lane * stride] = read[lane] ? values[lane] : 1.0f;
 }
 
 /* Voxel coordinate of a lattice's index k along y or z (ShadowCacheGpu.row_block). */
@@ -283,12 +337,42 @@ static inline float lattice_voxel(__global const ShadowCacheGpu* c, uint k, floa
     return (k / c->row_block) * spacing + (k % c->row_block) * (spacing / c->row_block_stride) + origin;
 }
 
+/* The visible fill's second step, for cache entry `cache_entry`: a point is needed when a cell
+ * the marking pass marked (SOMBRA_SHADOW_CACHE_MARK) has it as a corner — cells x − 1..x,
+ * y − 1..y, z − 1..z — and it is not filled yet. Writes those bits to shadow_cache_need, adds them
+ * to shadow_cache_filled and their count to need_count[0]. A work-item: one mask word, 32 points
+ * along x (ShadowCacheGpu.mark_offset). */
+__kernel void shadow_cache_need(__global const ShadowCacheGpu* shadow_cache_table, uint cache_entry,
+                                __global const uint* shadow_cache_marks, __global uint* shadow_cache_filled,
+                                __global uint* shadow_cache_need, __global uint* need_count) {
+    __global const ShadowCacheGpu* c = &shadow_cache_table[cache_entry];
+    uint w = get_global_id(0), row = get_global_id(1), dims_y = (uint)c->dims.y;
+    if (w >= c->mark_row_words || row >= dims_y * (uint)c->dims.z) return;
+    const bool y_above = row % dims_y > 0, z_above = row >= dims_y;
+    const uint rows[4] = {row, y_above ? row - 1 : row, z_above ? row - dims_y : row, y_above && z_above ? row - 1 - dims_y : row};
+    uint here = 0, before = 0;
+    for (uint k = 0; k < 4; ++k) {
+        __global const uint* marks = &shadow_cache_marks[c->mark_offset + rows[k] * c->mark_row_words];
+        here |= marks[w];
+        if (w > 0) before |= marks[w - 1];
+    }
+    const uint points = min(32u, (uint)c->dims.x - 32u * w);
+    uint cover = (here | (here << 1) | (before >> 31)) & (points == 32u ? 0xffffffffu : (1u << points) - 1u);
+    const uint word = c->mark_offset + row * c->mark_row_words + w;
+    const uint need = cover & ~shadow_cache_filled[word];
+    shadow_cache_filled[word] |= need;
+    shadow_cache_need[word] = need;
+    if (need) atomic_add(need_count, popcount(need));
+}
+
 /* The shadow cache's first pass (Ament Alg. 1, updateShadowCache): the shadow term of light
  * `light_index` at the lattice points of cache entry `cache_entry`, by the program's technique; a
  * work-item evaluates SOMBRA_LANES neighbouring points of a lattice row (rows: y + dims.y · z).
- * Points no shaded sample reads (cache_point_read) are not evaluated and hold 1. */
+ * visible_fill 0: points no shaded sample can read (cache_point_read) are not evaluated and hold
+ * 1; else only the points whose shadow_cache_need bit is set are evaluated, the others keep
+ * their values. */
 __kernel void shadow_cache_fill(SCENE_PARAMS, uint light_index, uint cache_entry, __global const ShadowCacheGpu* shadow_cache_table,
-                                __global float* shadow_cache SHADOW_PARAMS) {
+                                __global float* shadow_cache, uint visible_fill, __global const uint* shadow_cache_need SHADOW_PARAMS) {
     __global const ShadowCacheGpu* c = &shadow_cache_table[cache_entry];
     uint row = get_global_id(1);
     if (row >= (uint)(c->dims.y * c->dims.z)) return;
@@ -299,11 +383,16 @@ __kernel void shadow_cache_fill(SCENE_PARAMS, uint light_index, uint cache_entry
     int read[SOMBRA_LANES];
     bool any_read = false;
     for (uint lane = 0; lane < SOMBRA_LANES; ++lane) {
-        float3 v = (float3)((x0 + lane) * c->spacing.x, voxel_y, voxel_z);
-        read[lane] = x0 + lane < (uint)c->dims.x && cache_point_read(occupancy, volume, v, c->reach) ? -1 : 0;
+        const uint x = x0 + lane;
+        float3 v = (float3)(x * c->spacing.x, voxel_y, voxel_z);
+        if (visible_fill)
+            read[lane] = x < (uint)c->dims.x && (shadow_cache_need[c->mark_offset + row * c->mark_row_words + x / 32u] >> (x % 32u)) & 1u ? -1 : 0;
+        else
+            read[lane] = x < (uint)c->dims.x && cache_point_read(occupancy, volume, v, c->reach) ? -1 : 0;
         any_read = any_read || read[lane];
     }
     if (!any_read) {
+        if (visible_fill) return;
         for (uint lane = 0; lane < SOMBRA_LANES && x0 + lane < (uint)c->dims.x; ++lane)
             shadow_cache[c->offset + (size_t)row * c->dims.x + x0 + lane] = 1.0f;
         return;
@@ -317,7 +406,7 @@ __kernel void shadow_cache_fill(SCENE_PARAMS, uint light_index, uint cache_entry
     SceneRefs scene = scene_refs(camera, lights, volumes, tf_tables, occupancy, (lfloat)(0.0f));
     ShadowState shadow;
     SHADOW_STATE_INIT(shadow)
-    cache_fill_lanes(volume_data, scene, &shadow, light_index, p, xs, row, read, (uint)c->dims.x - x0,
+    cache_fill_lanes(volume_data, scene, &shadow, light_index, p, xs, row, read, visible_fill != 0, (uint)c->dims.x - x0,
                      &shadow_cache[c->offset + (size_t)row * c->dims.x + x0], 1u);
 }
 
@@ -346,7 +435,7 @@ __kernel void surface_shadow_cache_fill(SCENE_PARAMS, uint light_index, __global
     SceneRefs scene = scene_refs(camera, lights, volumes, tf_tables, occupancy, (lfloat)(0.0f));
     ShadowState shadow;
     SHADOW_STATE_INIT(shadow)
-    cache_fill_lanes(volume_data, scene, &shadow, light_index, p, xs, row, read, point_count - first,
+    cache_fill_lanes(volume_data, scene, &shadow, light_index, p, xs, row, read, false, point_count - first,
                      &surface_shadow_cache[(size_t)first * camera->light_count + light_index], camera->light_count);
 }
 #endif

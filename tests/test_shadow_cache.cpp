@@ -94,11 +94,12 @@ TEST_CASE("shadow cache: every lattice point a sample can read holds the techniq
     for (ShadowTechnique technique : {ShadowTechnique::Dsm, ShadowTechnique::Rays, ShadowTechnique::Lowpass}) {
         Context context("cpu");  // its own kept state: the cache read back below
         RenderOptions o = cache_options(technique, ShadowCacheMode::On);
+        o.shadow_cache_fill = ShadowCacheFill::All;  // every point a sample can read, not only this view's
         RenderResult r = render(context, scene, o);
         REQUIRE(r.stats.shadow_cache_used);
         const pipeline::ShadowCache& cache = *context.kept_scenes().shadow_cache;
-        std::vector<float> values(cache.bytes / sizeof(float));
-        context.runtime().queue().enqueueReadBuffer(cache.values, CL_TRUE, 0, cache.bytes, values.data());
+        std::vector<float> values(cache.layout.back().offset + pipeline::lattice_points(cache.layout.back()));
+        context.runtime().queue().enqueueReadBuffer(cache.values, CL_TRUE, 0, values.size() * sizeof(float), values.data());
         // every 7th lattice point of every entry: the technique's query at the same world point
         std::size_t lights = scene.lights.size(), compared = 0, unlit = 0;
         for (std::size_t e = 0; e < cache.layout.size(); ++e) {
@@ -153,6 +154,7 @@ TEST_CASE("shadow cache: kept across camera moves, refilled for the light that m
         Scene scene = test::overlapping_scene();
         Context context("cpu"), fresh("cpu");
         RenderOptions o = cache_options(technique, ShadowCacheMode::On);
+        o.shadow_cache_fill = ShadowCacheFill::All;  // the visible fill's top-ups: the next test
         render(context, scene, o);
         scene.camera.position = {0.5f, 0.3f, 2.1f};  // the camera moves: nothing refilled
         RenderResult moved = render(context, scene, o);
@@ -168,6 +170,113 @@ TEST_CASE("shadow cache: kept across camera moves, refilled for the light that m
         CHECK(render(context, scene, o).stats.shadow_cache_entries_built == 0);
         o.dsm.epsilon = 0.05f, o.jitter_seed = 7;  // the technique's options: every entry
         CHECK(render(context, scene, o).stats.shadow_cache_entries_built == 6);
+    }
+}
+
+namespace {
+
+// The visible fill's masks (ShadowCache.marks, filled, need), read back.
+struct FillMasks {
+    std::vector<cl_uint> marks, filled, need;
+};
+
+FillMasks read_masks(Context& context) {
+    const pipeline::ShadowCache& cache = *context.kept_scenes().shadow_cache;
+    FillMasks m;
+    for (auto [buffer, words] : {std::pair{&cache.marks, &m.marks}, {&cache.filled, &m.filled}, {&cache.need, &m.need}}) {
+        words->resize(cache.mark_words);
+        context.runtime().queue().enqueueReadBuffer(*buffer, CL_TRUE, 0, cache.mark_words * sizeof(cl_uint), words->data());
+    }
+    return m;
+}
+
+// CPU reference of shadow_cache_need's cover: the points that are corners of a marked cell.
+std::vector<cl_uint> cells_to_corners(const pipeline::ShadowCache& cache, const std::vector<cl_uint>& marks) {
+    std::vector<cl_uint> cover(marks.size(), 0);
+    for (const ShadowCacheGpu& c : cache.layout) {
+        auto bit = [&](int x, int y, int z) -> std::pair<std::size_t, cl_uint> {
+            return {c.mark_offset + std::size_t(y + c.dims.s[1] * z) * c.mark_row_words + std::size_t(x) / 32, 1u << (x % 32)};
+        };
+        for (int z = 0; z < c.dims.s[2]; ++z)
+            for (int y = 0; y < c.dims.s[1]; ++y)
+                for (int x = 0; x < c.dims.s[0]; ++x) {
+                    auto [word, b] = bit(x, y, z);
+                    if (!(marks[word] & b)) continue;
+                    for (int dz = 0; dz < 2; ++dz)
+                        for (int dy = 0; dy < 2; ++dy)
+                            for (int dx = 0; dx < 2; ++dx) {
+                                auto [w, cb] = bit(std::min(x + dx, c.dims.s[0] - 1), std::min(y + dy, c.dims.s[1] - 1),
+                                                   std::min(z + dz, c.dims.s[2] - 1));
+                                cover[w] |= cb;
+                            }
+                }
+    }
+    return cover;
+}
+
+std::size_t count_bits(const std::vector<cl_uint>& words) {
+    std::size_t n = 0;
+    for (cl_uint w : words) n += std::size_t(__builtin_popcount(w));
+    return n;
+}
+
+}  // namespace
+
+TEST_CASE("shadow cache visible fill: the image of a fill of every point and a moved camera adds only what it newly reads", "[shadow_cache]") {
+    const std::vector<Vec3> poses = {{0.5f, 0.3f, 2.1f}, {-1.9f, -0.6f, 0.9f}};
+    struct Case {
+        Scene scene;
+        std::vector<ShadowTechnique> techniques;
+    };
+    for (const Case& k : {Case{test::overlapping_scene(), shadowing_techniques()},
+                          Case{surface_scene(), {ShadowTechnique::Dsm, ShadowTechnique::Rays}}}) {
+        for (ShadowTechnique technique : k.techniques) {
+            INFO(shadow_technique_name(technique) << (k.scene.meshes.empty() ? "" : ", with meshes"));
+            Scene scene = k.scene;
+            Context visible("cpu");
+            RenderOptions o = cache_options(technique, ShadowCacheMode::On), every = o;
+            every.shadow_cache_fill = ShadowCacheFill::All;
+            const RenderResult first = render(visible, scene, o);
+            REQUIRE(first.stats.shadow_cache_visible_fill);
+            CHECK(first.stats.stage_ms.count("shadow_cache_mark") == 1);
+            const pipeline::ShadowCache& cache = *visible.kept_scenes().shadow_cache;
+            const std::size_t lattice = cache.layout.back().offset + pipeline::lattice_points(cache.layout.back());
+            CHECK(first.stats.shadow_cache_points_marked > 0);
+            CHECK(first.stats.shadow_cache_points_marked < lattice / 2);  // the view reads a part
+            {
+                Context all("cpu");
+                const RenderResult filled = render(all, scene, every);
+                CHECK_FALSE(filled.stats.shadow_cache_visible_fill);
+                CHECK(test::compare(first.image, filled.image).max_abs == 0.0);  // no point read that was not filled
+            }
+            // the need step against its reference: the corners of the marked cells, not filled before
+            FillMasks before = read_masks(visible);
+            std::vector<cl_uint> cover = cells_to_corners(cache, before.marks);
+            CHECK(before.filled == cover);
+            CHECK(before.need == cover);
+            CHECK(count_bits(cover) == first.stats.shadow_cache_points_marked);
+            for (const Vec3& pose : poses) {
+                scene.camera.position = pose;
+                const RenderResult moved = render(visible, scene, o);
+                CHECK(moved.stats.shadow_cache_entries_built == 0);
+                FillMasks after = read_masks(visible);
+                cover = cells_to_corners(cache, after.marks);
+                std::size_t added = 0;
+                for (std::size_t w = 0; w < cover.size(); ++w) {
+                    added += (after.need[w] != (cover[w] & ~before.filled[w])) + (after.filled[w] != (before.filled[w] | after.need[w]));
+                }
+                CHECK(added == 0);  // need = read now & not filled before; filled grows by it
+                CHECK(count_bits(after.need) == moved.stats.shadow_cache_points_marked);
+                Context all("cpu");
+                CHECK(test::compare(moved.image, render(all, scene, every).image).max_abs == 0.0);
+                before = after;
+            }
+            scene.camera = k.scene.camera;  // back to the first view: everything it reads is filled
+            const RenderResult back = render(visible, scene, o);
+            CHECK(back.stats.shadow_cache_points_marked == 0);
+            CHECK(back.stats.stage_ms.count("shadow_cache") == 0);
+            CHECK(test::compare(back.image, first.image).max_abs == 0.0);
+        }
     }
 }
 
@@ -452,6 +561,7 @@ TEST_CASE("surface shadow cache: kept across camera moves, refilled for moved li
     Scene scene = surface_scene();
     Context context("cpu"), fresh("cpu");
     RenderOptions o = cache_options(ShadowTechnique::Dsm, ShadowCacheMode::On);
+    o.shadow_cache_fill = ShadowCacheFill::All;  // the volume lattices' top-ups on camera moves: tested above
     CHECK(render(context, scene, o).stats.shadow_cache_surface_entries_built == 2);
     scene.camera.position = {-0.3f, -2.2f, 1.9f};  // the camera moves: nothing refilled
     RenderResult moved = render(context, scene, o);

@@ -55,6 +55,11 @@ enum class ShadingModel { Phong, Scattering };
 // to fill have fewer lattice points than the volume samples this frame is estimated to take
 // (kept entries cost nothing: a moved camera keeps the cache on).
 enum class ShadowCacheMode { Auto, On, Off };
+// Which lattice points a shadow cache fill evaluates: Visible, those the frame's samples read
+// (a marking camera pass finds them; points filled for earlier frames on the Context are kept
+// and only newly read ones are added), or All, every point near a possibly visible brick (no
+// marking pass; a moved camera then finds the lattice filled). The images are the same.
+enum class ShadowCacheFill { Visible, All };
 
 // The deep-shadow-map storage backends ("atlas", "chunked", "chunked-ondemand", "compact"), from
 // the backend registry (src/memory/dsm_storage.cpp): the values of DsmOptions::storage.
@@ -143,6 +148,7 @@ struct RenderOptions {
     float phase_g = 0.f;  // Henyey–Greenstein g in (−1, 1), ShadingModel::Scattering only
     ShadowTechnique shadows = ShadowTechnique::Dsm;  // deep shadow maps unless told (None: no shadows)
     ShadowCacheMode shadow_cache = ShadowCacheMode::Auto;  // every technique with a shadow term
+    ShadowCacheFill shadow_cache_fill = ShadowCacheFill::Visible;
     VolumeStorage volume_storage = VolumeStorage::Auto;
     bool empty_space_skipping = true;
     float termination_transmittance = 1e-3f;  // early ray termination threshold on t_acc
@@ -241,6 +247,10 @@ struct RenderStats {
     bool shadow_cache_used = false;
     unsigned long long shadow_cache_bytes = 0;
     unsigned long long shadow_cache_points_to_fill = 0;
+    // the visible fill (ShadowCacheFill::Visible) ran its marking pass (stage "shadow_cache_mark"):
+    // the lattice points the frame's samples read that were not filled yet, all of which it filled
+    bool shadow_cache_visible_fill = false;
+    unsigned long long shadow_cache_points_marked = 0;
     double shadow_cache_probe_ms = 0, shadow_cache_estimated_fill_ms = 0, shadow_cache_estimated_cached_ms = 0,
            shadow_cache_estimated_per_sample_ms = 0;
     // auto made no new choice: this frame (scene, camera, size, options, device) was rendered

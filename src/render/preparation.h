@@ -74,6 +74,13 @@ struct ShadowCache {
     std::vector<ShadowCacheGpu> layout;
     std::vector<std::string> keys;  // per entry; empty: not filled
     cl::Buffer values, table;
+    // the visible fill (ShadowCacheFill::Visible): bit masks over the lattice points
+    // (ShadowCacheGpu.mark_offset) — the cells the marking pass marked, the points filled so far
+    // under the entry's key, the points this frame fills — and the count of the last; complete:
+    // per entry, every point a sample can read is filled (a fill of all points)
+    cl::Buffer marks, filled, need, need_count;
+    std::size_t mark_words = 0;
+    std::vector<bool> complete;
     std::size_t bytes = 0;
     SurfaceShadowCache surfaces;
     bool volumes_used = false, surfaces_used = false;  // what this frame reads (SOMBRA_SHADOW_CACHE, SOMBRA_SURFACE_SHADOW_CACHE)
@@ -93,7 +100,7 @@ int check_light(const Scene& scene, int light_index);
 // -D defines of render.cl's kernels for this scene and these options, SOMBRA_LANES = lanes
 // (renderer.cpp), and the arguments they share (SCENE_PARAMS, cl/scene_refs.h).
 std::vector<std::string> camera_pass_defines(const Scene& scene, const RenderOptions& options, const Prepared& p, int lanes,
-                                             bool shadow_cache, bool surface_cache = false);
+                                             bool shadow_cache, bool surface_cache = false, bool mark_shadow_cache = false);
 void bind_scene(host::KernelArgs& args, const PreparedScene& p, const cl::Buffer& camera);
 
 // The camera of a frame of width × height: the scene's camera with the options' termination,
@@ -105,6 +112,9 @@ CameraGpu frame_camera(const Scene& scene, const RenderOptions& options, int wid
 struct CameraPassReads {
     const surfaces::ViewFragments* fragments = nullptr;
     const cl::Buffer *volume_cache = nullptr, *volume_cache_table = nullptr;
+    // the visible fill's marking pass (SOMBRA_SHADOW_CACHE_MARK): with volume_cache_table, marks
+    // the lattice cells the cached pass would read here instead of reading volume_cache
+    const cl::Buffer* volume_cache_marks = nullptr;
     const SurfaceShadowCache* surface_cache = nullptr;
 };
 // render.cl's render_camera for `camera` (its width × the rows first_row, first_row + row_stride, …)
@@ -130,6 +140,9 @@ constexpr bool shadow_cache_pays(double fill_ms, double cached_ms, double per_sa
 // block × block neighbours along y and z (fewer where the lattice is thinner), one block every
 // 32 rows of the lattice on each axis, whole blocks only (at least one), centred: ≈ (block/32)²
 // of the points, placed one after the other (ShadowCacheGpu.row_block, row_block_stride).
+// Points of a cache lattice (dims.x · dims.y · dims.z).
+std::size_t lattice_points(const ShadowCacheGpu& c);
+
 std::vector<ShadowCacheGpu> probe_lattices(const std::vector<ShadowCacheGpu>& layout, int block);
 
 // The shadow cache this frame reads, its stale entries filled, or nullptr when every sample and

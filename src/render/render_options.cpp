@@ -55,6 +55,11 @@ std::vector<OptionSpec> generic_option_specs() {
                                       "the shadow term per volume and light on a lattice, filled by the technique, read "
                                       "trilinearly: on, off, or auto (on when filling it costs fewer points than the frame's samples)",
                                       {{"auto", ShadowCacheMode::Auto}, {"on", ShadowCacheMode::On}, {"off", ShadowCacheMode::Off}}),
+        declare_enum<ShadowCacheFill>("shadow_cache_fill", "--shadow-cache-fill", [](auto& o) -> auto& { return o.shadow_cache_fill; },
+                                      "which lattice points a shadow cache fill evaluates: visible (those this frame's samples "
+                                      "read, found by a marking camera pass; points filled before are kept) or all (every point "
+                                      "near a visible brick, no marking pass); the image is the same",
+                                      {{"visible", ShadowCacheFill::Visible}, {"all", ShadowCacheFill::All}}),
         declare_enum<VolumeStorage>("volume_storage", "--volume-storage", [](auto& o) -> auto& { return o.volume_storage; },
                                     "auto (buffer on CPUs, image on GPUs), buffer or image",
                                     {{"auto", VolumeStorage::Auto}, {"buffer", VolumeStorage::Buffer}, {"image", VolumeStorage::Image}})

@@ -12,6 +12,7 @@
 #include <deque>
 #include <map>
 #include <mutex>
+#include <numeric>
 
 #include "host/kernel_args.h"
 #include "host/tiled_launch.h"
@@ -21,6 +22,9 @@
 #include "sombra/options.h"
 
 namespace sombra::pipeline {
+
+std::size_t lattice_points(const ShadowCacheGpu& c) { return std::size_t(c.dims.s[0]) * std::size_t(c.dims.s[1]) * std::size_t(c.dims.s[2]); }
+
 namespace {
 
 constexpr std::size_t kShadowCachePoints = std::size_t(1) << 23;  // per volume and light (32 MiB)
@@ -56,13 +60,12 @@ std::array<int, 3> cache_lattice(const std::array<int, 3>& dims) {
     return n;
 }
 
-std::size_t lattice_points(const ShadowCacheGpu& c) { return std::size_t(c.dims.s[0]) * std::size_t(c.dims.s[1]) * std::size_t(c.dims.s[2]); }
 
 // Entry (volume i, light m) of the cache: its lattice, its place in the values, the volume's
 // voxel → world rows.
 std::vector<ShadowCacheGpu> cache_layout(const Scene& scene, const packing::PackedScene& packed) {
     std::vector<ShadowCacheGpu> table;
-    std::size_t total = 0;
+    std::size_t total = 0, words = 0;
     for (std::size_t i = 0; i < scene.volumes.size(); ++i) {
         const std::array<int, 3>& dims = scene.volumes[i].volume->dims;
         std::array<int, 3> n = cache_lattice(dims);
@@ -80,6 +83,9 @@ std::vector<ShadowCacheGpu> cache_layout(const Scene& scene, const packing::Pack
             c.row_block = c.row_block_stride = 1;  // evenly spaced points (the probe's come in blocks)
             c.offset = cl_uint(total);
             total += lattice_points(c);
+            c.mark_row_words = cl_uint((n[0] + 31) / 32);  // the visible fill's masks: rows start on a word
+            c.mark_offset = cl_uint(words);
+            words += std::size_t(c.mark_row_words) * std::size_t(n[1]) * std::size_t(n[2]);
             if (total > 0xffffffffull) throw Error("shadow cache: more than 2^32 entries");
             table.push_back(c);
         }
@@ -301,45 +307,138 @@ struct FillLaunch {
     cl::Program& program;
     cl::Buffer camera;
     int lanes;
+    cl::Buffer no_need;  // bound as shadow_cache_need where a fill evaluates by cache_point_read
+    int width, height;
+    const surfaces::ViewFragments* fragments;  // the frame's (mesh scenes; else null)
 };
 
-// shadow_cache_fill of entry e of `table` (lattice c) into `values`, by the launch's technique;
-// returns the kernel time. The frame's fill and auto's probe both run it.
+// shadow_cache_fill of entry e of `table` (lattice c) into `values`, by the launch's technique, of
+// the points whose `need` bit is set (null: every point a sample can read); returns the kernel
+// time. The frame's fill and auto's probe both run it.
 double fill_lattice(const FillLaunch& launch, cl::Kernel& kernel, std::size_t e, const ShadowCacheGpu& c, std::size_t lights,
-                    const cl::Buffer& table, const cl::Buffer& values) {
+                    const cl::Buffer& table, const cl::Buffer& values, const cl::Buffer* need = nullptr) {
     host::KernelArgs args{kernel};
     bind_scene(args, launch.prepared.scene, launch.camera);
     args("light_index", cl_uint(e % lights))("cache_entry", cl_uint(e))("shadow_cache_table", table)("shadow_cache", values);
+    args("visible_fill", cl_uint(need != nullptr))("shadow_cache_need", need ? *need : launch.no_need);
     launch.prepared.technique.bind(args, launch.runtime, launch.options);
     args.done();
     return host::run_packets(launch.runtime, kernel, c.dims.s[0], c.dims.s[1] * c.dims.s[2], launch.lanes);
 }
 
-// Fills the stale lattices (new ones first when the layout changed); returns the kernel time.
-double fill_volume_entries(const FillLaunch& launch, ShadowCache& cache, const VolumePlan& plan, std::size_t lights, RenderStats& stats) {
+// The visible fill's first steps: the marking pass (the frame's camera pass, marking the lattice
+// cells its samples read instead of reading them; the surfaces read what the frame's read), then
+// per entry in `entries` the points needed (shadow_cache_need). Returns the points per entry.
+std::vector<cl_uint> mark_needed_points(const FillLaunch& launch, ShadowCache& cache, const std::vector<bool>& entries,
+                                        const SurfaceShadowCache* surface_cache, RenderStats& stats) {
+    host::Runtime& runtime = launch.runtime;
+    runtime.queue().enqueueFillBuffer(cache.marks, cl_uint(0), 0, cache.mark_words * sizeof(cl_uint));
+    CameraPassReads marking;
+    marking.fragments = launch.fragments;
+    marking.surface_cache = surface_cache;
+    marking.volume_cache_table = &cache.table, marking.volume_cache_marks = &cache.marks;
+    const std::size_t pixels = std::size_t(launch.width) * std::size_t(launch.height);
+    cl::Buffer image = host::make_buffer(runtime, CL_MEM_WRITE_ONLY, pixels * sizeof(cl_float4), nullptr, "marking pass image");
+    cl::Buffer counts = host::make_buffer(runtime, CL_MEM_WRITE_ONLY, pixels * sizeof(cl_uint), nullptr, "marking pass samples");
+    const CameraGpu camera = frame_camera(launch.scene, launch.options, launch.width, launch.height);
+    double ms = host::in_stage(runtime.progress(), "shadow cache marking", 1, [&] {
+        return run_camera_pass(runtime, launch.scene, launch.prepared, launch.options, launch.lanes, camera, marking, image, counts);
+    });
+    std::vector<cl_uint> needed(cache.layout.size(), 0);
+    cl::Kernel kernel(launch.program, "shadow_cache_need");
+    for (std::size_t e = 0; e < cache.layout.size(); ++e) {
+        if (!entries[e]) continue;
+        const ShadowCacheGpu& c = cache.layout[e];
+        runtime.queue().enqueueFillBuffer(cache.need_count, cl_uint(0), 0, sizeof(cl_uint));
+        host::KernelArgs args{kernel};
+        args("shadow_cache_table", cache.table)("cache_entry", cl_uint(e))("shadow_cache_marks", cache.marks);
+        args("shadow_cache_filled", cache.filled)("shadow_cache_need", cache.need)("need_count", cache.need_count);
+        args.done();
+        ms += host::run_tiled(runtime, kernel, cl::NDRange(c.mark_row_words, std::size_t(c.dims.s[1]) * std::size_t(c.dims.s[2])),
+                              cl::NullRange);
+        runtime.queue().enqueueReadBuffer(cache.need_count, CL_TRUE, 0, sizeof(cl_uint), &needed[e]);
+    }
+    stats.stage_ms["shadow_cache_mark"] = ms;
+    return needed;
+}
+
+// What the frame's volume fill evaluates: the entries to fill (stale, or filled for other views
+// only) and, for the visible fill, the points needed per entry (mark_needed_points).
+struct VolumeFill {
+    std::vector<bool> todo;
+    bool visible = false;
+    std::vector<cl_uint> needed;
+    unsigned long long needed_points() const { return std::accumulate(needed.begin(), needed.end(), 0ull); }
+};
+
+// Makes the lattices (new ones when the layout changed), empties the stale entries and, with
+// `visible`, marks what the frame reads of the entries to fill.
+VolumeFill prepare_volume_fill(const FillLaunch& launch, ShadowCache& cache, const VolumePlan& plan, bool visible,
+                               const SurfaceShadowCache* surface_cache, RenderStats& stats) {
     host::Runtime& runtime = launch.runtime;
     if (!plan.same_layout) {  // other volumes or lights: new lattices
-        cache.values = cl::Buffer(), cache.table = cl::Buffer(), cache.bytes = 0;
+        ShadowCache fresh;  // the old buffers freed before the new are made
+        fresh.surfaces = std::move(cache.surfaces);
+        fresh.volumes_used = cache.volumes_used, fresh.surfaces_used = cache.surfaces_used;
+        cache = std::move(fresh);
         cache.layout = plan.layout;
         cache.keys.assign(plan.layout.size(), std::string());
-        std::size_t total = plan.layout.back().offset + lattice_points(plan.layout.back());
+        cache.complete.assign(plan.layout.size(), false);
+        const ShadowCacheGpu& last = plan.layout.back();
+        const std::size_t total = last.offset + lattice_points(last);
+        cache.mark_words = last.mark_offset + std::size_t(last.mark_row_words) * std::size_t(last.dims.s[1]) * std::size_t(last.dims.s[2]);
         cache.values = host::make_buffer(runtime, CL_MEM_READ_WRITE, total * sizeof(float), nullptr, "shadow cache");
         cache.table = host::make_buffer(runtime, CL_MEM_READ_ONLY, plan.layout.size() * sizeof(ShadowCacheGpu), plan.layout.data(),
                                         "shadow cache table");
-        cache.bytes = total * sizeof(float);
+        const std::size_t mask_bytes = cache.mark_words * sizeof(cl_uint);
+        cache.marks = host::make_buffer(runtime, CL_MEM_READ_WRITE, mask_bytes, nullptr, "shadow cache marks");
+        cache.filled = host::make_buffer(runtime, CL_MEM_READ_WRITE, mask_bytes, nullptr, "shadow cache filled points");
+        cache.need = host::make_buffer(runtime, CL_MEM_READ_WRITE, mask_bytes, nullptr, "shadow cache points to fill");
+        cache.need_count = host::make_buffer(runtime, CL_MEM_READ_WRITE, sizeof(cl_uint), nullptr, "shadow cache points to fill count");
+        runtime.queue().enqueueFillBuffer(cache.values, 1.0f, 0, total * sizeof(float));  // never read unfilled; defined anyway
+        cache.bytes = total * sizeof(float) + 3 * mask_bytes;
     }
+    // stale entries start empty; incomplete ones (filled for other views) are topped up
+    VolumeFill fill;
+    std::vector<bool>& todo = fill.todo;
+    todo.assign(plan.layout.size(), false);
+    for (std::size_t e = 0; e < plan.layout.size(); ++e) {
+        if (plan.stale[e]) {
+            cache.keys[e].clear();  // an entry half filled when a launch throws is not kept
+            cache.complete[e] = false;
+            const ShadowCacheGpu& c = plan.layout[e];
+            const std::size_t words = std::size_t(c.mark_row_words) * std::size_t(c.dims.s[1]) * std::size_t(c.dims.s[2]);
+            runtime.queue().enqueueFillBuffer(cache.filled, cl_uint(0), c.mark_offset * sizeof(cl_uint), words * sizeof(cl_uint));
+        }
+        todo[e] = plan.stale[e] || !cache.complete[e];
+    }
+    if (visible && std::count(todo.begin(), todo.end(), true) > 0) {
+        fill.visible = true;
+        fill.needed = mark_needed_points(launch, cache, todo, surface_cache, stats);
+        stats.shadow_cache_visible_fill = true;
+        stats.shadow_cache_points_marked = fill.needed_points();
+    }
+    return fill;
+}
+
+// Fills the entries `fill` names (prepare_volume_fill); returns the kernel time.
+double fill_volume_entries(const FillLaunch& launch, ShadowCache& cache, const VolumePlan& plan, const VolumeFill& fill,
+                           std::size_t lights, RenderStats& stats) {
+    host::Runtime& runtime = launch.runtime;
+    const std::vector<bool>& todo = fill.todo;
     const std::size_t stale_entries = std::size_t(std::count(plan.stale.begin(), plan.stale.end(), true));
     stats.shadow_cache_entries_reused += int(plan.layout.size() - stale_entries);
-    if (stale_entries == 0) return 0;
     double ms = 0;
     cl::Kernel kernel(launch.program, "shadow_cache_fill");
-    host::ProgressStage stage(runtime.progress(), "shadow cache", double(stale_entries));
+    host::ProgressStage stage(runtime.progress(), "shadow cache", double(std::count(todo.begin(), todo.end(), true)));
     for (std::size_t e = 0; e < plan.layout.size(); ++e) {
-        if (!plan.stale[e]) continue;
-        cache.keys[e].clear();  // an entry half filled when a launch throws is not kept
-        ms += fill_lattice(launch, kernel, e, plan.layout[e], lights, cache.table, cache.values);
+        if (!todo[e]) continue;
+        cache.keys[e].clear();
+        if (!fill.visible) ms += fill_lattice(launch, kernel, e, plan.layout[e], lights, cache.table, cache.values);
+        else if (fill.needed[e] > 0) ms += fill_lattice(launch, kernel, e, plan.layout[e], lights, cache.table, cache.values, &cache.need);
         cache.keys[e] = plan.keys[e];
-        ++stats.shadow_cache_entries_built;
+        cache.complete[e] = !fill.visible;
+        if (plan.stale[e]) ++stats.shadow_cache_entries_built;
     }
     return ms;
 }
@@ -597,12 +696,28 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
     // the program of a camera pass reading the volume lattices (the fills read no cache: any variant fills alike)
     const FillLaunch launch{runtime, scene, prepared, options,
                             runtime.program("render.cl", camera_pass_defines(scene, options, prepared, lanes, volumes.use || measure, surfaces.use)),
-                            host::make_buffer(runtime, CL_MEM_READ_ONLY, sizeof(CameraGpu), &camera, "camera"), lanes};
+                            host::make_buffer(runtime, CL_MEM_READ_ONLY, sizeof(CameraGpu), &camera, "camera"), lanes,
+                            host::make_buffer(runtime, CL_MEM_READ_ONLY, sizeof(cl_uint), nullptr, "no points to fill"), width, height,
+                            fragments};
+    const bool may_mark = options.shadow_cache_fill == ShadowCacheFill::Visible;
+    const SurfaceShadowCache* surface_reads = surfaces.use ? &cache->surfaces : nullptr;
+    VolumeFill fill;
     double ms = 0;
     if (surfaces.use) ms += fill_surface_entries(launch, cache->surfaces, surfaces, lights, stats);
     if (measure) {  // a probe's passes read the surface part as the frame will
-        const VolumeCosts costs = probe_volume_costs(launch, volumes, lights, width, height, fragments, surfaces.use ? &cache->surfaces : nullptr);
+        VolumeCosts costs = probe_volume_costs(launch, volumes, lights, width, height, fragments, surface_reads);
+        // the visible fill's marking pass costs about a cached camera pass: it is run when it
+        // would pay with a quarter of the points needed (bench/README.md "visible fill"); the
+        // fill is then estimated for the points it found, at the probe's cost per point
+        if (may_mark && 2 * costs.cached_ms < costs.fill_ms &&
+            shadow_cache_pays(costs.fill_ms / 4 + costs.cached_ms, costs.cached_ms, costs.per_sample_ms)) {
+            fill = prepare_volume_fill(launch, *cache, volumes, true, surface_reads, stats);
+            costs.fill_ms *= std::min(1.0, double(fill.needed_points()) / std::max(1.0, double(stats.shadow_cache_points_to_fill)));
+        }
         volumes.use = shadow_cache_pays(costs.fill_ms, costs.cached_ms, costs.per_sample_ms);
+        if (!volumes.use && fill.visible)  // marked as filled, not filled: refilled next time
+            for (std::size_t e = 0; e < fill.todo.size(); ++e)
+                if (fill.todo[e]) cache->keys[e].clear();
         stats.shadow_cache_probe_ms = costs.probe_ms;
         report_auto_costs(costs, stats);
         stats.stage_ms["shadow_cache_probe"] = costs.probe_ms;
@@ -612,8 +727,11 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
     } else {
         remember(VolumeCosts());
     }
-    if (volumes.use) ms += fill_volume_entries(launch, *cache, volumes, lights, stats);
-    if (stats.shadow_cache_entries_built + stats.shadow_cache_surface_entries_built > 0) stats.stage_ms["shadow_cache"] = ms;
+    if (volumes.use) {
+        if (fill.todo.empty()) fill = prepare_volume_fill(launch, *cache, volumes, may_mark, surface_reads, stats);
+        ms += fill_volume_entries(launch, *cache, volumes, fill, lights, stats);
+    }
+    if (ms > 0 || stats.shadow_cache_entries_built + stats.shadow_cache_surface_entries_built > 0) stats.stage_ms["shadow_cache"] = ms;
     stats.shadow_cache_used = true;
     stats.shadow_cache_surfaces_used = surfaces.use;
     stats.shadow_cache_bytes = (volumes.use ? cache->bytes : 0) + (surfaces.use ? cache->surfaces.bytes : 0);
