@@ -9,8 +9,8 @@
  * in the scene), SOMBRA_SCATTERING (single scattering instead of Phong), SOMBRA_TECHNIQUE_<NAME>
  * (the shadow technique and its own defines: src/techniques/), SOMBRA_SHADOW_CACHE (the shadow
  * term read from the shadow cache), SOMBRA_SHADOW_CACHE_MARK (with SOMBRA_SHADOW_CACHE: the visible
- * fill's marking pass, which marks the lattice cells the cached pass will read and takes every
- * shadow term as 1; the samples are the same), SOMBRA_HAS_MESHES (per-pixel fragment lists of surfaces and
+ * fill's marking pass: the cached pass's samples, marking the lattice cells they would read,
+ * shading nothing), SOMBRA_HAS_MESHES (per-pixel fragment lists of surfaces and
  * polyhedral volume bounds merged into the segment cursor's boundaries, traversal.h; surfaces
  * composited at their depth: surfaces.h), SOMBRA_SURFACE_SHADOW_CACHE (surface fragments read the
  * shadow term from the surface shadow cache, surfaces.h). The host binds the kernels' arguments by these names
@@ -161,7 +161,9 @@ static inline lmask shade_sample(VOLUME_DATA_PARAM, CameraState* state, const Vo
         }
         lmask visible = (sigma > 0.0f) & interval;
         if (!lany(visible)) continue;
+#ifndef SOMBRA_SHADOW_CACHE_MARK
         Classified c = classify(state->scene.tf_tables, v, density);
+#endif
 #ifndef SOMBRA_SCATTERING /* scattering shades without normals */
         lfloat3 normal = l3((lfloat)(0.0f), (lfloat)(0.0f), (lfloat)(0.0f));
 #ifdef SOMBRA_HAS_LIGHTS
@@ -181,7 +183,7 @@ static inline lmask shade_sample(VOLUME_DATA_PARAM, CameraState* state, const Vo
             if (!lany(needed)) continue;
             needed &= light_term_possible(&state->scene.lights[m], p_light, facing);
             if (!lany(needed)) continue;
-#ifdef SOMBRA_SHADOW_CACHE_MARK
+#ifdef SOMBRA_SHADOW_CACHE_MARK /* the lookups the cached pass makes, marked */
             mark_cached_cell(state, i, m, ray_voxel_point(ray, i, t_light), needed);
             lfloat transmittance_to_light = (lfloat)(1.0f);
 #elif defined(SOMBRA_SHADOW_CACHE)
@@ -193,6 +195,9 @@ static inline lmask shade_sample(VOLUME_DATA_PARAM, CameraState* state, const Vo
             shadow_known[m] |= needed;
         }
 #endif
+#ifdef SOMBRA_SHADOW_CACHE_MARK /* no shading: the samples and their opacity only */
+        sigma_sum += select((lfloat)(0.0f), sigma, visible);
+#else
 #ifdef SOMBRA_SCATTERING
         lfloat3 shaded = scatter_shade(state->scene.lights, light_count, state->scene.camera->ambient_intensity, state->scene.camera->phase_g, v,
                                        c.color, p_light, state->to_viewer, shadow);
@@ -203,6 +208,7 @@ static inline lmask shade_sample(VOLUME_DATA_PARAM, CameraState* state, const Vo
         sigma = select((lfloat)(0.0f), sigma, visible);
         sigma_sum += sigma;
         color_sum = l3_mad(shaded, sigma, color_sum);
+#endif
     }
     lmask lit = sigma_sum > 0.0f;
     lfloat alpha = 1.0f - exp(-sigma_sum * cursor->delta);
@@ -368,11 +374,12 @@ __kernel void shadow_cache_need(__global const ShadowCacheGpu* shadow_cache_tabl
 /* The shadow cache's first pass (Ament Alg. 1, updateShadowCache): the shadow term of light
  * `light_index` at the lattice points of cache entry `cache_entry`, by the program's technique; a
  * work-item evaluates SOMBRA_LANES neighbouring points of a lattice row (rows: y + dims.y · z).
- * visible_fill 0: points no shaded sample can read (cache_point_read) are not evaluated and hold
- * 1; else only the points whose shadow_cache_need bit is set are evaluated, the others keep
- * their values. */
+ * fill_mask (ShadowCacheGpu.mark_offset) and fill_mode: 0 (all) — points no shaded sample can
+ * read (cache_point_read) are not evaluated and hold 1, the mask is not read; 1 (visible) — the
+ * points whose mask bit is set; 2 (the rest) — the points a sample can read whose bit is not set.
+ * With 1 and 2 the others keep their values. */
 __kernel void shadow_cache_fill(SCENE_PARAMS, uint light_index, uint cache_entry, __global const ShadowCacheGpu* shadow_cache_table,
-                                __global float* shadow_cache, uint visible_fill, __global const uint* shadow_cache_need SHADOW_PARAMS) {
+                                __global float* shadow_cache, uint fill_mode, __global const uint* fill_mask SHADOW_PARAMS) {
     __global const ShadowCacheGpu* c = &shadow_cache_table[cache_entry];
     uint row = get_global_id(1);
     if (row >= (uint)(c->dims.y * c->dims.z)) return;
@@ -385,14 +392,16 @@ __kernel void shadow_cache_fill(SCENE_PARAMS, uint light_index, uint cache_entry
     for (uint lane = 0; lane < SOMBRA_LANES; ++lane) {
         const uint x = x0 + lane;
         float3 v = (float3)(x * c->spacing.x, voxel_y, voxel_z);
-        if (visible_fill)
-            read[lane] = x < (uint)c->dims.x && (shadow_cache_need[c->mark_offset + row * c->mark_row_words + x / 32u] >> (x % 32u)) & 1u ? -1 : 0;
+        const bool in_mask = fill_mode != 0 && x < (uint)c->dims.x &&
+                             (fill_mask[c->mark_offset + row * c->mark_row_words + x / 32u] >> (x % 32u)) & 1u;
+        if (fill_mode == 1)
+            read[lane] = in_mask ? -1 : 0;
         else
-            read[lane] = x < (uint)c->dims.x && cache_point_read(occupancy, volume, v, c->reach) ? -1 : 0;
+            read[lane] = x < (uint)c->dims.x && !in_mask && cache_point_read(occupancy, volume, v, c->reach) ? -1 : 0;
         any_read = any_read || read[lane];
     }
     if (!any_read) {
-        if (visible_fill) return;
+        if (fill_mode != 0) return;
         for (uint lane = 0; lane < SOMBRA_LANES && x0 + lane < (uint)c->dims.x; ++lane)
             shadow_cache[c->offset + (size_t)row * c->dims.x + x0 + lane] = 1.0f;
         return;
@@ -406,7 +415,7 @@ __kernel void shadow_cache_fill(SCENE_PARAMS, uint light_index, uint cache_entry
     SceneRefs scene = scene_refs(camera, lights, volumes, tf_tables, occupancy, (lfloat)(0.0f));
     ShadowState shadow;
     SHADOW_STATE_INIT(shadow)
-    cache_fill_lanes(volume_data, scene, &shadow, light_index, p, xs, row, read, visible_fill != 0, (uint)c->dims.x - x0,
+    cache_fill_lanes(volume_data, scene, &shadow, light_index, p, xs, row, read, fill_mode != 0, (uint)c->dims.x - x0,
                      &shadow_cache[c->offset + (size_t)row * c->dims.x + x0], 1u);
 }
 

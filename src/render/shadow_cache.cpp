@@ -13,6 +13,7 @@
 #include <map>
 #include <mutex>
 #include <numeric>
+#include <optional>
 
 #include "host/kernel_args.h"
 #include "host/tiled_launch.h"
@@ -312,15 +313,20 @@ struct FillLaunch {
     const surfaces::ViewFragments* fragments;  // the frame's (mesh scenes; else null)
 };
 
+// Which points of a lattice shadow_cache_fill evaluates (its fill_mode): every point a sample can
+// read; those of a mask (the visible fill's need); those a sample can read outside a mask (the
+// rest of an entry, after its filled points).
+enum class FillMode : cl_uint { All = 0, Marked = 1, Rest = 2 };
+
 // shadow_cache_fill of entry e of `table` (lattice c) into `values`, by the launch's technique, of
-// the points whose `need` bit is set (null: every point a sample can read); returns the kernel
-// time. The frame's fill and auto's probe both run it.
+// the points `mode` and `mask` select; returns the kernel time. The frame's fill and auto's probe
+// both run it.
 double fill_lattice(const FillLaunch& launch, cl::Kernel& kernel, std::size_t e, const ShadowCacheGpu& c, std::size_t lights,
-                    const cl::Buffer& table, const cl::Buffer& values, const cl::Buffer* need = nullptr) {
+                    const cl::Buffer& table, const cl::Buffer& values, FillMode mode = FillMode::All, const cl::Buffer* mask = nullptr) {
     host::KernelArgs args{kernel};
     bind_scene(args, launch.prepared.scene, launch.camera);
     args("light_index", cl_uint(e % lights))("cache_entry", cl_uint(e))("shadow_cache_table", table)("shadow_cache", values);
-    args("visible_fill", cl_uint(need != nullptr))("shadow_cache_need", need ? *need : launch.no_need);
+    args("fill_mode", cl_uint(mode))("fill_mask", mask ? *mask : launch.no_need);
     launch.prepared.technique.bind(args, launch.runtime, launch.options);
     args.done();
     return host::run_packets(launch.runtime, kernel, c.dims.s[0], c.dims.s[1] * c.dims.s[2], launch.lanes);
@@ -362,17 +368,19 @@ std::vector<cl_uint> mark_needed_points(const FillLaunch& launch, ShadowCache& c
     return needed;
 }
 
-// What the frame's volume fill evaluates: the entries to fill (stale, or filled for other views
-// only) and, for the visible fill, the points needed per entry (mark_needed_points).
+// What the frame's volume fill evaluates per entry: nothing (filled), what the frame reads (a
+// stale entry, with the visible fill: its points needed, mark_needed_points), every point (a
+// stale entry otherwise) or the rest (an entry filled for an earlier view only: it is completed,
+// so that later camera moves read a filled lattice without marking passes).
 struct VolumeFill {
-    std::vector<bool> todo;
-    bool visible = false;
+    bool prepared = false, marked = false;
+    std::vector<std::optional<FillMode>> mode;
     std::vector<cl_uint> needed;
     unsigned long long needed_points() const { return std::accumulate(needed.begin(), needed.end(), 0ull); }
 };
 
 // Makes the lattices (new ones when the layout changed), empties the stale entries and, with
-// `visible`, marks what the frame reads of the entries to fill.
+// `visible`, marks what the frame reads of them.
 VolumeFill prepare_volume_fill(const FillLaunch& launch, ShadowCache& cache, const VolumePlan& plan, bool visible,
                                const SurfaceShadowCache* surface_cache, RenderStats& stats) {
     host::Runtime& runtime = launch.runtime;
@@ -398,10 +406,11 @@ VolumeFill prepare_volume_fill(const FillLaunch& launch, ShadowCache& cache, con
         runtime.queue().enqueueFillBuffer(cache.values, 1.0f, 0, total * sizeof(float));  // never read unfilled; defined anyway
         cache.bytes = total * sizeof(float) + 3 * mask_bytes;
     }
-    // stale entries start empty; incomplete ones (filled for other views) are topped up
+    // stale entries start empty; incomplete ones (filled for an earlier view) are completed
     VolumeFill fill;
-    std::vector<bool>& todo = fill.todo;
-    todo.assign(plan.layout.size(), false);
+    fill.prepared = true;
+    fill.mode.assign(plan.layout.size(), std::nullopt);
+    std::vector<bool> marked(plan.layout.size(), false);
     for (std::size_t e = 0; e < plan.layout.size(); ++e) {
         if (plan.stale[e]) {
             cache.keys[e].clear();  // an entry half filled when a launch throws is not kept
@@ -410,11 +419,13 @@ VolumeFill prepare_volume_fill(const FillLaunch& launch, ShadowCache& cache, con
             const std::size_t words = std::size_t(c.mark_row_words) * std::size_t(c.dims.s[1]) * std::size_t(c.dims.s[2]);
             runtime.queue().enqueueFillBuffer(cache.filled, cl_uint(0), c.mark_offset * sizeof(cl_uint), words * sizeof(cl_uint));
         }
-        todo[e] = plan.stale[e] || !cache.complete[e];
+        if (plan.stale[e]) fill.mode[e] = visible ? FillMode::Marked : FillMode::All;
+        else if (!cache.complete[e]) fill.mode[e] = FillMode::Rest;
+        marked[e] = fill.mode[e] == FillMode::Marked;
     }
-    if (visible && std::count(todo.begin(), todo.end(), true) > 0) {
-        fill.visible = true;
-        fill.needed = mark_needed_points(launch, cache, todo, surface_cache, stats);
+    if (std::count(marked.begin(), marked.end(), true) > 0) {
+        fill.marked = true;
+        fill.needed = mark_needed_points(launch, cache, marked, surface_cache, stats);
         stats.shadow_cache_visible_fill = true;
         stats.shadow_cache_points_marked = fill.needed_points();
     }
@@ -425,19 +436,21 @@ VolumeFill prepare_volume_fill(const FillLaunch& launch, ShadowCache& cache, con
 double fill_volume_entries(const FillLaunch& launch, ShadowCache& cache, const VolumePlan& plan, const VolumeFill& fill,
                            std::size_t lights, RenderStats& stats) {
     host::Runtime& runtime = launch.runtime;
-    const std::vector<bool>& todo = fill.todo;
     const std::size_t stale_entries = std::size_t(std::count(plan.stale.begin(), plan.stale.end(), true));
     stats.shadow_cache_entries_reused += int(plan.layout.size() - stale_entries);
     double ms = 0;
     cl::Kernel kernel(launch.program, "shadow_cache_fill");
-    host::ProgressStage stage(runtime.progress(), "shadow cache", double(std::count(todo.begin(), todo.end(), true)));
+    const std::size_t entries = std::size_t(std::count_if(fill.mode.begin(), fill.mode.end(), [](const auto& m) { return m.has_value(); }));
+    host::ProgressStage stage(runtime.progress(), "shadow cache", double(entries));
     for (std::size_t e = 0; e < plan.layout.size(); ++e) {
-        if (!todo[e]) continue;
+        if (!fill.mode[e]) continue;
         cache.keys[e].clear();
-        if (!fill.visible) ms += fill_lattice(launch, kernel, e, plan.layout[e], lights, cache.table, cache.values);
-        else if (fill.needed[e] > 0) ms += fill_lattice(launch, kernel, e, plan.layout[e], lights, cache.table, cache.values, &cache.need);
+        const FillMode mode = *fill.mode[e];
+        if (mode == FillMode::All) ms += fill_lattice(launch, kernel, e, plan.layout[e], lights, cache.table, cache.values);
+        else if (mode == FillMode::Rest) ms += fill_lattice(launch, kernel, e, plan.layout[e], lights, cache.table, cache.values, mode, &cache.filled);
+        else if (fill.needed[e] > 0) ms += fill_lattice(launch, kernel, e, plan.layout[e], lights, cache.table, cache.values, mode, &cache.need);
         cache.keys[e] = plan.keys[e];
-        cache.complete[e] = !fill.visible;
+        cache.complete[e] = mode != FillMode::Marked;
         if (plan.stale[e]) ++stats.shadow_cache_entries_built;
     }
     return ms;
@@ -715,9 +728,6 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
             costs.fill_ms *= std::min(1.0, double(fill.needed_points()) / std::max(1.0, double(stats.shadow_cache_points_to_fill)));
         }
         volumes.use = shadow_cache_pays(costs.fill_ms, costs.cached_ms, costs.per_sample_ms);
-        if (!volumes.use && fill.visible)  // marked as filled, not filled: refilled next time
-            for (std::size_t e = 0; e < fill.todo.size(); ++e)
-                if (fill.todo[e]) cache->keys[e].clear();
         stats.shadow_cache_probe_ms = costs.probe_ms;
         report_auto_costs(costs, stats);
         stats.stage_ms["shadow_cache_probe"] = costs.probe_ms;
@@ -728,7 +738,7 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
         remember(VolumeCosts());
     }
     if (volumes.use) {
-        if (fill.todo.empty()) fill = prepare_volume_fill(launch, *cache, volumes, may_mark, surface_reads, stats);
+        if (!fill.prepared) fill = prepare_volume_fill(launch, *cache, volumes, may_mark, surface_reads, stats);
         ms += fill_volume_entries(launch, *cache, volumes, fill, lights, stats);
     }
     if (ms > 0 || stats.shadow_cache_entries_built + stats.shadow_cache_surface_entries_built > 0) stats.stage_ms["shadow_cache"] = ms;
