@@ -31,7 +31,7 @@ class RenderOptions:
     phase_g: float  # Henyey-Greenstein asymmetry g for --shading scattering
     gradient: Literal['central', 'sobel']  # central or sobel
     shadow_cache: Literal['auto', 'on', 'off']  # the shadow term per volume and light on a lattice, filled by the technique, read trilinearly: on, off, or auto (on when filling it costs fewer points than the frame's samples)
-    shadow_cache_fill: Literal['visible', 'all']  # which lattice points a shadow cache fill evaluates: visible (those this frame's samples read, found by a marking camera pass; the next frame that reads the lattice completes it) or all (every point near a visible brick at once, no marking pass); the image is the same
+    shadow_cache_fill: Literal['visible', 'all']  # which lattice points a shadow cache fill evaluates: visible (those this frame's samples read, found by a marking camera pass; a frame from another view completes the lattice) or all (every point near a visible brick at once, no marking pass); the image is the same
     volume_storage: Literal['auto', 'buffer', 'image']  # auto (buffer on CPUs, image on GPUs), buffer or image
     empty_space_skipping: bool  # march empty bricks too (for comparisons)
     termination_transmittance: float  # early ray termination: a camera ray stops when its transmittance falls below this

@@ -76,11 +76,13 @@ struct ShadowCache {
     cl::Buffer values, table;
     // the visible fill (ShadowCacheFill::Visible): bit masks over the lattice points
     // (ShadowCacheGpu.mark_offset) — the cells the marking pass marked, the points filled so far
-    // under the entry's key, the points this frame fills — and the count of the last; complete:
-    // per entry, every point a sample can read is filled (a fill of all points)
+    // under the entry's key, the points this frame fills — and the count of the last; per entry,
+    // complete: every point a sample can read is filled (a fill of all points), else the view
+    // (the frame's CameraGpu) whose points were filled
     cl::Buffer marks, filled, need, need_count;
     std::size_t mark_words = 0;
     std::vector<bool> complete;
+    std::vector<std::string> filled_view;
     std::size_t bytes = 0;
     SurfaceShadowCache surfaces;
     bool volumes_used = false, surfaces_used = false;  // what this frame reads (SOMBRA_SHADOW_CACHE, SOMBRA_SURFACE_SHADOW_CACHE)

@@ -57,7 +57,7 @@ std::vector<OptionSpec> generic_option_specs() {
                                       {{"auto", ShadowCacheMode::Auto}, {"on", ShadowCacheMode::On}, {"off", ShadowCacheMode::Off}}),
         declare_enum<ShadowCacheFill>("shadow_cache_fill", "--shadow-cache-fill", [](auto& o) -> auto& { return o.shadow_cache_fill; },
                                       "which lattice points a shadow cache fill evaluates: visible (those this frame's samples "
-                                      "read, found by a marking camera pass; the next frame that reads the lattice completes it) or all "
+                                      "read, found by a marking camera pass; a frame from another view completes the lattice) or all "
                                       "(every point near a visible brick at once, no marking pass); the image is the same",
                                       {{"visible", ShadowCacheFill::Visible}, {"all", ShadowCacheFill::All}}),
         declare_enum<VolumeStorage>("volume_storage", "--volume-storage", [](auto& o) -> auto& { return o.volume_storage; },

@@ -373,7 +373,7 @@ std::vector<cl_uint> mark_needed_points(const FillLaunch& launch, ShadowCache& c
 // stale entry otherwise) or the rest (an entry filled for an earlier view only: it is completed,
 // so that later camera moves read a filled lattice without marking passes).
 struct VolumeFill {
-    bool prepared = false, marked = false;
+    bool prepared = false;
     std::vector<std::optional<FillMode>> mode;
     std::vector<cl_uint> needed;
     unsigned long long needed_points() const { return std::accumulate(needed.begin(), needed.end(), 0ull); }
@@ -392,6 +392,7 @@ VolumeFill prepare_volume_fill(const FillLaunch& launch, ShadowCache& cache, con
         cache.layout = plan.layout;
         cache.keys.assign(plan.layout.size(), std::string());
         cache.complete.assign(plan.layout.size(), false);
+        cache.filled_view.assign(plan.layout.size(), std::string());
         const ShadowCacheGpu& last = plan.layout.back();
         const std::size_t total = last.offset + lattice_points(last);
         cache.mark_words = last.mark_offset + std::size_t(last.mark_row_words) * std::size_t(last.dims.s[1]) * std::size_t(last.dims.s[2]);
@@ -406,7 +407,10 @@ VolumeFill prepare_volume_fill(const FillLaunch& launch, ShadowCache& cache, con
         runtime.queue().enqueueFillBuffer(cache.values, 1.0f, 0, total * sizeof(float));  // never read unfilled; defined anyway
         cache.bytes = total * sizeof(float) + 3 * mask_bytes;
     }
-    // stale entries start empty; incomplete ones (filled for an earlier view) are completed
+    // stale entries start empty; incomplete ones filled for another view are completed (the same
+    // view again reads only what it filled: the same samples)
+    const CameraGpu camera = frame_camera(launch.scene, launch.options, launch.width, launch.height);
+    const std::string view(reinterpret_cast<const char*>(&camera), sizeof camera);
     VolumeFill fill;
     fill.prepared = true;
     fill.mode.assign(plan.layout.size(), std::nullopt);
@@ -420,11 +424,11 @@ VolumeFill prepare_volume_fill(const FillLaunch& launch, ShadowCache& cache, con
             runtime.queue().enqueueFillBuffer(cache.filled, cl_uint(0), c.mark_offset * sizeof(cl_uint), words * sizeof(cl_uint));
         }
         if (plan.stale[e]) fill.mode[e] = visible ? FillMode::Marked : FillMode::All;
-        else if (!cache.complete[e]) fill.mode[e] = FillMode::Rest;
+        else if (!cache.complete[e] && cache.filled_view[e] != view) fill.mode[e] = FillMode::Rest;
         marked[e] = fill.mode[e] == FillMode::Marked;
+        if (marked[e]) cache.filled_view[e] = view;
     }
     if (std::count(marked.begin(), marked.end(), true) > 0) {
-        fill.marked = true;
         fill.needed = mark_needed_points(launch, cache, marked, surface_cache, stats);
         stats.shadow_cache_visible_fill = true;
         stats.shadow_cache_points_marked = fill.needed_points();
