@@ -723,10 +723,12 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
     if (surfaces.use) ms += fill_surface_entries(launch, cache->surfaces, surfaces, lights, stats);
     if (measure) {  // a probe's passes read the surface part as the frame will
         VolumeCosts costs = probe_volume_costs(launch, volumes, lights, width, height, fragments, surface_reads);
-        // the visible fill's marking pass costs about a cached camera pass: it is run when it
-        // would pay with a quarter of the points needed (bench/README.md "visible fill"); the
-        // fill is then estimated for the points it found, at the probe's cost per point
-        if (may_mark && 2 * costs.cached_ms < costs.fill_ms &&
+        // the visible fill's marking pass costs about a cached camera pass: it is run when that
+        // is under half the fill and an eighth of the per-sample pass (the most it wastes when
+        // auto then evaluates per sample), and the cache would pay with a quarter of the points
+        // needed (bench/README.md "With the visible fill"); the fill is then estimated for the
+        // points it found, at the probe's cost per point
+        if (may_mark && 2 * costs.cached_ms < costs.fill_ms && 8 * costs.cached_ms <= costs.per_sample_ms &&
             shadow_cache_pays(costs.fill_ms / 4 + costs.cached_ms, costs.cached_ms, costs.per_sample_ms)) {
             fill = prepare_volume_fill(launch, *cache, volumes, true, surface_reads, stats);
             costs.fill_ms *= std::min(1.0, double(fill.needed_points()) / std::max(1.0, double(stats.shadow_cache_points_to_fill)));
