@@ -309,7 +309,7 @@ typedef struct {
     sb_float4 voxel_to_world[3];
     sb_float4 block_origin; /* voxel coordinates of the first block along y and z (x and w unused) */
     /* the visible fill's bit masks (one bit per lattice point, src/render/shadow_cache.cpp
-     * fill_visible): point (x, y, z) is bit x % 32 of word mark_offset + (y + dims.y · z) ·
+     * prepare_volume_fill): point (x, y, z) is bit x % 32 of word mark_offset + (y + dims.y · z) ·
      * mark_row_words + x / 32 (rows start on a word) */
     sb_uint mark_offset, mark_row_words, mark_pad0, mark_pad1;
 } ShadowCacheGpu;

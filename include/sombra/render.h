@@ -56,9 +56,9 @@ enum class ShadingModel { Phong, Scattering };
 // (kept entries cost nothing: a moved camera keeps the cache on).
 enum class ShadowCacheMode { Auto, On, Off };
 // Which lattice points a shadow cache fill evaluates: Visible, those the frame's samples read
-// (a marking camera pass finds them; points filled for earlier frames on the Context are kept
-// and only newly read ones are added), or All, every point near a possibly visible brick (no
-// marking pass; a moved camera then finds the lattice filled). The images are the same.
+// (a marking camera pass finds them; the same view again fills nothing, a frame from another
+// view on the Context completes the lattice), or All, every point near a possibly visible brick
+// at once (no marking pass). The images are the same.
 enum class ShadowCacheFill { Visible, All };
 
 // The deep-shadow-map storage backends ("atlas", "chunked", "chunked-ondemand", "compact"), from

@@ -28,6 +28,9 @@ std::size_t lattice_points(const ShadowCacheGpu& c) { return std::size_t(c.dims.
 
 namespace {
 
+// Words of a lattice's bit masks (ShadowCacheGpu.mark_row_words per row of y and z).
+std::size_t mask_words(const ShadowCacheGpu& c) { return std::size_t(c.mark_row_words) * std::size_t(c.dims.s[1]) * std::size_t(c.dims.s[2]); }
+
 constexpr std::size_t kShadowCachePoints = std::size_t(1) << 23;  // per volume and light (32 MiB)
 constexpr std::size_t kSurfacePoints = std::size_t(1) << 22;      // the surface part's, over all meshes (64 MiB + 4 MiB per light)
 constexpr int kSurfaceMaxSubdivision = 1024;                        // lattice intervals along a triangle's edge
@@ -86,7 +89,7 @@ std::vector<ShadowCacheGpu> cache_layout(const Scene& scene, const packing::Pack
             total += lattice_points(c);
             c.mark_row_words = cl_uint((n[0] + 31) / 32);  // the visible fill's masks: rows start on a word
             c.mark_offset = cl_uint(words);
-            words += std::size_t(c.mark_row_words) * std::size_t(n[1]) * std::size_t(n[2]);
+            words += mask_words(c);
             if (total > 0xffffffffull) throw Error("shadow cache: more than 2^32 entries");
             table.push_back(c);
         }
@@ -308,7 +311,7 @@ struct FillLaunch {
     cl::Program& program;
     cl::Buffer camera;
     int lanes;
-    cl::Buffer no_need;  // bound as shadow_cache_need where a fill evaluates by cache_point_read
+    cl::Buffer no_mask;  // bound as shadow_cache_fill's fill_mask where its fill_mode reads none
     int width, height;
     const surfaces::ViewFragments* fragments;  // the frame's (mesh scenes; else null)
 };
@@ -326,7 +329,7 @@ double fill_lattice(const FillLaunch& launch, cl::Kernel& kernel, std::size_t e,
     host::KernelArgs args{kernel};
     bind_scene(args, launch.prepared.scene, launch.camera);
     args("light_index", cl_uint(e % lights))("cache_entry", cl_uint(e))("shadow_cache_table", table)("shadow_cache", values);
-    args("fill_mode", cl_uint(mode))("fill_mask", mask ? *mask : launch.no_need);
+    args("fill_mode", cl_uint(mode))("fill_mask", mask ? *mask : launch.no_mask);
     launch.prepared.technique.bind(args, launch.runtime, launch.options);
     args.done();
     return host::run_packets(launch.runtime, kernel, c.dims.s[0], c.dims.s[1] * c.dims.s[2], launch.lanes);
@@ -395,7 +398,7 @@ VolumeFill prepare_volume_fill(const FillLaunch& launch, ShadowCache& cache, con
         cache.filled_view.assign(plan.layout.size(), std::string());
         const ShadowCacheGpu& last = plan.layout.back();
         const std::size_t total = last.offset + lattice_points(last);
-        cache.mark_words = last.mark_offset + std::size_t(last.mark_row_words) * std::size_t(last.dims.s[1]) * std::size_t(last.dims.s[2]);
+        cache.mark_words = last.mark_offset + mask_words(last);
         cache.values = host::make_buffer(runtime, CL_MEM_READ_WRITE, total * sizeof(float), nullptr, "shadow cache");
         cache.table = host::make_buffer(runtime, CL_MEM_READ_ONLY, plan.layout.size() * sizeof(ShadowCacheGpu), plan.layout.data(),
                                         "shadow cache table");
@@ -420,8 +423,7 @@ VolumeFill prepare_volume_fill(const FillLaunch& launch, ShadowCache& cache, con
             cache.keys[e].clear();  // an entry half filled when a launch throws is not kept
             cache.complete[e] = false;
             const ShadowCacheGpu& c = plan.layout[e];
-            const std::size_t words = std::size_t(c.mark_row_words) * std::size_t(c.dims.s[1]) * std::size_t(c.dims.s[2]);
-            runtime.queue().enqueueFillBuffer(cache.filled, cl_uint(0), c.mark_offset * sizeof(cl_uint), words * sizeof(cl_uint));
+            runtime.queue().enqueueFillBuffer(cache.filled, cl_uint(0), c.mark_offset * sizeof(cl_uint), mask_words(c) * sizeof(cl_uint));
         }
         if (plan.stale[e]) fill.mode[e] = visible ? FillMode::Marked : FillMode::All;
         else if (!cache.complete[e] && cache.filled_view[e] != view) fill.mode[e] = FillMode::Rest;
@@ -450,9 +452,9 @@ double fill_volume_entries(const FillLaunch& launch, ShadowCache& cache, const V
         if (!fill.mode[e]) continue;
         cache.keys[e].clear();
         const FillMode mode = *fill.mode[e];
-        if (mode == FillMode::All) ms += fill_lattice(launch, kernel, e, plan.layout[e], lights, cache.table, cache.values);
-        else if (mode == FillMode::Rest) ms += fill_lattice(launch, kernel, e, plan.layout[e], lights, cache.table, cache.values, mode, &cache.filled);
-        else if (fill.needed[e] > 0) ms += fill_lattice(launch, kernel, e, plan.layout[e], lights, cache.table, cache.values, mode, &cache.need);
+        const cl::Buffer* mask = mode == FillMode::Marked ? &cache.need : mode == FillMode::Rest ? &cache.filled : nullptr;
+        if (mode != FillMode::Marked || fill.needed[e] > 0)
+            ms += fill_lattice(launch, kernel, e, plan.layout[e], lights, cache.table, cache.values, mode, mask);
         cache.keys[e] = plan.keys[e];
         cache.complete[e] = mode != FillMode::Marked;
         if (plan.stale[e]) ++stats.shadow_cache_entries_built;
