@@ -23,33 +23,38 @@ static inline uint dsm_view_number(__global const DsmViewGpu* v) { return v->fir
 
 /* An entry whose claim found the pool empty: later claims of it give up at once. */
 #define DSM_BLOCK_WANTED 0xffffffffu
+/* An entry a work-item has claimed and not yet given its block. */
+#define DSM_BLOCK_CLAIMING 0xfffffffeu
 
-/* Knecht Alg. 4.1 with CAS only (spin-waits deadlock on PoCL): the block recorded in *entry
- * (stored + 1; 0 = none), else a fresh one from counters[0] claimed by compare-and-swap. A claim
- * that finds the pool empty gives its number back (counters[0] counts handed-out blocks only and
- * never exceeds the pool) and marks the entry wanted; counters[1] counts the wanted entries, each
- * once, so the host grows the pool by what is missing, not by how often it was asked. A block
- * lost to another work-item that claimed the entry first is counted in counters[lost] (waste).
- * Every access to *entry is atomic (other work-items cmpxchg it concurrently): the first read is
- * an atomic_or with 0, OpenCL 1.2's atomic load. */
-static inline uint claim_block(__global uint* entry, __global uint* counters, uint pool, uint lost) {
+/* Knecht Alg. 4.1: the block recorded in *entry (stored + 1; 0 = none), else a fresh one from
+ * counters[0]. The first work-item to swap the entry from 0 to CLAIMING draws the block and
+ * publishes it; a work-item that finds CLAIMING waits for that publication, which is a few
+ * straight-line instructions away and earlier in program order (a GPU warp and PoCL's vectorised
+ * work-item loop run the claim before the wait, PoCL's scalar loop runs one work-item to its end),
+ * so the wait cannot deadlock. No block is ever drawn and lost: drawing first and swapping after
+ * lost up to 31 blocks per entry in a warp's lockstep on a GPU, and the atlas ran out of its pool
+ * (docs/gpu-check.md). A claim that finds the pool empty gives the number back (counters[0]
+ * counts handed-out blocks only and never exceeds the pool) and marks the entry wanted;
+ * counters[1] counts the wanted entries, each once, so the host grows the pool by exactly what is
+ * missing. Every access to *entry is atomic: the reads are atomic_or with 0, OpenCL 1.2's atomic load. */
+static inline uint claim_block(__global uint* entry, __global uint* counters, uint pool) {
     uint held = atomic_or(entry, 0u);
-    if (held == DSM_BLOCK_WANTED) return DSM_NO_BLOCK;
-    if (held) return held - 1;
-    uint fresh = atomic_inc(&counters[0]);
-    if (fresh >= pool) {
-        atomic_dec(&counters[0]);
-        uint previous = atomic_cmpxchg(entry, 0u, DSM_BLOCK_WANTED);
-        if (previous == 0u) atomic_inc(&counters[1]);
-        return previous == 0u || previous == DSM_BLOCK_WANTED ? DSM_NO_BLOCK : previous - 1;
+    if (held == 0u) {
+        held = atomic_cmpxchg(entry, 0u, DSM_BLOCK_CLAIMING);
+        if (held == 0u) {
+            uint fresh = atomic_inc(&counters[0]);
+            if (fresh < pool) {
+                held = fresh + 1;
+            } else {
+                atomic_dec(&counters[0]);
+                atomic_inc(&counters[1]);
+                held = DSM_BLOCK_WANTED;
+            }
+            atomic_xchg(entry, held);
+        }
     }
-    uint previous = atomic_cmpxchg(entry, 0u, fresh + 1);
-    if (previous == DSM_BLOCK_WANTED) return DSM_NO_BLOCK; /* the pool is short anyway: a rebuild follows */
-    if (previous) {
-        atomic_inc(&counters[lost]);
-        return previous - 1;
-    }
-    return fresh;
+    while (held == DSM_BLOCK_CLAIMING) held = atomic_or(entry, 0u);
+    return held == DSM_BLOCK_WANTED ? DSM_NO_BLOCK : held - 1;
 }
 
 #ifdef SOMBRA_DSM_BUILD_PROGRAM

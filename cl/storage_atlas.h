@@ -5,8 +5,8 @@
  * layer range (0 = not allocated), so memory follows the node count instead of the longest
  * function. A texel may hold at most SOMBRA_ATLAS_MAX_BLOCKS · LAYERS nodes (the layer cap);
  * when it is hit, the deepest node overwrites the last layer, the texel is counted, and nothing
- * is ever written out of bounds. Blocks are allocated with atomic_inc + atomic_cmpxchg only (no
- * spin-waits, which deadlock on PoCL); a block lost in a race is counted as waste. Lookups read
+ * is ever written out of bounds. Blocks are allocated on demand by claim_block
+ * (dsm_storage_common.h), which never draws a block it does not keep. Lookups read
  * the layers in place (native) or a packed copy that dsm_pack makes after generation. */
 #ifndef SOMBRA_STORAGE_ATLAS_H
 #define SOMBRA_STORAGE_ATLAS_H
@@ -21,8 +21,7 @@
 #define ATLAS_TILE_TEXELS (DSM_TILE_SIZE * DSM_TILE_SIZE)
 
 /* allocator[0]: blocks handed out (may exceed the pool: then the host grows it and rebuilds),
- * [1]: requests the pool could not serve, [2]: texels that hit the layer cap, [3]: blocks lost
- * in allocation races. */
+ * [1]: requests the pool could not serve, [2]: texels that hit the layer cap, [3]: unused. */
 #define DSM_WRITE_PARAMS                                                                                 \
     __global uint* restrict atlas_layout, __global uint* restrict texel_count, __global float* restrict atlas_blocks, \
         __global uint* restrict atlas_allocator, uint atlas_pool_blocks
@@ -61,7 +60,7 @@ static inline void dsm_writer_begin(DsmWriter* w, DSM_WRITE_PARAMS, __global con
 
 /* The block of layer range `slot` of `tile`, allocated if needed. */
 static inline uint atlas_block(DSM_WRITE_PARAMS, uint tile, uint slot) {
-    return claim_block(&atlas_layout[tile * SOMBRA_ATLAS_MAX_BLOCKS + slot], atlas_allocator, atlas_pool_blocks, 3);
+    return claim_block(&atlas_layout[tile * SOMBRA_ATLAS_MAX_BLOCKS + slot], atlas_allocator, atlas_pool_blocks);
 }
 
 static inline void dsm_writer_put(DsmWriter* w, DSM_WRITE_PARAMS, float z, float alpha) {

@@ -1,7 +1,7 @@
 /* sombra — "chunked" deep shadow map storage (Knecht §4.2.2, Alg. 4.1, Eq. 4.11–4.17): the nodes
  * of an 8×8 tile go into chunks of SOMBRA_CHUNK_LENGTH nodes, taken in order by the tile's
  * work-items through an atomic counter (Eq. 4.11–4.12) and allocated on demand from a global
- * pool with atomic_inc + atomic_cmpxchg (Alg. 4.1; no spin-waits). Each texel's nodes form a
+ * pool (Alg. 4.1, claim_block in dsm_storage_common.h). Each texel's nodes form a
  * linked list whose head sits in a per-texel lookup table (Eq. 4.13–4.17). After generation the
  * nodes are rearranged for reading (dsm_rearrange: depth, opacity and link in one float4, as
  * Knecht's chunk texture) and lookups walk the list linearly, or (packed lookups, the default) each
@@ -22,7 +22,7 @@
 #define CHUNK_END 0xffffffffu
 
 /* allocator[0]: chunks handed out (may exceed the pool: the host grows it and rebuilds),
- * [1]: requests the pool or a tile's chunk table could not serve, [2]: chunks lost in races. */
+ * [1]: requests the pool or a tile's chunk table could not serve, [2]: unused. */
 #define DSM_WRITE_PARAMS                                                                                   \
     __global uint* restrict tile_fill, __global uint* restrict tile_chunks, __global float* restrict chunk_nodes, \
         __global uint* restrict chunk_next, __global uint* restrict texel_head, __global uint* restrict texel_count, \
@@ -48,7 +48,7 @@ static inline uint chunk_of_tile(DSM_WRITE_PARAMS, uint tile, uint c) {
         atomic_inc(&chunk_allocator[1]);
         return CHUNK_END;
     }
-    return claim_block(&tile_chunks[tile * SOMBRA_CHUNKS_PER_TILE + c], chunk_allocator, chunk_pool, 2);
+    return claim_block(&tile_chunks[tile * SOMBRA_CHUNKS_PER_TILE + c], chunk_allocator, chunk_pool);
 }
 
 static inline void dsm_writer_put(DsmWriter* w, DSM_WRITE_PARAMS, float z, float alpha) {

@@ -1,7 +1,9 @@
 /* sombra — reading a volume for a packet of rays (lanes.h): density at continuous voxel positions,
  * transfer function, gradient. One function, sample_density(), hides where voxels live: a float
- * buffer with manual trilinear interpolation (fast on PoCL: 80 vs 35 Msamples/s, docs/architecture.md)
- * or a 3D image atlas with the hardware's linear filter (GPUs), chosen by SOMBRA_USE_IMAGES. */
+ * buffer (fast on PoCL: 80 vs 35 Msamples/s, docs/architecture.md) or a 3D image atlas read through
+ * the texture cache (GPUs), chosen by SOMBRA_USE_IMAGES. Both interpolate the 8 voxels in float
+ * with the same formula: a GPU's linear filter weighs them in 8-bit fixed point (density errors of
+ * 1.6e-3 measured on an H200, docs/gpu-check.md), too coarse for the closed forms. */
 #ifndef SOMBRA_VOLUME_SAMPLE_H
 #define SOMBRA_VOLUME_SAMPLE_H
 #include "shared/types.h"
@@ -9,7 +11,23 @@
 
 #ifdef SOMBRA_USE_IMAGES
 #define VOLUME_DATA_PARAM __read_only image3d_t volume_data
-__constant sampler_t volume_sampler = CLK_NORMALIZED_COORDS_FALSE | CLK_ADDRESS_CLAMP_TO_EDGE | CLK_FILTER_LINEAR;
+__constant sampler_t volume_sampler = CLK_NORMALIZED_COORDS_FALSE | CLK_ADDRESS_CLAMP_TO_EDGE | CLK_FILTER_NEAREST;
+
+/* Trilinear density of one lane from the image atlas: the 8 voxels around (px, py, pz) (already
+ * clamped to the volume), the +1 neighbours clamped to its last voxel, z shifted to its slices. */
+static inline float image_trilinear(__read_only image3d_t volume_data, int4 last, int z_offset, float px, float py, float pz) {
+    float bx = floor(px), by = floor(py), bz = floor(pz);
+    float fx = px - bx, fy = py - by, fz = pz - bz;
+    int x0 = (int)bx, y0 = (int)by, z0 = (int)bz + z_offset;
+    int x1 = min(x0 + 1, last.x), y1 = min(y0 + 1, last.y), z1 = min((int)bz + 1, last.z) + z_offset;
+#define SOMBRA_VOXEL(i, j, k) read_imagef(volume_data, volume_sampler, (int4)(i, j, k, 0)).x
+    float c00 = mix(SOMBRA_VOXEL(x0, y0, z0), SOMBRA_VOXEL(x1, y0, z0), fx);
+    float c10 = mix(SOMBRA_VOXEL(x0, y1, z0), SOMBRA_VOXEL(x1, y1, z0), fx);
+    float c01 = mix(SOMBRA_VOXEL(x0, y0, z1), SOMBRA_VOXEL(x1, y0, z1), fx);
+    float c11 = mix(SOMBRA_VOXEL(x0, y1, z1), SOMBRA_VOXEL(x1, y1, z1), fx);
+#undef SOMBRA_VOXEL
+    return mix(mix(c00, c10, fy), mix(c01, c11, fy), fz);
+}
 #else
 #define VOLUME_DATA_PARAM __global const float* restrict volume_data
 #endif
@@ -32,8 +50,9 @@ static inline lfloat sample_density(VOLUME_DATA_PARAM, __global const VolumeGpu*
     lfloat py = clamp_index(p.y, (float)(v->dims.y - 1));
     lfloat pz = clamp_index(p.z, (float)(v->dims.z - 1));
 #ifdef SOMBRA_USE_IMAGES
-    float z_offset = v->image_z_offset + 0.5f;
-#define SOMBRA_READ_LANE(c) read_imagef(volume_data, volume_sampler, (float4)(LC(px, c) + 0.5f, LC(py, c) + 0.5f, LC(pz, c) + z_offset, 0.0f)).x
+    int4 last = (int4)(v->dims.x - 1, v->dims.y - 1, v->dims.z - 1, 0);
+    int z_offset = (int)v->image_z_offset;
+#define SOMBRA_READ_LANE(c) image_trilinear(volume_data, last, z_offset, LC(px, c), LC(py, c), LC(pz, c))
     return LFROM_LANES(SOMBRA_READ_LANE);
 #undef SOMBRA_READ_LANE
 #else

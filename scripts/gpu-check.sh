@@ -7,20 +7,29 @@
 # `--device cpu --quick --no-build` on PoCL so that it cannot rot.
 #
 #   scripts/gpu-check.sh [--device gpu|cpu|N] [--quick] [--no-build] [--report FILE]
+#                        [--images-to DIR] [--tests-limit SECONDS] [--step-limit SECONDS]
+#
+# --images-to DIR: render the scenes with the CLI into DIR (scripts/gpu-images.sh) instead of
+# comparing with PoCL in one process, for a machine without PoCL or this build's Python (the lent
+# machine: scripts/gpu-remote.sh runs it there from a bundle, scripts/gpu-bundle.sh makes the
+# bundle here); build/tests/sombra_compare_images then compares DIR with PoCL's renders here.
 #
 # Exit 0 when every step ran to its end (image differences are reported, not judged: no GPU has
 # been measured yet to set a tolerance), 1 otherwise.
 set -uo pipefail
 cd "$(dirname "$0")/.."
 export PATH="/usr/local/bin:/usr/bin:/bin:${PATH:-}"
-device=gpu quick=0 build=1 report=gpu-check.md
+device=gpu quick=0 build=1 report=gpu-check.md images_to="" tests_limit=300 step_limit=""
 while [ $# -gt 0 ]; do
   case $1 in
     --device) device=$2; shift 2 ;;
     --quick) quick=1; shift ;;
     --no-build) build=0; shift ;;
     --report) report=$2; shift 2 ;;
-    *) echo "gpu-check: unknown argument $1 (--device D, --quick, --no-build, --report FILE)" >&2; exit 2 ;;
+    --images-to) images_to=$2; shift 2 ;;
+    --tests-limit) tests_limit=$2; shift 2 ;;
+    --step-limit) step_limit=$2; shift 2 ;;  # caps every other step's limit (a lease's minutes)
+    *) echo "gpu-check: unknown argument $1 (--device D, --quick, --no-build, --report FILE, --images-to DIR, --tests-limit S, --step-limit S)" >&2; exit 2 ;;
   esac
 done
 start=$(date +%s)
@@ -30,11 +39,13 @@ failed=0
   echo
   echo "$(date -u '+%Y-%m-%d %H:%M UTC'), commit $(git rev-parse --short HEAD 2>/dev/null || echo '?'), device '$device'$([ $quick = 1 ] && echo ', quick')"
 } >"$report"
+: >"${report%.md}.log"  # every step's whole output (the report keeps the last 60 lines of each)
 
 # step NAME SECONDS COMMAND…: runs it with a time limit, its output's last 60 lines into the report
 step() {
   local name=$1 limit=$2
   shift 2
+  [ -n "$step_limit" ] && [ "$name" = "${name#tests on}" ] && [ "$limit" -gt "$step_limit" ] && limit=$step_limit
   local t0 out status
   t0=$(date +%s)
   out=$(timeout "$limit" "$@" 2>&1)
@@ -47,6 +58,7 @@ step() {
     tail -n 60 <<<"$out"
     echo '```'
   } >>"$report"
+  printf '== %s (exit %d)\n%s\n' "$name" "$status" "$out" >>"${report%.md}.log"
   [ $status -eq 0 ] || failed=1
   echo "gpu-check: $name: exit $status"
 }
@@ -57,18 +69,32 @@ if [ $quick = 1 ]; then
   step "tests on $device (accuracy subset)" 300 env SOMBRA_DEVICE="$device" ctest --test-dir build -j2 --timeout 120 -R "accuracy"
 else
   # the whole suite but what is not about the device (packages, fuzz replays, the second OpenCL
-  # implementation, the layout check); the CLI tests use the CLI's default device, auto: the GPU
-  step "tests on $device" 300 env SOMBRA_DEVICE="$device" ctest --test-dir build -j4 --timeout 120 -LE "package|slow|bench" \
-    -E "portability|fuzz-regressions|layout"
+  # implementation, the layout check); the CLI tests use the CLI's default device, auto: the GPU.
+  # Where this build's Python module does not import (another Python), its tests are left out too.
+  skip="portability|fuzz-regressions|layout"
+  PYTHONPATH=build/python python3 -c "import sombra" 2>/dev/null || skip="$skip|python|view:|numpy|pytest|distributed"
+  jobs=$(( $(nproc) > 4 ? $(nproc) : 4 ))
+  if command -v ctest >/dev/null; then
+    step "tests on $device" "$tests_limit" env SOMBRA_DEVICE="$device" ctest --test-dir build -j"$jobs" --timeout 120 --output-on-failure \
+      -LE "package|slow|bench" -E "$skip"
+  else  # no CMake there: the Catch2 binary alone, in as many shards as processes
+    step "tests on $device (sombra_tests in $jobs shards; no ctest)" "$tests_limit" env SOMBRA_DEVICE="$device" bash -c \
+      "seq 0 $(( jobs - 1 )) | xargs -P $jobs -I{} build/tests/sombra_tests --shard-count $jobs --shard-index {} --reporter compact"
+  fi
 fi
 
 # images: every shipped scene and technique on the device and on PoCL, side by side
 size=$([ $quick = 1 ] && echo 24 || echo 64)
 scenes=$([ $quick = 1 ] && echo "default smoke" || ls data/scenes/*.json | xargs -n1 basename | sed 's/\.json$//' | tr '\n' ' ')
-techniques=$([ $quick = 1 ] && echo "none dsm rays" || echo "none dsm rays shadowmap lowpass")
-# shellcheck disable=SC2086  # the scene and technique lists are words without spaces
-step "images: $device against PoCL ($size², $techniques)" 240 env PYTHONPATH=build/python /usr/bin/python3 \
-  tests/portability/compare_devices.py "$device" "Portable Computing Language" --size "$size" --scenes $scenes --techniques $techniques
+techniques=$([ $quick = 1 ] && echo "none dsm rays" || echo "none dsm rays shadowmap lowpass ao cone")
+if [ -n "$images_to" ]; then
+  step "images on $device into $images_to ($size², $techniques)" 240 scripts/gpu-images.sh "$device" "$images_to" --size "$size" \
+    --scenes "$scenes" --techniques "$techniques" --jobs "$(( $(nproc) > 8 ? 8 : 2 ))"
+else
+  # shellcheck disable=SC2086  # the scene and technique lists are words without spaces
+  step "images: $device against PoCL ($size², $techniques)" 240 env PYTHONPATH=build/python /usr/bin/python3 \
+    tests/portability/compare_devices.py "$device" "Portable Computing Language" --size "$size" --scenes $scenes --techniques $techniques
+fi
 if [ $quick = 1 ]; then
   step "camera bench" 120 build/bench/sombra_bench_camera --scene data/scenes/default.json --device "$device" --width 64 --height 64 --runs 1 --no-scalar
   step "DSM bench" 120 build/bench/sombra_bench_dsm --scene data/scenes/default.json --device "$device" --resolutions 64 --eps 0.02 --width 32 --height 32 --runs 1 --points 20

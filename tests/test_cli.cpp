@@ -84,7 +84,7 @@ std::string two_spheres_file(const std::string& name) {
 TEST_CASE("sombra render writes the image and the stats", "[cli]") {
     std::string scene = scene_file("good.json", nlohmann::json::object());
     std::string out = sombra::test::temp_dir() + "/good.png", stats = sombra::test::temp_dir() + "/good-stats.json";
-    CliRun run = run_cli("render " + scene + " -o " + out + " --stats " + stats + " --device cpu");
+    CliRun run = run_cli("render " + scene + " -o " + out + " --stats " + stats + " --device " + sombra::test::device_selector());
     INFO(run.stderr_text);
     REQUIRE(run.exit_code == 0);
     REQUIRE(std::filesystem::exists(out));

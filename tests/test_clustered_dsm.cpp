@@ -188,7 +188,7 @@ TEST_CASE("clustered DSM: every storage backend builds the same nodes", "[cluste
 TEST_CASE("clustered DSM: a camera move that keeps the clusters regenerates nothing, one that changes them does",
           "[clustered_dsm]") {
     Scene s = two_smokes(LightType::Spot);
-    Context context("cpu"), fresh("cpu");
+    Context context(test::device_selector()), fresh(test::device_selector());
     RenderOptions o = dsm_options(48, 4);
     RenderResult first = render(context, s, o);
     CHECK(first.stats.dsm_views_generated == 2);
@@ -227,7 +227,7 @@ TEST_CASE("clustered DSM: a camera that sees nothing any object could shadow lea
     s.camera.look_at = {0, 0, 10};  // looking away from both volumes
     for (const std::string& storage : dsm_storage_names()) {
         INFO(storage);
-        Context context("cpu");
+        Context context(test::device_selector());
         RenderOptions o = dsm_options(16, 4);
         o.dsm.storage = storage;
         RenderResult away = render(context, s, o);

@@ -531,7 +531,7 @@ TEST_CASE("atlas layer cap: hit, counted and reported, never written past", "[ds
 }
 
 TEST_CASE("deep shadow maps are rebuilt only when the light, the scene or the transfer function changes", "[dsm]") {
-    Context context("cpu");  // its own kept state
+    Context context(test::device_selector());  // its own kept state
     Scene s = smoke_scene(LightType::Spot);
     RenderOptions o = dsm_options(32, 0.02f);
     RenderResult first = render(context, s, o);
@@ -558,7 +558,7 @@ TEST_CASE("one light's maps build that light's views only, the same maps as a bu
     point.position = {0.9f, -0.4f, 0.6f};
     s.lights.push_back(point);  // light 1: 6 views after light 0's one
     const RenderOptions o = dsm_options(32, 0.02f);
-    Context partial("cpu"), whole("cpu"), fresh("cpu");  // each its own kept state
+    Context partial(test::device_selector()), whole(test::device_selector()), fresh(test::device_selector());  // each its own kept state
     RenderStats only_stats;
     const auto only = build_deep_shadow_maps(partial, s, 1, o, &only_stats);
     CHECK(only.size() == 6);
@@ -584,7 +584,7 @@ TEST_CASE("a moved light regenerates its own maps only, and the image equals a f
     for (const std::string& storage : sombra::dsm_storage_names()) {
         for (const char* prefilter : {"none", "box", "5tap"}) {
             INFO("storage " << storage << ", prefilter " << prefilter);
-            Context context("cpu"), fresh_context("cpu");  // their own kept state
+            Context context(test::device_selector()), fresh_context(test::device_selector());  // their own kept state
             auto fresh_render = [&](const Scene& scene, const RenderOptions& options) {
                 fresh_context.release_prepared_scenes();
                 return render(fresh_context, scene, options);

@@ -593,7 +593,7 @@ TEST_CASE("SSAT per group of volumes: apart each its own fitted table, overlappi
     RenderOptions o;
     o.shadows = ShadowTechnique::Lowpass;
     scene.width = scene.height = 16;
-    Context context("cpu");
+    Context context(test::device_selector());
     for (bool again : {false, true}) {
         RenderStats stats = render(context, scene, o).stats;
         REQUIRE(stats.sat_table_list.size() == 2);
@@ -784,7 +784,7 @@ TEST_CASE("Baselines: SAT ambient occlusion and cone shadows vs CPU reference, h
 }
 
 TEST_CASE("low-pass tables follow a moved light on a kept Context", "[lowpass]") {
-    Context context("cpu"), fresh_context("cpu");  // their own kept state
+    Context context(test::device_selector()), fresh_context(test::device_selector());  // their own kept state
     Scene scene = cloud_scene();
     RenderOptions o;
     o.shadows = ShadowTechnique::Lowpass;
@@ -802,7 +802,7 @@ TEST_CASE("low-pass tables follow a moved light on a kept Context", "[lowpass]")
 }
 
 TEST_CASE("shadow cache (Ament Alg. 1): close to per-sample evaluation, kept while tables, filter and lights stay", "[lowpass]") {
-    Context context("cpu");  // its own kept state
+    Context context(test::device_selector());  // its own kept state
     Scene scene = cloud_scene();
     RenderOptions o;
     o.shadows = ShadowTechnique::Lowpass;

@@ -63,7 +63,7 @@ void check_step(Context& kept, Context& fresh_context, const Scene& scene, const
 
 TEST_CASE("Ament Alg. 1 first pass: a changed scene rebuilds only its changed tables and cache entries", "[lowpass]") {
     for (bool cached : {true, false}) {
-        Context context("cpu"), fresh("cpu");  // their own kept state
+        Context context(test::device_selector()), fresh(test::device_selector());  // their own kept state
         Scene scene = two_clouds();
         RenderOptions o;
         o.shadows = ShadowTechnique::Lowpass;
@@ -95,7 +95,7 @@ TEST_CASE("Ament Alg. 1 first pass: a changed scene rebuilds only its changed ta
 }
 
 TEST_CASE("Ament Alg. 1 first pass: SAT ambient occlusion and cone shadows after a light move", "[lowpass]") {
-    Context context("cpu"), fresh("cpu");
+    Context context(test::device_selector()), fresh(test::device_selector());
     Scene scene = two_clouds();
     RenderOptions o;
     o.shadows = ShadowTechnique::Ao;

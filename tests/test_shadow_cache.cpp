@@ -92,7 +92,7 @@ Scene surface_scene() {
 TEST_CASE("shadow cache: every lattice point a sample can read holds the technique's own shadow term there", "[shadow_cache]") {
     Scene scene = test::overlapping_scene();
     for (ShadowTechnique technique : {ShadowTechnique::Dsm, ShadowTechnique::Rays, ShadowTechnique::Lowpass}) {
-        Context context("cpu");  // its own kept state: the cache read back below
+        Context context(test::device_selector());  // its own kept state: the cache read back below
         RenderOptions o = cache_options(technique, ShadowCacheMode::On);
         o.shadow_cache_fill = ShadowCacheFill::All;  // every point a sample can read, not only this view's
         RenderResult r = render(context, scene, o);
@@ -134,7 +134,7 @@ TEST_CASE("shadow cache: every lattice point a sample can read holds the techniq
 TEST_CASE("shadow cache: every technique's cached frame stays close to its per-sample frame", "[shadow_cache]") {
     Scene scene = test::overlapping_scene();
     for (ShadowTechnique technique : shadowing_techniques()) {
-        Context context("cpu");
+        Context context(test::device_selector());
         Image direct = render(context, scene, cache_options(technique, ShadowCacheMode::Off)).image;
         RenderResult cached = render(context, scene, cache_options(technique, ShadowCacheMode::On));
         CHECK(cached.stats.shadow_cache_used);
@@ -152,7 +152,7 @@ TEST_CASE("shadow cache: kept across camera moves, refilled for the light that m
     for (ShadowTechnique technique : {ShadowTechnique::Dsm, ShadowTechnique::Rays, ShadowTechnique::ShadowMap}) {
         INFO(shadow_technique_name(technique));
         Scene scene = test::overlapping_scene();
-        Context context("cpu"), fresh("cpu");
+        Context context(test::device_selector()), fresh(test::device_selector());
         RenderOptions o = cache_options(technique, ShadowCacheMode::On);
         o.shadow_cache_fill = ShadowCacheFill::All;  // the visible fill's top-ups: the next test
         render(context, scene, o);
@@ -233,7 +233,7 @@ TEST_CASE("shadow cache visible fill: the image of a fill of every point and ano
         for (ShadowTechnique technique : k.techniques) {
             INFO(shadow_technique_name(technique) << (k.scene.meshes.empty() ? "" : ", with meshes"));
             Scene scene = k.scene;
-            Context visible("cpu"), all("cpu");
+            Context visible(test::device_selector()), all(test::device_selector());
             RenderOptions o = cache_options(technique, ShadowCacheMode::On), every = o;
             every.shadow_cache_fill = ShadowCacheFill::All;
             const RenderResult first = render(visible, scene, o);
@@ -293,7 +293,7 @@ TEST_CASE("shadow cache: a volume's change refills only the entries it can reach
     scene.camera.position = {0.f, -4.f, 1.f};
     for (ShadowTechnique technique : {ShadowTechnique::Dsm, ShadowTechnique::Rays}) {
         INFO(shadow_technique_name(technique));
-        Context context("cpu"), fresh("cpu");
+        Context context(test::device_selector()), fresh(test::device_selector());
         Scene s = scene;
         RenderOptions o = cache_options(technique, ShadowCacheMode::On);
         CHECK(render(context, s, o).stats.shadow_cache_entries_built == 4);
@@ -374,7 +374,7 @@ TEST_CASE("shadow cache auto: measures the fill and both camera passes, chooses 
     Scene scene = test::overlapping_scene();
     for (int size : {4, 200}) {
         INFO("size " << size);
-        Context context("cpu"), forced("cpu");
+        Context context(test::device_selector()), forced(test::device_selector());
         RenderOptions o = cache_options(ShadowTechnique::Dsm, ShadowCacheMode::Auto);
         o.width = o.height = size;
         const RenderResult r = render(context, scene, o);
@@ -392,7 +392,7 @@ TEST_CASE("shadow cache auto: measures the fill and both camera passes, chooses 
         CHECK(test::compare(r.image, render(forced, scene, o).image).max_abs == 0.0);
     }
     forget_shadow_cache_choices();
-    Context context("cpu");
+    Context context(test::device_selector());
     RenderOptions o = cache_options(ShadowTechnique::Dsm, ShadowCacheMode::On);
     render(context, scene, o);  // filled
     o.shadow_cache = ShadowCacheMode::Auto;
@@ -410,12 +410,12 @@ TEST_CASE("shadow cache auto: the same frame again, on any Context, chooses as t
     RenderOptions o = cache_options(ShadowTechnique::Dsm, ShadowCacheMode::Auto);
     o.width = o.height = 48;
     forget_shadow_cache_choices();
-    Context first("cpu");
+    Context first(test::device_selector());
     const RenderResult chosen = render(first, scene, o);
     REQUIRE(chosen.stats.shadow_cache_probe_ms > 0);
     CHECK_FALSE(chosen.stats.shadow_cache_auto_remembered);
     for (int k = 0; k < 3; ++k) {
-        Context fresh("cpu");
+        Context fresh(test::device_selector());
         const RenderResult again = render(fresh, scene, o);
         CHECK(again.stats.shadow_cache_auto_remembered);
         CHECK(again.stats.shadow_cache_probe_ms == 0);
@@ -433,7 +433,7 @@ TEST_CASE("shadow cache auto: the same frame again, on any Context, chooses as t
     CHECK_FALSE(render(first, moved, o).stats.shadow_cache_auto_remembered);
     // forgotten: measured again
     forget_shadow_cache_choices();
-    Context later("cpu");
+    Context later(test::device_selector());
     const RenderResult remeasured = render(later, scene, o);
     CHECK_FALSE(remeasured.stats.shadow_cache_auto_remembered);
     CHECK(remeasured.stats.shadow_cache_probe_ms > 0);
@@ -441,7 +441,7 @@ TEST_CASE("shadow cache auto: the same frame again, on any Context, chooses as t
 
 TEST_CASE("camera pass by rows: single rows (first_row, row_stride) are the frame's rows", "[shadow_cache]") {
     Scene scene = test::overlapping_scene();
-    Context context("cpu");
+    Context context(test::device_selector());
     RenderOptions o = cache_options(ShadowTechnique::Rays, ShadowCacheMode::Off);
     const RenderResult frame = render(context, scene, o);
     const pipeline::Prepared prepared = pipeline::prepare(context, scene, o, *std::make_unique<RenderStats>());
@@ -474,7 +474,7 @@ TEST_CASE("surface shadow cache: each corner holds the technique's term where a 
     Scene scene = surface_scene();
     for (ShadowTechnique technique : {ShadowTechnique::Dsm, ShadowTechnique::Rays, ShadowTechnique::ShadowMap}) {
         INFO(shadow_technique_name(technique));
-        Context context("cpu");
+        Context context(test::device_selector());
         RenderOptions o = cache_options(technique, ShadowCacheMode::On);
         RenderResult r = render(context, scene, o);
         REQUIRE(r.stats.shadow_cache_surfaces_used);
@@ -526,7 +526,7 @@ TEST_CASE("surface shadow cache: each corner holds the technique's term where a 
 TEST_CASE("surface shadow cache: cached surfaces stay close to per-fragment evaluation", "[shadow_cache]") {
     Scene scene = surface_scene();
     for (ShadowTechnique technique : shadowing_techniques()) {
-        Context context("cpu");
+        Context context(test::device_selector());
         RenderOptions o = cache_options(technique, ShadowCacheMode::Off);
         o.width = 80, o.height = 60;
         o.dsm.resolution = 512;
@@ -553,7 +553,7 @@ TEST_CASE("surface shadow cache: cached surfaces stay close to per-fragment eval
 
 TEST_CASE("surface shadow cache: kept across camera moves, refilled for moved lights, meshes and volumes", "[shadow_cache]") {
     Scene scene = surface_scene();
-    Context context("cpu"), fresh("cpu");
+    Context context(test::device_selector()), fresh(test::device_selector());
     RenderOptions o = cache_options(ShadowTechnique::Dsm, ShadowCacheMode::On);
     o.shadow_cache_fill = ShadowCacheFill::All;  // the volume lattices' top-ups on camera moves: tested above
     CHECK(render(context, scene, o).stats.shadow_cache_surface_entries_built == 2);
@@ -581,7 +581,7 @@ TEST_CASE("surface shadow cache: kept across camera moves, refilled for moved li
 
 TEST_CASE("surface shadow cache auto: on when its points cost fewer evaluations than the frame's fragments", "[shadow_cache]") {
     Scene scene = surface_scene();
-    Context context("cpu");
+    Context context(test::device_selector());
     RenderOptions o = cache_options(ShadowTechnique::Dsm, ShadowCacheMode::Auto);
     // 8² pixels: few fragments against ~5k points × 2 lights; 400²: more fragments; then 9², filled:
     // nothing to fill, on at any size (8² again is the frame auto chose for before: off again)

@@ -159,7 +159,7 @@ TEST_CASE("sombra render VOLUME_FILE: the volume in frame with deep shadow maps,
     const std::string volume = sombra::test::data_path("volumes/heart.vtk");
     const std::string out = dir + "/heart.png", stats = dir + "/heart-stats.json", scene_path = dir + "/heart_scene.json";
     CliOutput run = run_cli_output("render " + volume + " -o " + out + " --width 64 --height 48 --stats " + stats + " --write-scene " +
-                         scene_path + " --device cpu --shadow-cache off");  // auto's measured choice may differ run to run
+                         scene_path + " --device " + sombra::test::device_selector() + " --shadow-cache off");  // auto's measured choice may differ run to run
     INFO(run.err);
     REQUIRE(run.exit_code == 0);
     std::ifstream stats_in(stats);
@@ -189,7 +189,7 @@ TEST_CASE("sombra render VOLUME_FILE: the volume in frame with deep shadow maps,
 
     // the written scene renders the same image
     const std::string again = dir + "/heart_again.png";
-    CliOutput rerun = run_cli_output("render " + scene_path + " -o " + again + " --device cpu --shadow-cache off");
+    CliOutput rerun = run_cli_output("render " + scene_path + " -o " + again + " --device " + sombra::test::device_selector() + " --shadow-cache off");
     INFO(rerun.err);
     REQUIRE(rerun.exit_code == 0);
     const auto difference = sombra::test::compare(image, sombra::read_image(again));

@@ -39,7 +39,7 @@ public:
         }
         // First guess: the kept blocks plus as many as the regenerated views held before (one per
         // tile when new). A pool that runs out is grown to what was asked for, and the generated
-        // views run again (at most once more: the second pool fits every request).
+        // views run again (once more: the second pool fits every request).
         const cl_uint blocks_before = pool_blocks_;
         std::size_t guess = 0;
         for (std::size_t v = 0; v < context.views.size(); ++v) {
@@ -74,9 +74,9 @@ public:
             if (counters[1] == 0) break;
             if (attempt > 2) throw Error("atlas storage: the pool ran out four times (internal error)");
             rt.progress().extend(double(context.generated_views()));  // the views run again
-            // grow by the entries that found no block (each counted once) and the blocks lost in
-            // races this time, plus 1/64 for the races of the next run
-            pool = cl_uint(std::size_t(counters[0]) + counters[1] + counters[3] + counters[0] / 64 + 1);
+            // grow by the entries that found no block (each counted once, and no block is drawn
+            // and lost: claim_block): the next run asks for the same blocks
+            pool = cl_uint(std::size_t(counters[0]) + counters[1] + 1);
         }
         // Shrink the pool to the blocks handed out (they are numbered from 0): memory follows the
         // node count, not the first guess.
@@ -93,8 +93,8 @@ public:
         stats.capped_texels = 0;
         for (auto c : capped_per_view_) stats.capped_texels += c;
         stats.bytes_used = used_blocks * kBlockBytes + layout_host_.size() * sizeof(cl_uint) + texels * sizeof(cl_uint);
-        // empty layers of allocated blocks (tiles whose texels differ in node count), blocks lost
-        // in allocation races, blocks of the superseded nodes of regenerated views
+        // empty layers of allocated blocks (tiles whose texels differ in node count), blocks of the
+        // superseded nodes of regenerated views
         stats.bytes_wasted = used_blocks * kBlockBytes - std::min<std::size_t>(stats.nodes * 2 * sizeof(float), used_blocks * kBlockBytes);
         if (packed_lookups_) pack(context, counts_host_, [&](host::KernelArgs& args) { bind_native(args); }, stats);
     }

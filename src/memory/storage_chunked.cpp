@@ -112,9 +112,9 @@ public:
             if (counters[0] < pool || attempt > 2) throw Error("--dsm-res: a tile holds more than " +
                                                  std::to_string(kChunkLength * kChunksPerTile) +
                                                  " nodes, the chunked storage's limit; raise --eps or use --storage atlas");
-            // grow by the entries that found no chunk (each counted once: claim_block), the
-            // chunks lost in races, and 1/64 for the races of the next run
-            pool = cl_uint(std::size_t(counters[0]) + counters[1] + counters[2] + counters[0] / 64 + 1);
+            // grow by the entries that found no chunk (each counted once, and no chunk is drawn
+            // and lost: claim_block): the next run asks for the same chunks
+            pool = cl_uint(std::size_t(counters[0]) + counters[1] + 1);
             rt.progress().extend(double(context.generated_views()));  // the views run again
         }
         if (!counted_) {
@@ -136,8 +136,8 @@ public:
         summarize_counts(counts_host_, context.views, context.texels_per_view, stats);
         heads_host_.resize(texels);
         rt.queue().enqueueReadBuffer(head_, CL_TRUE, 0, texels * sizeof(cl_uint), heads_host_.data());
-        // garbage: slots taken but no longer reachable (superseded nodes of regenerated views,
-        // chunks lost in races) against the slots taken — the counted runs of every tile, or the
+        // garbage: slots taken but no longer reachable (superseded nodes of regenerated views)
+        // against the slots taken — the counted runs of every tile, or the
         // chunks handed out and those the tile tables point to
         std::size_t taken = slots_, live = stats.nodes + 1;
         if (!counted_) {
@@ -150,8 +150,7 @@ public:
         // per slot: the chunk texture's float4 (native lookups) or the node and its link (packed)
         std::size_t node_bytes = packed_lookups_ ? 2 * sizeof(float) + sizeof(cl_uint) : 4 * sizeof(float);
         std::size_t tables = texels * 2 * sizeof(cl_uint) + tiles * ((counted_ ? 1 : kChunksPerTile) + 1) * sizeof(cl_uint);
-        // wasted: unfilled slots of allocated chunks (Knecht Table 5.11), chunks lost in races,
-        // the pool's unused tail, superseded nodes of regenerated views; counted allocation of a
+        // wasted: unfilled slots of allocated chunks (Knecht Table 5.11), the pool's unused tail, superseded nodes of regenerated views; counted allocation of a
         // fresh build wastes only the one spare slot
         stats.bytes_used = slots_ * node_bytes + tables;
         stats.bytes_wasted = (slots_ - stats.nodes) * node_bytes;
