@@ -6,6 +6,9 @@
 # rendered into a folder. Everything comes back in OUT_DIR: the report, ctest's log and the images.
 #
 #   scripts/gpu-remote.sh [OUT_DIR] [extra gpu-check.sh arguments …]
+#
+# A file .gpu-extra.sh (carried beside .gpu-bundle), if there, runs after the check with the same libraries and driver
+# (a lease's own diagnostics; its output comes back as OUT_DIR/extra.txt).
 set -uo pipefail
 cd "$(dirname "$0")/.."
 out=${1:-${OUT:-gpu-out}}
@@ -35,5 +38,7 @@ fi
 images=/tmp/sombra-gpu-images
 scripts/gpu-check.sh --no-build --device gpu --images-to "$images" --report "$out/gpu-check.md" "$@"
 status=$?
+# a lease's own questions, in the same environment: .gpu-extra.sh if it was carried
+[ -f .gpu-extra.sh ] && timeout 150 bash .gpu-extra.sh >"$out/extra.txt" 2>&1
 tar -czf "$out/images.tar.gz" -C "$images" . 2>/dev/null
 exit $status

@@ -52,6 +52,7 @@ private:
     Progress progress_;
     int launch_tiles_ = 0;
     DeviceInfo info_;
+    std::string build_options_;  // every program's: OpenCL C 1.2, argument names, exact division
     cl::Context context_;
     cl::Device device_;
     cl::CommandQueue queue_;
