@@ -75,7 +75,7 @@ else
   PYTHONPATH=build/python python3 -c "import sombra" 2>/dev/null || skip="$skip|python|view:|numpy|pytest|distributed"
   jobs=$(( $(nproc) > 4 ? $(nproc) : 4 ))
   if command -v ctest >/dev/null; then
-    step "tests on $device" "$tests_limit" env SOMBRA_DEVICE="$device" ctest --test-dir build -j"$jobs" --timeout 120 --output-on-failure \
+    step "tests on $device" "$tests_limit" env SOMBRA_DEVICE="$device" ctest --test-dir build -j"$jobs" --timeout 300 --output-on-failure \
       -LE "package|slow|bench" -E "$skip"
   else  # no CMake there: the Catch2 binary alone, in as many shards as processes
     step "tests on $device (sombra_tests in $jobs shards; no ctest)" "$tests_limit" env SOMBRA_DEVICE="$device" bash -c \

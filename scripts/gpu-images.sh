@@ -29,14 +29,15 @@ done
 mkdir -p "$dir"
 cli=${SOMBRA_CLI:-build/sombra}
 export device dir size cli
-# one render: deep and binary maps at 128² (as compare_devices.py); a refusal ("… does not take …")
+# one render: deep and binary maps at 128² (as compare_devices.py), no shadow cache (auto decides
+# from measured costs, which differ between devices); a refusal ("… does not take …")
 # is recorded, any other failure (crash, timeout) is a failure of the check
 render_one() {
   local scene=$1 technique=$2 t0 out status extra=""
   [ "$technique" = dsm ] || [ "$technique" = shadowmap ] && extra="--dsm-res 128"
   t0=$(date +%s.%N)
   # shellcheck disable=SC2086  # extra is empty or two words
-  out=$(timeout 120 "$cli" render "data/scenes/$scene.json" --device "$device" --shadows "$technique" $extra \
+  out=$(timeout 120 "$cli" render "data/scenes/$scene.json" --device "$device" --shadows "$technique" $extra --shadow-cache off \
         --width "$size" --height "$size" -o "$dir/${scene}_$technique.exr" -q 2>&1)
   status=$?
   local seconds

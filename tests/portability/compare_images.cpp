@@ -1,8 +1,9 @@
 // Compares two folders of rendered images file by file (issue 33, the GPU check): for every .exr in
 // the first folder, max and mean |Δ| over RGBA against the file of the same name in the second.
 //
-//   sombra_compare_images DEVICE_DIR REFERENCE_DIR [--max-abs X]
+//   sombra_compare_images DEVICE_DIR REFERENCE_DIR [--max-abs X] [--side-by-side DIR]
 //
+// --side-by-side DIR: for each pair a PNG of the device's image, the reference's and 10 × |Δ|, to look at.
 // scripts/gpu-check.sh renders on a machine without PoCL or the Python module (a lent GPU machine
 // has neither) and compares here, where PoCL renders the same files; compare_devices.py does the
 // same in one process where both devices are on one machine. A file missing from either folder is
@@ -28,15 +29,43 @@ std::set<std::string> exr_names(const fs::path& dir) {
     return names;
 }
 
+// device | reference | 10 × |Δ| in one row (RGB; alpha 1)
+void write_side_by_side(const sombra::Image& a, const sombra::Image& b, const std::string& path) {
+    sombra::Image row;
+    row.width = 3 * a.width;
+    row.height = a.height;
+    row.rgba.assign(std::size_t(row.width) * row.height * 4, 1.f);
+    for (int y = 0; y < a.height; ++y)
+        for (int x = 0; x < a.width; ++x)
+            for (int c = 0; c < 3; ++c) {
+                const std::size_t at = (std::size_t(y) * a.width + x) * 4 + c;
+                const std::size_t out = (std::size_t(y) * row.width + x) * 4 + c;
+                row.rgba[out] = a.rgba[at];
+                row.rgba[out + 4 * std::size_t(a.width)] = b.rgba[at];
+                row.rgba[out + 8 * std::size_t(a.width)] = std::min(1.f, 10.f * std::fabs(a.rgba[at] - b.rgba[at]));
+            }
+    sombra::write_image(row, path);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
-    if (argc != 3 && !(argc == 5 && std::string(argv[3]) == "--max-abs")) {
-        std::fprintf(stderr, "usage: sombra_compare_images DEVICE_DIR REFERENCE_DIR [--max-abs X]\n");
+    double max_abs = INFINITY;
+    std::string side_by_side;
+    bool usage = argc < 3;
+    for (int i = 3; i < argc && !usage; i += 2) {
+        const std::string flag = argv[i];
+        if (i + 1 >= argc) usage = true;
+        else if (flag == "--max-abs") max_abs = std::stod(argv[i + 1]);
+        else if (flag == "--side-by-side") side_by_side = argv[i + 1];
+        else usage = true;
+    }
+    if (usage) {
+        std::fprintf(stderr, "usage: sombra_compare_images DEVICE_DIR REFERENCE_DIR [--max-abs X] [--side-by-side DIR]\n");
         return 2;
     }
     const fs::path device_dir = argv[1], reference_dir = argv[2];
-    const double max_abs = argc == 5 ? std::stod(argv[4]) : INFINITY;
+    if (!side_by_side.empty()) fs::create_directories(side_by_side);
     int failures = 0, compared = 0;
     double worst = 0, mean_sum = 0;
     try {
@@ -74,6 +103,7 @@ int main(int argc, char** argv) {
             mean_sum += mean;
             ++compared;
             std::printf("%-32s %9.2e %10.2e%s\n", name.c_str(), max_d, mean, !finite ? "   non-finite values" : max_d > 0.02 ? "   <- differs" : "");
+            if (!side_by_side.empty()) write_side_by_side(a, b, (fs::path(side_by_side) / name).replace_extension(".png").string());
         }
     } catch (const std::exception& e) {
         std::fprintf(stderr, "sombra_compare_images: %s\n", e.what());
