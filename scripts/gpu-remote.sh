@@ -21,20 +21,21 @@ source_dir=$(cat $bundle/source-dir)
 if [ "$(pwd -P)" != "$source_dir" ] && [ ! -e "$source_dir" ]; then
   mkdir -p "$(dirname "$source_dir")" && ln -s "$(pwd -P)" "$source_dir"
 fi
+# NVIDIA's driver, registered with the ICD loader when no vendor file names it
+icd_note="a vendor file names NVIDIA's driver"
+if ! grep -qs nvidia /etc/OpenCL/vendors/*; then
+  lib=$(find /usr/local/nvidia /usr/lib/x86_64-linux-gnu /usr/lib64 /usr/lib -maxdepth 3 -name 'libnvidia-opencl.so*' 2>/dev/null | sort | head -n 1)
+  icd_note="no vendor file names NVIDIA's driver; found: ${lib:-none}"
+  if [ -n "$lib" ]; then
+    mkdir -p /tmp/sombra-icd && echo "$lib" >/tmp/sombra-icd/nvidia.icd
+    export OCL_ICD_VENDORS=/tmp/sombra-icd
+  fi
+fi
 {
   echo "== machine"; nvidia-smi -L 2>&1; nproc; uname -r
-  echo "== OpenCL vendor files"; ls -l /etc/OpenCL/vendors 2>&1
-  if ! grep -qs nvidia /etc/OpenCL/vendors/*; then
-    lib=$(find /usr/local/nvidia /usr/lib/x86_64-linux-gnu /usr/lib64 /usr/lib -maxdepth 3 -name 'libnvidia-opencl.so*' 2>/dev/null | sort | head -n 1)
-    echo "no vendor file names NVIDIA's driver; found: ${lib:-none}"
-    if [ -n "$lib" ]; then
-      mkdir -p /tmp/sombra-icd && echo "$lib" >/tmp/sombra-icd/nvidia.icd
-      export OCL_ICD_VENDORS=/tmp/sombra-icd
-    fi
-  fi
+  echo "== OpenCL vendor files"; ls -l /etc/OpenCL/vendors 2>&1; echo "$icd_note"
   echo "== libraries not found"; ldd build/sombra build/tests/sombra_tests | grep "not found" || echo none
 } 2>&1 | tee "$out/machine.txt"
-[ -n "${OCL_ICD_VENDORS:-}" ] || { [ -f /tmp/sombra-icd/nvidia.icd ] && export OCL_ICD_VENDORS=/tmp/sombra-icd; }
 images=/tmp/sombra-gpu-images
 scripts/gpu-check.sh --no-build --device gpu --images-to "$images" --report "$out/gpu-check.md" "$@"
 status=$?
