@@ -174,6 +174,7 @@ standin=$work/image_standin
 # __translate_sampler_initializer and leaves read_imagef to the library, and both stay unresolved
 # externs. Stand-ins (LLVM IR, linked into programs that read images only) so that the rest of such
 # a program is assembled: the "sample" depends on the coordinates, so their computation is kept.
+# Both read_imagef overloads: float coordinates, and the integer ones of the 8-voxel trilinear.
 cat >"$standin.ll" <<'LL'
 target datalayout = "e-i64:64-i128:128-v16:16-v32:32-n16:32:64"
 target triple = "nvptx64-nvidia-nvcl"
@@ -187,6 +188,16 @@ define <4 x float> @_Z11read_imagef14ocl_image3d_ro11ocl_samplerDv4_f(ptr addrsp
   %xy = fadd float %x, %y
   %xyz = fadd float %xy, %z
   %v = insertelement <4 x float> <float 0.0, float 0.0, float 0.0, float 1.0>, float %xyz, i32 0
+  ret <4 x float> %v
+}
+define <4 x float> @_Z11read_imagef14ocl_image3d_ro11ocl_samplerDv4_i(ptr addrspace(1) %image, ptr addrspace(4) %sampler, <4 x i32> %p) {
+  %x = extractelement <4 x i32> %p, i32 0
+  %y = extractelement <4 x i32> %p, i32 1
+  %z = extractelement <4 x i32> %p, i32 2
+  %xy = add i32 %x, %y
+  %xyz = add i32 %xy, %z
+  %f = sitofp i32 %xyz to float
+  %v = insertelement <4 x float> <float 0.0, float 0.0, float 0.0, float 1.0>, float %f, i32 0
   ret <4 x float> %v
 }
 LL
@@ -356,7 +367,7 @@ md += ['', '## Not checked', '',
        'libclc 15 has no image built-ins for NVPTX: clang lowers the program-scope `sampler_t` to a call of '
        '`__translate_sampler_initializer` and leaves `read_imagef` to the library, so both stay unresolved externs '
        '(a gap of this toolchain; NVIDIA\'s driver has both). The programs that read images (SOMBRA_USE_IMAGES) are '
-       'linked with stand-ins for these two functions: everything else in them is compiled and assembled, their '
+       'linked with stand-ins for these functions (the sampler initializer and both read_imagef overloads): everything else in them is compiled and assembled, their '
        'texture fetch is not, and their register counts leave out the fetch.', '']
 md += [f'- {p["source"]} {p["defines"]}' for p in standin] or ['- (none this run)']
 warned = [p for p in programs if p['warnings']]
