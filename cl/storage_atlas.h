@@ -21,7 +21,7 @@
 #define ATLAS_TILE_TEXELS (DSM_TILE_SIZE * DSM_TILE_SIZE)
 
 /* allocator[0]: blocks handed out (may exceed the pool: then the host grows it and rebuilds),
- * [1]: requests the pool could not serve, [2]: texels that hit the layer cap, [3]: unused. */
+ * [1]: requests the pool could not serve, [2]: texels that hit the layer cap. */
 #define DSM_WRITE_PARAMS                                                                                 \
     __global uint* restrict atlas_layout, __global uint* restrict texel_count, __global float* restrict atlas_blocks, \
         __global uint* restrict atlas_allocator, uint atlas_pool_blocks

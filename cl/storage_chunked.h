@@ -22,7 +22,7 @@
 #define CHUNK_END 0xffffffffu
 
 /* allocator[0]: chunks handed out (may exceed the pool: the host grows it and rebuilds),
- * [1]: requests the pool or a tile's chunk table could not serve, [2]: unused. */
+ * [1]: requests the pool or a tile's chunk table could not serve. */
 #define DSM_WRITE_PARAMS                                                                                   \
     __global uint* restrict tile_fill, __global uint* restrict tile_chunks, __global float* restrict chunk_nodes, \
         __global uint* restrict chunk_next, __global uint* restrict texel_head, __global uint* restrict texel_count, \

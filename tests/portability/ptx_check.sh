@@ -191,13 +191,8 @@ define <4 x float> @_Z11read_imagef14ocl_image3d_ro11ocl_samplerDv4_f(ptr addrsp
   ret <4 x float> %v
 }
 define <4 x float> @_Z11read_imagef14ocl_image3d_ro11ocl_samplerDv4_i(ptr addrspace(1) %image, ptr addrspace(4) %sampler, <4 x i32> %p) {
-  %x = extractelement <4 x i32> %p, i32 0
-  %y = extractelement <4 x i32> %p, i32 1
-  %z = extractelement <4 x i32> %p, i32 2
-  %xy = add i32 %x, %y
-  %xyz = add i32 %xy, %z
-  %f = sitofp i32 %xyz to float
-  %v = insertelement <4 x float> <float 0.0, float 0.0, float 0.0, float 1.0>, float %f, i32 0
+  %pf = sitofp <4 x i32> %p to <4 x float>
+  %v = call <4 x float> @_Z11read_imagef14ocl_image3d_ro11ocl_samplerDv4_f(ptr addrspace(1) %image, ptr addrspace(4) %sampler, <4 x float> %pf)
   ret <4 x float> %v
 }
 LL
