@@ -8,7 +8,7 @@
 namespace sombra::memory {
 namespace {
 // the kernel's allocator (cl/storage_atlas.h): blocks handed out, requests not served, capped texels
-using AllocatorCounters = std::array<cl_uint, 3>;
+using AtlasAllocatorCounters = std::array<cl_uint, 3>;
 
 constexpr unsigned kLayers = 8;      // layers per block (Hadwiger: "e.g. eight")
 constexpr unsigned kMaxBlocks = 32;  // blocks per tile: a cap of 256 layers per texel
@@ -32,7 +32,7 @@ public:
             tiles_ = tiles;
             layout_ = host::make_buffer(rt, CL_MEM_READ_WRITE, tiles * kMaxBlocks * sizeof(cl_uint), nullptr, "atlas layout table");
             counts_ = host::make_buffer(rt, CL_MEM_READ_WRITE, texels * sizeof(cl_uint), nullptr, "atlas texel counts");
-            allocator_ = host::make_buffer(rt, CL_MEM_READ_WRITE, sizeof(AllocatorCounters), nullptr, "atlas allocator");
+            allocator_ = host::make_buffer(rt, CL_MEM_READ_WRITE, sizeof(AtlasAllocatorCounters), nullptr, "atlas allocator");
             rt.queue().enqueueFillBuffer(layout_, cl_uint(0), 0, tiles * kMaxBlocks * sizeof(cl_uint));
             rt.queue().enqueueFillBuffer(counts_, cl_uint(0), 0, texels * sizeof(cl_uint));
             pool_blocks_ = 0;
@@ -51,7 +51,7 @@ public:
                                                                                  [](cl_uint b) { return b != 0; })));
         }
         cl_uint pool = cl_uint(std::max<std::size_t>(blocks_before + guess, 1));
-        AllocatorCounters counters{};
+        AtlasAllocatorCounters counters{};
         for (int attempt = 0;; ++attempt) {
             if (std::size_t(pool) * kBlockBytes > rt.device().getInfo<CL_DEVICE_MAX_MEM_ALLOC_SIZE>())
                 throw Error("--dsm-res/--eps: the atlas needs " + std::to_string((std::size_t(pool) * kBlockBytes) >> 20) +

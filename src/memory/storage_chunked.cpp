@@ -10,7 +10,7 @@
 namespace sombra::memory {
 namespace {
 // the kernel's allocator (cl/storage_chunked.h): chunks handed out, requests not served
-using AllocatorCounters = std::array<cl_uint, 2>;
+using ChunkAllocatorCounters = std::array<cl_uint, 2>;
 
 constexpr unsigned kChunkLength = 64;    // Knecht's L_C
 constexpr unsigned kChunksPerTile = 64;  // Knecht's C_B: up to 4096 nodes per tile
@@ -64,9 +64,9 @@ public:
             tile_chunks_ = host::make_buffer(rt, CL_MEM_READ_WRITE, table_entries * sizeof(cl_uint), nullptr, "tile chunk tables");
             head_ = host::make_buffer(rt, CL_MEM_READ_WRITE, texels * sizeof(cl_uint), nullptr, "texel list heads");
             counts_ = host::make_buffer(rt, CL_MEM_READ_WRITE, texels * sizeof(cl_uint), nullptr, "texel node counts");
-            allocator_ = host::make_buffer(rt, CL_MEM_READ_WRITE, sizeof(AllocatorCounters), nullptr, "chunk allocator");
+            allocator_ = host::make_buffer(rt, CL_MEM_READ_WRITE, sizeof(ChunkAllocatorCounters), nullptr, "chunk allocator");
             rt.queue().enqueueFillBuffer(tile_chunks_, cl_uint(0), 0, table_entries * sizeof(cl_uint));
-            rt.queue().enqueueFillBuffer(allocator_, cl_uint(0), 0, sizeof(AllocatorCounters));
+            rt.queue().enqueueFillBuffer(allocator_, cl_uint(0), 0, sizeof(ChunkAllocatorCounters));
             rt.queue().enqueueFillBuffer(counts_, cl_uint(0), 0, texels * sizeof(cl_uint));
             rt.queue().enqueueFillBuffer(head_, cl_uint(0xffffffffu), 0, texels * sizeof(cl_uint));
             slots_ = 1, pool_ = 0;
@@ -82,7 +82,7 @@ public:
             }
         };
         std::size_t kept_slots = update ? slots_ : 0;  // slots holding the kept views' nodes
-        AllocatorCounters counters{};
+        ChunkAllocatorCounters counters{};
         rt.queue().enqueueReadBuffer(allocator_, CL_TRUE, 0, sizeof(counters), counters.data());
         const cl_uint chunks_before = counters[0];
         cl_uint pool = cl_uint(std::max<std::size_t>({std::size_t(pool_), tiles, 1}));
