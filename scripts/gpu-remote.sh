@@ -40,6 +40,6 @@ images=/tmp/sombra-gpu-images
 scripts/gpu-check.sh --no-build --device gpu --images-to "$images" --report "$out/gpu-check.md" "$@"
 status=$?
 # a lease's own questions, in the same environment: .gpu-extra.sh if it was carried
-[ -f .gpu-extra.sh ] && timeout 150 bash .gpu-extra.sh >"$out/extra.txt" 2>&1
+[ -f .gpu-extra.sh ] && timeout "${GPU_EXTRA_LIMIT:-150}" bash .gpu-extra.sh >"$out/extra.txt" 2>&1
 tar -czf "$out/images.tar.gz" -C "$images" . 2>/dev/null
 exit $status

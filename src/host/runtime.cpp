@@ -96,9 +96,15 @@ Runtime::Runtime(const std::string& selector) {
     // -cl-kernel-arg-info: argument names for the binding contract (kernel_args.h). Division and
     // sqrt correctly rounded where the device offers it: OpenCL allows 2.5 ulp by default, which
     // NVIDIA's compiler takes and PoCL's does not (the closed-form tests compare with both).
+    // Two diagnostics for a device check (docs/gpu-check.md), both in the program cache's key:
+    // SOMBRA_CORRECT_DIVISION=0 leaves division at the device's default precision, and
+    // SOMBRA_BUILD_OPTIONS is appended to every program's options (e.g. -cl-opt-disable).
     build_options_ = "-cl-std=CL1.2 -cl-kernel-arg-info";
-    if (device_.getInfo<CL_DEVICE_SINGLE_FP_CONFIG>() & CL_FP_CORRECTLY_ROUNDED_DIVIDE_SQRT)
+    const char* correct_division = std::getenv("SOMBRA_CORRECT_DIVISION");
+    if (device_.getInfo<CL_DEVICE_SINGLE_FP_CONFIG>() & CL_FP_CORRECTLY_ROUNDED_DIVIDE_SQRT &&
+        !(correct_division && std::string(correct_division) == "0"))
         build_options_ += " -cl-fp32-correctly-rounded-divide-sqrt";
+    if (const char* extra = std::getenv("SOMBRA_BUILD_OPTIONS"); extra && *extra) build_options_ += std::string(" ") + extra;
     const cl::Platform platform(device_.getInfo<CL_DEVICE_PLATFORM>());
     program_cache_ = std::make_unique<ProgramCache>(
         context_, device_,
