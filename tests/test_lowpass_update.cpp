@@ -99,6 +99,7 @@ TEST_CASE("Ament Alg. 1 first pass: SAT ambient occlusion and cone shadows after
     Scene scene = two_clouds();
     RenderOptions o;
     o.shadows = ShadowTechnique::Ao;
+    o.shadow_cache = ShadowCacheMode::On;  // the entries' counts (auto decides by each device's costs)
     check_step(context, fresh, scene, o, {1, 0, 6, 0}, "AO first render");
     scene.lights[0].direction = {0.3f, -0.2f, -1.f};  // AO has no direction: nothing to rebuild
     check_step(context, fresh, scene, o, {0, 1, 0, 6}, "AO light 0 moved");

@@ -128,8 +128,10 @@ TEST_CASE("every option that keys prepared data rebuilds it when changed, and no
         base.dsm.resolution = 16;
         sombra::RenderOptions changed = base;
         sombra::OptionValue value = other_value(spec, spec.get(base));
-        // auto is image on a GPU, buffer on a CPU: the other value must be the other storage
+        // auto volume storage is image on a GPU, buffer on a CPU: the other value must be the other storage
         if (spec.key == "volume_storage" && context.runtime().info().is_gpu) value = std::string("buffer");
+        // auto lanes is 1 on a GPU (8 or 16 on a CPU): the other value must be a packet
+        if (spec.key == "lanes" && context.runtime().info().is_gpu) value = 4LL;
         sombra::set_option(changed, spec, value, spec.key);
         INFO(spec.key << ": " << sombra::option_value_text(spec.get(base)) << " → " << sombra::option_value_text(value) << " under "
                       << sombra::shadow_technique_name(base.shadows));

@@ -78,7 +78,7 @@ struct ShadowCache {
     // (ShadowCacheGpu.mark_offset) — the cells the marking pass marked, the points filled so far
     // under the entry's key, the points this frame fills — and the count of the last; per entry,
     // complete: every point a sample can read is filled (a fill of all points), else the view
-    // (the frame's CameraGpu) whose points were filled
+    // (the frame's CameraGpu, the scene's key and the entry's light's: prepare_volume_fill) whose points were filled
     cl::Buffer marks, filled, need, need_count;
     std::size_t mark_words = 0;
     std::vector<bool> complete;

@@ -411,9 +411,14 @@ VolumeFill prepare_volume_fill(const FillLaunch& launch, ShadowCache& cache, con
         cache.bytes = total * sizeof(float) + 3 * mask_bytes;
     }
     // stale entries start empty; incomplete ones filled for another view are completed (the same
-    // view again reads only what it filled: the same samples)
+    // view again reads only what it filled: the same samples). The samples that read entry e
+    // depend on the camera, on its light (a sample on the side away from the light reads nothing:
+    // light_term_possible, cl/shading.h) and on everything in front of them (the scene's key): its
+    // view is all three, so a moved light or a more transparent volume in front completes it.
     const CameraGpu camera = frame_camera(launch.scene, launch.options, launch.width, launch.height);
-    const std::string view(reinterpret_cast<const char*>(&camera), sizeof camera);
+    const std::string frame_view = std::string(reinterpret_cast<const char*>(&camera), sizeof camera) + " | " + launch.prepared.scene.key;
+    const std::size_t lights = std::max<std::size_t>(launch.scene.lights.size(), 1);
+    auto entry_view = [&](std::size_t e) { return frame_view + " | light " + launch.prepared.scene.light_keys[e % lights]; };
     VolumeFill fill;
     fill.prepared = true;
     fill.mode.assign(plan.layout.size(), std::nullopt);
@@ -425,6 +430,7 @@ VolumeFill prepare_volume_fill(const FillLaunch& launch, ShadowCache& cache, con
             const ShadowCacheGpu& c = plan.layout[e];
             runtime.queue().enqueueFillBuffer(cache.filled, cl_uint(0), c.mark_offset * sizeof(cl_uint), mask_words(c) * sizeof(cl_uint));
         }
+        const std::string view = entry_view(e);
         if (plan.stale[e]) fill.mode[e] = visible ? FillMode::Marked : FillMode::All;
         else if (!cache.complete[e] && cache.filled_view[e] != view) fill.mode[e] = FillMode::Rest;
         marked[e] = fill.mode[e] == FillMode::Marked;
