@@ -5,8 +5,9 @@
 # this checkout (ctest's files hold absolute paths), and runs scripts/gpu-check.sh with the images
 # rendered into a folder. Everything comes back in OUT_DIR: the report, ctest's log and the images.
 #
-#   scripts/gpu-remote.sh [OUT_DIR] [extra gpu-check.sh arguments …]
+#   scripts/gpu-remote.sh [OUT_DIR] [--extra-only | extra gpu-check.sh arguments …]
 #
+# --extra-only: only .gpu-extra.sh (a second call in one lease, for its own questions).
 # A file .gpu-extra.sh (carried beside .gpu-bundle), if there, runs after the check with the same libraries and driver
 # (a lease's own diagnostics; its output comes back as OUT_DIR/extra.txt).
 set -uo pipefail
@@ -37,9 +38,12 @@ fi
   echo "== libraries not found"; ldd build/sombra build/tests/sombra_tests | grep "not found" || echo none
 } 2>&1 | tee "$out/machine.txt"
 images=/tmp/sombra-gpu-images
-scripts/gpu-check.sh --no-build --device gpu --images-to "$images" --report "$out/gpu-check.md" "$@"
-status=$?
+status=0
+if [ "${1:-}" != --extra-only ]; then
+  scripts/gpu-check.sh --no-build --device gpu --images-to "$images" --report "$out/gpu-check.md" "$@"
+  status=$?
+fi
 # a lease's own questions, in the same environment: .gpu-extra.sh if it was carried
 [ -f .gpu-extra.sh ] && timeout "${GPU_EXTRA_LIMIT:-150}" bash .gpu-extra.sh >"$out/extra.txt" 2>&1
-tar -czf "$out/images.tar.gz" -C "$images" . 2>/dev/null
+[ -d "$images" ] && tar -czf "$out/images.tar.gz" -C "$images" . 2>/dev/null
 exit $status
