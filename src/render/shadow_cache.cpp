@@ -136,8 +136,9 @@ std::vector<std::string> generic_keys(const Scene& scene, const PreparedScene& p
         for (std::size_t m = 0; m < scene.lights.size(); ++m) {
             const LightGpu& light = p.packed.lights[m];
             double reach = light_reach(all, light);  // a positional light's map spans its distance to the farthest corner
-            // a texel of a view of ≤ 90° fitted to the scene spans ≤ (π/2)·reach / resolution
-            double margin = 4 * 1.6 * reach / std::max(options.dsm.resolution, 1) + 2 * step;
+            // a texel of a view of ≤ 120° (a cluster's focused view, clustering.cpp's kMaxFocusTan;
+            // a cube face 90°) spans ≤ (2π/3)·reach / resolution
+            double margin = 4 * 2.1 * reach / std::max(options.dsm.resolution, 1) + 2 * step;
             std::string key = common + " | light " + p.light_keys[m] + " " + technique.light_data_key(m) + " | volume " + std::to_string(i) + " " + k.volume(i);
             for (std::size_t j = 0; j < scene.volumes.size(); ++j)
                 if (j != i && shadows::between_light_and(boxes[i], boxes[j].grown(margin), light))
