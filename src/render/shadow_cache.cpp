@@ -418,8 +418,10 @@ VolumeFill prepare_volume_fill(const FillLaunch& launch, ShadowCache& cache, con
     // view is all three, so a moved light or a more transparent volume in front completes it.
     const CameraGpu camera = frame_camera(launch.scene, launch.options, launch.width, launch.height);
     const std::string frame_view = std::string(reinterpret_cast<const char*>(&camera), sizeof camera) + " | " + launch.prepared.scene.key;
-    const std::size_t lights = std::max<std::size_t>(launch.scene.lights.size(), 1);
-    auto entry_view = [&](std::size_t e) { return frame_view + " | light " + launch.prepared.scene.light_keys[e % lights]; };
+    // entry e is (volume e / lights, light e % lights): a scene without lights has no entries
+    auto entry_view = [&](std::size_t e) {
+        return frame_view + " | light " + launch.prepared.scene.light_keys[e % launch.scene.lights.size()];
+    };
     VolumeFill fill;
     fill.prepared = true;
     fill.mode.assign(plan.layout.size(), std::nullopt);
