@@ -58,20 +58,20 @@ typedef struct {
 } SatAxis;
 
 static inline SatAxis sat_axis(sat_real lo, sat_real hi, int n) {
-    SatAxis axis;
     lo = clamp(lo, SR(0), (sat_real)n);
     hi = clamp(hi, lo, (sat_real)n);
     int first = min((int)floor(lo), n - 1), last = min((int)floor(hi), n - 1);
     sat_real f_lo = lo - (sat_real)first, f_hi = hi - (sat_real)last;
+    /* every field is written at a fixed place: NVIDIA's optimiser miscompiled stores at a computed
+     * index here in float builds (launch failure −9999; docs/gpu-check.md, the third lease) */
+    bool one_cell = first == last, middle = last > first + 1, tail = !one_cell && f_hi != SR(0);
+    SatAxis axis;
     axis.bound[0] = first, axis.bound[1] = first + 1;
-    if (first == last) {
-        axis.weight[0] = f_hi - f_lo;
-        axis.ranges = axis.weight[0] != SR(0);
-        return axis;
-    }
-    axis.weight[0] = SR(1) - f_lo, axis.ranges = 1;
-    if (last > first + 1) axis.bound[2] = last, axis.weight[1] = SR(1), axis.ranges = 2;
-    if (f_hi != SR(0)) axis.bound[axis.ranges + 1] = last + 1, axis.weight[axis.ranges] = f_hi, ++axis.ranges;
+    axis.bound[2] = middle ? last : last + 1, axis.bound[3] = last + 1;
+    axis.weight[0] = one_cell ? f_hi - f_lo : SR(1) - f_lo;
+    axis.weight[1] = middle ? SR(1) : f_hi; /* [first + 1, last) whole, else the last cell's part */
+    axis.weight[2] = f_hi;
+    axis.ranges = one_cell ? (axis.weight[0] != SR(0)) : 1 + (int)middle + (int)tail;
     return axis;
 }
 
@@ -220,8 +220,8 @@ static inline float csat_filtered_depth(__global const ulong* sat, __global cons
  * cube of side W cells around p times W/2 cells, the optical depth of an average ray of that
  * radius (no direction). */
 static inline float sat_ambient_depth(__global const ulong* sat, __global const SatGridGpu* g, float3 p) {
-    sat_real3 c;
-    for (int a = 0; a < 3; ++a) ((sat_real*)&c)[a] = dot(g->to_grid[a].xyz, p) + g->to_grid[a].w;
+    sat_real3 c = (sat_real3)(dot(g->to_grid[0].xyz, p) + g->to_grid[0].w, dot(g->to_grid[1].xyz, p) + g->to_grid[1].w,
+                              dot(g->to_grid[2].xyz, p) + g->to_grid[2].w);
     sat_real radius = SR(0.5) * (sat_real)g->filter_cells;
     sat_real box = sat_box_real(sat + g->data_offset, g->dims, c - radius, c + radius, false);
     return (float)(box * (sat_real)g->tau_per_unit / (SR(8) * radius * radius));
