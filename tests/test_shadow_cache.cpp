@@ -6,6 +6,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
 
 #include "host/runtime.h"
 #include "render/preparation.h"
@@ -437,6 +441,145 @@ TEST_CASE("shadow cache auto: the same frame again, on any Context, chooses as t
     const RenderResult remeasured = render(later, scene, o);
     CHECK_FALSE(remeasured.stats.shadow_cache_auto_remembered);
     CHECK(remeasured.stats.shadow_cache_probe_ms > 0);
+}
+
+TEST_CASE("shadow cache auto across processes: the history chooses the faster measured mode, or measures the other once", "[shadow_cache]") {
+    using pipeline::AutoHistory;
+    using pipeline::HistoryChoice;
+    const double margin = kShadowCacheAutoMargin;
+    auto history = [](double on, double off, double estimated_on, double estimated_off, bool last_on) {
+        AutoHistory h;
+        h.on_ms = on, h.off_ms = off, h.estimated_on_ms = estimated_on, h.estimated_off_ms = estimated_off, h.last_on = last_on;
+        return std::optional<AutoHistory>(h);
+    };
+    CHECK(pipeline::choose_from_history(std::nullopt, margin) == HistoryChoice::Probe);
+    CHECK(pipeline::choose_from_history(history(-1, -1, 10, 20, false), margin) == HistoryChoice::Probe);  // nothing measured
+    // one mode measured: it stays unless the other's estimate beats it by the margin
+    CHECK(pipeline::choose_from_history(history(-1, 100, 95, 100, false), margin) == HistoryChoice::Off);
+    CHECK(pipeline::choose_from_history(history(-1, 100, 80, 100, false), margin) == HistoryChoice::On);
+    CHECK(pipeline::choose_from_history(history(100, -1, 100, 95, true), margin) == HistoryChoice::On);
+    CHECK(pipeline::choose_from_history(history(100, -1, 100, 80, true), margin) == HistoryChoice::Off);
+    // both measured: the faster by the margin, else the last (a close call does not flip)
+    CHECK(pipeline::choose_from_history(history(50, 100, 300, 100, false), margin) == HistoryChoice::On);
+    CHECK(pipeline::choose_from_history(history(95, 100, 10, 100, false), margin) == HistoryChoice::Off);
+    CHECK(pipeline::choose_from_history(history(95, 100, 10, 100, true), margin) == HistoryChoice::On);
+    CHECK(pipeline::choose_from_history(history(150, 100, 10, 1000, true), margin) == HistoryChoice::Off);
+    AutoHistory h = pipeline::with_measurement(AutoHistory(), true, 40);
+    CHECK(h.on_ms == 40);
+    CHECK(h.last_on);
+    h = pipeline::with_measurement(h, true, 60);
+    CHECK(h.on_ms == 50);
+    h = pipeline::with_measurement(h, false, 70);
+    CHECK((h.off_ms == 70 && h.on_ms == 50 && !h.last_on));
+}
+
+namespace {
+
+// SOMBRA_AUTO_HISTORY set for a scope (the tests run with "off": tests/main.cpp).
+struct HistoryFolder {
+    std::string folder = test::temp_dir() + "/auto";
+    HistoryFolder() { setenv("SOMBRA_AUTO_HISTORY", folder.c_str(), 1); }
+    ~HistoryFolder() { setenv("SOMBRA_AUTO_HISTORY", "off", 1); }
+    std::vector<std::string> files() const {
+        std::vector<std::string> found;
+        if (std::filesystem::exists(folder))
+            for (const auto& entry : std::filesystem::directory_iterator(folder)) found.push_back(entry.path().string());
+        return found;
+    }
+};
+
+// Replaces the times kept in a history file (its first two lines, the format and the key's check, stay).
+void rewrite_times(const std::string& path, const std::string& times) {
+    std::ifstream in(path);
+    std::string magic, check;
+    std::getline(in, magic), std::getline(in, check);
+    in.close();
+    std::ofstream(path) << magic << "\n" << check << "\n" << times << "\n";
+}
+
+}  // namespace
+
+TEST_CASE("shadow cache auto across processes: a fresh Context's frame records its time, and a later one chooses from it without a probe", "[shadow_cache]") {
+    Scene scene = test::overlapping_scene();
+    RenderOptions o = cache_options(ShadowTechnique::Rays, ShadowCacheMode::Auto);
+    o.width = o.height = 48;
+    RenderOptions on = o, off = o;
+    on.shadow_cache = ShadowCacheMode::On, off.shadow_cache = ShadowCacheMode::Off;
+    const Image on_image = render(*std::make_unique<Context>(test::device_selector()), scene, on).image;
+    const Image off_image = render(*std::make_unique<Context>(test::device_selector()), scene, off).image;
+    HistoryFolder history;
+    auto fresh_frame = [&] {  // a new process's first frame: nothing kept, nothing chosen in this process
+        forget_shadow_cache_choices();
+        Context context(test::device_selector());
+        return render(context, scene, o);
+    };
+    const RenderResult first = fresh_frame();
+    CHECK(first.stats.shadow_cache_probe_ms > 0);
+    CHECK_FALSE(first.stats.shadow_cache_auto_history);
+    const std::vector<std::string> files = history.files();
+    REQUIRE(files.size() == 1);
+    {
+        std::ifstream in(files[0]);
+        std::string magic, check;
+        double on_ms, off_ms, estimated_on, estimated_off;
+        int last_on;
+        std::getline(in, magic), std::getline(in, check);
+        REQUIRE(bool(in >> on_ms >> off_ms >> estimated_on >> estimated_off >> last_on));
+        CHECK(bool(last_on) == first.stats.shadow_cache_used);
+        CHECK((first.stats.shadow_cache_used ? on_ms : off_ms) > 0);  // the chosen mode's time
+        CHECK((first.stats.shadow_cache_used ? off_ms : on_ms) < 0);  // the other's not measured
+        CHECK(estimated_on == Approx(first.stats.shadow_cache_estimated_fill_ms + first.stats.shadow_cache_estimated_cached_ms));
+        CHECK(estimated_off == Approx(first.stats.shadow_cache_estimated_per_sample_ms));
+    }
+    // the next processes choose from it, without a probe
+    for (int k = 0; k < 2; ++k) {
+        const RenderResult later = fresh_frame();
+        CHECK(later.stats.shadow_cache_auto_history);
+        CHECK(later.stats.shadow_cache_probe_ms == 0);
+    }
+    // measured faster with the cache on: on, and the image is the cache's
+    rewrite_times(files[0], "10 1000 500 500 0");
+    const RenderResult chose_on = fresh_frame();
+    CHECK(chose_on.stats.shadow_cache_used);
+    CHECK(chose_on.stats.shadow_cache_history_on_ms == 10);
+    CHECK(test::compare(chose_on.image, on_image).max_abs == 0.0);
+    // measured faster per sample: off
+    rewrite_times(files[0], "1000 10 500 500 1");
+    const RenderResult chose_off = fresh_frame();
+    CHECK_FALSE(chose_off.stats.shadow_cache_used);
+    CHECK(test::compare(chose_off.image, off_image).max_abs == 0.0);
+    // a file that is not a history: probed again
+    std::ofstream(files[0]) << "not a history\n";
+    CHECK(fresh_frame().stats.shadow_cache_probe_ms > 0);
+    // a frame of a Context that keeps filled entries is not a first fill: no history read
+    Context kept(test::device_selector());
+    render(kept, scene, on);
+    o.dsm.resolution = 97;  // another frame for auto, the rays' entries still valid
+    forget_shadow_cache_choices();
+    CHECK_FALSE(render(kept, scene, o).stats.shadow_cache_auto_history);
+}
+
+TEST_CASE("shadow cache auto across processes: SOMBRA_AUTO_HISTORY=off reads and writes no history", "[shadow_cache]") {
+    RenderOptions o = cache_options(ShadowTechnique::Rays, ShadowCacheMode::Auto);
+    o.width = o.height = 48;
+    auto fresh_frame = [&] {
+        forget_shadow_cache_choices();
+        Context context(test::device_selector());
+        return render(context, test::overlapping_scene(), o);
+    };
+    std::size_t files = 0;
+    {
+        HistoryFolder history;
+        fresh_frame();
+        files = history.files().size();
+        setenv("SOMBRA_AUTO_HISTORY", "off", 1);
+        CHECK(pipeline::auto_history_folder().empty());
+        const RenderStats off = fresh_frame().stats;
+        CHECK(off.shadow_cache_probe_ms > 0);  // the history is there, but not read
+        CHECK_FALSE(off.shadow_cache_auto_history);
+        CHECK(history.files().size() == files);
+    }
+    CHECK(files == 1);
 }
 
 TEST_CASE("camera pass by rows: single rows (first_row, row_stride) are the frame's rows", "[shadow_cache]") {

@@ -256,6 +256,10 @@ struct RenderStats {
     // auto made no new choice: this frame (scene, camera, size, options, device) was rendered
     // before in this process, and chose as then (forget_shadow_cache_choices); the estimates are then's
     bool shadow_cache_auto_remembered = false;
+    // auto chose without a probe, from the times earlier processes measured for this frame with
+    // the cache on and off (ms, < 0: not measured; docs/shadows.md "Auto across processes")
+    bool shadow_cache_auto_history = false;
+    double shadow_cache_history_on_ms = -1, shadow_cache_history_off_ms = -1;
     // tables (CSAT, SSAT, volume-aligned SAT) and shadow cache entries (volume × light) built by
     // this call because their inputs changed, and kept from the previous call on the Context
     int sat_tables_built = 0, sat_tables_reused = 0;

@@ -61,6 +61,11 @@ std::string shadow_cache_note(const sombra::RenderStats& s, const sombra::Render
                             text(", measured in %.2f s", s.shadow_cache_probe_ms / 1e3));
         else if (s.shadow_cache_auto_remembered)
             parts.push_back("as this frame chose before");
+        else if (s.shadow_cache_auto_history) {  // times of earlier runs (docs/shadows.md "Auto across processes")
+            auto measured = [&](double ms) { return ms < 0 ? std::string("not run") : text("≈ %.2f s", ms / 1e3); };
+            parts.push_back("earlier runs of this frame: on " + measured(s.shadow_cache_history_on_ms) + ", off " +
+                            measured(s.shadow_cache_history_off_ms));
+        }
         else if (s.shadow_cache_used && s.shadow_cache_points_to_fill == 0 && s.shadow_cache_entries_reused > 0)
             parts.push_back("filled before");
         if (s.shadow_cache_surface_points > 0)

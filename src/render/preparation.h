@@ -4,11 +4,13 @@
 // "Deep Shadow Map Re-Generation").
 #pragma once
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "geometry/scene_upload.h"
 #include "geometry/surfaces.h"
+#include "render/shadow_cache_history.h"
 #include "sombra/render.h"
 #include "techniques/technique.h"
 
@@ -86,6 +88,12 @@ struct ShadowCache {
     std::size_t bytes = 0;
     SurfaceShadowCache surfaces;
     bool volumes_used = false, surfaces_used = false;  // what this frame reads (SOMBRA_SHADOW_CACHE, SOMBRA_SURFACE_SHADOW_CACHE)
+    // auto's history to record once the frame's camera pass is timed (record_auto_history)
+    struct PendingHistory {
+        std::string key;
+        AutoHistory history;
+    };
+    std::optional<PendingHistory> history_pending;
 };
 
 // The scene prepared for `options` and the module of its technique, both kept on the Context.
@@ -157,6 +165,9 @@ std::vector<ShadowCacheGpu> probe_lattices(const std::vector<ShadowCacheGpu>& la
 const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, const Prepared& prepared,
                                           const RenderOptions& options, int width, int height, int lanes,
                                           const surfaces::ViewFragments* fragments, RenderStats& stats);
+// After the frame's camera pass: a frame whose auto choice was new in this process and filled
+// every entry records the time its mode took (shadow_cache_history.h).
+void record_auto_history(Context& context, const RenderStats& stats);
 
 }  // namespace pipeline
 

@@ -281,8 +281,11 @@ std::string RenderStats::to_json() const {
                              {"points_to_fill", shadow_cache_points_to_fill},
                              {"visible_fill", shadow_cache_visible_fill},
                              {"points_marked", shadow_cache_points_marked}};
-        if (shadow_cache_probe_ms > 0 || shadow_cache_auto_remembered)
+        if (shadow_cache_probe_ms > 0 || shadow_cache_auto_remembered || shadow_cache_auto_history)
             j["shadow_cache"]["auto"] = {{"remembered", shadow_cache_auto_remembered},
+                                         {"from_history", shadow_cache_auto_history},
+                                         {"history_on_ms", shadow_cache_history_on_ms},
+                                         {"history_off_ms", shadow_cache_history_off_ms},
                                          {"probe_ms", shadow_cache_probe_ms},
                                          {"estimated_fill_ms", shadow_cache_estimated_fill_ms},
                                          {"estimated_cached_camera_pass_ms", shadow_cache_estimated_cached_ms},
@@ -396,6 +399,7 @@ RenderResult render(Context& context, const Scene& scene, const RenderOptions& o
         return pipeline::run_camera_pass(runtime, scene, prepared, options, lanes, camera, reads, image_buffer, count_buffer, &stats);
     });
     stats.stage_ms["camera_pass"] = kernel_ms;
+    pipeline::record_auto_history(context, stats);
 
     result.image.width = width, result.image.height = height;
     result.image.background = scene.background;

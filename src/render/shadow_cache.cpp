@@ -392,6 +392,7 @@ VolumeFill prepare_volume_fill(const FillLaunch& launch, ShadowCache& cache, con
         ShadowCache fresh;  // the old buffers freed before the new are made
         fresh.surfaces = std::move(cache.surfaces);
         fresh.volumes_used = cache.volumes_used, fresh.surfaces_used = cache.surfaces_used;
+        fresh.history_pending = std::move(cache.history_pending);
         cache = std::move(fresh);
         cache.layout = plan.layout;
         cache.keys.assign(plan.layout.size(), std::string());
@@ -679,6 +680,7 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
     host::Runtime& runtime = context.runtime();
     std::unique_ptr<ShadowCache>& cache = context.kept_scenes().shadow_cache;
     if (!cache) cache = std::make_unique<ShadowCache>();
+    cache->history_pending.reset();
     const std::size_t lights = scene.lights.size();
     CameraGpu camera = packing::pack_camera(scene, width, height);
     VolumePlan volumes = scene.volumes.empty() ? VolumePlan() : plan_volume_entries(runtime, scene, prepared, options, *cache, stats);
@@ -701,6 +703,18 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
             choosing.unlock();
         } else {
             measure = !scene.volumes.empty() && !volumes.use;
+            // a fill of every entry (a fresh Context's frame) is what other processes timed: their
+            // history may choose without a probe (shadow_cache_history.h)
+            if (measure && std::all_of(volumes.stale.begin(), volumes.stale.end(), [](bool stale) { return stale; })) {
+                std::optional<AutoHistory> history = load_auto_history(choice_key);
+                const HistoryChoice chosen = choose_from_history(history, kShadowCacheAutoMargin);
+                if (chosen != HistoryChoice::Probe) {
+                    measure = false, volumes.use = chosen == HistoryChoice::On;
+                    stats.shadow_cache_auto_history = true;
+                    stats.shadow_cache_history_on_ms = history->on_ms, stats.shadow_cache_history_off_ms = history->off_ms;
+                }
+                cache->history_pending = ShadowCache::PendingHistory{choice_key, history.value_or(AutoHistory())};
+            }
         }
     }
     auto remember = [&](const VolumeCosts& costs) {
@@ -745,6 +759,10 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
             costs.fill_ms *= std::min(1.0, double(fill.needed_points()) / std::max(1.0, double(stats.shadow_cache_points_to_fill)));
         }
         volumes.use = shadow_cache_pays(costs.fill_ms, costs.cached_ms, costs.per_sample_ms);
+        if (cache->history_pending) {
+            cache->history_pending->history.estimated_on_ms = costs.fill_ms + costs.cached_ms;
+            cache->history_pending->history.estimated_off_ms = costs.per_sample_ms;
+        }
         stats.shadow_cache_probe_ms = costs.probe_ms;
         report_auto_costs(costs, stats);
         stats.stage_ms["shadow_cache_probe"] = costs.probe_ms;
@@ -763,6 +781,18 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
     stats.shadow_cache_surfaces_used = surfaces.use;
     stats.shadow_cache_bytes = (volumes.use ? cache->bytes : 0) + (surfaces.use ? cache->surfaces.bytes : 0);
     return cache.get();
+}
+
+void record_auto_history(Context& context, const RenderStats& stats) {
+    std::unique_ptr<ShadowCache>& cache = context.kept_scenes().shadow_cache;
+    if (!cache || !cache->history_pending) return;
+    const ShadowCache::PendingHistory pending = std::move(*cache->history_pending);
+    cache->history_pending.reset();
+    // what the modes differ by: the cache's fills (with the visible fill's marking pass) and the camera pass
+    double ms = 0;
+    for (const char* stage : {"shadow_cache", "shadow_cache_mark", "camera_pass"})
+        if (auto found = stats.stage_ms.find(stage); found != stats.stage_ms.end()) ms += found->second;
+    store_auto_history(pending.key, with_measurement(pending.history, cache->volumes_used, ms));
 }
 
 }  // namespace sombra::pipeline

@@ -1,0 +1,94 @@
+// sombra — the shadow cache's auto across processes (shadow_cache_history.h).
+#include "render/shadow_cache_history.h"
+
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <unistd.h>
+
+namespace sombra::pipeline {
+
+namespace {
+
+constexpr const char* kMagic = "sombra-auto-history 1";
+
+// FNV-1a over the key from two starting points: one names the file, the other is kept in it and
+// checked (a different frame whose name collides reads as no history).
+std::uint64_t fnv1a(const std::string& text, std::uint64_t hash) {
+    for (unsigned char c : text) hash = (hash ^ c) * 0x100000001b3ull;
+    return hash;
+}
+
+std::string hex(std::uint64_t value) {
+    char buffer[17];
+    std::snprintf(buffer, sizeof buffer, "%016llx", static_cast<unsigned long long>(value));
+    return buffer;
+}
+
+std::string file_of(const std::string& folder, const std::string& key) { return folder + "/" + hex(fnv1a(key, 0xcbf29ce484222325ull)) + ".txt"; }
+std::string check_of(const std::string& key) { return hex(fnv1a(key, 0x84222325cbf29ce4ull)); }
+
+}  // namespace
+
+std::string auto_history_folder() {
+    if (const char* chosen = std::getenv("SOMBRA_AUTO_HISTORY"); chosen && *chosen)
+        return std::string(chosen) == "off" ? std::string() : std::string(chosen);
+    if (const char* xdg = std::getenv("XDG_CACHE_HOME"); xdg && *xdg) return std::string(xdg) + "/sombra/auto";
+    if (const char* home = std::getenv("HOME"); home && *home) return std::string(home) + "/.cache/sombra/auto";
+    return std::string();
+}
+
+std::optional<AutoHistory> load_auto_history(const std::string& key) {
+    const std::string folder = auto_history_folder();
+    if (folder.empty()) return std::nullopt;
+    std::ifstream in(file_of(folder, key));
+    std::string magic, check;
+    if (!std::getline(in, magic) || magic != kMagic || !std::getline(in, check) || check != check_of(key)) return std::nullopt;
+    AutoHistory h;
+    int last_on = 0;
+    if (!(in >> h.on_ms >> h.off_ms >> h.estimated_on_ms >> h.estimated_off_ms >> last_on)) return std::nullopt;
+    h.last_on = last_on != 0;
+    return h;
+}
+
+void store_auto_history(const std::string& key, const AutoHistory& h) {
+    const std::string folder = auto_history_folder();
+    if (folder.empty()) return;
+    std::error_code error;
+    std::filesystem::create_directories(folder, error);
+    const std::string path = file_of(folder, key), temporary = path + "." + std::to_string(::getpid()) + ".tmp";
+    {
+        std::ofstream out(temporary);
+        out << kMagic << "\n" << check_of(key) << "\n"
+            << h.on_ms << " " << h.off_ms << " " << h.estimated_on_ms << " " << h.estimated_off_ms << " " << (h.last_on ? 1 : 0) << "\n";
+        if (!out) {
+            std::filesystem::remove(temporary, error);
+            return;
+        }
+    }
+    std::filesystem::rename(temporary, path, error);
+    if (error) std::filesystem::remove(temporary, error);
+}
+
+HistoryChoice choose_from_history(const std::optional<AutoHistory>& history, double margin) {
+    if (!history) return HistoryChoice::Probe;
+    const AutoHistory& h = *history;
+    const double last_ms = h.last_on ? h.on_ms : h.off_ms;
+    if (last_ms < 0) return HistoryChoice::Probe;
+    double other_ms = h.last_on ? h.off_ms : h.on_ms;
+    if (other_ms < 0) other_ms = h.last_on ? h.estimated_off_ms : h.estimated_on_ms;
+    const bool switch_mode = other_ms >= 0 && margin * other_ms < last_ms;
+    return (h.last_on != switch_mode) ? HistoryChoice::On : HistoryChoice::Off;
+}
+
+AutoHistory with_measurement(AutoHistory h, bool on, double ms) {
+    double& kept = on ? h.on_ms : h.off_ms;
+    kept = kept < 0 ? ms : 0.5 * (kept + ms);
+    h.last_on = on;
+    return h;
+}
+
+}  // namespace sombra::pipeline

@@ -1,0 +1,44 @@
+// sombra — the shadow cache's auto across processes (issue 29 item 5): per frame, the measured
+// times of the modes it ran with. A frame's first render probes (shadow_cache.cpp
+// probe_volume_costs) and estimates both modes; each render then records the time the chosen mode
+// took (the cache's fills and the camera pass: what the two modes differ by), and a later
+// process rendering the same frame chooses from these times instead of probing: the faster of two
+// measured modes, or the other mode once when the measured one took longer than the other's
+// estimate. Kept as small files in a folder (docs/shadows.md "Auto across processes").
+#pragma once
+
+#include <optional>
+#include <string>
+
+namespace sombra::pipeline {
+
+// Times of one frame (ms; < 0: unknown). `on_ms`, `off_ms`: the mean of the last two measured
+// renders with the cache on and off; the estimates: the first probe's (fill + cached camera pass,
+// per-sample camera pass); `last_on`: the mode of the last render.
+struct AutoHistory {
+    double on_ms = -1, off_ms = -1;
+    double estimated_on_ms = -1, estimated_off_ms = -1;
+    bool last_on = false;
+};
+
+// The folder of the history: $SOMBRA_AUTO_HISTORY ("off": none, nothing read or written), else
+// $XDG_CACHE_HOME/sombra/auto, else ~/.cache/sombra/auto; empty: none.
+std::string auto_history_folder();
+
+// The history of the frame whose choice key is `key` (shadow_cache.cpp the_choice_key); none when
+// there is none, the folder is off, or the file cannot be read or is not ours.
+std::optional<AutoHistory> load_auto_history(const std::string& key);
+// Writes it (a temporary file renamed over the old: a reader sees the old or the new); a folder
+// that cannot be written is skipped silently (the history only saves a probe).
+void store_auto_history(const std::string& key, const AutoHistory& history);
+
+enum class HistoryChoice { Probe, Off, On };
+// What a frame with this history does: no history or no measured mode → Probe. Else the mode of
+// the last render stays, unless the other (measured, else estimated) is faster by the margin
+// kShadowCacheAutoMargin: then the other (so an estimate that was too pessimistic or optimistic
+// is measured once, and a close call does not flip from run to run).
+HistoryChoice choose_from_history(const std::optional<AutoHistory>& history, double margin);
+// The history after a render in mode `on` that took `ms` (the mean with the mode's previous time).
+AutoHistory with_measurement(AutoHistory history, bool on, double ms);
+
+}  // namespace sombra::pipeline
