@@ -624,6 +624,7 @@ TEST_CASE("surface shadow cache: each corner holds the technique's term where a 
         const pipeline::SurfaceShadowCache& sc = context.kept_scenes().shadow_cache->surfaces;
         std::size_t lights = scene.lights.size(), n = sc.point_count();
         CHECK(r.stats.shadow_cache_surface_points == n);
+        CHECK(sc.points.size() == 2 * n);  // the points made for the fill are the points counted before
         // the sheet's triangles set the spacing (median edge): their corners; the floor's 18, ~20×
         // longer, a lattice of ~20 intervals a side: ~230 points each
         CHECK(n >= 288u * 3u + 18u * 200u);

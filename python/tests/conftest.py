@@ -4,6 +4,10 @@ import pathlib
 
 import pytest
 
+# as the C++ suite (tests/main.cpp): no shadow-cache history across runs, so that what one run
+# measured cannot change what the next one tests
+os.environ.setdefault("SOMBRA_AUTO_HISTORY", "off")
+
 SOURCE_DIR = pathlib.Path(os.environ.get("SOMBRA_SOURCE_DIR", pathlib.Path(__file__).resolve().parents[2]))
 
 

@@ -61,15 +61,18 @@ struct PreparedScene {
 // fragment there would look it up (surfaces.h surface_shadow_lookup), filled by render.cl
 // surface_shadow_cache_fill; fragments interpolate it over their lattice cell.
 struct SurfaceShadowCache {
-    std::string points_key;                // the meshes' key (SceneKeys::meshes) the points were made for
-    std::vector<cl_float4> points;         // per point: position, unit normal (world)
+    std::string points_key;                // the meshes' key (SceneKeys::meshes) the points were planned for
+    std::size_t source_triangles = 0;      // the meshes' triangles they were planned for
+    double spacing = 0;                    // the lattice's spacing on the triangles (surface_spacing)
+    std::size_t planned_points = 0;        // the points at that spacing, counted before any is made
+    std::vector<cl_float4> points;         // per point: position, unit normal (world); made for the first fill
     // per source triangle: its first point and k; point (i, j), i + j ≤ k, at barycentric weights
     // (1 − (i + j)/k, i/k, j/k) is first + j·(k + 1) − j·(j − 1)/2 + i
     std::vector<cl_uint> triangles;
     std::vector<std::string> keys;         // per light; empty: not filled
     cl::Buffer point_buffer, triangle_buffer, values;  // values: point · lights + light
     std::size_t bytes = 0;
-    std::size_t point_count() const { return points.size() / 2; }
+    std::size_t point_count() const { return planned_points; }
 };
 
 struct ShadowCache {

@@ -161,12 +161,25 @@ double visible_brick_fraction(const packing::PackedScene& packed, std::size_t i)
 // corners 0, 1, 2, with the normal interpolated and normalized as composite_surface interpolates
 // it there. k: the triangle's longest edge over the spacing `spacing`, so that big triangles (a
 // floor, a table) resolve the shadows falling across them as finely as the meshes' own triangles.
+// Intervals along a triangle's edges whose longest edge is `edge` at lattice spacing `spacing`.
+int triangle_subdivision(double edge, double spacing) {
+    return int(std::clamp(std::ceil(edge / spacing), 1.0, double(kSurfaceMaxSubdivision)));
+}
+
+std::size_t triangle_points(int k) { return std::size_t(k + 1) * std::size_t(k + 2) / 2; }
+
+std::size_t surface_point_count(const std::vector<SurfaceTriangleGpu>& triangles, double spacing) {
+    std::size_t points = 0;
+    for (const SurfaceTriangleGpu& t : triangles) points += triangle_points(triangle_subdivision(triangle_longest_edge(t), spacing));
+    return points;
+}
+
 void make_surface_points(SurfaceShadowCache& s, const std::vector<SurfaceTriangleGpu>& triangles, double spacing) {
     s.points.clear(), s.triangles.clear();
     s.triangles.reserve(2 * triangles.size());
     for (const SurfaceTriangleGpu& t : triangles) {
         const cl_float4* corner[3] = {&t.corner, &t.corner1, &t.corner2};
-        int k = std::clamp(int(std::ceil(triangle_longest_edge(t) / spacing)), 1, kSurfaceMaxSubdivision);
+        int k = triangle_subdivision(triangle_longest_edge(t), spacing);
         s.triangles.push_back(cl_uint(s.points.size() / 2)), s.triangles.push_back(cl_uint(k));
         for (int j = 0; j <= k; ++j)
             for (int i = 0; i + j <= k; ++i) {
@@ -201,10 +214,7 @@ double surface_spacing(const std::vector<SurfaceTriangleGpu>& triangles) {
     double spacing = std::max(longest[longest.size() / 2], 1e-12);
     for (;;) {
         double points = 0;
-        for (double edge : longest) {
-            double k = std::clamp(std::ceil(edge / spacing), 1.0, double(kSurfaceMaxSubdivision));
-            points += (k + 1) * (k + 2) / 2;
-        }
+        for (double edge : longest) points += double(triangle_points(triangle_subdivision(edge, spacing)));
         if (points <= double(kSurfacePoints)) return spacing;
         spacing *= 1.25;
     }
@@ -284,9 +294,13 @@ SurfacePlan plan_surface_entries(const Scene& scene, const Prepared& prepared, c
                                  std::size_t surface_fragments, SurfaceShadowCache& sc, RenderStats& stats) {
     const PreparedScene& p = prepared.scene;
     const std::size_t lights = scene.lights.size();
-    if (sc.points_key != p.keys.surfaces() || sc.triangles.size() != 2 * p.packed_surfaces.triangles.size()) {
+    // the points are counted here and made only when the part is filled: a frame that leaves the
+    // part off (auto) does not pay for making them (0.74 M points on the cups)
+    if (sc.points_key != p.keys.surfaces() || sc.source_triangles != p.packed_surfaces.triangles.size()) {
         sc = SurfaceShadowCache();
-        make_surface_points(sc, p.packed_surfaces.triangles, surface_spacing(p.packed_surfaces.triangles));
+        sc.spacing = surface_spacing(p.packed_surfaces.triangles);
+        sc.planned_points = surface_point_count(p.packed_surfaces.triangles, sc.spacing);
+        sc.source_triangles = p.packed_surfaces.triangles.size();
         sc.points_key = p.keys.surfaces();
     }
     SurfacePlan plan;
@@ -477,6 +491,7 @@ double fill_surface_entries(const FillLaunch& launch, SurfaceShadowCache& sc, co
                             RenderStats& stats) {
     host::Runtime& runtime = launch.runtime;
     const std::size_t n = sc.point_count();
+    if (sc.points.empty()) make_surface_points(sc, launch.prepared.scene.packed_surfaces.triangles, sc.spacing);
     if (sc.keys.size() != lights) {  // other lights: new values
         sc.keys.assign(lights, std::string());
         sc.point_buffer = host::make_buffer(runtime, CL_MEM_READ_ONLY, sc.points.size() * sizeof(cl_float4), sc.points.data(),
@@ -788,10 +803,12 @@ void record_auto_history(Context& context, const RenderStats& stats) {
     if (!cache || !cache->history_pending) return;
     const ShadowCache::PendingHistory pending = std::move(*cache->history_pending);
     cache->history_pending.reset();
-    // what the modes differ by: the cache's fills (with the visible fill's marking pass) and the camera pass
+    // what the modes differ by: the cache's fills (with the visible fill's marking pass, when the
+    // cache was then used: a probe may mark before choosing off) and the camera pass
     double ms = 0;
     for (const char* stage : {"shadow_cache", "shadow_cache_mark", "camera_pass"})
-        if (auto found = stats.stage_ms.find(stage); found != stats.stage_ms.end()) ms += found->second;
+        if (auto found = stats.stage_ms.find(stage); found != stats.stage_ms.end() && (cache->volumes_used || stage != std::string("shadow_cache_mark")))
+            ms += found->second;
     store_auto_history(pending.key, with_measurement(pending.history, cache->volumes_used, ms));
 }
 
