@@ -446,24 +446,25 @@ TEST_CASE("shadow cache auto: the same frame again, on any Context, chooses as t
 TEST_CASE("shadow cache auto across processes: the history chooses the faster measured mode, or measures the other once", "[shadow_cache]") {
     using pipeline::AutoHistory;
     using pipeline::HistoryChoice;
-    const double margin = kShadowCacheAutoMargin;
     auto history = [](double on, double off, double estimated_on, double estimated_off, bool last_on) {
         AutoHistory h;
         h.on_ms = on, h.off_ms = off, h.estimated_on_ms = estimated_on, h.estimated_off_ms = estimated_off, h.last_on = last_on;
         return std::optional<AutoHistory>(h);
     };
-    CHECK(pipeline::choose_from_history(std::nullopt, margin) == HistoryChoice::Probe);
-    CHECK(pipeline::choose_from_history(history(-1, -1, 10, 20, false), margin) == HistoryChoice::Probe);  // nothing measured
-    // one mode measured: it stays unless the other's estimate beats it by the margin
-    CHECK(pipeline::choose_from_history(history(-1, 100, 95, 100, false), margin) == HistoryChoice::Off);
-    CHECK(pipeline::choose_from_history(history(-1, 100, 80, 100, false), margin) == HistoryChoice::On);
-    CHECK(pipeline::choose_from_history(history(100, -1, 100, 95, true), margin) == HistoryChoice::On);
-    CHECK(pipeline::choose_from_history(history(100, -1, 100, 80, true), margin) == HistoryChoice::Off);
-    // both measured: the faster by the margin, else the last (a close call does not flip)
-    CHECK(pipeline::choose_from_history(history(50, 100, 300, 100, false), margin) == HistoryChoice::On);
-    CHECK(pipeline::choose_from_history(history(95, 100, 10, 100, false), margin) == HistoryChoice::Off);
-    CHECK(pipeline::choose_from_history(history(95, 100, 10, 100, true), margin) == HistoryChoice::On);
-    CHECK(pipeline::choose_from_history(history(150, 100, 10, 1000, true), margin) == HistoryChoice::Off);
+    auto choose = [](const std::optional<AutoHistory>& h) { return pipeline::choose_from_history(h); };
+    CHECK(choose(std::nullopt) == HistoryChoice::Probe);
+    CHECK(choose(history(-1, -1, 10, 20, false)) == HistoryChoice::Probe);  // nothing measured
+    // one mode measured: the other is measured once when its estimate is under 1.25 × the measured time
+    CHECK(choose(history(-1, 100, 120, 100, false)) == HistoryChoice::On);
+    CHECK(choose(history(-1, 100, 130, 100, false)) == HistoryChoice::Off);
+    CHECK(choose(history(100, -1, 100, 120, true)) == HistoryChoice::Off);
+    CHECK(choose(history(100, -1, 100, 130, true)) == HistoryChoice::On);
+    // both measured: the other when faster by over 5 %, else the last (a close call does not flip)
+    CHECK(choose(history(50, 100, 300, 100, false)) == HistoryChoice::On);
+    CHECK(choose(history(90, 100, 300, 100, false)) == HistoryChoice::On);
+    CHECK(choose(history(98, 100, 10, 100, false)) == HistoryChoice::Off);
+    CHECK(choose(history(102, 100, 10, 100, true)) == HistoryChoice::On);
+    CHECK(choose(history(150, 100, 10, 1000, true)) == HistoryChoice::Off);
     AutoHistory h = pipeline::with_measurement(AutoHistory(), true, 40);
     CHECK(h.on_ms == 40);
     CHECK(h.last_on);

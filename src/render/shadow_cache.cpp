@@ -156,11 +156,6 @@ double visible_brick_fraction(const packing::PackedScene& packed, std::size_t i)
     return bricks ? double(std::count(first, first + std::ptrdiff_t(bricks), cl_uchar(1))) / double(bricks) : 0.0;
 }
 
-// The surface part's points: per mesh triangle a barycentric lattice of k + 1 points along each
-// edge (k = 1: its corners), point (i, j) at barycentric weights (1 − (i + j)/k, i/k, j/k) of
-// corners 0, 1, 2, with the normal interpolated and normalized as composite_surface interpolates
-// it there. k: the triangle's longest edge over the spacing `spacing`, so that big triangles (a
-// floor, a table) resolve the shadows falling across them as finely as the meshes' own triangles.
 // Intervals along a triangle's edges whose longest edge is `edge` at lattice spacing `spacing`.
 int triangle_subdivision(double edge, double spacing) {
     return int(std::clamp(std::ceil(edge / spacing), 1.0, double(kSurfaceMaxSubdivision)));
@@ -168,12 +163,18 @@ int triangle_subdivision(double edge, double spacing) {
 
 std::size_t triangle_points(int k) { return std::size_t(k + 1) * std::size_t(k + 2) / 2; }
 
+// The points make_surface_points makes, counted without making them.
 std::size_t surface_point_count(const std::vector<SurfaceTriangleGpu>& triangles, double spacing) {
     std::size_t points = 0;
     for (const SurfaceTriangleGpu& t : triangles) points += triangle_points(triangle_subdivision(triangle_longest_edge(t), spacing));
     return points;
 }
 
+// The surface part's points: per mesh triangle a barycentric lattice of k + 1 points along each
+// edge (k = 1: its corners), point (i, j) at barycentric weights (1 − (i + j)/k, i/k, j/k) of
+// corners 0, 1, 2, with the normal interpolated and normalized as composite_surface interpolates
+// it there. k: the triangle's longest edge over the spacing `spacing`, so that big triangles (a
+// floor, a table) resolve the shadows falling across them as finely as the meshes' own triangles.
 void make_surface_points(SurfaceShadowCache& s, const std::vector<SurfaceTriangleGpu>& triangles, double spacing) {
     s.points.clear(), s.triangles.clear();
     s.triangles.reserve(2 * triangles.size());
@@ -722,7 +723,7 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
             // history may choose without a probe (shadow_cache_history.h)
             if (measure && std::all_of(volumes.stale.begin(), volumes.stale.end(), [](bool stale) { return stale; })) {
                 std::optional<AutoHistory> history = load_auto_history(choice_key);
-                const HistoryChoice chosen = choose_from_history(history, kShadowCacheAutoMargin);
+                const HistoryChoice chosen = choose_from_history(history);
                 if (chosen != HistoryChoice::Probe) {
                     measure = false, volumes.use = chosen == HistoryChoice::On;
                     stats.shadow_cache_auto_history = true;
@@ -805,10 +806,11 @@ void record_auto_history(Context& context, const RenderStats& stats) {
     cache->history_pending.reset();
     // what the modes differ by: the cache's fills (with the visible fill's marking pass, when the
     // cache was then used: a probe may mark before choosing off) and the camera pass
-    double ms = 0;
-    for (const char* stage : {"shadow_cache", "shadow_cache_mark", "camera_pass"})
-        if (auto found = stats.stage_ms.find(stage); found != stats.stage_ms.end() && (cache->volumes_used || stage != std::string("shadow_cache_mark")))
-            ms += found->second;
+    auto stage = [&](const char* name) {
+        auto found = stats.stage_ms.find(name);
+        return found == stats.stage_ms.end() ? 0.0 : found->second;
+    };
+    const double ms = stage("shadow_cache") + (cache->volumes_used ? stage("shadow_cache_mark") : 0.0) + stage("camera_pass");
     store_auto_history(pending.key, with_measurement(pending.history, cache->volumes_used, ms));
 }
 

@@ -6,7 +6,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
-#include <sstream>
+#include <thread>
 #include <unistd.h>
 
 namespace sombra::pipeline {
@@ -59,7 +59,10 @@ void store_auto_history(const std::string& key, const AutoHistory& h) {
     if (folder.empty()) return;
     std::error_code error;
     std::filesystem::create_directories(folder, error);
-    const std::string path = file_of(folder, key), temporary = path + "." + std::to_string(::getpid()) + ".tmp";
+    // the temporary file is this thread's own (two processes or threads may record one frame at once)
+    const std::string path = file_of(folder, key),
+                      temporary = path + "." + std::to_string(::getpid()) + "-" +
+                                  std::to_string(std::hash<std::thread::id>()(std::this_thread::get_id())) + ".tmp";
     {
         std::ofstream out(temporary);
         out << kMagic << "\n" << check_of(key) << "\n"
@@ -73,14 +76,13 @@ void store_auto_history(const std::string& key, const AutoHistory& h) {
     if (error) std::filesystem::remove(temporary, error);
 }
 
-HistoryChoice choose_from_history(const std::optional<AutoHistory>& history, double margin) {
+HistoryChoice choose_from_history(const std::optional<AutoHistory>& history) {
     if (!history) return HistoryChoice::Probe;
     const AutoHistory& h = *history;
     const double last_ms = h.last_on ? h.on_ms : h.off_ms;
     if (last_ms < 0) return HistoryChoice::Probe;
-    double other_ms = h.last_on ? h.off_ms : h.on_ms;
-    if (other_ms < 0) other_ms = h.last_on ? h.estimated_off_ms : h.estimated_on_ms;
-    const bool switch_mode = other_ms >= 0 && margin * other_ms < last_ms;
+    const double other_ms = h.last_on ? h.off_ms : h.on_ms, other_estimate = h.last_on ? h.estimated_off_ms : h.estimated_on_ms;
+    const bool switch_mode = other_ms >= 0 ? kHistorySwitch * other_ms < last_ms : other_estimate >= 0 && other_estimate < kHistoryExplore * last_ms;
     return (h.last_on != switch_mode) ? HistoryChoice::On : HistoryChoice::Off;
 }
 

@@ -32,12 +32,17 @@ std::optional<AutoHistory> load_auto_history(const std::string& key);
 // that cannot be written is skipped silently (the history only saves a probe).
 void store_auto_history(const std::string& key, const AutoHistory& history);
 
+// Auto from the history (the shadow cache on or off for a frame, or a probe when nothing is
+// measured yet). The mode of the last render stays unless the other mode
+//  - was measured faster by more than kHistorySwitch (5 %: a close call does not flip from run
+//    to run on the noise of two measurements), or
+//  - was not measured, and its estimate is under kHistoryExplore (1.25) × the last mode's time:
+//    it may be faster (estimates spread by ± 40 %), so it is measured once.
+// So a frame settles on the faster measured mode within a few runs, and a run that measures the
+// other mode costs at most what its estimate allowed.
 enum class HistoryChoice { Probe, Off, On };
-// What a frame with this history does: no history or no measured mode → Probe. Else the mode of
-// the last render stays, unless the other (measured, else estimated) is faster by the margin
-// kShadowCacheAutoMargin: then the other (so an estimate that was too pessimistic or optimistic
-// is measured once, and a close call does not flip from run to run).
-HistoryChoice choose_from_history(const std::optional<AutoHistory>& history, double margin);
+constexpr double kHistorySwitch = 1.05, kHistoryExplore = 1.25;
+HistoryChoice choose_from_history(const std::optional<AutoHistory>& history);
 // The history after a render in mode `on` that took `ms` (the mean with the mode's previous time).
 AutoHistory with_measurement(AutoHistory history, bool on, double ms);
 
