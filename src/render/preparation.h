@@ -3,6 +3,7 @@
 // moved camera rebuilds nothing; moved lights rebuild what depends on them (Knecht §3.2
 // "Deep Shadow Map Re-Generation").
 #pragma once
+#include <chrono>
 #include <memory>
 #include <optional>
 #include <string>
@@ -95,6 +96,8 @@ struct ShadowCache {
     struct PendingHistory {
         std::string key;
         AutoHistory history;
+        std::chrono::steady_clock::time_point started;  // when auto chose
+        double probe_ms = 0;                             // wall time of its probe, if any
     };
     std::optional<PendingHistory> history_pending;
 };
@@ -169,8 +172,8 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
                                           const RenderOptions& options, int width, int height, int lanes,
                                           const surfaces::ViewFragments* fragments, RenderStats& stats);
 // After the frame's camera pass: a frame whose auto choice was new in this process and filled
-// every entry records the time its mode took (shadow_cache_history.h).
-void record_auto_history(Context& context, const RenderStats& stats);
+// every entry records the wall time its mode took (shadow_cache_history.h).
+void record_auto_history(Context& context);
 
 }  // namespace pipeline
 

@@ -7,6 +7,7 @@
 // barycentrically (surfaces.h composite_surface).
 #include <algorithm>
 #include <array>
+#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <deque>
@@ -729,7 +730,7 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
                     stats.shadow_cache_auto_history = true;
                     stats.shadow_cache_history_on_ms = history->on_ms, stats.shadow_cache_history_off_ms = history->off_ms;
                 }
-                cache->history_pending = ShadowCache::PendingHistory{choice_key, history.value_or(AutoHistory())};
+                cache->history_pending = ShadowCache::PendingHistory{choice_key, history.value_or(AutoHistory()), std::chrono::steady_clock::now()};
             }
         }
     }
@@ -763,7 +764,9 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
     double ms = 0;
     if (surfaces.use) ms += fill_surface_entries(launch, cache->surfaces, surfaces, lights, stats);
     if (measure) {  // a probe's passes read the surface part as the frame will
+        const auto probe_start = std::chrono::steady_clock::now();
         VolumeCosts costs = probe_volume_costs(launch, volumes, lights, width, height, fragments, surface_reads);
+        const auto probe_end = std::chrono::steady_clock::now();
         // the visible fill's marking pass costs about a cached camera pass: it is run when that
         // is under half the fill and an eighth of the per-sample pass (the most it wastes when
         // auto then evaluates per sample), and the cache would pay with a quarter of the points
@@ -778,6 +781,9 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
         if (cache->history_pending) {
             cache->history_pending->history.estimated_on_ms = costs.fill_ms + costs.cached_ms;
             cache->history_pending->history.estimated_off_ms = costs.per_sample_ms;
+            // not the mode's time: the probe, and its marking pass when the cache is then left off
+            cache->history_pending->probe_ms =
+                std::chrono::duration<double, std::milli>((volumes.use ? probe_end : std::chrono::steady_clock::now()) - probe_start).count();
         }
         stats.shadow_cache_probe_ms = costs.probe_ms;
         report_auto_costs(costs, stats);
@@ -799,18 +805,15 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
     return cache.get();
 }
 
-void record_auto_history(Context& context, const RenderStats& stats) {
+void record_auto_history(Context& context) {
     std::unique_ptr<ShadowCache>& cache = context.kept_scenes().shadow_cache;
     if (!cache || !cache->history_pending) return;
     const ShadowCache::PendingHistory pending = std::move(*cache->history_pending);
     cache->history_pending.reset();
-    // what the modes differ by: the cache's fills (with the visible fill's marking pass, when the
-    // cache was then used: a probe may mark before choosing off) and the camera pass
-    auto stage = [&](const char* name) {
-        auto found = stats.stage_ms.find(name);
-        return found == stats.stage_ms.end() ? 0.0 : found->second;
-    };
-    const double ms = stage("shadow_cache") + (cache->volumes_used ? stage("shadow_cache_mark") : 0.0) + stage("camera_pass");
+    // what the modes differ by, in wall time (the cache's buffers, marking, fills and the camera
+    // pass; host work too, which kernel times leave out and small frames feel): from the choice
+    // to the end of the camera pass, less the probe
+    const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - pending.started).count() - pending.probe_ms;
     store_auto_history(pending.key, with_measurement(pending.history, cache->volumes_used, ms));
 }
 
