@@ -90,13 +90,14 @@ std::map<cl_program, KernelArgNames>& registry() {
 
 }  // namespace
 
-std::string default_kernel_cache_folder() {
-    if (const char* chosen = std::getenv("SOMBRA_KERNEL_CACHE"); chosen && *chosen)
-        return std::string(chosen) == "off" ? std::string() : std::string(chosen);
-    if (const char* xdg = std::getenv("XDG_CACHE_HOME"); xdg && *xdg) return std::string(xdg) + "/sombra/kernels";
-    if (const char* home = std::getenv("HOME"); home && *home) return std::string(home) + "/.cache/sombra/kernels";
+std::string user_cache_folder(const char* variable, const std::string& leaf) {
+    if (const char* chosen = std::getenv(variable); chosen && *chosen) return std::string(chosen) == "off" ? std::string() : std::string(chosen);
+    if (const char* xdg = std::getenv("XDG_CACHE_HOME"); xdg && *xdg) return std::string(xdg) + "/sombra/" + leaf;
+    if (const char* home = std::getenv("HOME"); home && *home) return std::string(home) + "/.cache/sombra/" + leaf;
     return std::string();
 }
+
+std::string default_kernel_cache_folder() { return user_cache_folder("SOMBRA_KERNEL_CACHE", "kernels"); }
 
 std::string driver_settings() {
     std::vector<std::string> settings;

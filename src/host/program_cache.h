@@ -64,7 +64,11 @@ private:
     std::string dump_folder_;
 };
 
-// The folder the cache uses in this environment (see above); empty when off.
+// A folder of sombra's under the user's cache: $variable when set ("off": none, empty), else
+// $XDG_CACHE_HOME/sombra/leaf, else ~/.cache/sombra/leaf; empty when none of them is set.
+std::string user_cache_folder(const char* variable, const std::string& leaf);
+
+// The folder the cache uses in this environment (see above; SOMBRA_KERNEL_CACHE, "kernels"); empty when off.
 std::string default_kernel_cache_folder();
 
 // Every CL_CONFIG_* environment variable as sorted NAME=value lines (empty when none): part

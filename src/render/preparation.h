@@ -64,7 +64,7 @@ struct PreparedScene {
 struct SurfaceShadowCache {
     std::string points_key;                // the meshes' key (SceneKeys::meshes) the points were planned for
     std::size_t source_triangles = 0;      // the meshes' triangles they were planned for
-    double spacing = 0;                    // the lattice's spacing on the triangles (surface_spacing)
+    double spacing = 0;                    // the lattice's spacing on the triangles (shadow_cache.cpp surface_lattice)
     std::size_t planned_points = 0;        // the points at that spacing, counted before any is made
     std::vector<cl_float4> points;         // per point: position, unit normal (world); made for the first fill
     // per source triangle: its first point and k; point (i, j), i + j ≤ k, at barycentric weights

@@ -164,13 +164,6 @@ int triangle_subdivision(double edge, double spacing) {
 
 std::size_t triangle_points(int k) { return std::size_t(k + 1) * std::size_t(k + 2) / 2; }
 
-// The points make_surface_points makes, counted without making them.
-std::size_t surface_point_count(const std::vector<SurfaceTriangleGpu>& triangles, double spacing) {
-    std::size_t points = 0;
-    for (const SurfaceTriangleGpu& t : triangles) points += triangle_points(triangle_subdivision(triangle_longest_edge(t), spacing));
-    return points;
-}
-
 // The surface part's points: per mesh triangle a barycentric lattice of k + 1 points along each
 // edge (k = 1: its corners), point (i, j) at barycentric weights (1 − (i + j)/k, i/k, j/k) of
 // corners 0, 1, 2, with the normal interpolated and normalized as composite_surface interpolates
@@ -208,16 +201,22 @@ void make_surface_points(SurfaceShadowCache& s, const std::vector<SurfaceTriangl
 }
 
 // The lattices' spacing: the meshes' median triangle edge (their own tessellation), grown while
-// the points would pass kSurfacePoints.
-double surface_spacing(const std::vector<SurfaceTriangleGpu>& triangles) {
+// the points would pass kSurfacePoints; and the points make_surface_points makes at it, counted
+// without making them.
+struct SurfaceLattice {
+    double spacing;
+    std::size_t points;
+};
+
+SurfaceLattice surface_lattice(const std::vector<SurfaceTriangleGpu>& triangles) {
     std::vector<double> longest;
     for (const SurfaceTriangleGpu& t : triangles) longest.push_back(triangle_longest_edge(t));
     std::nth_element(longest.begin(), longest.begin() + std::ptrdiff_t(longest.size() / 2), longest.end());
     double spacing = std::max(longest[longest.size() / 2], 1e-12);
     for (;;) {
-        double points = 0;
-        for (double edge : longest) points += double(triangle_points(triangle_subdivision(edge, spacing)));
-        if (points <= double(kSurfacePoints)) return spacing;
+        std::size_t points = 0;
+        for (double edge : longest) points += triangle_points(triangle_subdivision(edge, spacing));
+        if (points <= kSurfacePoints) return {spacing, points};
         spacing *= 1.25;
     }
 }
@@ -300,8 +299,8 @@ SurfacePlan plan_surface_entries(const Scene& scene, const Prepared& prepared, c
     // part off (auto) does not pay for making them (0.74 M points on the cups)
     if (sc.points_key != p.keys.surfaces() || sc.source_triangles != p.packed_surfaces.triangles.size()) {
         sc = SurfaceShadowCache();
-        sc.spacing = surface_spacing(p.packed_surfaces.triangles);
-        sc.planned_points = surface_point_count(p.packed_surfaces.triangles, sc.spacing);
+        const SurfaceLattice lattice = surface_lattice(p.packed_surfaces.triangles);
+        sc.spacing = lattice.spacing, sc.planned_points = lattice.points;
         sc.source_triangles = p.packed_surfaces.triangles.size();
         sc.points_key = p.keys.surfaces();
     }

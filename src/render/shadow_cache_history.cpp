@@ -3,11 +3,12 @@
 
 #include <cstdint>
 #include <cstdio>
-#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <thread>
 #include <unistd.h>
+
+#include "host/program_cache.h"
 
 namespace sombra::pipeline {
 
@@ -33,13 +34,7 @@ std::string check_of(const std::string& key) { return hex(fnv1a(key, 0x84222325c
 
 }  // namespace
 
-std::string auto_history_folder() {
-    if (const char* chosen = std::getenv("SOMBRA_AUTO_HISTORY"); chosen && *chosen)
-        return std::string(chosen) == "off" ? std::string() : std::string(chosen);
-    if (const char* xdg = std::getenv("XDG_CACHE_HOME"); xdg && *xdg) return std::string(xdg) + "/sombra/auto";
-    if (const char* home = std::getenv("HOME"); home && *home) return std::string(home) + "/.cache/sombra/auto";
-    return std::string();
-}
+std::string auto_history_folder() { return host::user_cache_folder("SOMBRA_AUTO_HISTORY", "auto"); }
 
 std::optional<AutoHistory> load_auto_history(const std::string& key) {
     const std::string folder = auto_history_folder();

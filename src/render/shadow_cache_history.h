@@ -1,10 +1,10 @@
 // sombra — the shadow cache's auto across processes (issue 29 item 5): per frame, the measured
 // times of the modes it ran with. A frame's first render probes (shadow_cache.cpp
-// probe_volume_costs) and estimates both modes; each render then records the time the chosen mode
-// took (the cache's fills and the camera pass: what the two modes differ by), and a later
-// process rendering the same frame chooses from these times instead of probing: the faster of two
-// measured modes, or the other mode once when the measured one took longer than the other's
-// estimate. Kept as small files in a folder (docs/shadows.md "Auto across processes").
+// probe_volume_costs) and estimates both modes; each render then records the wall time its mode
+// took (from auto's choice to the end of the camera pass, less the probe: what the two modes
+// differ by), and a later process rendering the same frame chooses from these times instead of
+// probing (choose_from_history). Kept as small files in a folder (docs/shadows.md "Auto across
+// processes").
 #pragma once
 
 #include <optional>
