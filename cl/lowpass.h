@@ -243,8 +243,18 @@ static inline float sat_cone_depth(__global const ulong* sat, __global const Sat
         ((sat_real*)&d)[a] = dot(g->to_grid[a].xyz, towards) * g->cell_size; /* unit vector in grid axes */
     }
     sat_real3 n = convert_sat_real3(g->dims.xyz);
-    sat_real t_max = fmin((sat_real)reach / (sat_real)g->cell_size, SR(4) * (n.x + n.y + n.z));
+    /* the grid covers the occupied bricks only: from a point outside it (at distance `outside`), the
+     * march first skips the cubes that miss the grid */
+    sat_real outside = length(fmax(fmax(-c, c - n), SR(0)));
+    sat_real t_max = fmin((sat_real)reach / (sat_real)g->cell_size, SR(4) * (n.x + n.y + n.z) + outside);
     sat_real tau = SR(0), t = SR(0.5), opaque = (sat_real)SOMBRA_OPAQUE_DEPTH / (sat_real)g->tau_per_unit;
+    if (outside > SR(0))
+        for (int i = 0; i < 256 && t < t_max; ++i) { /* the cubes before the grid */
+            sat_real radius = fmax(SR(0.5), t * (sat_real)g->cone_tan), span = fmin(SR(2) * radius, t_max - t);
+            sat_real3 centre = c + (t + SR(0.5) * span) * d;
+            if (!any(centre + radius < SR(0)) && !any(centre - radius > n)) break;
+            t += span;
+        }
     for (int i = 0; i < 256 && t < t_max && tau <= opaque; ++i) {
         sat_real radius = fmax(SR(0.5), t * (sat_real)g->cone_tan), span = fmin(SR(2) * radius, t_max - t);
         sat_real3 centre = c + (t + SR(0.5) * span) * d;

@@ -383,6 +383,91 @@ TEST_CASE("low-pass tables span the occupied bricks: a blob in an empty box, poi
     }
 }
 
+TEST_CASE("AO and cone SAT span the occupied bricks: points inside, beside and outside it read the whole box's depths", "[lowpass]") {
+    // the blob above: the baselines' volume-aligned SAT covers its bricks (voxels [7.5, 28.5]), not
+    // the 40³ box. The whole box's cells lie on the same lattice (cells of one voxel, boundaries at
+    // voxel boundaries) and are σ = 0 outside that table, so AO at points in and around the volume
+    // and cones from points inside the table read what the whole box's table gives. A cone from a
+    // point outside the table starts where its axis enters it (the whole box's march would start
+    // at the point): it matches the reference on the table and nearly the whole box's.
+    const int n = 40;
+    Volume blob;
+    blob.dims = {n, n, n};
+    blob.voxels.assign(blob.voxel_count(), 0.f);
+    for (int z = 12; z < 28; ++z)
+        for (int y = 12; y < 28; ++y)
+            for (int x = 12; x < 28; ++x) blob.voxels[std::size_t(x + n * (y + n * z))] = 0.5f + 0.5f * float((x * 7 + y * 3 + z) % 5) / 4.f;
+    blob.source = "blob";
+    blob.update_range();
+    Light point;
+    point.type = LightType::Point;
+    point.position = {0.9f, 0.7f, 0.8f};
+    Scene scene = one_volume(std::make_shared<const Volume>(std::move(blob)), test::ramp_tf(0.2f, 0.6f, 0.3f),
+                             {directional({-0.4, -0.7, -0.5}), point});
+    auto& rt = test::context().runtime();
+    packing::PackedScene packed = packing::pack_scene(scene);
+    packing::DeviceScene device_scene = packing::upload_scene(rt, scene, packed, false);
+    shadows::DeviceSat sat = shadows::build_volume_sat(rt, scene, packed, device_scene, std::size_t(1) << 24);
+    REQUIRE(sat.frames.size() == 1);
+    const shadows::SatFrame& fitted = sat.frames[0];
+    double voxel = 0;
+    std::vector<D3> box_corners = shadows::scene_corners(packed, voxel);
+    shadows::SatFrame whole = shadows::make_sat_frame(box_corners, voxel, fitted.axes, std::size_t(1) << 24);
+    for (std::size_t a = 0; a < 3; ++a) {
+        CHECK(fitted.dims[a] == 21);
+        CHECK(whole.dims[a] == n);
+    }
+    CHECK(fitted.cell_size == Approx(1.0 / n));
+    reference::CellGrid cells = reference::sat_cells(scene, whole, shadows::sat_frame_light_axes(sat, 0));
+    reference::CellGrid table_cells = reference::sat_cells(scene, fitted, shadows::sat_frame_light_axes(sat, 0));
+    auto points = random_points(300, 0.7f, 31);  // the box is [−0.5, 0.5]³; the table [−0.3, 0.225]³
+    int outside = 0;
+    for (const Vec3& p : points)
+        outside += std::fabs(p[0] + 0.0375) > 0.2625 || std::fabs(p[1] + 0.0375) > 0.2625 || std::fabs(p[2] + 0.0375) > 0.2625;
+    CHECK(outside > 200);
+    for (int width : {1, 5}) {
+        auto t = lowpass(scene, 0, points, float(width), "box", ShadowTechnique::Ao);
+        for (std::size_t i = 0; i < points.size(); ++i) {
+            INFO("AO width " << width << " point " << i);
+            CHECK(t[i] == Approx(std::exp(-reference::ambient_depth(cells, whole, width, d3(points[i])))).margin(2e-5));
+        }
+    }
+    int shadowed_outside = 0, outside_cones = 0;
+    double box_change = 0, box_change_sum = 0;
+    for (int light = 0; light < 2; ++light)
+        for (float angle : {3.f, 15.f}) {
+            auto t = lowpass(scene, light, points, 1.f, "box", ShadowTechnique::Cone, angle);
+            const Light& l = scene.lights[std::size_t(light)];
+            for (std::size_t i = 0; i < points.size(); ++i) {
+                D3 p = d3(points[i]), towards = {-l.direction[0], -l.direction[1], -l.direction[2]};
+                double reach = INFINITY;
+                if (l.type == LightType::Point) {
+                    towards = {l.position[0] - p[0], l.position[1] - p[1], l.position[2] - p[2]};
+                    reach = std::sqrt(towards[0] * towards[0] + towards[1] * towards[1] + towards[2] * towards[2]);
+                }
+                double len = std::sqrt(towards[0] * towards[0] + towards[1] * towards[1] + towards[2] * towards[2]);
+                for (double& x : towards) x /= len;
+                double cone_tan = std::tan(angle * M_PI / 180);
+                double on_table = std::exp(-reference::cone_depth(table_cells, fitted, cone_tan, p, towards, reach));
+                double on_box = std::exp(-reference::cone_depth(cells, whole, cone_tan, p, towards, reach));
+                INFO("cone light " << light << " angle " << angle << " point " << i << ": T on the whole box " << on_box);
+                CHECK(t[i] == Approx(on_table).margin(1e-4));
+                bool in_table = std::fabs(p[0] + 0.0375) < 0.2625 && std::fabs(p[1] + 0.0375) < 0.2625 && std::fabs(p[2] + 0.0375) < 0.2625;
+                if (in_table) {
+                    CHECK(t[i] == Approx(on_box).margin(1e-4));
+                } else {
+                    box_change = std::max(box_change, std::fabs(t[i] - on_box)), box_change_sum += std::fabs(t[i] - on_box), ++outside_cones;
+                    shadowed_outside += on_box < 0.9;
+                }
+            }
+        }
+    CHECK(shadowed_outside > 50);  // cones from outside the table that reach the blob
+    // the cubes' positions along the axis shift (they start at the table, not at the point)
+    WARN("cones from outside the table against the whole box's march: mean |dT| " << box_change_sum / outside_cones << ", max " << box_change);
+    CHECK(box_change_sum / outside_cones < 0.01);
+    CHECK(box_change < 0.1);
+}
+
 TEST_CASE("CSAT: empty and saturated volumes give finite transmittance in [0, 1]", "[lowpass]") {
     auto points = random_points(100, 0.7f, 4);
     Scene empty = one_volume(test::constant_volume({12, 12, 12}, 0.f), test::constant_tf(0.f), {directional({0.2, -1, -0.3})});

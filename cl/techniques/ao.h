@@ -10,7 +10,7 @@ typedef struct {
 
 static inline lfloat shadow_transmittance(VOLUME_DATA_PARAM, const SceneRefs* scene, ShadowState* s, uint m, lfloat3 p, lmask lanes) {
     __global const SatGridGpu* g = &s->tables.sat_grids[m];
-#define AO_LANE(c) sat_ambient_depth(s->tables.sat, g, SAT_LANE_POINT(p, c))
+#define AO_LANE(c) SAT_LANE_IF(lanes, c, sat_ambient_depth(s->tables.sat, g, SAT_LANE_POINT(p, c)))
     lfloat depth = LFROM_LANES(AO_LANE);
 #undef AO_LANE
     return exp(-depth);

@@ -18,7 +18,7 @@ static inline float cone_lane(__global const ulong* sat, __global const SatGridG
 
 static inline lfloat shadow_transmittance(VOLUME_DATA_PARAM, const SceneRefs* scene, ShadowState* s, uint m, lfloat3 p, lmask lanes) {
     __global const SatGridGpu* g = &s->tables.sat_grids[m];
-#define CONE_LANE(c) cone_lane(s->tables.sat, g, &scene->lights[m], SAT_LANE_POINT(p, c))
+#define CONE_LANE(c) SAT_LANE_IF(lanes, c, cone_lane(s->tables.sat, g, &scene->lights[m], SAT_LANE_POINT(p, c)))
     lfloat depth = LFROM_LANES(CONE_LANE);
 #undef CONE_LANE
     return exp(-depth);

@@ -19,7 +19,7 @@ static inline lfloat shadow_transmittance(VOLUME_DATA_PARAM, const SceneRefs* sc
     if (g->dims.w != 0) {
         depth = (lfloat)(0.0f);
         for (;;) { /* the light's tables, one per group of volumes: their depths add */
-#define CSAT_LANE(c) csat_filtered_depth(s->tables.sat, g, SAT_LANE_POINT(p, c))
+#define CSAT_LANE(c) SAT_LANE_IF(lanes, c, csat_filtered_depth(s->tables.sat, g, SAT_LANE_POINT(p, c)))
             depth += LFROM_LANES(CSAT_LANE);
 #undef CSAT_LANE
             if (g->next == 0) break;
@@ -28,7 +28,7 @@ static inline lfloat shadow_transmittance(VOLUME_DATA_PARAM, const SceneRefs* sc
     } else if (sphere->dims.w != 0) {
         depth = (lfloat)(0.0f);
         for (;;) { /* the light's tables, one per group of volumes: their depths add */
-#define SSAT_LANE(c) ssat_filtered_depth(s->tables.sat, sphere, SAT_LANE_POINT(p, c))
+#define SSAT_LANE(c) SAT_LANE_IF(lanes, c, ssat_filtered_depth(s->tables.sat, sphere, SAT_LANE_POINT(p, c)))
             depth += LFROM_LANES(SSAT_LANE);
 #undef SSAT_LANE
             if (sphere->next == 0) break;

@@ -16,4 +16,7 @@ typedef struct {
 
 /* One world point per lane: (float3) of lane c of p, for the scalar SAT lookups. */
 #define SAT_LANE_POINT(p, c) (float3)(LC((p).x, c), LC((p).y, c), LC((p).z, c))
+/* Lane c's optical depth by `lookup` in the lanes asked for, 0 in the others: an idle lane's point
+ * can be anywhere (the camera's, far outside every table, where a cone would march to it). */
+#define SAT_LANE_IF(lanes, c, lookup) (LC(lanes, c) ? (lookup) : 0.0f)
 #endif

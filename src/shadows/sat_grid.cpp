@@ -160,13 +160,9 @@ SatFrame make_volume_sat_frame(const packing::PackedScene& packed, std::size_t m
     const auto& m = packed.voxel_to_world[0];
     D3 x = normalized({m[0], m[4], m[8]}), y = normalized({m[1], m[5], m[9]});
     y = normalized({y[0] - dot(x, y) * x[0], y[1] - dot(x, y) * x[1], y[2] - dot(x, y) * x[2]});  // orthogonal even under shear
-    return make_sat_frame(packed, {x, y, cross(x, y)}, max_entries);
-}
-
-SatFrame make_sat_frame(const packing::PackedScene& packed, const std::array<D3, 3>& axes, std::size_t max_entries) {
     double voxel = 0;
-    std::vector<D3> corners = scene_corners(packed, voxel);
-    return make_sat_frame(corners, voxel, axes, max_entries);
+    std::vector<D3> corners = occupied_corners(packed, voxel);  // σ is 0 outside them
+    return make_sat_frame(corners, voxel, {x, y, cross(x, y)}, max_entries);
 }
 
 SatFrame make_sat_frame(const std::vector<D3>& corners, double voxel_size, const std::array<D3, 3>& axes, std::size_t max_entries) {

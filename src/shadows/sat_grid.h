@@ -59,11 +59,10 @@ std::array<D3, 3> shared_csat_axes(const D3& towards_light);
 // cells of the smallest voxel coarsened in 5 % steps until they hold at most `max_entries`
 // together. One group: make_sat_frame's frame over the occupied corners.
 std::vector<SatFrame> plan_csat_tables(const packing::PackedScene& packed, const std::array<D3, 3>& axes, std::size_t max_entries);
-// The same for a frame aligned with the first volume's axes (the volume-aligned SAT of the
-// baselines, Schlegel et al. 2011), and for any orthonormal axes.
+// A frame aligned with the first volume's axes around every volume's occupied bricks (the
+// volume-aligned SAT of the baselines, Schlegel et al. 2011), and one for any orthonormal axes
+// around `corners` (the points the frame must contain: scene_corners or occupied_corners).
 SatFrame make_volume_sat_frame(const packing::PackedScene& packed, std::size_t max_entries);
-// `corners`: the points the frame must contain (scene_corners or occupied_corners).
-SatFrame make_sat_frame(const packing::PackedScene& packed, const std::array<D3, 3>& axes, std::size_t max_entries);
 SatFrame make_sat_frame(const std::vector<D3>& corners, double voxel_size, const std::array<D3, 3>& axes, std::size_t max_entries);
 
 // A point (or spot) light's spherical grids (SSAT, Ament §4.2.3), one per group of volumes whose
@@ -123,8 +122,8 @@ void build_sat_table(host::Runtime& runtime, const Scene& scene, const packing::
 // The plan of Ament Alg. 1's tables for the lights: one CSAT per group of directional lights whose
 // directions are ± the axes of one frame (orthodirectional lights, §4.2.2; the group's first
 // light founds the shared frame; one table per group of overlapping volumes, plan_csat_tables), per
-// point or spot light one SSAT per group of overlapping volumes (§4.2.3, plan_ssat_tables). Both are fitted to the occupied bricks (occupied_corners); the baselines' volume-aligned SAT covers the whole boxes (a
-// cone leaving its grid stops there: cl/lowpass.h sat_cone_depth).
+// point or spot light one SSAT per group of overlapping volumes (§4.2.3, plan_ssat_tables). Both are fitted to the occupied bricks (occupied_corners), as is the baselines' volume-aligned SAT
+// (plan_volume_sat; a cone from outside it skips the cubes before it: cl/lowpass.h sat_cone_depth).
 DeviceSat plan_light_sats(const packing::PackedScene& packed, std::size_t max_entries);
 // The plan of the baselines' one volume-aligned SAT (see build_volume_sat).
 DeviceSat plan_volume_sat(const packing::PackedScene& packed, std::size_t max_entries);

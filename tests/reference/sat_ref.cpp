@@ -191,8 +191,24 @@ double cone_depth(const CellGrid& grid, const shadows::SatFrame& frame, double c
     std::array<double, 3> c = grid_coordinates(frame, p), d{};
     for (std::size_t a = 0; a < 3; ++a)
         for (std::size_t r = 0; r < 3; ++r) d[a] += towards[r] * frame.axes[a][r];
-    double t_max = std::min(reach / frame.cell_size, 4.0 * (grid.dims[0] + grid.dims[1] + grid.dims[2]));
+    double outside_sq = 0;  // a point outside the grid: its squared distance to the grid box
+    for (std::size_t a = 0; a < 3; ++a) {
+        double gap = std::max({-c[a], c[a] - grid.dims[a], 0.0});
+        outside_sq += gap * gap;
+    }
+    double t_max = std::min(reach / frame.cell_size, 4.0 * (grid.dims[0] + grid.dims[1] + grid.dims[2]) + std::sqrt(outside_sq));
     double tau = 0, t = 0.5;
+    if (outside_sq > 0)  // skip the cubes that miss the grid
+        for (int i = 0; i < 256 && t < t_max; ++i) {  // the cubes before the grid
+            double radius = std::max(0.5, t * cone_tan), span = std::min(2 * radius, t_max - t);
+            bool meets = true;
+            for (std::size_t a = 0; a < 3; ++a) {
+                double centre = c[a] + (t + 0.5 * span) * d[a];
+                meets = meets && centre + radius >= 0 && centre - radius <= grid.dims[a];
+            }
+            if (meets) break;
+            t += span;
+        }
     for (int i = 0; i < 256 && t < t_max && tau <= double(SOMBRA_OPAQUE_DEPTH); ++i) {
         double radius = std::max(0.5, t * cone_tan), span = std::min(2 * radius, t_max - t);
         std::array<double, 3> lo, hi;
@@ -202,7 +218,7 @@ double cone_depth(const CellGrid& grid, const shadows::SatFrame& frame, double c
             lo[a] = centre - radius, hi[a] = centre + radius;
             outside = outside || hi[a] < 0 || lo[a] > grid.dims[a];
         }
-        if (outside) break;
+        if (outside) break;  // left the grid
         if (radius >= snap_radius) {  // faces on the nearest cell faces
             double volume = 1;
             for (std::size_t a = 0; a < 3; ++a) lo[a] = std::round(lo[a]), hi[a] = std::round(hi[a]), volume *= hi[a] - lo[a];

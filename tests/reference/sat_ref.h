@@ -54,7 +54,8 @@ double gauss_filtered_depth(const CellGrid& grid, const shadows::SatFrame& frame
 // The baselines on a volume-aligned grid (Schlegel et al. 2011), brute force over the cells:
 // ambient optical depth (mean σ·h in the cube of side `width` cells around p, × width/2) and cone
 // optical depth (cubes of half size max(½, t·tan) along `towards` from t = ½ cell, up to `reach`
-// world units or the grid's end; cubes of half size ≥ snap_radius cells have their faces on the
+// world units or where the cubes leave the grid (from a point outside the grid, the cubes before
+// it are skipped); cubes of half size ≥ snap_radius cells have their faces on the
 // nearest cell faces, as the kernel's from SOMBRA_CONE_SNAP_RADIUS; +∞: every cube exact), stopping
 // at the opaque depth (SOMBRA_OPAQUE_DEPTH), as the kernel does; both in cl/shared/types.h.
 double ambient_depth(const CellGrid& grid, const shadows::SatFrame& frame, int width, const std::array<double, 3>& p);
