@@ -287,11 +287,8 @@ TEST_CASE("CSAT: homogeneous medium against exp(−σ·d), oblique and axis-alig
     }
 }
 
-TEST_CASE("low-pass tables span the occupied bricks: a blob in an empty box, points all around it", "[lowpass]") {
-    // 40³ voxels, non-zero only in [12, 28)³: the CSAT and SSAT cover the blob's bricks, not the
-    // box, and points outside the tables (beside, before, behind the blob) read the same depths as
-    // the shadow rays do (W = 1, the test above)
-    const int n = 40;
+// n³ voxels, non-zero (0.5 to 1 in a pattern of 5 levels) only in [12, 28)³.
+std::shared_ptr<const Volume> blob_in_box(int n) {
     Volume blob;
     blob.dims = {n, n, n};
     blob.voxels.assign(blob.voxel_count(), 0.f);
@@ -300,7 +297,15 @@ TEST_CASE("low-pass tables span the occupied bricks: a blob in an empty box, poi
             for (int x = 12; x < 28; ++x) blob.voxels[std::size_t(x + n * (y + n * z))] = 0.5f + 0.5f * float((x * 7 + y * 3 + z) % 5) / 4.f;
     blob.source = "blob";
     blob.update_range();
-    auto volume = std::make_shared<const Volume>(std::move(blob));
+    return std::make_shared<const Volume>(std::move(blob));
+}
+
+TEST_CASE("low-pass tables span the occupied bricks: a blob in an empty box, points all around it", "[lowpass]") {
+    // 40³ voxels, non-zero only in [12, 28)³: the CSAT and SSAT cover the blob's bricks, not the
+    // box, and points outside the tables (beside, before, behind the blob) read the same depths as
+    // the shadow rays do (W = 1, the test above)
+    const int n = 40;
+    auto volume = blob_in_box(n);
     Light point;
     point.type = LightType::Point;
     point.position = {0.9f, 0.7f, 0.8f};
@@ -391,18 +396,10 @@ TEST_CASE("AO and cone SAT span the occupied bricks: points inside, beside and o
     // point outside the table starts where its axis enters it (the whole box's march would start
     // at the point): it matches the reference on the table and nearly the whole box's.
     const int n = 40;
-    Volume blob;
-    blob.dims = {n, n, n};
-    blob.voxels.assign(blob.voxel_count(), 0.f);
-    for (int z = 12; z < 28; ++z)
-        for (int y = 12; y < 28; ++y)
-            for (int x = 12; x < 28; ++x) blob.voxels[std::size_t(x + n * (y + n * z))] = 0.5f + 0.5f * float((x * 7 + y * 3 + z) % 5) / 4.f;
-    blob.source = "blob";
-    blob.update_range();
     Light point;
     point.type = LightType::Point;
     point.position = {0.9f, 0.7f, 0.8f};
-    Scene scene = one_volume(std::make_shared<const Volume>(std::move(blob)), test::ramp_tf(0.2f, 0.6f, 0.3f),
+    Scene scene = one_volume(blob_in_box(n), test::ramp_tf(0.2f, 0.6f, 0.3f),
                              {directional({-0.4, -0.7, -0.5}), point});
     auto& rt = test::context().runtime();
     packing::PackedScene packed = packing::pack_scene(scene);
