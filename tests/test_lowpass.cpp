@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 #include <random>
+#include <utility>
 
 #include "reference/sat_ref.h"
 #include "geometry/scene_upload.h"
@@ -287,6 +288,20 @@ TEST_CASE("CSAT: homogeneous medium against exp(−σ·d), oblique and axis-alig
     }
 }
 
+// A cone's axis from p (unit vector towards the light) and its reach (distance to a point light,
+// +∞ for a directional one), as cl/techniques/cone.h takes them.
+std::pair<D3, double> cone_axis(const Light& l, const D3& p) {
+    D3 towards = {-l.direction[0], -l.direction[1], -l.direction[2]};
+    double reach = INFINITY;
+    if (l.type == LightType::Point) {
+        towards = {l.position[0] - p[0], l.position[1] - p[1], l.position[2] - p[2]};
+        reach = std::sqrt(towards[0] * towards[0] + towards[1] * towards[1] + towards[2] * towards[2]);
+    }
+    double len = std::sqrt(towards[0] * towards[0] + towards[1] * towards[1] + towards[2] * towards[2]);
+    for (double& x : towards) x /= len;
+    return {towards, reach};
+}
+
 // n³ voxels, non-zero (0.5 to 1 in a pattern of 5 levels) only in [12, 28)³.
 std::shared_ptr<const Volume> blob_in_box(int n) {
     Volume blob;
@@ -436,14 +451,8 @@ TEST_CASE("AO and cone SAT span the occupied bricks: points inside, beside and o
             auto t = lowpass(scene, light, points, 1.f, "box", ShadowTechnique::Cone, angle);
             const Light& l = scene.lights[std::size_t(light)];
             for (std::size_t i = 0; i < points.size(); ++i) {
-                D3 p = d3(points[i]), towards = {-l.direction[0], -l.direction[1], -l.direction[2]};
-                double reach = INFINITY;
-                if (l.type == LightType::Point) {
-                    towards = {l.position[0] - p[0], l.position[1] - p[1], l.position[2] - p[2]};
-                    reach = std::sqrt(towards[0] * towards[0] + towards[1] * towards[1] + towards[2] * towards[2]);
-                }
-                double len = std::sqrt(towards[0] * towards[0] + towards[1] * towards[1] + towards[2] * towards[2]);
-                for (double& x : towards) x /= len;
+                D3 p = d3(points[i]);
+                auto [towards, reach] = cone_axis(l, p);
                 double cone_tan = std::tan(angle * M_PI / 180);
                 double on_table = std::exp(-reference::cone_depth(table_cells, fitted, cone_tan, p, towards, reach));
                 double on_box = std::exp(-reference::cone_depth(cells, whole, cone_tan, p, towards, reach));
@@ -826,15 +835,8 @@ TEST_CASE("Baselines: SAT ambient occlusion and cone shadows vs CPU reference, h
         for (float angle : {3.f, 15.f}) {
             auto t = lowpass(scene, light, points, 1.f, "box", ShadowTechnique::Cone, angle);
             for (std::size_t i = 0; i < points.size(); ++i) {
-                const Light& l = scene.lights[std::size_t(light)];
-                D3 p = d3(points[i]), towards = {-l.direction[0], -l.direction[1], -l.direction[2]};
-                double reach = INFINITY;
-                if (l.type == LightType::Point) {
-                    towards = {l.position[0] - p[0], l.position[1] - p[1], l.position[2] - p[2]};
-                    reach = std::sqrt(towards[0] * towards[0] + towards[1] * towards[1] + towards[2] * towards[2]);
-                }
-                double len = std::sqrt(towards[0] * towards[0] + towards[1] * towards[1] + towards[2] * towards[2]);
-                for (double& x : towards) x /= len;
+                D3 p = d3(points[i]);
+                auto [towards, reach] = cone_axis(scene.lights[std::size_t(light)], p);
                 INFO("light " << light << " angle " << angle << " point " << i);
                 double expected = reference::cone_depth(cells, frame, std::tan(angle * M_PI / 180), p, towards, reach);
                 CHECK(t[i] == Approx(std::exp(-expected)).margin(1e-4));
