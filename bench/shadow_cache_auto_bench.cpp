@@ -5,12 +5,14 @@
 // (no history: it probes) and auto after `--learn` earlier runs of the frame recorded their times
 // (src/render/shadow_cache_history.h; what a user's later runs of the same frame get). Programs
 // come from the on-disk program cache (a 16² frame of every variant first), so compiling is not
-// what is timed. The history lives in a folder of the bench's own, emptied per cell.
+// what is timed. A cell's frames run in rounds (off, on, auto first, auto learned), as many as
+// make about --cell-ms of off frames, and each column is the median of its round's frames.
 #include <algorithm>
 #include <chrono>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <iostream>
 #include <sstream>
 
@@ -23,38 +25,65 @@
 namespace {
 
 using sombra::bench::fixed;
-using sombra::bench::median;
 
+// Auto's history lives in two folders of the bench's own: one emptied before each of auto's first
+// runs, one that keeps what the learning runs and the learned frames recorded.
+struct HistoryFolders {
+    std::string first, learned;
+};
+
+void use_history(const std::string& folder) { setenv("SOMBRA_AUTO_HISTORY", folder.c_str(), 1); }
+
+void empty_folder(const std::string& folder) {
+    std::error_code error;
+    for (const auto& entry : std::filesystem::directory_iterator(folder, error)) std::filesystem::remove(entry.path(), error);
+}
+
+// One frame on a fresh Context with auto's remembered choices forgotten (a first frame of the
+// process): the wall time of render() and whether the frame used the cache.
 struct Frame {
     double ms = 0;
     bool cache_used = false;
 };
 
-// The history folder (SOMBRA_AUTO_HISTORY, set by main) emptied: auto's next frame is its first.
-void forget_history() {
-    std::error_code error;
-    for (const auto& entry : std::filesystem::directory_iterator(std::getenv("SOMBRA_AUTO_HISTORY"), error))
-        std::filesystem::remove(entry.path(), error);
+Frame one_frame(const std::string& device, const sombra::Scene& scene, const sombra::RenderOptions& options) {
+    sombra::forget_shadow_cache_choices();
+    sombra::Context context(device);
+    const auto start = std::chrono::steady_clock::now();
+    const sombra::RenderResult result = sombra::render(context, scene, options);
+    return {std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count(), result.stats.shadow_cache_used};
 }
 
-// `repeats` frames, each on a fresh Context with auto's remembered choices forgotten (a first
-// frame of the process) and, unless `keep_history`, with no history (a first run of the frame:
-// auto probes); the median wall time of render().
-Frame first_frame(const std::string& device, const sombra::Scene& scene, const sombra::RenderOptions& options, int repeats,
-                  bool keep_history = false) {
-    std::vector<double> ms;
-    Frame frame;
-    for (int r = 0; r < repeats; ++r) {
-        if (!keep_history) forget_history();
-        sombra::forget_shadow_cache_choices();
-        sombra::Context context(device);
-        auto start = std::chrono::steady_clock::now();
-        sombra::RenderResult result = sombra::render(context, scene, options);
-        ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
-        frame.cache_used = result.stats.shadow_cache_used;
+// A cell's four columns, `rounds` frames each, interleaved round by round (off, on, auto's first
+// run, auto learned), so that a change of load on the machine falls on every column alike;
+// medians, and the mode the median-th frame of each auto column chose.
+struct Cell {
+    Frame off, on, first, learned;
+};
+
+Frame median_frame(std::vector<Frame> frames) {
+    std::sort(frames.begin(), frames.end(), [](const Frame& a, const Frame& b) { return a.ms < b.ms; });
+    Frame m = frames[frames.size() / 2];
+    if (frames.size() % 2 == 0) m.ms = 0.5 * (m.ms + frames[frames.size() / 2 - 1].ms);
+    return m;
+}
+
+Cell time_cell(const std::string& device, const sombra::Scene& scene, const std::function<sombra::RenderOptions(const char*)>& options,
+               int rounds, int learn, const HistoryFolders& history) {
+    empty_folder(history.learned);
+    use_history(history.learned);
+    for (int k = 0; k < learn; ++k) one_frame(device, scene, options("auto"));
+    std::vector<Frame> off, on, first, learned;
+    for (int r = 0; r < rounds; ++r) {
+        off.push_back(one_frame(device, scene, options("off")));
+        on.push_back(one_frame(device, scene, options("on")));
+        empty_folder(history.first);
+        use_history(history.first);
+        first.push_back(one_frame(device, scene, options("auto")));
+        use_history(history.learned);
+        learned.push_back(one_frame(device, scene, options("auto")));
     }
-    frame.ms = median(ms);
-    return frame;
+    return {median_frame(off), median_frame(on), median_frame(first), median_frame(learned)};
 }
 
 }  // namespace
@@ -67,25 +96,29 @@ int main(int argc, char** argv) {
     std::sort(scenes.begin(), scenes.end());
     std::vector<std::string> techniques = {"dsm", "shadowmap", "rays", "lowpass", "ao", "cone"};
     std::vector<int> sizes = {128, 256, 512};
-    int repeats = 3, learn = 3;
-    double slow_ms = 4000;
+    int repeats = 3, max_repeats = 15, learn = 3;
+    double slow_ms = 4000, cell_ms = 2000;
     std::string device = "auto", out;
     app.add_option("--scene", scenes, "scene files (default: every data/scenes/*.json)");
     app.add_option("--shadows", techniques, "techniques")->capture_default_str();
     app.add_option("--size", sizes, "image widths and heights")->capture_default_str();
-    app.add_option("--repeats", repeats, "frames per cell and mode (medians), 1 where the off frame takes over --slow-ms")->capture_default_str();
+    app.add_option("--repeats", repeats, "the fewest frames per cell and mode (medians), 1 where the off frame takes over --slow-ms")
+        ->capture_default_str();
+    app.add_option("--max-repeats", max_repeats, "the most frames per cell and mode")->capture_default_str();
+    app.add_option("--cell-ms", cell_ms, "frames per cell and mode: enough for about this many ms of off frames")->capture_default_str();
     app.add_option("--learn", learn, "auto's runs of a frame before its learned frames are timed")->capture_default_str();
     app.add_option("--slow-ms", slow_ms, "a cell whose off frame takes longer is timed once per mode")->capture_default_str();
     app.add_option("--device", device, "OpenCL device")->capture_default_str();
     app.add_option("--out", out, "also write the Markdown table here");
     CLI11_PARSE(app, argc, argv);
-    const std::string history = (std::filesystem::temp_directory_path() / "sombra-bench-cache-auto-history").string();
-    std::filesystem::create_directories(history);
-    setenv("SOMBRA_AUTO_HISTORY", history.c_str(), 1);
+    const std::filesystem::path history_root = std::filesystem::temp_directory_path() / "sombra-bench-cache-auto-history";
+    const HistoryFolders history{(history_root / "first").string(), (history_root / "learned").string()};
+    std::filesystem::create_directories(history.first);
+    std::filesystem::create_directories(history.learned);
 
     std::ostringstream table;
-    table << "| scene | technique | size | off ms | on ms | auto first ms | chose | ÷ faster | auto learned ms | chose | ÷ faster |\n"
-             "|---|---|---|---|---|---|---|---|---|---|---|\n";
+    table << "| scene | technique | size | off ms | on ms | auto first ms | chose | ÷ faster | auto learned ms | chose | ÷ faster | frames |\n"
+             "|---|---|---|---|---|---|---|---|---|---|---|---|\n";
     double worst = 0, worst_learned = 0;
     int cells = 0, within = 0, within_learned = 0;
     for (const std::string& path : scenes) {
@@ -100,7 +133,8 @@ int main(int argc, char** argv) {
                 return o;
             };
             try {
-                for (const char* mode : {"off", "on", "auto"}) first_frame(device, scene, options_for(mode, 16), 1);  // programs into the cache
+                use_history(history.first);
+                for (const char* mode : {"off", "on", "auto"}) one_frame(device, scene, options_for(mode, 16));  // programs into the cache
             } catch (const sombra::Error& refused) {  // a technique that does not take the scene (polyhedral bounds and low-pass)
                 std::ostringstream row;
                 row << "| " << scene_name << " | " << technique << " | all | not supported: " << refused.what() << " | | | | |\n";
@@ -109,14 +143,13 @@ int main(int argc, char** argv) {
                 continue;
             }
             for (int size : sizes) {
-                Frame off = first_frame(device, scene, options_for("off", size), 1);
-                const int n = off.ms > slow_ms ? 1 : repeats;
-                if (n > 1) off = first_frame(device, scene, options_for("off", size), n);
-                const Frame on = first_frame(device, scene, options_for("on", size), n);
-                const Frame automatic = first_frame(device, scene, options_for("auto", size), n);
-                forget_history();
-                for (int k = 0; k < learn; ++k) first_frame(device, scene, options_for("auto", size), 1, true);
-                const Frame learned = first_frame(device, scene, options_for("auto", size), n, true);
+                // rounds: enough for about --cell-ms of off frames (short frames vary by ± 10–25 ms
+                // between runs on 2 busy cores), at least --repeats, at most --max-repeats; one
+                // where the off frame takes over --slow-ms
+                const double off_ms = one_frame(device, scene, options_for("off", size)).ms;
+                const int rounds = off_ms > slow_ms ? 1 : std::clamp(int(std::ceil(cell_ms / off_ms)), repeats, std::max(repeats, max_repeats));
+                const Cell cell = time_cell(device, scene, [&](const char* mode) { return options_for(mode, size); }, rounds, learn, history);
+                const Frame &off = cell.off, &on = cell.on, &automatic = cell.first, &learned = cell.learned;
                 const double ratio = automatic.ms / std::min(on.ms, off.ms), ratio_learned = learned.ms / std::min(on.ms, off.ms);
                 worst = std::max(worst, ratio), ++cells, within += ratio <= 1.10;
                 worst_learned = std::max(worst_learned, ratio_learned), within_learned += ratio_learned <= 1.10;
@@ -124,7 +157,7 @@ int main(int argc, char** argv) {
                 row << "| " << scene_name << " | " << technique << " | " << size << " | " << fixed(off.ms, 0) << " | " << fixed(on.ms, 0)
                     << " | " << fixed(automatic.ms, 0) << " | " << (automatic.cache_used ? "on" : "off") << " | " << fixed(ratio, 2)
                     << " | " << fixed(learned.ms, 0) << " | " << (learned.cache_used ? "on" : "off") << " | " << fixed(ratio_learned, 2)
-                    << " |\n";
+                    << " | " << rounds << " |\n";
                 std::cout << row.str() << std::flush;
                 table << row.str();
             }
