@@ -446,32 +446,57 @@ TEST_CASE("shadow cache auto: the same frame again, on any Context, chooses as t
 TEST_CASE("shadow cache auto across processes: the history chooses the faster measured mode, or measures the other once", "[shadow_cache]") {
     using pipeline::AutoHistory;
     using pipeline::HistoryChoice;
-    auto history = [](double on, double off, double estimated_on, double estimated_off, bool last_on) {
+    // times (< 0: not measured), runs per mode (3: settled), the probe's estimates, the last mode
+    auto history = [](double on, double off, double estimated_on, double estimated_off, bool last_on, int runs = 3) {
         AutoHistory h;
         h.on_ms = on, h.off_ms = off, h.estimated_on_ms = estimated_on, h.estimated_off_ms = estimated_off, h.last_on = last_on;
+        h.on_runs = on >= 0 ? runs : 0, h.off_runs = off >= 0 ? runs : 0;
         return std::optional<AutoHistory>(h);
     };
     auto choose = [](const std::optional<AutoHistory>& h) { return pipeline::choose_from_history(h); };
     CHECK(choose(std::nullopt) == HistoryChoice::Probe);
     CHECK(choose(history(-1, -1, 10, 20, false)) == HistoryChoice::Probe);  // nothing measured
-    // one mode measured: the other is measured once when its estimate is under 1.25 × the measured time
-    CHECK(choose(history(-1, 100, 120, 100, false)) == HistoryChoice::On);
-    CHECK(choose(history(-1, 100, 130, 100, false)) == HistoryChoice::Off);
-    CHECK(choose(history(100, -1, 100, 120, true)) == HistoryChoice::Off);
-    CHECK(choose(history(100, -1, 100, 130, true)) == HistoryChoice::On);
-    // both measured: the other when faster by over 5 %, else the last (a close call does not flip)
+    // one mode measured: the other is measured once when its estimate is under 1.25 × the measured
+    // time + 150 ms
+    CHECK(choose(history(-1, 100, 270, 100, false)) == HistoryChoice::On);
+    CHECK(choose(history(-1, 100, 280, 100, false)) == HistoryChoice::Off);
+    CHECK(choose(history(100, -1, 100, 270, true)) == HistoryChoice::Off);
+    CHECK(choose(history(100, -1, 100, 280, true)) == HistoryChoice::On);
+    CHECK(choose(history(-1, 2000, 2600, 100, false)) == HistoryChoice::On);   // 1.25 × 2000 + 150 = 2650
+    CHECK(choose(history(-1, 2000, 2700, 100, false)) == HistoryChoice::Off);
+    // both measured, settled: the other when faster by over 5 %, else the last (a close call does not flip)
     CHECK(choose(history(50, 100, 300, 100, false)) == HistoryChoice::On);
     CHECK(choose(history(90, 100, 300, 100, false)) == HistoryChoice::On);
     CHECK(choose(history(98, 100, 10, 100, false)) == HistoryChoice::Off);
     CHECK(choose(history(102, 100, 10, 100, true)) == HistoryChoice::On);
     CHECK(choose(history(150, 100, 10, 1000, true)) == HistoryChoice::Off);
+    // a close call not settled: the other mode, measured fewer than 3 times and under 1.15 × the
+    // last's time, is measured again; beyond 1.15 × it is not
+    CHECK(choose(history(100, 110, 10, 10, true, 1)) == HistoryChoice::Off);
+    CHECK(choose(history(100, 110, 10, 10, true, 2)) == HistoryChoice::Off);
+    CHECK(choose(history(100, 110, 10, 10, true, 3)) == HistoryChoice::On);
+    CHECK(choose(history(100, 120, 10, 10, true, 1)) == HistoryChoice::On);
+    // a mode keeps its shortest time (load only lengthens a run) and counts its runs up to 3
     AutoHistory h = pipeline::with_measurement(AutoHistory(), true, 40);
-    CHECK(h.on_ms == 40);
+    CHECK((h.on_ms == 40 && h.on_runs == 1 && h.off_runs == 0));
     CHECK(h.last_on);
     h = pipeline::with_measurement(h, true, 60);
-    CHECK(h.on_ms == 50);
+    CHECK((h.on_ms == 40 && h.on_runs == 2));
+    h = pipeline::with_measurement(h, true, 30);
+    h = pipeline::with_measurement(h, true, 35);
+    CHECK((h.on_ms == 30 && h.on_runs == 3));
     h = pipeline::with_measurement(h, false, 70);
-    CHECK((h.off_ms == 70 && h.on_ms == 50 && !h.last_on));
+    CHECK((h.off_ms == 70 && h.off_runs == 1 && h.on_ms == 30 && !h.last_on));
+    // a close call settles on the faster mode: runs alternate until both are measured 3 times
+    AutoHistory close = pipeline::with_measurement(AutoHistory(), false, 100);
+    close.estimated_on_ms = 110;
+    const double true_on = 94, true_off = 100;
+    for (int run = 0; run < 8; ++run) {
+        const bool on = choose(close) == HistoryChoice::On;
+        close = pipeline::with_measurement(close, on, on ? true_on + (run % 2) * 20 : true_off + (run % 2) * 20);
+    }
+    CHECK((close.on_runs == 3 && close.off_runs == 3));
+    CHECK(choose(close) == HistoryChoice::On);
 }
 
 namespace {
@@ -525,7 +550,10 @@ TEST_CASE("shadow cache auto across processes: a fresh Context's frame records i
         double on_ms, off_ms, estimated_on, estimated_off;
         int last_on;
         std::getline(in, magic), std::getline(in, check);
-        REQUIRE(bool(in >> on_ms >> off_ms >> estimated_on >> estimated_off >> last_on));
+        int on_runs, off_runs;
+        REQUIRE(bool(in >> on_ms >> off_ms >> estimated_on >> estimated_off >> last_on >> on_runs >> off_runs));
+        CHECK(on_runs == int(first.stats.shadow_cache_used));
+        CHECK(off_runs == int(!first.stats.shadow_cache_used));
         CHECK(bool(last_on) == first.stats.shadow_cache_used);
         CHECK((first.stats.shadow_cache_used ? on_ms : off_ms) > 0);  // the chosen mode's time
         CHECK((first.stats.shadow_cache_used ? off_ms : on_ms) < 0);  // the other's not measured
@@ -547,7 +575,7 @@ TEST_CASE("shadow cache auto across processes: a fresh Context's frame records i
     CHECK(chose_on.stats.shadow_cache_history_on_ms == 10);
     CHECK(test::compare(chose_on.image, on_image).max_abs == 0.0);
     // measured faster per sample: off
-    rewrite_times(files[0], "1000 10 500 500 1");
+    rewrite_times(files[0], "1000 10 500 500 1 3 3");  // with the runs per mode (the 5-number form counts 1 each)
     const RenderResult chose_off = fresh_frame();
     CHECK_FALSE(chose_off.stats.shadow_cache_used);
     CHECK(test::compare(chose_off.image, off_image).max_abs == 0.0);

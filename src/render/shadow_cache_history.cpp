@@ -1,6 +1,7 @@
 // sombra — the shadow cache's auto across processes (shadow_cache_history.h).
 #include "render/shadow_cache_history.h"
 
+#include <algorithm>
 #include <cstdint>
 #include <cstdio>
 #include <filesystem>
@@ -46,6 +47,8 @@ std::optional<AutoHistory> load_auto_history(const std::string& key) {
     int last_on = 0;
     if (!(in >> h.on_ms >> h.off_ms >> h.estimated_on_ms >> h.estimated_off_ms >> last_on)) return std::nullopt;
     h.last_on = last_on != 0;
+    // the runs (after the times: a file without them counts one run per measured mode)
+    if (!(in >> h.on_runs >> h.off_runs)) h.on_runs = h.on_ms >= 0, h.off_runs = h.off_ms >= 0;
     return h;
 }
 
@@ -61,7 +64,8 @@ void store_auto_history(const std::string& key, const AutoHistory& h) {
     {
         std::ofstream out(temporary);
         out << kMagic << "\n" << check_of(key) << "\n"
-            << h.on_ms << " " << h.off_ms << " " << h.estimated_on_ms << " " << h.estimated_off_ms << " " << (h.last_on ? 1 : 0) << "\n";
+            << h.on_ms << " " << h.off_ms << " " << h.estimated_on_ms << " " << h.estimated_off_ms << " " << (h.last_on ? 1 : 0) << " "
+            << h.on_runs << " " << h.off_runs << "\n";
         if (!out) {
             std::filesystem::remove(temporary, error);
             return;
@@ -77,13 +81,22 @@ HistoryChoice choose_from_history(const std::optional<AutoHistory>& history) {
     const double last_ms = h.last_on ? h.on_ms : h.off_ms;
     if (last_ms < 0) return HistoryChoice::Probe;
     const double other_ms = h.last_on ? h.off_ms : h.on_ms, other_estimate = h.last_on ? h.estimated_off_ms : h.estimated_on_ms;
-    const bool switch_mode = other_ms >= 0 ? kHistorySwitch * other_ms < last_ms : other_estimate >= 0 && other_estimate < kHistoryExplore * last_ms;
+    const int other_runs = h.last_on ? h.off_runs : h.on_runs;
+    bool switch_mode;
+    if (other_ms < 0)
+        switch_mode = other_estimate >= 0 && other_estimate < kHistoryExplore * last_ms + kHistoryExploreMs;
+    else if (other_runs < kHistoryRuns && other_ms < kHistoryRecheck * last_ms)
+        switch_mode = true;
+    else
+        switch_mode = kHistorySwitch * other_ms < last_ms;
     return (h.last_on != switch_mode) ? HistoryChoice::On : HistoryChoice::Off;
 }
 
 AutoHistory with_measurement(AutoHistory h, bool on, double ms) {
     double& kept = on ? h.on_ms : h.off_ms;
-    kept = kept < 0 ? ms : 0.5 * (kept + ms);
+    int& runs = on ? h.on_runs : h.off_runs;
+    kept = kept < 0 ? ms : std::min(kept, ms);
+    runs = std::min(runs + 1, kHistoryRuns);
     h.last_on = on;
     return h;
 }

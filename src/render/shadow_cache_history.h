@@ -12,11 +12,14 @@
 
 namespace sombra::pipeline {
 
-// Times of one frame (ms; < 0: unknown). `on_ms`, `off_ms`: the mean of the last two measured
-// renders with the cache on and off; the estimates: the first probe's (fill + cached camera pass,
-// per-sample camera pass); `last_on`: the mode of the last render.
+// Times of one frame (ms; < 0: unknown). `on_ms`, `off_ms`: the shortest measured render with
+// the cache on and off (other load on the machine only lengthens a render, so the shortest is the
+// frame's own cost; measured wall times of one frame spread by ± 10–25 ms on 2 busy cores), and
+// how many renders each mode measured (counted up to kHistoryRuns); the estimates: the first
+// probe's (fill + cached camera pass, per-sample camera pass); `last_on`: the mode of the last render.
 struct AutoHistory {
     double on_ms = -1, off_ms = -1;
+    int on_runs = 0, off_runs = 0;
     double estimated_on_ms = -1, estimated_off_ms = -1;
     bool last_on = false;
 };
@@ -34,16 +37,23 @@ void store_auto_history(const std::string& key, const AutoHistory& history);
 
 // Auto from the history (the shadow cache on or off for a frame, or a probe when nothing is
 // measured yet). The mode of the last render stays unless the other mode
+//  - was not measured, and its estimate is under kHistoryExplore (1.25) × the last mode's time
+//    plus kHistoryExploreMs (150 ms): it may be faster (estimates spread by ± 40 %, and more on
+//    frames of 50–300 ms, where a probe's few launches are a few milliseconds each), so it is
+//    measured once;
+//  - was measured fewer than kHistoryRuns (3) times and its shortest time is under
+//    kHistoryRecheck (1.15) × the last mode's: a close call is measured again, as the last
+//    mode was, before it is settled (one measurement can be 25 ms off on a 100 ms frame);
 //  - was measured faster by more than kHistorySwitch (5 %: a close call does not flip from run
-//    to run on the noise of two measurements), or
-//  - was not measured, and its estimate is under kHistoryExplore (1.25) × the last mode's time:
-//    it may be faster (estimates spread by ± 40 %), so it is measured once.
-// So a frame settles on the faster measured mode within a few runs, and a run that measures the
-// other mode costs at most what its estimate allowed.
+//    to run).
+// So a frame settles on the faster measured mode within a few runs, a run that measures the other
+// mode costs at most what its estimate or the close call allowed, and a mode estimated far slower
+// is never tried.
 enum class HistoryChoice { Probe, Off, On };
-constexpr double kHistorySwitch = 1.05, kHistoryExplore = 1.25;
+constexpr double kHistorySwitch = 1.05, kHistoryExplore = 1.25, kHistoryExploreMs = 150, kHistoryRecheck = 1.15;
+constexpr int kHistoryRuns = 3;
 HistoryChoice choose_from_history(const std::optional<AutoHistory>& history);
-// The history after a render in mode `on` that took `ms` (the mean with the mode's previous time).
+// The history after a render in mode `on` that took `ms` (the mode's shortest time, one more run).
 AutoHistory with_measurement(AutoHistory history, bool on, double ms);
 
 }  // namespace sombra::pipeline
