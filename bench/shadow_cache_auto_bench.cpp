@@ -25,6 +25,7 @@
 namespace {
 
 using sombra::bench::fixed;
+using sombra::bench::median;
 
 // Auto's history lives in two folders of the bench's own: one emptied before each of auto's first
 // runs, one that keeps what the learning runs and the learned frames recorded.
@@ -39,13 +40,14 @@ void empty_folder(const std::string& folder) {
     for (const auto& entry : std::filesystem::directory_iterator(folder, error)) std::filesystem::remove(entry.path(), error);
 }
 
-// One frame on a fresh Context with auto's remembered choices forgotten (a first frame of the
-// process): the wall time of render() and whether the frame filled the volume lattices.
+// A frame's wall time and whether it filled the volume lattices.
 struct Frame {
     double ms = 0;
     bool cache_used = false;
 };
 
+// One frame on a fresh Context with auto's remembered choices forgotten (a first frame of the
+// process): the wall time of render().
 Frame one_frame(const std::string& device, const sombra::Scene& scene, const sombra::RenderOptions& options) {
     sombra::forget_shadow_cache_choices();
     sombra::Context context(device);
@@ -63,11 +65,12 @@ struct Cell {
     Frame off, on, first, learned;
 };
 
+// The median time of `frames`, with the mode of the frame at the median's place.
 Frame median_frame(std::vector<Frame> frames) {
-    std::sort(frames.begin(), frames.end(), [](const Frame& a, const Frame& b) { return a.ms < b.ms; });
-    Frame m = frames[frames.size() / 2];
-    if (frames.size() % 2 == 0) m.ms = 0.5 * (m.ms + frames[frames.size() / 2 - 1].ms);
-    return m;
+    std::vector<double> ms;
+    for (const Frame& f : frames) ms.push_back(f.ms);
+    std::nth_element(frames.begin(), frames.begin() + frames.size() / 2, frames.end(), [](const Frame& a, const Frame& b) { return a.ms < b.ms; });
+    return {median(ms), frames[frames.size() / 2].cache_used};
 }
 
 Cell time_cell(const std::string& device, const sombra::Scene& scene, const std::function<sombra::RenderOptions(const char*)>& options,
