@@ -409,6 +409,44 @@ TEST_CASE("shadow cache auto: measures the fill and both camera passes, chooses 
     CHECK_FALSE(render(context, scene, o).stats.shadow_cache_used);
 }
 
+TEST_CASE("shadow cache auto: a measured visible fill fills its bands of rows, then the rest, as one fill does", "[shadow_cache]") {
+    // SOMBRA_TEST_MEASURE_FILL: auto marks, measures bands of rows of the points needed
+    // (measure_marked_fill) and reads the cache whatever its probe found
+    const Scene scene = test::overlapping_scene();
+    for (ShadowTechnique technique : shadowing_techniques()) {
+        INFO(shadow_technique_name(technique));
+        for (int size : {40, 160}) {
+            INFO("size " << size);
+            forget_shadow_cache_choices();
+            Context measured(test::device_selector()), plain(test::device_selector());
+            RenderOptions o = cache_options(technique, ShadowCacheMode::Auto);
+            o.width = o.height = size;
+            ::setenv("SOMBRA_TEST_MEASURE_FILL", "1", 1);
+            const RenderResult r = render(measured, scene, o);
+            ::unsetenv("SOMBRA_TEST_MEASURE_FILL");
+            REQUIRE(r.stats.shadow_cache_used);
+            CHECK(r.stats.shadow_cache_visible_fill);
+            REQUIRE(r.stats.stage_ms.count("shadow_cache_measure") == 1);
+            CHECK(r.stats.stage_ms.at("shadow_cache_measure") > 0);
+            CHECK(r.stats.shadow_cache_estimated_fill_ms > 0);
+            o.shadow_cache = ShadowCacheMode::On;
+            const RenderResult on = render(plain, scene, o);
+            CHECK(on.stats.stage_ms.count("shadow_cache_measure") == 0);
+            CHECK(r.stats.shadow_cache_points_marked == on.stats.shadow_cache_points_marked);
+            CHECK(test::compare(r.image, on.image).max_abs == 0.0);
+            // the same points filled with the same values, none twice or left out
+            const pipeline::ShadowCache& a = *measured.kept_scenes().shadow_cache;
+            const pipeline::ShadowCache& b = *plain.kept_scenes().shadow_cache;
+            const std::size_t lattice = a.layout.back().offset + pipeline::lattice_points(a.layout.back());
+            std::vector<float> banded(lattice), whole(lattice);
+            measured.runtime().queue().enqueueReadBuffer(a.values, CL_TRUE, 0, lattice * sizeof(float), banded.data());
+            plain.runtime().queue().enqueueReadBuffer(b.values, CL_TRUE, 0, lattice * sizeof(float), whole.data());
+            CHECK(banded == whole);
+            CHECK(std::count_if(whole.begin(), whole.end(), [](float v) { return v < 1.0f; }) > 0);  // something was shadowed
+        }
+    }
+}
+
 TEST_CASE("shadow cache auto: the same frame again, on any Context, chooses as the first did and renders the same image", "[shadow_cache]") {
     Scene scene = test::overlapping_scene();
     RenderOptions o = cache_options(ShadowTechnique::Dsm, ShadowCacheMode::Auto);

@@ -189,7 +189,7 @@ int generation_lanes(const Runtime& runtime, int requested) {
     return native >= 16 ? 16 : 8;
 }
 
-double run_packets(Runtime& runtime, cl::Kernel& kernel, int width, int height, int lanes, double units) {
+double run_packets(Runtime& runtime, cl::Kernel& kernel, int width, int height, int lanes, double units, int first_row) {
     std::size_t columns = std::size_t((width + lanes - 1) / lanes), rows = std::size_t(height);
     cl::NDRange local = cl::NullRange;
     if (lanes > 1) {
@@ -198,7 +198,7 @@ double run_packets(Runtime& runtime, cl::Kernel& kernel, int width, int height, 
         rows = (rows + group - 1) / group * group;
         local = cl::NDRange(group, group);
     }
-    return run_tiled(runtime, kernel, cl::NDRange(columns, rows), local, units);
+    return run_tiled(runtime, kernel, cl::NDRange(columns, rows), local, units, std::size_t(first_row));
 }
 
 void check_allocation(const Runtime& runtime, std::uint64_t bytes, const std::string& what) {

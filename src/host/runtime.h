@@ -76,8 +76,9 @@ int generation_lanes(const Runtime& runtime, int requested);
 // padded to them (PoCL keeps a group's private state on one stack and its default group size
 // overflows it for 8- and 16-lane packets; 4×4 measured fastest). Kernels ignore the padding.
 // Runs it in bands of rows (host/tiled_launch.h, advancing the progress stage by `units`) and
-// returns the profiled time in ms.
-double run_packets(Runtime& runtime, cl::Kernel& kernel, int width, int height, int lanes, double units = 1);
+// returns the profiled time in ms. first_row > 0: rows first_row … first_row + height − 1 only
+// (the kernels read get_global_id, which includes the offset).
+double run_packets(Runtime& runtime, cl::Kernel& kernel, int width, int height, int lanes, double units = 1, int first_row = 0);
 
 // The source of a cl/ file with every #include "…" replaced by the file's text.
 std::string expand_kernel_source(const std::string& path);

@@ -20,7 +20,8 @@ std::size_t next_band(std::size_t rows, std::size_t left, std::size_t measured, 
     return std::min(band, left);
 }
 
-double run_tiled(Runtime& runtime, cl::Kernel& kernel, const cl::NDRange& global, const cl::NDRange& local, double units) {
+double run_tiled(Runtime& runtime, cl::Kernel& kernel, const cl::NDRange& global, const cl::NDRange& local, double units,
+                 std::size_t first) {
     const std::size_t axis = global.dimensions() - 1, rows = global.get()[axis];
     // without a group size PoCL picks a divisor of the band's size: bands of any size made small
     // groups and slowed the shadow cache down (bench/README.md, sombra_bench_tiles)
@@ -35,7 +36,7 @@ double run_tiled(Runtime& runtime, cl::Kernel& kernel, const cl::NDRange& global
         // two bands queued: the device starts the next without waiting for the host
         while (in_flight.size() < 2 && enqueued < rows) {
             std::size_t band = next_band(rows, rows - enqueued, measured, ms, quantum, tiles);
-            cl::NDRange offset = axis == 0 ? cl::NDRange(enqueued) : cl::NDRange(0, enqueued);
+            cl::NDRange offset = axis == 0 ? cl::NDRange(first + enqueued) : cl::NDRange(0, first + enqueued);
             cl::NDRange size = axis == 0 ? cl::NDRange(band) : cl::NDRange(global.get()[0], band);
             cl::Event event;
             runtime.queue().enqueueNDRangeKernel(kernel, offset, size, local, nullptr, &event);

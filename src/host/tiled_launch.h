@@ -23,8 +23,9 @@ std::size_t next_band(std::size_t rows, std::size_t left, std::size_t measured, 
 // queued at a time, advancing the runtime's progress stage by each band's share of `units` as it
 // finishes. Bands as runtime.launch_tiles() asks; when it is 0 and the stage's last launch took
 // under kShortMs / 2 (a DSM view after a quick one), one band: the stage advances per launch
-// then, and every band costs a wake-up of the device's threads. Returns the profiled kernel time in ms.
+// then, and every band costs a wake-up of the device's threads. first > 0: the rows start there
+// (a global offset along the last dimension). Returns the profiled kernel time in ms.
 double run_tiled(Runtime& runtime, cl::Kernel& kernel, const cl::NDRange& global, const cl::NDRange& local,
-                 double units = 1);
+                 double units = 1, std::size_t first = 0);
 
 }  // namespace sombra::host

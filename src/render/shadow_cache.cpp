@@ -9,6 +9,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <deque>
 #include <map>
@@ -43,6 +44,11 @@ constexpr int kProbeRowsPerLaunch = 4, kProbeLaunches = 4;  // and renders 4 ima
 constexpr double kProbeWarmupMs = 10;                        // before its first fill, ≥ 10 ms of untimed fills
 constexpr int kProbeWarmupLaunches = 8;                      // (or 8 launches)
 constexpr double kProbeBudget = 0.05;                        // beyond its first launch, at most 5 % of the cheaper frame
+// A visible fill may cost as little as 1/kVisibleFillBound of the probe's fill of every point: a
+// quarter of the points (the shipped scenes' marking passes keep 18–62 %) at half the probe's
+// time per point (its blocks ran 1.2–4.6× the visible fill's). When the probe's estimate for the
+// marked points does not pay but a kMeasureFillBelow times lower one would, the fill is measured.
+constexpr double kVisibleFillBound = 8, kMeasureFillBelow = 3;
 constexpr std::size_t kRememberedChoices = 4096;            // auto's choices kept per process (the oldest go first)
 
 double triangle_longest_edge(const SurfaceTriangleGpu& t) {
@@ -337,18 +343,27 @@ struct FillLaunch {
 // rest of an entry, after its filled points).
 enum class FillMode : cl_uint { All = 0, Marked = 1, Rest = 2 };
 
+// Rows first … first + count − 1 of a lattice (row y + dims.y · z: its points along x).
+struct RowRange {
+    int first = 0, count = 0;
+};
+
+RowRange all_rows(const ShadowCacheGpu& c) { return {0, c.dims.s[1] * c.dims.s[2]}; }
+
 // shadow_cache_fill of entry e of `table` (lattice c) into `values`, by the launch's technique, of
-// the points `mode` and `mask` select; returns the kernel time. The frame's fill and auto's probe
-// both run it.
+// the points `mode` and `mask` select in `rows` (default: all); returns the kernel time. The
+// frame's fill and auto's probe both run it.
 double fill_lattice(const FillLaunch& launch, cl::Kernel& kernel, std::size_t e, const ShadowCacheGpu& c, std::size_t lights,
-                    const cl::Buffer& table, const cl::Buffer& values, FillMode mode = FillMode::All, const cl::Buffer* mask = nullptr) {
+                    const cl::Buffer& table, const cl::Buffer& values, FillMode mode = FillMode::All, const cl::Buffer* mask = nullptr,
+                    std::optional<RowRange> rows = std::nullopt) {
     host::KernelArgs args{kernel};
     bind_scene(args, launch.prepared.scene, launch.camera);
     args("light_index", cl_uint(e % lights))("cache_entry", cl_uint(e))("shadow_cache_table", table)("shadow_cache", values);
     args("fill_mode", cl_uint(mode))("fill_mask", mask ? *mask : launch.no_mask);
     launch.prepared.technique.bind(args, launch.runtime, launch.options);
     args.done();
-    return host::run_packets(launch.runtime, kernel, c.dims.s[0], c.dims.s[1] * c.dims.s[2], launch.lanes);
+    const RowRange r = rows.value_or(all_rows(c));
+    return host::run_packets(launch.runtime, kernel, c.dims.s[0], r.count, launch.lanes, 1, r.first);
 }
 
 // The visible fill's first steps: the marking pass (the frame's camera pass, marking the lattice
@@ -395,6 +410,7 @@ struct VolumeFill {
     bool prepared = false;
     std::vector<std::optional<FillMode>> mode;
     std::vector<cl_uint> needed;
+    std::vector<std::vector<RowRange>> done;  // per entry, in order: rows auto's measurement filled (measure_marked_fill)
     unsigned long long needed_points() const { return std::accumulate(needed.begin(), needed.end(), 0ull); }
 };
 
@@ -463,6 +479,63 @@ VolumeFill prepare_volume_fill(const FillLaunch& launch, ShadowCache& cache, con
     return fill;
 }
 
+// Auto's measurement of a visible fill after its marking pass: the probe's blocks of rows cost
+// 1.2–4.6× more per point than the frame's visible fill, whose points lie where the camera sees
+// the volume (bench/README.md "The visible fill, measured"). Per entry that needs points, its
+// needed points in kMeasuredBands bands of rows spread evenly over its lattice (together about
+// 1/kMeasuredShare of its rows; fewer bands an entry when there are many entries: a launch costs
+// ≈ 0.14 ms on PoCL, and 8 bands of 1/256 of the rows each read the smoke's fill 1.6× high where
+// 4 of 1/64 read it 1.25× high) are filled and timed; returns the whole fill's estimate, each
+// entry's needed points at its measured time per point (the measurement's overall time per point
+// where an entry's bands held fewer than kMeasuredMinPoints), and adds the bands to fill.done so
+// that the frame's fill leaves them out. *measured_ms: the bands' kernel time.
+constexpr int kMeasuredBands = 4, kMeasuredShare = 16, kMeasuredMaxLaunches = 64;
+constexpr unsigned long long kMeasuredMinPoints = 256;
+
+double measure_marked_fill(const FillLaunch& launch, ShadowCache& cache, const VolumePlan& plan, VolumeFill& fill, std::size_t lights,
+                           double* measured_ms) {
+    host::Runtime& runtime = launch.runtime;
+    cl::Kernel kernel(launch.program, "shadow_cache_fill");
+    fill.done.assign(plan.layout.size(), {});
+    const std::size_t entries = std::size_t(std::count_if(fill.mode.begin(), fill.mode.end(), [](const auto& m) { return m == FillMode::Marked; }));
+    const int bands_per_entry = std::clamp(kMeasuredMaxLaunches / int(std::max<std::size_t>(entries, 1)), 1, kMeasuredBands);
+    std::vector<double> entry_ms(plan.layout.size(), 0);
+    std::vector<unsigned long long> entry_points(plan.layout.size(), 0);
+    double total_ms = 0;
+    unsigned long long total_points = 0;
+    for (std::size_t e = 0; e < plan.layout.size(); ++e) {
+        if (fill.mode[e] != FillMode::Marked || fill.needed[e] == 0) continue;
+        const ShadowCacheGpu& c = plan.layout[e];
+        const int rows = all_rows(c).count;
+        // bands of a multiple of 4 rows (the packets' work-groups), centred in equal parts of the rows
+        const int band = std::min(rows, std::max(4, (rows / (kMeasuredShare * bands_per_entry) + 3) / 4 * 4));
+        const int bands = std::min(bands_per_entry, rows / band);
+        std::vector<cl_uint> words(std::size_t(band) * c.mark_row_words);
+        for (int b = 0; b < bands; ++b) {
+            const int first = std::min(rows - band, int((double(b) + 0.5) * rows / bands - 0.5 * band) / 4 * 4);
+            if (!fill.done[e].empty() && first < fill.done[e].back().first + fill.done[e].back().count) continue;
+            runtime.queue().enqueueReadBuffer(cache.need, CL_TRUE, (c.mark_offset + std::size_t(first) * c.mark_row_words) * sizeof(cl_uint),
+                                              words.size() * sizeof(cl_uint), words.data());
+            unsigned long long points = 0;
+            for (cl_uint w : words) points += unsigned(__builtin_popcount(w));
+            entry_ms[e] += fill_lattice(launch, kernel, e, c, lights, cache.table, cache.values, FillMode::Marked, &cache.need, RowRange{first, band});
+            entry_points[e] += points;
+            fill.done[e].push_back({first, band});
+        }
+        total_ms += entry_ms[e], total_points += entry_points[e];
+    }
+    *measured_ms = total_ms;
+    if (total_points < kMeasuredMinPoints) return -1;  // too few to tell: the probe's estimate stands
+    double estimate = 0;
+    for (std::size_t e = 0; e < plan.layout.size(); ++e) {
+        if (fill.mode[e] != FillMode::Marked || fill.needed[e] == 0) continue;
+        const double per_point = entry_points[e] >= kMeasuredMinPoints ? entry_ms[e] / double(entry_points[e])
+                                                                       : total_ms / double(std::max<unsigned long long>(total_points, 1));
+        estimate += per_point * double(fill.needed[e]);
+    }
+    return estimate;
+}
+
 // Fills the entries `fill` names (prepare_volume_fill); returns the kernel time.
 double fill_volume_entries(const FillLaunch& launch, ShadowCache& cache, const VolumePlan& plan, const VolumeFill& fill,
                            std::size_t lights, RenderStats& stats) {
@@ -478,8 +551,18 @@ double fill_volume_entries(const FillLaunch& launch, ShadowCache& cache, const V
         cache.keys[e].clear();
         const FillMode mode = *fill.mode[e];
         const cl::Buffer* mask = mode == FillMode::Marked ? &cache.need : mode == FillMode::Rest ? &cache.filled : nullptr;
-        if (mode != FillMode::Marked || fill.needed[e] > 0)
-            ms += fill_lattice(launch, kernel, e, plan.layout[e], lights, cache.table, cache.values, mode, mask);
+        if (mode != FillMode::Marked || fill.needed[e] > 0) {
+            // the rows around those auto's measurement filled
+            int next = 0;
+            const int rows = all_rows(plan.layout[e]).count;
+            std::vector<RowRange> bands = e < fill.done.size() ? fill.done[e] : std::vector<RowRange>();
+            bands.push_back({rows, 0});
+            for (const RowRange& band : bands) {
+                if (band.first > next)
+                    ms += fill_lattice(launch, kernel, e, plan.layout[e], lights, cache.table, cache.values, mode, mask, RowRange{next, band.first - next});
+                next = band.first + band.count;
+            }
+        }
         cache.keys[e] = plan.keys[e];
         cache.complete[e] = mode != FillMode::Marked;
         if (plan.stale[e]) ++stats.shadow_cache_entries_built;
@@ -768,23 +851,38 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
         const auto probe_end = std::chrono::steady_clock::now();
         // the visible fill's marking pass costs about a cached camera pass: it is run when that
         // is under half the fill and an eighth of the per-sample pass (the most it wastes when
-        // auto then evaluates per sample), and the cache would pay with a quarter of the points
-        // needed (bench/README.md "With the visible fill"); the fill is then estimated for the
-        // points it found, at the probe's cost per point
+        // auto then evaluates per sample), and the cache would pay at 1/kVisibleFillBound of the
+        // probe's fill (bench/README.md "With the visible fill"); the fill is then estimated for
+        // the points it found, at the probe's cost per point, or measured (measure_marked_fill)
         bool marked = false;
-        if (may_mark && 2 * costs.cached_ms < costs.fill_ms && 8 * costs.cached_ms <= costs.per_sample_ms &&
-            shadow_cache_pays(costs.fill_ms / 4 + costs.cached_ms, costs.cached_ms, costs.per_sample_ms)) {
+        double measured_fill_ms = 0;
+        // tests/test_shadow_cache.cpp: mark, measure and read the cache whatever the probe found
+        const bool test_measure = std::getenv("SOMBRA_TEST_MEASURE_FILL") != nullptr;
+        if (may_mark && ((2 * costs.cached_ms < costs.fill_ms && 8 * costs.cached_ms <= costs.per_sample_ms &&
+                          shadow_cache_pays(costs.fill_ms / kVisibleFillBound + costs.cached_ms, costs.cached_ms, costs.per_sample_ms)) ||
+                         test_measure)) {
             marked = true;
             fill = prepare_volume_fill(launch, *cache, volumes, true, surface_reads, stats);
             costs.fill_ms *= std::min(1.0, double(fill.needed_points()) / std::max(1.0, double(stats.shadow_cache_points_to_fill)));
+            // a close call by the probe's estimate (which runs high on visible points): the
+            // visible fill measured on a part of its points decides
+            if ((!shadow_cache_pays(costs.fill_ms, costs.cached_ms, costs.per_sample_ms) &&
+                 shadow_cache_pays(costs.fill_ms / kMeasureFillBelow, costs.cached_ms, costs.per_sample_ms)) ||
+                test_measure) {
+                const double measured = measure_marked_fill(launch, *cache, volumes, fill, lights, &measured_fill_ms);
+                if (measured >= 0) costs.fill_ms = measured;
+                stats.stage_ms["shadow_cache_measure"] = measured_fill_ms;
+            }
         }
-        volumes.use = shadow_cache_pays(costs.fill_ms, costs.cached_ms, costs.per_sample_ms);
+        volumes.use = shadow_cache_pays(costs.fill_ms, costs.cached_ms, costs.per_sample_ms) || (test_measure && marked);
+        if (volumes.use) ms += measured_fill_ms;  // the frame's fill: its bands are filled
+        else if (measured_fill_ms > 0) costs.probe_ms += measured_fill_ms;
         if (cache->history_pending) {
             // unmarked, the visible fill may need as little as a quarter of the points (the
             // marking condition's bound): the history's estimate is that one, so that a later run
             // measures the cache when it may pay (the MRI's shadow rays at 256²: fill of all
             // points 5.6 s, visible fill 0.9 s, per sample 1.5 s)
-            cache->history_pending->history.estimated_on_ms = (may_mark && !marked ? costs.fill_ms / 4 : costs.fill_ms) + costs.cached_ms;
+            cache->history_pending->history.estimated_on_ms = (may_mark && !marked ? costs.fill_ms / kVisibleFillBound : costs.fill_ms) + costs.cached_ms;
             cache->history_pending->history.estimated_off_ms = costs.per_sample_ms;
             // not the mode's time: the probe, and its marking pass when the cache is then left off
             cache->history_pending->probe_ms =
