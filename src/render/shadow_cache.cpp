@@ -878,11 +878,12 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
         if (volumes.use) ms += measured_fill_ms;  // the frame's fill: its bands are filled
         else if (measured_fill_ms > 0) costs.probe_ms += measured_fill_ms;
         if (cache->history_pending) {
-            // unmarked, the visible fill may need as little as a quarter of the points (the
-            // marking condition's bound): the history's estimate is that one, so that a later run
-            // measures the cache when it may pay (the MRI's shadow rays at 256²: fill of all
-            // points 5.6 s, visible fill 0.9 s, per sample 1.5 s)
-            cache->history_pending->history.estimated_on_ms = (may_mark && !marked ? costs.fill_ms / kVisibleFillBound : costs.fill_ms) + costs.cached_ms;
+            // unmarked, the visible fill may need as little as a quarter of the points: the
+            // history's estimate is that one, so that a later run measures the cache when it may
+            // pay (the MRI's shadow rays at 256²: fill of all points 5.6 s, visible fill 0.9 s, per
+            // sample 1.5 s). An eighth (kVisibleFillBound) made the history try the cache on frames
+            // where it is slower and keep it (teapot_fog's DSM at 256²: learned 1.24×, bench/README.md)
+            cache->history_pending->history.estimated_on_ms = (may_mark && !marked ? costs.fill_ms / 4 : costs.fill_ms) + costs.cached_ms;
             cache->history_pending->history.estimated_off_ms = costs.per_sample_ms;
             // not the mode's time: the probe, and its marking pass when the cache is then left off
             cache->history_pending->probe_ms =
