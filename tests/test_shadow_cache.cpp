@@ -481,6 +481,18 @@ TEST_CASE("shadow cache auto: the same frame again, on any Context, chooses as t
     CHECK(remeasured.stats.shadow_cache_probe_ms > 0);
 }
 
+TEST_CASE("shadow cache auto across processes: a run that compiled code on the way is not recorded", "[shadow_cache]") {
+    using pipeline::history_run_compiled;
+    // what was measured after a wiped ~/.cache/pocl (wall ms of the run, its kernels' ms)
+    CHECK(history_run_compiled(1756.4, 67.8));   // teapot_fog, DSM 256², off: code generated
+    CHECK(history_run_compiled(5444.0, 773.6));  // mri_head, rays 256², first run
+    CHECK(history_run_compiled(1137.2, 569.6));  // smoke, cone 128², a smaller compile
+    CHECK_FALSE(history_run_compiled(81.9, 71.5));    // the same frames' runs after it
+    CHECK_FALSE(history_run_compiled(32.8, 20.1));
+    CHECK_FALSE(history_run_compiled(777.5, 754.0));
+    CHECK_FALSE(history_run_compiled(9000.0, 7900.0));  // a slow frame's host work grows with it
+}
+
 TEST_CASE("shadow cache auto across processes: the history chooses the faster measured mode, or measures the other once", "[shadow_cache]") {
     using pipeline::AutoHistory;
     using pipeline::HistoryChoice;

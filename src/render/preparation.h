@@ -172,8 +172,9 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
                                           const RenderOptions& options, int width, int height, int lanes,
                                           const surfaces::ViewFragments* fragments, RenderStats& stats);
 // After the frame's camera pass: a frame whose auto choice was new in this process and filled
-// every entry records the wall time its mode took (shadow_cache_history.h).
-void record_auto_history(Context& context);
+// every entry records the wall time its mode took, unless it compiled code on the way (its
+// kernels' times in `stats`; shadow_cache_history.h).
+void record_auto_history(Context& context, const RenderStats& stats);
 
 }  // namespace pipeline
 

@@ -399,7 +399,7 @@ RenderResult render(Context& context, const Scene& scene, const RenderOptions& o
         return pipeline::run_camera_pass(runtime, scene, prepared, options, lanes, camera, reads, image_buffer, count_buffer, &stats);
     });
     stats.stage_ms["camera_pass"] = kernel_ms;
-    pipeline::record_auto_history(context);
+    pipeline::record_auto_history(context, stats);
 
     result.image.width = width, result.image.height = height;
     result.image.background = scene.background;

@@ -909,7 +909,7 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
     return cache.get();
 }
 
-void record_auto_history(Context& context) {
+void record_auto_history(Context& context, const RenderStats& stats) {
     std::unique_ptr<ShadowCache>& cache = context.kept_scenes().shadow_cache;
     if (!cache || !cache->history_pending) return;
     const ShadowCache::PendingHistory pending = std::move(*cache->history_pending);
@@ -918,6 +918,12 @@ void record_auto_history(Context& context) {
     // pass; host work too, which kernel times leave out and small frames feel): from the choice
     // to the end of the camera pass, less the probe
     const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - pending.started).count() - pending.probe_ms;
+    // a run that took far longer than its kernels compiled code on the way: not recorded, the
+    // next run measures its mode again (history_run_compiled)
+    double kernel_ms = 0;
+    for (const char* stage : {"shadow_cache", "shadow_cache_mark", "camera_pass"})
+        if (auto found = stats.stage_ms.find(stage); found != stats.stage_ms.end()) kernel_ms += found->second;
+    if (history_run_compiled(ms, kernel_ms)) return;
     store_auto_history(pending.key, with_measurement(pending.history, cache->volumes_used, ms));
 }
 

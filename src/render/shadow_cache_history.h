@@ -55,5 +55,14 @@ constexpr int kHistoryRuns = 3;
 HistoryChoice choose_from_history(const std::optional<AutoHistory>& history);
 // The history after a render in mode `on` that took `ms` (the mode's shortest time, one more run).
 AutoHistory with_measurement(AutoHistory history, bool on, double ms);
+// Whether a run of `wall_ms` whose kernels took `kernel_ms` compiled code on the way, and so is not
+// recorded: more than kHistoryCompileFactor × its kernels' time + kHistoryCompileMs. PoCL
+// generates a kernel variant's code at its first launch (a wiped ~/.cache/pocl: 1.6–7.8 s runs
+// whose kernels took 20–600 ms; other runs spend 10–30 ms beyond their kernels). Recorded, such a
+// run kept its mode unused for good (teapot_fog's DSM at 256²: off 2.55 s once, 0.28 s after).
+constexpr double kHistoryCompileFactor = 1.25, kHistoryCompileMs = 150;
+constexpr bool history_run_compiled(double wall_ms, double kernel_ms) {
+    return wall_ms > kHistoryCompileFactor * kernel_ms + kHistoryCompileMs;
+}
 
 }  // namespace sombra::pipeline
