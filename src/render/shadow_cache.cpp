@@ -881,8 +881,8 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
             // unmarked, the visible fill may need as little as a quarter of the points: the
             // history's estimate is that one, so that a later run measures the cache when it may
             // pay (the MRI's shadow rays at 256²: fill of all points 5.6 s, visible fill 0.9 s, per
-            // sample 1.5 s). An eighth (kVisibleFillBound) made the history try the cache on frames
-            // where it is slower and keep it (teapot_fog's DSM at 256²: learned 1.24×, bench/README.md)
+            // sample 1.5 s). Not the marking condition's eighth (kVisibleFillBound): the history
+            // tries the cache only where a fill of a quarter of the points could pay
             cache->history_pending->history.estimated_on_ms = (may_mark && !marked ? costs.fill_ms / 4 : costs.fill_ms) + costs.cached_ms;
             cache->history_pending->history.estimated_off_ms = costs.per_sample_ms;
             // not the mode's time: the probe, and its marking pass when the cache is then left off
