@@ -495,6 +495,8 @@ constexpr unsigned long long kMeasuredMinPoints = 256;
 double measure_marked_fill(const FillLaunch& launch, ShadowCache& cache, const VolumePlan& plan, VolumeFill& fill, std::size_t lights,
                            double* measured_ms) {
     host::Runtime& runtime = launch.runtime;
+    // its short launches must not make the frame's fill run unbanded, as the probe's (tiled_launch.cpp)
+    const double last_launch_ms = runtime.progress().last_launch_ms;
     cl::Kernel kernel(launch.program, "shadow_cache_fill");
     fill.done.assign(plan.layout.size(), {});
     const std::size_t entries = std::size_t(std::count_if(fill.mode.begin(), fill.mode.end(), [](const auto& m) { return m == FillMode::Marked; }));
@@ -525,6 +527,7 @@ double measure_marked_fill(const FillLaunch& launch, ShadowCache& cache, const V
         total_ms += entry_ms[e], total_points += entry_points[e];
     }
     *measured_ms = total_ms;
+    runtime.progress().last_launch_ms = last_launch_ms;
     if (total_points < kMeasuredMinPoints) return -1;  // too few to tell: the probe's estimate stands
     double estimate = 0;
     for (std::size_t e = 0; e < plan.layout.size(); ++e) {
