@@ -16,6 +16,8 @@ packages=(
   clang-15 libclc-15
   # maths, images, tests, JSON, command line
   libglm-dev libopenimageio-dev catch2 nlohmann-json3-dev libcli11-dev
+  # the program cache's digests (xxHash, header-only)
+  libxxhash-dev
   # volume and mesh formats (OBJ: tinyobjloader's header; nifti1_io.h includes nifti1.h, which is in libnifti2-dev)
   libniftiio-dev libnifti2-dev libznz-dev libzip-dev zlib1g-dev libtinyobjloader-dev
   # the Python module (python/): Debian's python3 with its numpy 1.24 and pytest; venv and pip for

@@ -13,10 +13,13 @@
 #include <mutex>
 #include <sstream>
 
+#define XXH_INLINE_ALL
+#include <xxhash.h>
+
 namespace sombra::host {
 namespace {
 
-constexpr char kMagic[] = "sombra-program-cache 2\n";
+constexpr char kMagic[] = "sombra-program-cache 3\n";  // 3: XXH3 digests
 // A cached binary larger than this is treated as damage (PoCL's are 0.1–2 MiB).
 constexpr std::uint64_t kMaxBinaryBytes = std::uint64_t(1) << 30;
 constexpr std::uint64_t kMaxNames = 1 << 16;
@@ -36,17 +39,13 @@ void prune(const std::string& folder) {
     for (std::size_t i = 0; i + kKeepFiles < files.size(); ++i) std::filesystem::remove(files[i].second, error);
 }
 
-// Two 64-bit hashes of one byte string: FNV-1a and a multiply–rotate mix with another constant.
-// 128 bits name the file; the file repeats them, so a collision would need both to collide.
+// XXH3's 128-bit hash of a byte string (Debian's libxxhash, inlined): it names the file, and the
+// file repeats it. Every program load hashes its expanded source (render.cl: 0.9 MB) and its
+// binary; the byte-at-a-time FNV-1a this replaced took 1.3 ms a megabyte, XXH3 well under 0.1.
 std::string digest_of(const std::string& text) {
-    std::uint64_t fnv = 0xcbf29ce484222325ull, mix = 0x9e3779b97f4a7c15ull;
-    for (unsigned char c : text) {
-        fnv = (fnv ^ c) * 0x100000001b3ull;
-        mix = (mix ^ c) * 0xff51afd7ed558ccdull;
-        mix = (mix << 29) | (mix >> 35);
-    }
+    const XXH128_hash_t hash = XXH3_128bits(text.data(), text.size());
     char out[33];
-    std::snprintf(out, sizeof out, "%016llx%016llx", (unsigned long long)fnv, (unsigned long long)mix);
+    std::snprintf(out, sizeof out, "%016llx%016llx", (unsigned long long)hash.high64, (unsigned long long)hash.low64);
     return out;
 }
 

@@ -1,8 +1,12 @@
 #include "host/runtime.h"
 
+#include <algorithm>
 #include <cstdlib>
+#include <map>
+#include <mutex>
 #include <set>
 #include <sstream>
+#include <string_view>
 
 #include "host/embedded_kernels.h"
 #include "host/tiled_launch.h"
@@ -117,9 +121,17 @@ Runtime::~Runtime() {
 }
 
 std::string expand_kernel_source(const std::string& path) {
+    // once per file and process: every program built from a file needs it (each variant of
+    // render.cl: 0.9 MB expanded), and the embedded sources do not change
+    static std::mutex mutex;
+    static std::map<std::string, std::string> expanded;
+    {
+        std::lock_guard<std::mutex> lock(mutex);
+        if (auto found = expanded.find(path); found != expanded.end()) return found->second;
+    }
     const auto& sources = embedded_kernel_sources();
     std::set<std::string> open_files;
-    std::ostringstream out;
+    std::string out;
     // Recursive textual include. Every inclusion is expanded, as the C preprocessor would (an
     // #include inside #if must not hide a later one: the headers' guards keep them single); a
     // file already being expanded is an include cycle and is skipped.
@@ -127,25 +139,28 @@ std::string expand_kernel_source(const std::string& path) {
         if (!open_files.insert(file).second) return;
         auto it = sources.find(file);
         if (it == sources.end()) throw Error("cl/" + file + ": kernel source not embedded in this build");
-        std::istringstream in(it->second);
-        std::string line;
+        const std::string_view text = it->second;
+        out += "#line 1 \"" + file + "\"\n";
         int number = 0;
-        out << "#line 1 \"" << file << "\"\n";
-        while (std::getline(in, line)) {
+        for (std::size_t at = 0; at < text.size();) {
+            const std::size_t end = std::min(text.find('\n', at), text.size());
+            const std::string_view line = text.substr(at, end - at);
+            at = end + 1;
             ++number;
-            auto pos = line.find("#include \"");
-            if (pos != std::string::npos && line.find_first_not_of(" \t") == pos) {
-                auto begin = pos + 10, end = line.find('"', begin);
-                self(line.substr(begin, end - begin), self);
-                out << "#line " << number + 1 << " \"" << file << "\"\n";
+            const std::size_t pos = line.find("#include \"");
+            if (pos != std::string_view::npos && line.find_first_not_of(" \t") == pos) {
+                const std::size_t begin = pos + 10, close = line.find('"', begin);
+                self(std::string(line.substr(begin, close - begin)), self);
+                out += "#line " + std::to_string(number + 1) + " \"" + file + "\"\n";
             } else {
-                out << line << '\n';
+                out.append(line).push_back('\n');
             }
         }
         open_files.erase(file);
     };
     expand(path, expand);
-    return out.str();
+    std::lock_guard<std::mutex> lock(mutex);
+    return expanded.emplace(path, std::move(out)).first->second;
 }
 
 cl::Program& Runtime::program(const std::string& source, const std::vector<std::string>& defines) {
