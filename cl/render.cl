@@ -231,7 +231,9 @@ __kernel void render_camera(SCENE_PARAMS, __global float4* image, __global uint*
     uint row = get_global_id(1); /* the launch's row; y: the image's (CameraGpu first_row, row_stride) */
     uint y = camera->first_row + row * camera->row_stride;
     if (y >= camera->height) return;
-    lint xs = (int)(get_global_id(0) * SOMBRA_LANES) + LANE_INDEX;
+    uint packet_stride = max(camera->packet_stride, 1u); /* the image's packet (CameraGpu packet_stride) */
+    uint x0 = (uint)(get_global_id(0) * packet_stride + (camera->first_packet + row) % packet_stride) * SOMBRA_LANES;
+    lint xs = (int)x0 + LANE_INDEX;
     lmask lanes = xs < (int)camera->width;
 
     /* pinhole camera through the pixel centres */
@@ -300,7 +302,6 @@ __kernel void render_camera(SCENE_PARAMS, __global float4* image, __global uint*
     LSTORE(mad(state.transmittance, camera->background.z, state.radiance.z), blue);
     LSTORE(state.transmittance, transmittance);
     LSTORE(state.samples, samples);
-    uint x0 = get_global_id(0) * SOMBRA_LANES;
     for (uint lane = 0; lane < SOMBRA_LANES && x0 + lane < camera->width; ++lane) {
         size_t pixel = (size_t)row * camera->width + x0 + lane;
         image[pixel] = (float4)(red[lane], green[lane], blue[lane], 1.0f - transmittance[lane]);

@@ -135,10 +135,13 @@ typedef struct {
     float termination_transmittance; /* early ray termination below this t_acc */
     sb_uint jitter_seed;
     float phase_g; /* single scattering (SOMBRA_SCATTERING): Henyey–Greenstein asymmetry g */
-    /* The rows render_camera's launch covers: launch row j is image row first_row + j · row_stride,
-     * written to image row j (a frame: 0, 1; the shadow cache's auto probe renders single rows) */
+    /* The pixels render_camera's launch covers: launch row j is image row first_row + j · row_stride,
+     * written to image row j; in it, launch packet i is the image's packet of SOMBRA_LANES pixels
+     * i · packet_stride + (first_packet + j) mod packet_stride, written where the image's would be
+     * (a frame: 0, 1, 0, 1; the shadow cache's auto probe renders every packet_stride-th packet of
+     * rows spread over the image, staggered from row to row) */
     sb_uint first_row, row_stride;
-    sb_uint pad0, pad1;
+    sb_uint first_packet, packet_stride;
 } CameraGpu;
 
 /* A volume's pre-compressed visibility table (Hadwiger §3.2; src/shadows/precompression.h):

@@ -210,6 +210,7 @@ CameraGpu pack_camera(const Scene& scene, int width, int height) {
     g.background = f4(scene.background);
     g.width = cl_uint(width), g.height = cl_uint(height);
     g.first_row = 0, g.row_stride = 1;
+    g.first_packet = 0, g.packet_stride = 1;
     g.volume_count = cl_uint(scene.volumes.size());
     g.light_count = cl_uint(scene.lights.size());
     g.ambient_intensity = scene.ambient_intensity;

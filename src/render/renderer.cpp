@@ -354,7 +354,9 @@ double run_camera_pass(host::Runtime& runtime, const Scene& scene, const Prepare
     }
     args.done();
     const cl_uint rows = (camera.height - std::min(camera.first_row, camera.height) + camera.row_stride - 1) / camera.row_stride;
-    return host::run_packets(runtime, kernel, int(camera.width), int(rows), lanes);
+    // a launch row's packets: every packet_stride-th of the image's (CameraGpu)
+    const cl_uint stride = std::max(camera.packet_stride, cl_uint(1)), packets = (camera.width + lanes - 1) / lanes;
+    return host::run_packets(runtime, kernel, int((packets + stride - 1) / stride) * lanes, int(rows), lanes);
 }
 
 }  // namespace pipeline

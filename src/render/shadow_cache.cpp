@@ -40,7 +40,8 @@ constexpr int kSurfaceRowPoints = 1024;                              // rows of 
 // auto's probe fills blocks of 2 × 2 neighbouring lattice rows (y, z) every 32 rows along y and z
 // (1/256 of the points), on close calls 4 × 4 (1/64)
 constexpr int kProbeBlockStride = 32, kProbeBlock = 2, kProbeCloseCallBlock = 4;
-constexpr int kProbeRowsPerLaunch = 4, kProbeLaunches = 4;  // and renders 4 image rows a launch, at most 16
+// and renders 16 image rows a launch, every 4th packet of each (the pixels of 4 rows), at most 4 launches
+constexpr int kProbeRowsPerLaunch = 16, kProbePacketStride = 4, kProbeLaunches = 4;
 constexpr double kProbeWarmupMs = 10;                        // before its first fill, ≥ 10 ms of untimed fills
 constexpr int kProbeWarmupLaunches = 8;                      // (or 8 launches)
 constexpr double kProbeBudget = 0.05;                        // beyond its first launch, at most 5 % of the cheaper frame
@@ -639,15 +640,19 @@ namespace {
 // 2 × 2 neighbouring rows along y and z every 32 rows, centred (1/256 of its points; whole rows, so that a
 // packet's lanes are neighbours as in the fill), after 10 ms of untimed warm-up, the stale ones'
 // time scaled by their points; when the result is a close call (within 2×), again in blocks of
-// 4 × 4 (1/64) if that fits the budget. The camera pass: image rows at full width (lanes as coherent as the frame's), 4 a
-// launch a quarter of the image apart, the launches' offsets in van der Corput order (the middle
-// of each quarter, then of each eighth, …), each launch once evaluating the technique per sample
-// and once reading the small lattices (a lattice costs the same to read at any size; its values
-// are thrown away), scaled by the rows. It stops when one side costs twice the other, after 16
-// rows, or when its next launch would take the probe past kProbeBudget of the cheaper frame.
+// 4 × 4 (1/64) if that fits the budget. The camera pass: 16 image rows a launch, a sixteenth of
+// the image apart, of each every 4th packet of SOMBRA_LANES neighbouring pixels (lanes as coherent
+// as the frame's), staggered from row to row: the pixels of 4 rows spread over the image, where 4
+// whole rows a quarter apart missed or hit a small object's band of rows (two_smokes_wall's
+// shadow rays at 256²: the per-sample pass estimated at 102–106 ms against 175–195 ms). The
+// launches' row offsets in van der Corput order (the middle of each sixteenth, then of each
+// 32nd, …), each launch once evaluating the technique per sample and once reading the small
+// lattices (a lattice costs the same to read at any size; its values are thrown away), scaled by
+// the packets. It stops when one side costs twice the other, after 4 launches, or when its next
+// launch would take the probe past kProbeBudget of the cheaper frame.
 struct VolumeCosts {
     double fill_ms = 0, per_sample_ms = 0, cached_ms = 0, probe_ms = 0;
-    int rows = 0;
+    int launches = 0;  // of the camera pass's probe
 };
 
 VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan, std::size_t lights, int width, int height,
@@ -687,15 +692,22 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
     costs.fill_ms = fill_blocks(kProbeBlock, true);
     const double first_fill_probe_ms = costs.probe_ms - warm_ms;
     CameraGpu camera = frame_camera(launch.scene, launch.options, width, height);
-    camera.row_stride = cl_uint(std::max(1, height / kProbeRowsPerLaunch));  // a launch: 4 rows a quarter of the image apart
+    // a launch: kProbeRowsPerLaunch rows spread over the image, every kProbePacketStride-th packet
+    // of each, staggered from row to row (CameraGpu first_packet, packet_stride)
+    camera.row_stride = cl_uint(std::max(1, height / kProbeRowsPerLaunch));
+    camera.packet_stride = cl_uint(kProbePacketStride);
+    const int lanes = launch.lanes, row_packets = (width + lanes - 1) / lanes;
+    const double image_packets = double(row_packets) * height;
     CameraPassReads per_sample, cached;
     per_sample.fragments = cached.fragments = fragments;
     per_sample.surface_cache = cached.surface_cache = surface_cache;
     cached.volume_cache = &values, cached.volume_cache_table = &table;
-    const std::size_t launch_pixels = std::size_t(width) * std::size_t(kProbeRowsPerLaunch + 1);
+    // a launch writes its rows (at most height / row_stride rounded up, more than 16 when the
+    // stride rounds down) at the image's width
+    const std::size_t launch_pixels = std::size_t(width) * ((std::size_t(height) + camera.row_stride - 1) / camera.row_stride);
     cl::Buffer image = host::make_buffer(runtime, CL_MEM_WRITE_ONLY, launch_pixels * sizeof(cl_float4), nullptr, "probe rows");
     cl::Buffer counts = host::make_buffer(runtime, CL_MEM_WRITE_ONLY, launch_pixels * sizeof(cl_uint), nullptr, "probe row samples");
-    double per_sample_sum = 0, cached_sum = 0, last_launch = 0;
+    double per_sample_sum = 0, cached_sum = 0, last_launch = 0, packets_done = 0;
     // the probe's further steps must cost little against the frame either way would cost: a close
     // call is one where either choice costs about the same, so probing it long costs more than a
     // wrong choice (bench/README.md "sombra_bench_cache_auto")
@@ -703,23 +715,35 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
         const double cheaper = std::min(costs.per_sample_ms, costs.fill_ms + costs.cached_ms);
         return costs.probe_ms + per_sample_sum + cached_sum + step_ms <= kProbeBudget * cheaper;
     };
+    // untimed first: one packet each way. A kernel's first launch in a process pays the driver's
+    // loading of its code (PoCL: 1–2.5 ms), a large share of a launch of a 100–300 ms frame's
+    // 1/64 (two_smokes_wall's shadow rays at 256²: 3.8–5.0 ms against 2.5 ms after it)
+    {
+        CameraGpu one = camera;
+        one.row_stride = cl_uint(height), one.packet_stride = cl_uint(row_packets), one.first_row = cl_uint(height / 2);
+        for (const CameraPassReads* reads : {&per_sample, &cached})
+            costs.probe_ms += run_camera_pass(runtime, launch.scene, launch.prepared, launch.options, lanes, one, *reads, image, counts);
+    }
     std::vector<bool> done(camera.row_stride, false);
-    for (unsigned k = 1; k <= 4 * kProbeLaunches && costs.rows < height; ++k) {
+    for (unsigned k = 1; k <= 4 * kProbeLaunches && packets_done < image_packets; ++k) {
         double fraction = 0;  // van der Corput: k's bits mirrored behind the binary point
         for (unsigned bits = k, weight = 2; bits; bits >>= 1, weight *= 2) fraction += double(bits & 1u) / weight;
         const cl_uint first = std::min(camera.row_stride - 1, cl_uint(fraction * camera.row_stride));
         if (done[first]) continue;
         done[first] = true;
-        camera.first_row = first;
-        if (costs.rows > 0 && !within_budget(last_launch)) break;
-        const double per_sample_launch = run_camera_pass(runtime, launch.scene, launch.prepared, launch.options, launch.lanes, camera, per_sample, image, counts);
-        const double cached_launch = run_camera_pass(runtime, launch.scene, launch.prepared, launch.options, launch.lanes, camera, cached, image, counts);
+        camera.first_row = first, camera.first_packet = cl_uint(k);
+        if (packets_done > 0 && !within_budget(last_launch)) break;
+        const double per_sample_launch = run_camera_pass(runtime, launch.scene, launch.prepared, launch.options, lanes, camera, per_sample, image, counts);
+        const double cached_launch = run_camera_pass(runtime, launch.scene, launch.prepared, launch.options, lanes, camera, cached, image, counts);
         per_sample_sum += per_sample_launch, cached_sum += cached_launch, last_launch = per_sample_launch + cached_launch;
-        costs.rows += int((cl_uint(height) - first + camera.row_stride - 1) / camera.row_stride);
-        costs.per_sample_ms = per_sample_sum * height / costs.rows, costs.cached_ms = cached_sum * height / costs.rows;
+        for (cl_uint row = 0, y = first; y < cl_uint(height); ++row, y += camera.row_stride) {
+            const int offset = int((camera.first_packet + row) % camera.packet_stride);
+            packets_done += std::max(0, (row_packets - offset + kProbePacketStride - 1) / kProbePacketStride);
+        }
+        ++costs.launches;
+        costs.per_sample_ms = per_sample_sum * image_packets / packets_done, costs.cached_ms = cached_sum * image_packets / packets_done;
         const double with_cache = costs.fill_ms + costs.cached_ms;
-        if (costs.per_sample_ms > 2 * with_cache || 2 * costs.per_sample_ms < with_cache || costs.rows >= kProbeRowsPerLaunch * kProbeLaunches)
-            break;
+        if (costs.per_sample_ms > 2 * with_cache || 2 * costs.per_sample_ms < with_cache || costs.launches >= kProbeLaunches) break;
     }
     // a close call: the fill again on 1/64 of the rows (4 × 4 blocks: single estimates from the
     // first's few blocks spread by ± 40 %), when 4 times the first fill probe fits the budget
@@ -844,6 +868,7 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
                             host::make_buffer(runtime, CL_MEM_READ_ONLY, sizeof(cl_uint), nullptr, "no points to fill"), width, height,
                             fragments};
     const bool may_mark = options.shadow_cache_fill == ShadowCacheFill::Visible;
+    bool mark_for_fill = may_mark;  // the frame's fill, when the cache is read and not yet marked
     const SurfaceShadowCache* surface_reads = surfaces.use ? &cache->surfaces : nullptr;
     VolumeFill fill;
     double ms = 0;
@@ -878,6 +903,10 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
             }
         }
         volumes.use = shadow_cache_pays(costs.fill_ms, costs.cached_ms, costs.per_sample_ms) || (test_measure && marked);
+        // the marking pass costs about a cached pass and saves at most the fill: where the fill of
+        // every point is the cheaper, the frame fills them all (teapot_fog's DSM at 256²: a marking
+        // pass of 50 ms before a fill of 6 ms, where a fill of all points takes 10–17 ms)
+        mark_for_fill = may_mark && 2 * costs.cached_ms < costs.fill_ms;
         if (volumes.use) ms += measured_fill_ms;  // the frame's fill: its bands are filled
         else if (measured_fill_ms > 0) costs.probe_ms += measured_fill_ms;
         if (cache->history_pending) {
@@ -902,7 +931,7 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
         remember(VolumeCosts());
     }
     if (volumes.use) {
-        if (!fill.prepared) fill = prepare_volume_fill(launch, *cache, volumes, may_mark, surface_reads, stats);
+        if (!fill.prepared) fill = prepare_volume_fill(launch, *cache, volumes, mark_for_fill, surface_reads, stats);
         ms += fill_volume_entries(launch, *cache, volumes, fill, lights, stats);
     }
     if (ms > 0 || stats.shadow_cache_entries_built + stats.shadow_cache_surface_entries_built > 0) stats.stage_ms["shadow_cache"] = ms;
