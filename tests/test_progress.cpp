@@ -62,15 +62,6 @@ TEST_CASE("progress: bands cover the rows once, in multiples of the group side",
     CHECK(host::next_band(1600, 1500, 100, 1, 1, 0) == 100);
     CHECK(host::next_band(1600, 1200, 400, 1, 1, 0) == 1200);  // a quarter ran, the rest looks short
     CHECK(host::next_band(1600, 1600, 0, 0, 4, 0) == 28);      // 1/64, rounded up to the group side
-    // a floor of work-groups per compute unit: 32 per unit, 2 units, groups of 4 × 4 packets, rows
-    // of 16 packets (a 128² image in packets of 8) → 64 rows; not past the rows left, not for tiles
-    CHECK(host::band_floor(16, 16, 2) == 64);
-    CHECK(host::band_floor(64, 16, 2) == 16);
-    CHECK(host::band_floor(1, 64, 2) == 4096);                        // 1D: rows are work-items
-    CHECK(host::next_band(128, 128, 0, 0, 4, 0, 64) == 64);            // first band: 1/64 → the floor
-    CHECK(host::next_band(128, 64, 64, 300, 4, 0, 64) == 64);          // 1/16 → the floor
-    CHECK(host::next_band(128, 12, 116, 300, 4, 0, 64) == 12);         // the end
-    CHECK(host::next_band(128, 128, 0, 0, 4, 3, 64) == 44);            // tiles: as asked
 }
 
 TEST_CASE("progress: stages report monotone fractions from 0 to 1, nested and empty stages are silent", "[progress]") {

@@ -600,8 +600,8 @@ TEST_CASE("shadow cache auto across processes: a fresh Context's frame records i
         double on_ms, off_ms, estimated_on, estimated_off;
         int last_on;
         std::getline(in, magic), std::getline(in, check);
-        int on_runs, off_runs;
-        REQUIRE(bool(in >> on_ms >> off_ms >> estimated_on >> estimated_off >> last_on >> on_runs >> off_runs));
+        int on_runs, off_runs, mark_fill;
+        REQUIRE(bool(in >> on_ms >> off_ms >> estimated_on >> estimated_off >> last_on >> on_runs >> off_runs >> mark_fill));
         CHECK(on_runs == int(first.stats.shadow_cache_used));
         CHECK(off_runs == int(!first.stats.shadow_cache_used));
         CHECK(bool(last_on) == first.stats.shadow_cache_used);
@@ -611,6 +611,8 @@ TEST_CASE("shadow cache auto across processes: a fresh Context's frame records i
         const double fill = first.stats.shadow_cache_estimated_fill_ms, cached = first.stats.shadow_cache_estimated_cached_ms;
         CHECK((estimated_on == Approx(fill + cached) || (!first.stats.shadow_cache_visible_fill && estimated_on == Approx(fill / 4 + cached))));
         CHECK(estimated_off == Approx(first.stats.shadow_cache_estimated_per_sample_ms));
+        // whether a fill marks first: where it marked, or where the cached pass is under half the fill
+        CHECK(bool(mark_fill) == (first.stats.shadow_cache_visible_fill || 2 * cached < fill));
     }
     // the next processes choose from it, without a probe
     for (int k = 0; k < 2; ++k) {
@@ -624,6 +626,14 @@ TEST_CASE("shadow cache auto across processes: a fresh Context's frame records i
     CHECK(chose_on.stats.shadow_cache_used);
     CHECK(chose_on.stats.shadow_cache_history_on_ms == 10);
     CHECK(test::compare(chose_on.image, on_image).max_abs == 0.0);
+    CHECK(chose_on.stats.shadow_cache_visible_fill);  // a file without the marking choice: the fill marks
+    // the first probe found a fill of every point cheaper than marking: later runs fill them all,
+    // as the run it timed did; the same image (the points no sample reads are not read)
+    rewrite_times(files[0], "10 1000 500 500 0 3 3 0");
+    const RenderResult chose_on_all = fresh_frame();
+    CHECK(chose_on_all.stats.shadow_cache_used);
+    CHECK_FALSE(chose_on_all.stats.shadow_cache_visible_fill);
+    CHECK(test::compare(chose_on_all.image, on_image).max_abs == 0.0);
     // measured faster per sample: off
     rewrite_times(files[0], "1000 10 500 500 1 3 3");  // with the runs per mode (the 5-number form counts 1 each)
     const RenderResult chose_off = fresh_frame();

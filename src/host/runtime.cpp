@@ -94,7 +94,6 @@ Runtime::Runtime(const std::string& selector) {
     auto entries = enumerate();
     const DeviceEntry& chosen = choose(entries, selector);
     info_ = chosen.info;
-    compute_units_ = std::max<std::size_t>(1, chosen.device.getInfo<CL_DEVICE_MAX_COMPUTE_UNITS>());
     device_ = chosen.device;
     context_ = cl::Context(device_);
     queue_ = cl::CommandQueue(context_, device_, CL_QUEUE_PROFILING_ENABLE);

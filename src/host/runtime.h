@@ -46,13 +46,11 @@ public:
     // (host/tiled_launch.h): 0 sized by time, n > 0 n equal bands (1: one launch; tests, bench).
     Progress& progress() { return progress_; }
     int launch_tiles() const { return launch_tiles_; }
-    std::size_t compute_units() const { return compute_units_; }  // CL_DEVICE_MAX_COMPUTE_UNITS
     void set_launch_tiles(int tiles) { launch_tiles_ = tiles; }
 
 private:
     Progress progress_;
     int launch_tiles_ = 0;
-    std::size_t compute_units_ = 1;
     DeviceInfo info_;
     std::string build_options_;  // every program's: OpenCL C 1.2, argument names, exact division
     cl::Context context_;

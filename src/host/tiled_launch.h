@@ -16,19 +16,8 @@ namespace sombra::host {
 // of the rows until one finished, then bands of about kBandMs at the rate measured so far (`ms`
 // for the `measured` rows), at most 1/16 of the rows each (rows differ in cost: an empty sky is
 // quick); once a quarter of the rows ran, the rest in one launch when it looks shorter than kShortMs.
-// tiles = 0: never fewer than `min_band` rows (band_floor) but at the end.
 constexpr double kBandMs = 200, kShortMs = 1000;
-std::size_t next_band(std::size_t rows, std::size_t left, std::size_t measured, double ms, std::size_t quantum, int tiles,
-                      std::size_t min_band = 0);
-
-// The fewest rows of a time-sized band: kMinGroupsPerUnit work-groups for each of the device's
-// compute units (`local`'s, or kAssumedGroupItems work-items each without one), rows of
-// `row_items` work-items. A band's last groups leave the other units idle while they finish, and
-// each band wakes the device's threads: at 128², bands of 1/16 of the rows held 8 groups of 4 × 4
-// packets for 2 cores, and the smoke's cone pass took 672 ms in bands against 495 ms in one
-// launch (bench/README.md "sombra_bench_tiles").
-constexpr std::size_t kMinGroupsPerUnit = 32, kAssumedGroupItems = 64;
-std::size_t band_floor(std::size_t row_items, std::size_t group_items, std::size_t compute_units);
+std::size_t next_band(std::size_t rows, std::size_t left, std::size_t measured, double ms, std::size_t quantum, int tiles);
 
 // Runs `kernel` over `global` (1D or 2D) with `local` (or cl::NullRange) band by band, two bands
 // queued at a time, advancing the runtime's progress stage by each band's share of `units` as it

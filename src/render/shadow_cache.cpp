@@ -818,6 +818,7 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
     std::unique_lock<std::mutex> choosing;
     std::string choice_key;
     bool measure = false;
+    bool history_marks = true;  // a choice from the history: whether the fill marks, as the timed runs did
     if (automatic) {
         RememberedChoices& remembered = remembered_choices();
         choosing = std::unique_lock<std::mutex>(remembered.mutex);
@@ -835,7 +836,7 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
                 std::optional<AutoHistory> history = load_auto_history(choice_key);
                 const HistoryChoice chosen = choose_from_history(history);
                 if (chosen != HistoryChoice::Probe) {
-                    measure = false, volumes.use = chosen == HistoryChoice::On;
+                    measure = false, volumes.use = chosen == HistoryChoice::On, history_marks = history->mark_fill;
                     stats.shadow_cache_auto_history = true;
                     stats.shadow_cache_history_on_ms = history->on_ms, stats.shadow_cache_history_off_ms = history->off_ms;
                 }
@@ -868,7 +869,7 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
                             host::make_buffer(runtime, CL_MEM_READ_ONLY, sizeof(cl_uint), nullptr, "no points to fill"), width, height,
                             fragments};
     const bool may_mark = options.shadow_cache_fill == ShadowCacheFill::Visible;
-    bool mark_for_fill = may_mark;  // the frame's fill, when the cache is read and not yet marked
+    bool mark_for_fill = may_mark && history_marks;  // the frame's fill, when the cache is read and not yet marked
     const SurfaceShadowCache* surface_reads = surfaces.use ? &cache->surfaces : nullptr;
     VolumeFill fill;
     double ms = 0;
@@ -910,13 +911,14 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
         if (volumes.use) ms += measured_fill_ms;  // the frame's fill: its bands are filled
         else if (measured_fill_ms > 0) costs.probe_ms += measured_fill_ms;
         if (cache->history_pending) {
-            // unmarked, the visible fill may need as little as a quarter of the points: the
+            // unmarked, a visible fill (where the frame marks) may need as little as a quarter of the points: the
             // history's estimate is that one, so that a later run measures the cache when it may
             // pay (the MRI's shadow rays at 256²: fill of all points 5.6 s, visible fill 0.9 s, per
             // sample 1.5 s). Not the marking condition's eighth (kVisibleFillBound): the history
             // tries the cache only where a fill of a quarter of the points could pay
-            cache->history_pending->history.estimated_on_ms = (may_mark && !marked ? costs.fill_ms / 4 : costs.fill_ms) + costs.cached_ms;
+            cache->history_pending->history.estimated_on_ms = (mark_for_fill && !marked ? costs.fill_ms / 4 : costs.fill_ms) + costs.cached_ms;
             cache->history_pending->history.estimated_off_ms = costs.per_sample_ms;
+            cache->history_pending->history.mark_fill = marked || mark_for_fill;
             // not the mode's time: the probe, and its marking pass when the cache is then left off
             cache->history_pending->probe_ms =
                 std::chrono::duration<double, std::milli>((volumes.use ? probe_end : std::chrono::steady_clock::now()) - probe_start).count();

@@ -49,6 +49,8 @@ std::optional<AutoHistory> load_auto_history(const std::string& key) {
     h.last_on = last_on != 0;
     // the runs (after the times: a file without them counts one run per measured mode)
     if (!(in >> h.on_runs >> h.off_runs)) h.on_runs = h.on_ms >= 0, h.off_runs = h.off_ms >= 0;
+    int mark_fill = 1;  // after the runs (a file without it: the fill marks, as before)
+    if (in >> mark_fill) h.mark_fill = mark_fill != 0;
     return h;
 }
 
@@ -65,7 +67,7 @@ void store_auto_history(const std::string& key, const AutoHistory& h) {
         std::ofstream out(temporary);
         out << kMagic << "\n" << check_of(key) << "\n"
             << h.on_ms << " " << h.off_ms << " " << h.estimated_on_ms << " " << h.estimated_off_ms << " " << (h.last_on ? 1 : 0) << " "
-            << h.on_runs << " " << h.off_runs << "\n";
+            << h.on_runs << " " << h.off_runs << " " << (h.mark_fill ? 1 : 0) << "\n";
         if (!out) {
             std::filesystem::remove(temporary, error);
             return;

@@ -16,12 +16,15 @@ namespace sombra::pipeline {
 // the cache on and off (other load on the machine only lengthens a render, so the shortest is the
 // frame's own cost; measured wall times of one frame spread by ± 10–25 ms on 2 busy cores), and
 // how many renders each mode measured (counted up to kHistoryRuns); the estimates: the first
-// probe's (fill + cached camera pass, per-sample camera pass); `last_on`: the mode of the last render.
+// probe's (fill + cached camera pass, per-sample camera pass); `last_on`: the mode of the last render;
+// `mark_fill`: the first probe's choice whether a fill with the cache read marks the points the
+// frame reads first (shadow_cache.cpp), kept so that later runs fill as the one that was timed.
 struct AutoHistory {
     double on_ms = -1, off_ms = -1;
     int on_runs = 0, off_runs = 0;
     double estimated_on_ms = -1, estimated_off_ms = -1;
     bool last_on = false;
+    bool mark_fill = true;
 };
 
 // The folder of the history: $SOMBRA_AUTO_HISTORY ("off": none, nothing read or written), else
