@@ -738,7 +738,7 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
         per_sample_sum += per_sample_launch, cached_sum += cached_launch, last_launch = per_sample_launch + cached_launch;
         for (cl_uint row = 0, y = first; y < cl_uint(height); ++row, y += camera.row_stride) {
             const int offset = int((camera.first_packet + row) % camera.packet_stride);
-            packets_done += std::max(0, (row_packets - offset + kProbePacketStride - 1) / kProbePacketStride);
+            packets_done += std::max(0, (row_packets - offset + int(camera.packet_stride) - 1) / int(camera.packet_stride));
         }
         ++costs.launches;
         costs.per_sample_ms = per_sample_sum * image_packets / packets_done, costs.cached_ms = cached_sum * image_packets / packets_done;
@@ -755,6 +755,11 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
     runtime.progress().last_launch_ms = last_launch_ms;
     return costs;
 }
+
+// Whether marking the points a frame reads can pay: the marking pass costs about a cached pass,
+// and saves at most the fill of the points it leaves out (both the probe's marking condition and
+// the frame's fill after an unmarked choice ask it).
+bool marking_may_pay(const VolumeCosts& costs) { return 2 * costs.cached_ms < costs.fill_ms; }
 
 // What auto measured (or, remembered, what the frame's first render measured) into the stats.
 void report_auto_costs(const VolumeCosts& costs, RenderStats& stats) {
@@ -887,7 +892,7 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
         double measured_fill_ms = 0;
         // tests/test_shadow_cache.cpp: mark, measure and read the cache whatever the probe found
         const bool test_measure = std::getenv("SOMBRA_TEST_MEASURE_FILL") != nullptr;
-        if (may_mark && ((2 * costs.cached_ms < costs.fill_ms && 8 * costs.cached_ms <= costs.per_sample_ms &&
+        if (may_mark && ((marking_may_pay(costs) && 8 * costs.cached_ms <= costs.per_sample_ms &&
                           shadow_cache_pays(costs.fill_ms / kVisibleFillBound + costs.cached_ms, costs.cached_ms, costs.per_sample_ms)) ||
                          test_measure)) {
             marked = true;
@@ -904,10 +909,9 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
             }
         }
         volumes.use = shadow_cache_pays(costs.fill_ms, costs.cached_ms, costs.per_sample_ms) || (test_measure && marked);
-        // the marking pass costs about a cached pass and saves at most the fill: where the fill of
-        // every point is the cheaper, the frame fills them all (teapot_fog's DSM at 256²: a marking
-        // pass of 50 ms before a fill of 6 ms, where a fill of all points takes 10–17 ms)
-        mark_for_fill = may_mark && 2 * costs.cached_ms < costs.fill_ms;
+        // where marking cannot pay, the frame fills every point (teapot_fog's DSM at 256²: a
+        // marking pass of 50 ms before a fill of 6 ms, where a fill of all points takes 10–17 ms)
+        mark_for_fill = may_mark && marking_may_pay(costs);
         if (volumes.use) ms += measured_fill_ms;  // the frame's fill: its bands are filled
         else if (measured_fill_ms > 0) costs.probe_ms += measured_fill_ms;
         if (cache->history_pending) {
