@@ -106,7 +106,8 @@ bool RayTraversal::enter_next_segment(const TraversalScene& scene) {
 }
 
 // True when the sample at t lies in an empty brick of every active volume; then t_resume is
-// where the first of those bricks ends along the ray.
+// where the ray leaves the first of the cubes of empty bricks around them (the distance bytes
+// after a volume's flags, packing::brick_distances: r, the (2r − 1)³ bricks around of its kind).
 bool RayTraversal::in_empty_bricks(const TraversalScene& scene, float t_sample, float& t_resume) const {
     float t_exit = INFINITY;
     for (unsigned i = 0; i < SOMBRA_MAX_VOLUMES; ++i) {
@@ -118,9 +119,12 @@ bool RayTraversal::in_empty_bricks(const TraversalScene& scene, float t_sample, 
         int bx = std::min(int(p.x) / SOMBRA_BRICK_SIZE, v.brick_dims.s[0] - 1);
         int by = std::min(int(p.y) / SOMBRA_BRICK_SIZE, v.brick_dims.s[1] - 1);
         int bz = std::min(int(p.z) / SOMBRA_BRICK_SIZE, v.brick_dims.s[2] - 1);
-        if (scene.occupancy[v.brick_offset + bx + v.brick_dims.s[0] * (by + v.brick_dims.s[1] * bz)]) return false;
-        V3 lo{float(bx * SOMBRA_BRICK_SIZE), float(by * SOMBRA_BRICK_SIZE), float(bz * SOMBRA_BRICK_SIZE)};
-        float size = float(SOMBRA_BRICK_SIZE);
+        const std::size_t distances = v.brick_offset + std::size_t(v.brick_dims.s[0]) * v.brick_dims.s[1] * v.brick_dims.s[2];
+        const int distance = scene.occupancy[distances + bx + v.brick_dims.s[0] * (by + v.brick_dims.s[1] * bz)];
+        if (distance >= 128) return false;
+        const int reach = distance - 1;
+        V3 lo{float((bx - reach) * SOMBRA_BRICK_SIZE), float((by - reach) * SOMBRA_BRICK_SIZE), float((bz - reach) * SOMBRA_BRICK_SIZE)};
+        float size = float((2 * reach + 1) * SOMBRA_BRICK_SIZE);
         t_exit = std::fmin(t_exit, intersect_box(vox_origin[i], vox_dir[i], lo, lo + V3{size, size, size}).t1);
     }
     t_resume = t_exit;

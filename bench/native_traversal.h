@@ -22,7 +22,7 @@ inline V3 xyz(const cl_float4& v) { return {v.s[0], v.s[1], v.s[2]}; }
 struct TraversalScene {
     const VolumeGpu* volumes = nullptr;
     unsigned volume_count = 0;
-    const cl_uchar* occupancy = nullptr;  // 1: brick may be visible (PackedScene::occupancy)
+    const cl_uchar* occupancy = nullptr;  // brick flags, then distance bytes (PackedScene::occupancy)
     bool skip_empty = true;               // SOMBRA_SKIP_EMPTY
 };
 

@@ -94,11 +94,17 @@ static inline lfloat3 ray_voxel_point(const VolumeRay* ray, uint i, lfloat t) { 
 
 #ifdef SOMBRA_SKIP_EMPTY
 /* Lanes whose sample at t lies in an empty brick of every active volume; for them *t_resume is
- * where the first of those bricks ends along the ray (all samples before it are empty too). */
+ * where the ray leaves the first of the empty cubes around those bricks (all samples before it
+ * are empty too). For the other lanes of `lanes`, *t_occupied is where it leaves the cube of
+ * occupied bricks around the occupied brick their sample lies in (samples before it are not
+ * empty either). The cubes: a brick's distance byte (scene_upload.h brick_distances, after the
+ * volume's flags) r or 128 + r says that the (2r − 1)³ bricks centred on it are of its kind. */
 static inline lmask in_empty_bricks(__global const uchar* occupancy, __global const VolumeGpu* volumes, uint volume_count,
-                             const VolumeRay* ray, luint active, lfloat t, lmask lanes, lfloat* t_resume) {
+                             const VolumeRay* ray, luint active, lfloat t, lmask lanes, lfloat* t_resume,
+                             lfloat* t_occupied) {
     lmask empty = lanes;
     lfloat t_exit = (lfloat)(INFINITY);
+    lfloat occupied_exit = (lfloat)(-INFINITY);
     for (uint i = 0; i < volume_count; ++i) {
         lmask here = empty & ((active & (1u << i)) != 0);
         if (!lany(here)) continue;
@@ -107,19 +113,26 @@ static inline lmask in_empty_bricks(__global const uchar* occupancy, __global co
         lint bx = lmin(LCONVERT_INT(clamp_index(p.x, (float)(v->dims.x - 1))) / SOMBRA_BRICK_SIZE, v->brick_dims.x - 1);
         lint by = lmin(LCONVERT_INT(clamp_index(p.y, (float)(v->dims.y - 1))) / SOMBRA_BRICK_SIZE, v->brick_dims.y - 1);
         lint bz = lmin(LCONVERT_INT(clamp_index(p.z, (float)(v->dims.z - 1))) / SOMBRA_BRICK_SIZE, v->brick_dims.z - 1);
-        lint brick = (int)v->brick_offset + bx + v->brick_dims.x * (by + v->brick_dims.y * bz);
-#define SOMBRA_OCCUPIED_LANE(c) (float)occupancy[LC(brick, c)]
-        lfloat occupied = LFROM_LANES(SOMBRA_OCCUPIED_LANE);
-#undef SOMBRA_OCCUPIED_LANE
-        empty &= !(here & (occupied != 0.0f));
-        lfloat3 lo = l3(LCONVERT_FLOAT(bx * SOMBRA_BRICK_SIZE), LCONVERT_FLOAT(by * SOMBRA_BRICK_SIZE),
-                        LCONVERT_FLOAT(bz * SOMBRA_BRICK_SIZE));
-        lfloat3 hi = l3(lo.x + SOMBRA_BRICK_SIZE, lo.y + SOMBRA_BRICK_SIZE, lo.z + SOMBRA_BRICK_SIZE);
+        int distances = (int)v->brick_offset + v->brick_dims.x * v->brick_dims.y * v->brick_dims.z;
+        lint brick = distances + bx + v->brick_dims.x * (by + v->brick_dims.y * bz);
+#define SOMBRA_DISTANCE_LANE(c) (int)occupancy[LC(brick, c)]
+        lint distance = LFROM_LANES_AS(lint, SOMBRA_DISTANCE_LANE);
+#undef SOMBRA_DISTANCE_LANE
+        lmask full = here & (distance >= 128);
+        empty &= !full;
+        /* the cube of bricks of the same kind around it, in voxels */
+        lint reach = (distance & 127) - 1;
+        lfloat3 lo = l3(LCONVERT_FLOAT((bx - reach) * SOMBRA_BRICK_SIZE), LCONVERT_FLOAT((by - reach) * SOMBRA_BRICK_SIZE),
+                        LCONVERT_FLOAT((bz - reach) * SOMBRA_BRICK_SIZE));
+        lfloat size = LCONVERT_FLOAT((2 * reach + 1) * SOMBRA_BRICK_SIZE);
+        lfloat3 hi = l3(lo.x + size, lo.y + size, lo.z + size);
         lfloat t0, t1;
         intersect_box(ray->vox_origin[i], ray->vox_dir[i], lo, hi, &t0, &t1);
         t_exit = select(t_exit, fmin(t_exit, t1), here);
+        occupied_exit = select(occupied_exit, t1, full);
     }
     *t_resume = t_exit;
+    *t_occupied = occupied_exit;
     return empty;
 }
 #endif
@@ -152,6 +165,7 @@ typedef struct {
     lmask full_step; /* the interval is a whole step between two consecutive samples (delta = step) */
     lmask last_was_sample; /* the previous point was a sample reached by stepping */
     lmask resuming;  /* brick skipping: the next point is resume_t, where the empty bricks end */
+    lfloat occupied_until; /* brick skipping: samples before it lie in the occupied bricks the last test found */
     lmask empty_interval; /* the current point closes an interval through empty bricks only: σ = 0 */
     lfloat resume_t;
 #ifdef SOMBRA_HAS_MESHES
@@ -199,6 +213,7 @@ static inline void segment_cursor_init(SegmentCursor* c, const VolumeRay* ray, u
     c->k = (lint)(-1);
     c->jitter = jitter;
     c->t = c->delta = c->resume_t = (lfloat)(0.0f);
+    c->occupied_until = (lfloat)(-INFINITY);
     c->full_step = c->last_was_sample = c->resuming = c->empty_interval = (lmask)(0);
 #ifdef SOMBRA_HAS_MESHES
     c->surface = (lmask)(0);
@@ -406,6 +421,7 @@ static inline lmask segment_cursor_next(SegmentCursor* c, const VolumeRay* ray, 
         c->k = select(c->k, select((lint)(-1), (lint)(0), c->jitter <= 0.0f), exhausted);
         c->phase = select(c->phase, (lint)(0), exhausted);
         c->resuming &= !exhausted;
+        c->occupied_until = select(c->occupied_until, (lfloat)(-INFINITY), exhausted); /* new active volumes */
         /* empty segments (no active volume, zero length) are passed at once */
         exhausted &= (new_active == 0u) | !(c->t_end > c->t_start);
     }
@@ -439,16 +455,20 @@ static inline lmask segment_cursor_next(SegmentCursor* c, const VolumeRay* ray, 
     c->phase = select(select(c->phase, (lint)(1), starting), (lint)(2), ending);
     c->resuming &= !moving;
 #ifdef SOMBRA_SKIP_EMPTY
-    lfloat t_resume;
-    lmask skip = in_empty_bricks(occupancy, volumes, volume_count, ray, c->active, t, sample, &t_resume);
+    /* a sample still inside the cube of occupied bricks the last test found is not tested again
+     * (a rounding at the cube's face at worst tests one sample more or samples one empty one) */
+    lfloat t_resume, t_occupied;
+    lmask test = sample & !(t < c->occupied_until);
+    lmask skip = in_empty_bricks(occupancy, volumes, volume_count, ray, c->active, t, test, &t_resume, &t_occupied);
+    c->occupied_until = select(c->occupied_until, t_occupied, test & !skip);
     skip &= t_resume > t; /* NaN and ±∞ (a ray parallel to a brick face, outside it) skip nothing */
     skip &= t_resume < INFINITY;
     /* a run of empty bricks is one interval: while the brick the ray enters at t_resume (tested
      * just past its face) is empty too, the resume point moves to its exit */
     lmask hopping = skip & (t_resume < c->t_end);
     for (int hop = 0; hop < 64 && lany(hopping); ++hop) {
-        lfloat t_probe = select(t, t_resume + 1e-3f * c->step, hopping), t_exit;
-        lmask empty = in_empty_bricks(occupancy, volumes, volume_count, ray, c->active, t_probe, hopping, &t_exit);
+        lfloat t_probe = select(t, t_resume + 1e-3f * c->step, hopping), t_exit, t_full;
+        lmask empty = in_empty_bricks(occupancy, volumes, volume_count, ray, c->active, t_probe, hopping, &t_exit, &t_full);
         hopping = empty & (t_exit > t_resume) & (t_exit < INFINITY);
         t_resume = select(t_resume, t_exit, hopping);
         hopping &= t_resume < c->t_end;

@@ -1,6 +1,6 @@
 // Volume sampling, transfer functions and gradients: kernels against plain C++.
 #include <catch2/catch.hpp>
-
+#include <algorithm>
 #include <cmath>
 #include <random>
 
@@ -166,6 +166,41 @@ TEST_CASE("a vanishing gradient gives a zero normal, never NaN", "[sampling][gra
         CHECK(n.s[1] == 0.f);
         CHECK(n.s[2] == 0.f);
     }
+}
+
+TEST_CASE("brick distances: the cube of (2r - 1)^3 bricks around a brick is of its kind, and the next one is not", "[sampling]") {
+    // random occupancy at several densities and shapes (thin grids, all empty, all occupied), against brute force
+    std::mt19937 rng(7);
+    const std::array<int, 3> shapes[] = {{9, 7, 5}, {1, 12, 3}, {16, 16, 16}, {4, 1, 1}};
+    for (const auto& dims : shapes)
+        for (double density : {0.0, 0.02, 0.3, 0.9, 1.0}) {
+            INFO(dims[0] << "x" << dims[1] << "x" << dims[2] << " occupied " << density);
+            const std::size_t count = std::size_t(dims[0]) * dims[1] * dims[2];
+            std::bernoulli_distribution occupied_draw(density);
+            std::vector<cl_uchar> occupied(count);
+            for (auto& o : occupied) o = occupied_draw(rng) ? 1 : 0;
+            const std::vector<cl_uchar> bytes = packing::brick_distances(occupied, dims);
+            REQUIRE(bytes.size() == count);
+            auto index = [&](int x, int y, int z) { return std::size_t(x) + std::size_t(dims[0]) * (std::size_t(y) + std::size_t(dims[1]) * std::size_t(z)); };
+            for (int z = 0; z < dims[2]; ++z)
+                for (int y = 0; y < dims[1]; ++y)
+                    for (int x = 0; x < dims[0]; ++x) {
+                        const bool full = occupied[index(x, y, z)] != 0;
+                        const int byte = bytes[index(x, y, z)];
+                        CHECK((byte >= 128) == full);
+                        const int r = full ? byte - 128 : byte;
+                        REQUIRE(r >= 1);
+                        REQUIRE(r <= 127);
+                        // the nearest brick of the other kind, by brute force (127: none)
+                        int nearest = 127;
+                        for (int qz = 0; qz < dims[2]; ++qz)
+                            for (int qy = 0; qy < dims[1]; ++qy)
+                                for (int qx = 0; qx < dims[0]; ++qx)
+                                    if ((occupied[index(qx, qy, qz)] != 0) != full)
+                                        nearest = std::min(nearest, std::max({std::abs(qx - x), std::abs(qy - y), std::abs(qz - z)}));
+                        CHECK(r == nearest);
+                    }
+        }
 }
 
 TEST_CASE("brick ranges cover every voxel a trilinear sample in the brick reads", "[sampling]") {

@@ -23,6 +23,12 @@ struct BrickRanges {
 };
 BrickRanges compute_brick_ranges(const Volume& volume);
 
+// Every brick's distance byte from its occupancy flags (1: may be visible; x fastest), for the
+// marches' brick test (cl/traversal.h in_empty_bricks): an empty brick holds r, an occupied one
+// 128 + r, where r ≥ 1 is its Chebyshev distance (in bricks) to the nearest brick of the other
+// kind, at most 127 — every brick within r − 1 of it, inside the grid, is of its own kind.
+std::vector<cl_uchar> brick_distances(const std::vector<cl_uchar>& occupied, const std::array<int, 3>& brick_dims);
+
 // A volume's voxel (continuous index, voxel centres at integers) → world map, row-major, and its inverse.
 std::array<float, 16> voxel_to_world_matrix(const VolumeInstance& vi);
 std::array<float, 16> world_to_voxel_matrix(const VolumeInstance& vi);
@@ -32,7 +38,9 @@ struct PackedScene {
     std::vector<VolumeGpu> volumes;
     std::vector<LightGpu> lights;
     std::vector<cl_float4> tf_tables;
-    std::vector<cl_uchar> occupancy;  // 1: the brick may be visible under the transfer function
+    // Per volume from VolumeGpu::brick_offset: each brick's flag (1: it may be visible under the
+    // transfer function), then each brick's distance byte (brick_distances).
+    std::vector<cl_uchar> occupancy;
     std::vector<std::array<float, 16>> voxel_to_world;  // row-major, per volume
     std::vector<SurfaceTriangleGpu> bound_triangles;    // polyhedral bounds in the world (VolumeGpu.bound_first)
 };

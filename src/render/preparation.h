@@ -154,12 +154,13 @@ constexpr bool shadow_cache_pays(double fill_ms, double cached_ms, double per_sa
 
 // Auto's probe lattices for a frame's `layout`: each lattice's rows (whole along x) in blocks of
 // block × block neighbours along y and z (fewer where the lattice is thinner), one block every
-// 32 rows of the lattice on each axis, whole blocks only (at least one), centred: ≈ (block/32)²
-// of the points, placed one after the other (ShadowCacheGpu.row_block, row_block_stride).
+// `stride` rows of the lattice on each axis, whole blocks only (at least one), centred:
+// ≈ (block/stride)² of the points, placed one after the other (ShadowCacheGpu.row_block,
+// row_block_stride).
 // Points of a cache lattice (dims.x · dims.y · dims.z).
 std::size_t lattice_points(const ShadowCacheGpu& c);
 
-std::vector<ShadowCacheGpu> probe_lattices(const std::vector<ShadowCacheGpu>& layout, int block);
+std::vector<ShadowCacheGpu> probe_lattices(const std::vector<ShadowCacheGpu>& layout, int block, int stride);
 
 // The shadow cache this frame reads, its stale entries filled, or nullptr when every sample and
 // fragment evaluates the technique (options.shadow_cache). Auto weighs the volume part by

@@ -37,10 +37,15 @@ constexpr std::size_t kShadowCachePoints = std::size_t(1) << 23;  // per volume 
 constexpr std::size_t kSurfacePoints = std::size_t(1) << 22;      // the surface part's, over all meshes (64 MiB + 4 MiB per light)
 constexpr int kSurfaceMaxSubdivision = 1024;                        // lattice intervals along a triangle's edge
 constexpr int kSurfaceRowPoints = 1024;                              // rows of the surface fill's launch
-// auto's probe fills blocks of 2 × 2 neighbouring lattice rows (y, z) every 32 rows along y and z
-// (1/256 of the points), on close calls 4 × 4 (1/64)
-constexpr int kProbeBlockStride = 32, kProbeBlock = 2, kProbeCloseCallBlock = 4;
-// and renders 16 image rows a launch, every 4th packet of each (the pixels of 4 rows), at most 4 launches
+// auto's probe fills blocks of 2 × 2 neighbouring lattice rows (y, z) every 64 rows along y and z
+// first (1/1024 of the points), every 32 rows unless that already decided (1/256), on close calls
+// 4 × 4 every 32 (1/64)
+constexpr int kProbeBlock = 2, kProbeCloseCallBlock = 4, kProbeCoarseStride = 64, kProbeBlockStride = 32;
+// A decision from the coarse fill alone needs one side to cost 3 times the other (twice after the
+// finer fills).
+constexpr double kProbeCoarseClear = 3, kProbeClear = 2;
+// and renders 16 image rows a launch, every 4th packet of each (the pixels of 4 rows; of images
+// under 256 rows every (4 · 256 / height)th: 1/64 of the image), at most 4 launches
 constexpr int kProbeRowsPerLaunch = 16, kProbePacketStride = 4, kProbeLaunches = 4;
 constexpr double kProbeWarmupMs = 10;                        // before its first fill, ≥ 10 ms of untimed fills
 constexpr int kProbeWarmupLaunches = 8;                      // (or 8 launches)
@@ -614,19 +619,19 @@ double fill_surface_entries(const FillLaunch& launch, SurfaceShadowCache& sc, co
 
 }  // namespace
 
-std::vector<ShadowCacheGpu> probe_lattices(const std::vector<ShadowCacheGpu>& layout, int block) {
+std::vector<ShadowCacheGpu> probe_lattices(const std::vector<ShadowCacheGpu>& layout, int block, int stride) {
     std::vector<ShadowCacheGpu> small = layout;
     std::size_t total = 0;
     for (ShadowCacheGpu& c : small) {
         const int b = std::min({block, c.dims.s[1], c.dims.s[2]});
         for (std::size_t a = 1; a < 3; ++a) {
-            const int n = c.dims.s[a], blocks = std::max(1, (n - b) / kProbeBlockStride + 1);  // whole blocks inside
+            const int n = c.dims.s[a], blocks = std::max(1, (n - b) / stride + 1);  // whole blocks inside
             // centred: a lattice's border rows are mostly empty space, cheap to fill
-            c.block_origin.s[a] = float((n - ((blocks - 1) * kProbeBlockStride + b)) / 2) * c.spacing.s[a];
+            c.block_origin.s[a] = float((n - ((blocks - 1) * stride + b)) / 2) * c.spacing.s[a];
             c.dims.s[a] = blocks * b;
-            c.spacing.s[a] *= float(kProbeBlockStride);
+            c.spacing.s[a] *= float(stride);
         }
-        c.row_block = cl_uint(b), c.row_block_stride = cl_uint(kProbeBlockStride);
+        c.row_block = cl_uint(b), c.row_block_stride = cl_uint(stride);
         c.offset = cl_uint(total);  // c.reach stays: points near the same bricks are evaluated
         total += lattice_points(c);
     }
@@ -667,8 +672,9 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
     // the frame's fill (bench/README.md "sombra_bench_cache_auto"). The camera pass reads the last.
     cl::Buffer values, table;
     double warm_ms = 0;
-    auto fill_blocks = [&](int block, bool warm_up) {
-        const std::vector<ShadowCacheGpu> small = probe_lattices(plan.layout, block);
+    double last_fill_probe_ms = 0, last_fill_probe_share = 0;  // the last fill probe's time and share of the points
+    auto fill_blocks = [&](int block, int stride, bool warm_up) {
+        const std::vector<ShadowCacheGpu> small = probe_lattices(plan.layout, block, stride);
         const std::size_t total = small.back().offset + lattice_points(small.back());
         values = host::make_buffer(runtime, CL_MEM_READ_WRITE, total * sizeof(float), nullptr, "shadow cache probe");
         table = host::make_buffer(runtime, CL_MEM_READ_ONLY, small.size() * sizeof(ShadowCacheGpu), small.data(), "shadow cache probe table");
@@ -677,25 +683,39 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
         // the first milliseconds of launches after the frame's preparation run slow (smoke, rays at
         // 256²: every 16th row's 2–4 ms launches took up to 2× their later time): the first
         // small lattice is filled untimed first (bench/README.md "sombra_bench_cache_auto")
+        // (on the first probe lattice's first row of blocks along z: one launch of a whole probe
+        // lattice took 22 ms on the CT)
         if (warm_up) {
+            ShadowCacheGpu warm = small[0];
+            warm.dims.s[2] = std::min(warm.dims.s[2], int(warm.row_block));
             for (int k = 0; warm_ms < kProbeWarmupMs && k < kProbeWarmupLaunches; ++k)
-                warm_ms += fill_lattice(launch, kernel, 0, small[0], lights, table, values);
+                warm_ms += fill_lattice(launch, kernel, 0, warm, lights, table, values);
             costs.probe_ms += warm_ms;
         }
+        double probe_ms = 0, probe_points = 0, points = 0;
         for (std::size_t e = 0; e < small.size(); ++e) {
             const double ms = fill_lattice(launch, kernel, e, small[e], lights, table, values);
-            costs.probe_ms += ms;
+            probe_ms += ms;
+            probe_points += double(lattice_points(small[e])), points += double(lattice_points(plan.layout[e]));
             if (plan.stale[e]) fill_ms += ms * double(lattice_points(plan.layout[e])) / double(lattice_points(small[e]));
         }
+        costs.probe_ms += probe_ms;
+        last_fill_probe_ms = probe_ms, last_fill_probe_share = probe_points / std::max(points, 1.0);
         return fill_ms;
     };
-    costs.fill_ms = fill_blocks(kProbeBlock, true);
-    const double first_fill_probe_ms = costs.probe_ms - warm_ms;
+    // what a fill probe of `block` × `block` rows every `stride` would take, from the last one
+    auto fill_probe_ms = [&](int block, int stride) {
+        const double share = double(block * block) / (double(stride) * stride);
+        return last_fill_probe_ms * share / std::max(last_fill_probe_share, 1e-12);
+    };
+    costs.fill_ms = fill_blocks(kProbeBlock, kProbeCoarseStride, true);
+    bool fine_fill = false;  // the fill measured every kProbeBlockStride rows
     CameraGpu camera = frame_camera(launch.scene, launch.options, width, height);
     // a launch: kProbeRowsPerLaunch rows spread over the image, every kProbePacketStride-th packet
-    // of each, staggered from row to row (CameraGpu first_packet, packet_stride)
+    // of each (of small images more: a launch is at most 1/64 of the image), staggered from row to
+    // row (CameraGpu first_packet, packet_stride)
     camera.row_stride = cl_uint(std::max(1, height / kProbeRowsPerLaunch));
-    camera.packet_stride = cl_uint(kProbePacketStride);
+    camera.packet_stride = cl_uint(kProbePacketStride * std::max(1, 256 / std::max(height, 1)));
     const int lanes = launch.lanes, row_packets = (width + lanes - 1) / lanes;
     const double image_packets = double(row_packets) * height;
     CameraPassReads per_sample, cached;
@@ -742,15 +762,27 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
         }
         ++costs.launches;
         costs.per_sample_ms = per_sample_sum * image_packets / packets_done, costs.cached_ms = cached_sum * image_packets / packets_done;
-        const double with_cache = costs.fill_ms + costs.cached_ms;
-        if (costs.per_sample_ms > 2 * with_cache || 2 * costs.per_sample_ms < with_cache || costs.launches >= kProbeLaunches) break;
+        auto decided = [&](double factor) {
+            const double with_cache = costs.fill_ms + costs.cached_ms;
+            return costs.per_sample_ms > factor * with_cache || factor * costs.per_sample_ms < with_cache;
+        };
+        if (decided(fine_fill ? kProbeClear : kProbeCoarseClear)) break;
+        // not decided by the coarse fill: the fill every kProbeBlockStride rows (≈ 4 × the first),
+        // whatever the budget (decisions on small frames from the coarse fill alone chose the
+        // slower mode more often: two_smokes_wall's AO at 128², 1.27 → 1.56×)
+        if (!fine_fill) {
+            costs.fill_ms = fill_blocks(kProbeBlock, kProbeBlockStride, false);
+            fine_fill = true;
+            if (decided(kProbeClear)) break;
+        }
+        if (costs.launches >= kProbeLaunches) break;
     }
     // a close call: the fill again on 1/64 of the rows (4 × 4 blocks: single estimates from the
-    // first's few blocks spread by ± 40 %), when 4 times the first fill probe fits the budget
+    // 1/256's few blocks spread by ± 40 %), when it fits the budget
     const double with_cache = costs.fill_ms + costs.cached_ms;
-    const bool close_call = costs.per_sample_ms <= 2 * with_cache && 2 * costs.per_sample_ms >= with_cache;
-    constexpr double kCloseCallPoints = double(kProbeCloseCallBlock * kProbeCloseCallBlock) / (kProbeBlock * kProbeBlock);
-    if (close_call && within_budget(kCloseCallPoints * first_fill_probe_ms)) costs.fill_ms = fill_blocks(kProbeCloseCallBlock, false);
+    const bool close_call = costs.per_sample_ms <= kProbeClear * with_cache && kProbeClear * costs.per_sample_ms >= with_cache;
+    if (close_call && within_budget(fill_probe_ms(kProbeCloseCallBlock, kProbeBlockStride)))
+        costs.fill_ms = fill_blocks(kProbeCloseCallBlock, kProbeBlockStride, false);
     costs.probe_ms += per_sample_sum + cached_sum;
     runtime.progress().last_launch_ms = last_launch_ms;
     return costs;
