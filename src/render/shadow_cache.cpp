@@ -642,10 +642,11 @@ namespace {
 
 // Auto's measurement (issue 29 item 5): what the frame's shadow terms cost both ways, from small
 // runs of the real kernels before the frame. The fill: every lattice's rows along x in blocks of
-// 2 × 2 neighbouring rows along y and z every 32 rows, centred (1/256 of its points; whole rows, so that a
+// 2 × 2 neighbouring rows along y and z every 64 rows, centred (1/1024 of its points; whole rows, so that a
 // packet's lanes are neighbours as in the fill), after 10 ms of untimed warm-up, the stale ones'
-// time scaled by their points; when the result is a close call (within 2×), again in blocks of
-// 4 × 4 (1/64) if that fits the budget. The camera pass: 16 image rows a launch, a sixteenth of
+// time scaled by their points; unless the first camera launch then decides at 3×, again every
+// 32 rows (1/256); when the result is a close call (within 2×), again in blocks of 4 × 4 (1/64)
+// if that fits the budget. The camera pass: 16 image rows a launch, a sixteenth of
 // the image apart, of each every 4th packet of SOMBRA_LANES neighbouring pixels (lanes as coherent
 // as the frame's), staggered from row to row: the pixels of 4 rows spread over the image, where 4
 // whole rows a quarter apart missed or hit a small object's band of rows (two_smokes_wall's
