@@ -673,7 +673,7 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
     // the frame's fill (bench/README.md "sombra_bench_cache_auto"). The camera pass reads the last.
     cl::Buffer values, table;
     double warm_ms = 0;
-    double last_fill_probe_ms = 0, last_fill_probe_share = 0;  // the last fill probe's time and share of the points
+    double last_fill_probe_ms = 0, last_fill_probe_share = 0;  // the last fill probe's time and (block/stride)²
     auto fill_blocks = [&](int block, int stride, bool warm_up) {
         const std::vector<ShadowCacheGpu> small = probe_lattices(plan.layout, block, stride);
         const std::size_t total = small.back().offset + lattice_points(small.back());
@@ -683,9 +683,8 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
         double fill_ms = 0;
         // the first milliseconds of launches after the frame's preparation run slow (smoke, rays at
         // 256²: every 16th row's 2–4 ms launches took up to 2× their later time): the first
-        // small lattice is filled untimed first (bench/README.md "sombra_bench_cache_auto")
-        // (on the first probe lattice's first row of blocks along z: one launch of a whole probe
-        // lattice took 22 ms on the CT)
+        // small lattice's first row of blocks along z is filled untimed first (bench/README.md
+        // "sombra_bench_cache_auto"; a whole probe lattice was one 22 ms launch on the CT)
         if (warm_up) {
             ShadowCacheGpu warm = small[0];
             warm.dims.s[2] = std::min(warm.dims.s[2], int(warm.row_block));
@@ -693,21 +692,24 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
                 warm_ms += fill_lattice(launch, kernel, 0, warm, lights, table, values);
             costs.probe_ms += warm_ms;
         }
-        double probe_ms = 0, probe_points = 0, points = 0;
+        double probe_ms = 0;
         for (std::size_t e = 0; e < small.size(); ++e) {
             const double ms = fill_lattice(launch, kernel, e, small[e], lights, table, values);
             probe_ms += ms;
-            probe_points += double(lattice_points(small[e])), points += double(lattice_points(plan.layout[e]));
             if (plan.stale[e]) fill_ms += ms * double(lattice_points(plan.layout[e])) / double(lattice_points(small[e]));
         }
         costs.probe_ms += probe_ms;
-        last_fill_probe_ms = probe_ms, last_fill_probe_share = probe_points / std::max(points, 1.0);
+        last_fill_probe_ms = probe_ms, last_fill_probe_share = double(block * block) / (double(stride) * stride);
         return fill_ms;
     };
     // what a fill probe of `block` × `block` rows every `stride` would take, from the last one
     auto fill_probe_ms = [&](int block, int stride) {
-        const double share = double(block * block) / (double(stride) * stride);
-        return last_fill_probe_ms * share / std::max(last_fill_probe_share, 1e-12);
+        return last_fill_probe_ms * double(block * block) / (double(stride) * stride) / last_fill_probe_share;
+    };
+    // whether one side costs `factor` times the other
+    auto decided = [&](double factor) {
+        const double with_cache = costs.fill_ms + costs.cached_ms;
+        return costs.per_sample_ms > factor * with_cache || factor * costs.per_sample_ms < with_cache;
     };
     costs.fill_ms = fill_blocks(kProbeBlock, kProbeCoarseStride, true);
     bool fine_fill = false;  // the fill measured every kProbeBlockStride rows
@@ -763,10 +765,6 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
         }
         ++costs.launches;
         costs.per_sample_ms = per_sample_sum * image_packets / packets_done, costs.cached_ms = cached_sum * image_packets / packets_done;
-        auto decided = [&](double factor) {
-            const double with_cache = costs.fill_ms + costs.cached_ms;
-            return costs.per_sample_ms > factor * with_cache || factor * costs.per_sample_ms < with_cache;
-        };
         if (decided(fine_fill ? kProbeClear : kProbeCoarseClear)) break;
         // not decided by the coarse fill: the fill every kProbeBlockStride rows (≈ 4 × the first),
         // whatever the budget (decisions on small frames from the coarse fill alone chose the
@@ -780,9 +778,7 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
     }
     // a close call: the fill again on 1/64 of the rows (4 × 4 blocks: single estimates from the
     // 1/256's few blocks spread by ± 40 %), when it fits the budget
-    const double with_cache = costs.fill_ms + costs.cached_ms;
-    const bool close_call = costs.per_sample_ms <= kProbeClear * with_cache && kProbeClear * costs.per_sample_ms >= with_cache;
-    if (close_call && within_budget(fill_probe_ms(kProbeCloseCallBlock, kProbeBlockStride)))
+    if (!decided(kProbeClear) && within_budget(fill_probe_ms(kProbeCloseCallBlock, kProbeBlockStride)))
         costs.fill_ms = fill_blocks(kProbeCloseCallBlock, kProbeBlockStride, false);
     costs.probe_ms += per_sample_sum + cached_sum;
     runtime.progress().last_launch_ms = last_launch_ms;
