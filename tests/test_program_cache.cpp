@@ -8,6 +8,7 @@
 
 #include "host/kernel_args.h"
 #include "host/runtime.h"
+#include "sombra/device.h"
 #include "test_support.h"
 
 using namespace sombra;
@@ -218,4 +219,50 @@ TEST_CASE("program cache: the CLI renders the same image from cached programs an
     std::string bytes_b((std::istreambuf_iterator<char>(b)), std::istreambuf_iterator<char>());
     CHECK(!bytes_a.empty());
     CHECK((bytes_a == bytes_b));  // (parenthesised: Catch would print the bytes)
+}
+
+// PoCL compiles a kernel once per launch shape it meets unless its work-group specialization is
+// off (docs/architecture.md "Facts about PoCL"); sombra turns it off before it looks for
+// platforms, and keeps a value the user set.
+TEST_CASE("runtime: PoCL's work-group specialization is turned off unless the user set it", "[program_cache]") {
+    {
+        Variable user("POCL_WORK_GROUP_SPECIALIZATION", "1");
+        list_devices();
+        REQUIRE(std::string(std::getenv("POCL_WORK_GROUP_SPECIALIZATION")) == "1");
+    }
+    unsetenv("POCL_WORK_GROUP_SPECIALIZATION");
+    const auto devices = list_devices();
+    REQUIRE(std::getenv("POCL_WORK_GROUP_SPECIALIZATION") != nullptr);
+    CHECK(std::string(std::getenv("POCL_WORK_GROUP_SPECIALIZATION")) == "0");
+    unsetenv("POCL_WORK_GROUP_SPECIALIZATION");
+
+    // and PoCL follows it: a render with both caches empty leaves one compiled work-group
+    // function per kernel, the generic one ("0-0-0"), where a tiled launch's bands used to add
+    // one for a global offset of 0 and one for the others ("4-4-1-goffs0-smallgrid", "4-4-1-smallgrid")
+    bool pocl = false;
+    for (const auto& d : devices) pocl = pocl || d.platform.find("Portable Computing Language") != std::string::npos;
+    if (!pocl) {
+        WARN("no PoCL platform: PoCL's cache is not checked");
+        return;
+    }
+    const std::string dir = test::temp_dir();
+    Variable pocl_cache("POCL_CACHE_DIR", dir + "/pocl"), kernels("SOMBRA_KERNEL_CACHE", dir + "/kernels");
+    auto run = test::run_cli_output("render " + test::data_path("scenes/smoke.json") + " -o " + dir +
+                                    "/smoke.png --width 24 --height 24 --dsm-res 32 --shadow-cache off --device " +
+                                    test::device_selector());
+    INFO(run.err);
+    REQUIRE(run.exit_code == 0);
+    int kernel_folders = 0;
+    for (const auto& entry : fs::recursive_directory_iterator(dir + "/pocl")) {
+        if (!entry.is_directory() || !fs::exists(entry.path() / "program.bc")) continue;  // a program's folder
+        for (const auto& kernel : fs::directory_iterator(entry.path())) {
+            if (!kernel.is_directory()) continue;
+            ++kernel_folders;
+            std::vector<std::string> variants;
+            for (const auto& variant : fs::directory_iterator(kernel.path())) variants.push_back(variant.path().filename().string());
+            INFO(kernel.path().string());
+            CHECK(variants == std::vector<std::string>{"0-0-0"});
+        }
+    }
+    CHECK(kernel_folders >= 3);  // the DSM build, its packing and the camera pass at least
 }

@@ -25,6 +25,14 @@ void ensure_linker_on_path() {
     }
 }
 
+// PoCL compiles each kernel's work-group function once per launch shape it meets: for offset-0
+// and other global offsets (the tiled launches' first band and the rest), for each local size,
+// and once more without specialization for the binary the program cache stores. Without
+// specialization it compiles one function per kernel, used by every launch: the default scene's
+// first render with both caches cold 10.6 → 6.2 s, the same images, kernel times within
+// run-to-run noise (docs/architecture.md "Facts about PoCL"). A value the user set is kept.
+void prefer_generic_work_groups() { setenv("POCL_WORK_GROUP_SPECIALIZATION", "0", 0); }
+
 struct DeviceEntry {
     cl::Platform platform;
     cl::Device device;
@@ -33,6 +41,7 @@ struct DeviceEntry {
 
 std::vector<DeviceEntry> enumerate() {
     ensure_linker_on_path();
+    prefer_generic_work_groups();
     std::vector<DeviceEntry> entries;
     std::vector<cl::Platform> platforms;
     try {
