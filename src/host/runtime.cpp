@@ -31,7 +31,14 @@ void ensure_linker_on_path() {
 // specialization it compiles one function per kernel, used by every launch: the default scene's
 // first render with both caches cold 10.6 → 6.2 s, the same images, kernel times within
 // run-to-run noise (docs/architecture.md "Facts about PoCL"). A value the user set is kept.
-void prefer_generic_work_groups() { setenv("POCL_WORK_GROUP_SPECIALIZATION", "0", 0); }
+// Once per process, so that later Runtimes never write the environment while other threads may
+// read it.
+void prefer_generic_work_groups() {
+    static std::once_flag once;
+    std::call_once(once, [] {
+        if (!std::getenv("POCL_WORK_GROUP_SPECIALIZATION")) setenv("POCL_WORK_GROUP_SPECIALIZATION", "0", 0);
+    });
+}
 
 struct DeviceEntry {
     cl::Platform platform;
