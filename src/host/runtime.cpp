@@ -220,7 +220,14 @@ int generation_lanes(const Runtime& runtime, int requested) {
     return native >= 16 ? 16 : 8;
 }
 
-double run_packets(Runtime& runtime, cl::Kernel& kernel, int width, int height, int lanes, double units, int first_row) {
+namespace {
+
+// run_packets' work-items and groups (above run_packets in runtime.h)
+struct PacketGrid {
+    cl::NDRange global, local;
+};
+
+PacketGrid packet_grid(int width, int height, int lanes) {
     std::size_t columns = std::size_t((width + lanes - 1) / lanes), rows = std::size_t(height);
     cl::NDRange local = cl::NullRange;
     if (lanes > 1) {
@@ -229,7 +236,21 @@ double run_packets(Runtime& runtime, cl::Kernel& kernel, int width, int height, 
         rows = (rows + group - 1) / group * group;
         local = cl::NDRange(group, group);
     }
-    return run_tiled(runtime, kernel, cl::NDRange(columns, rows), local, units, std::size_t(first_row));
+    return {cl::NDRange(columns, rows), local};
+}
+
+}  // namespace
+
+double run_packets(Runtime& runtime, cl::Kernel& kernel, int width, int height, int lanes, double units, int first_row) {
+    const PacketGrid grid = packet_grid(width, height, lanes);
+    return run_tiled(runtime, kernel, grid.global, grid.local, units, std::size_t(first_row));
+}
+
+cl::Event enqueue_packets(Runtime& runtime, cl::Kernel& kernel, int width, int height, int lanes, int first_row) {
+    const PacketGrid grid = packet_grid(width, height, lanes);
+    cl::Event event;
+    runtime.queue().enqueueNDRangeKernel(kernel, cl::NDRange(0, std::size_t(first_row)), grid.global, grid.local, nullptr, &event);
+    return event;
 }
 
 void check_allocation(const Runtime& runtime, std::uint64_t bytes, const std::string& what) {

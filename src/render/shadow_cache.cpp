@@ -356,18 +356,25 @@ struct RowRange {
 
 RowRange all_rows(const ShadowCacheGpu& c) { return {0, c.dims.s[1] * c.dims.s[2]}; }
 
-// shadow_cache_fill of entry e of `table` (lattice c) into `values`, by the launch's technique, of
-// the points `mode` and `mask` select in `rows` (default: all); returns the kernel time. The
-// frame's fill and auto's probe both run it.
-double fill_lattice(const FillLaunch& launch, cl::Kernel& kernel, std::size_t e, const ShadowCacheGpu& c, std::size_t lights,
-                    const cl::Buffer& table, const cl::Buffer& values, FillMode mode = FillMode::All, const cl::Buffer* mask = nullptr,
-                    std::optional<RowRange> rows = std::nullopt) {
+// shadow_cache_fill's arguments for entry e of `table` into `values`, by the launch's technique,
+// for the points `mode` and `mask` select.
+void bind_fill(const FillLaunch& launch, cl::Kernel& kernel, std::size_t e, std::size_t lights, const cl::Buffer& table,
+               const cl::Buffer& values, FillMode mode = FillMode::All, const cl::Buffer* mask = nullptr) {
     host::KernelArgs args{kernel};
     bind_scene(args, launch.prepared.scene, launch.camera);
     args("light_index", cl_uint(e % lights))("cache_entry", cl_uint(e))("shadow_cache_table", table)("shadow_cache", values);
     args("fill_mode", cl_uint(mode))("fill_mask", mask ? *mask : launch.no_mask);
     launch.prepared.technique.bind(args, launch.runtime, launch.options);
     args.done();
+}
+
+// shadow_cache_fill of entry e of `table` (lattice c) into `values`, by the launch's technique, of
+// the points `mode` and `mask` select in `rows` (default: all), in bands; returns the kernel time.
+// The frame's fill and auto's probe warm-up run it.
+double fill_lattice(const FillLaunch& launch, cl::Kernel& kernel, std::size_t e, const ShadowCacheGpu& c, std::size_t lights,
+                    const cl::Buffer& table, const cl::Buffer& values, FillMode mode = FillMode::All, const cl::Buffer* mask = nullptr,
+                    std::optional<RowRange> rows = std::nullopt) {
+    bind_fill(launch, kernel, e, lights, table, values, mode, mask);
     const RowRange r = rows.value_or(all_rows(c));
     return host::run_packets(launch.runtime, kernel, c.dims.s[0], r.count, launch.lanes, 1, r.first);
 }
@@ -692,9 +699,20 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
                 warm_ms += fill_lattice(launch, kernel, 0, warm, lights, table, values);
             costs.probe_ms += warm_ms;
         }
+        // every entry's small lattice enqueued before any is waited for, one launch each, each
+        // timed by its event: waiting on each cost the cup array's 48 entries ≈ 0.08 ms apiece
+        // (its rays' fill probe 12.0–12.2 → 8.2–8.5 ms wall for the same kernel time,
+        // bench/README.md "Where a first run's extra time goes")
+        std::vector<cl::Event> events;
+        for (std::size_t e = 0; e < small.size(); ++e) {
+            bind_fill(launch, kernel, e, lights, table, values);
+            events.push_back(host::enqueue_packets(runtime, kernel, small[e].dims.s[0], small[e].dims.s[1] * small[e].dims.s[2], launch.lanes));
+        }
+        runtime.queue().flush();
         double probe_ms = 0;
         for (std::size_t e = 0; e < small.size(); ++e) {
-            const double ms = fill_lattice(launch, kernel, e, small[e], lights, table, values);
+            events[e].wait();
+            const double ms = host::Runtime::event_ms(events[e]);
             probe_ms += ms;
             if (plan.stale[e]) fill_ms += ms * double(lattice_points(plan.layout[e])) / double(lattice_points(small[e]));
         }
