@@ -35,9 +35,7 @@ void ensure_linker_on_path() {
 // read it.
 void prefer_generic_work_groups() {
     static std::once_flag once;
-    std::call_once(once, [] {
-        if (!std::getenv("POCL_WORK_GROUP_SPECIALIZATION")) setenv("POCL_WORK_GROUP_SPECIALIZATION", "0", 0);
-    });
+    std::call_once(once, [] { setenv("POCL_WORK_GROUP_SPECIALIZATION", "0", 0); });  // 0: a set value stays
 }
 
 struct DeviceEntry {
@@ -246,10 +244,10 @@ double run_packets(Runtime& runtime, cl::Kernel& kernel, int width, int height, 
     return run_tiled(runtime, kernel, grid.global, grid.local, units, std::size_t(first_row));
 }
 
-cl::Event enqueue_packets(Runtime& runtime, cl::Kernel& kernel, int width, int height, int lanes, int first_row) {
+cl::Event enqueue_packets(Runtime& runtime, cl::Kernel& kernel, int width, int height, int lanes) {
     const PacketGrid grid = packet_grid(width, height, lanes);
     cl::Event event;
-    runtime.queue().enqueueNDRangeKernel(kernel, cl::NDRange(0, std::size_t(first_row)), grid.global, grid.local, nullptr, &event);
+    runtime.queue().enqueueNDRangeKernel(kernel, cl::NullRange, grid.global, grid.local, nullptr, &event);
     return event;
 }
 

@@ -83,7 +83,7 @@ double run_packets(Runtime& runtime, cl::Kernel& kernel, int width, int height, 
 // The same grid as one launch, enqueued without waiting (no bands, no progress): for series of
 // short launches whose host round trips cost about as much as their kernels (auto's probe fills
 // one small lattice per cache entry: 48 on the cup array). Returns the launch's event.
-cl::Event enqueue_packets(Runtime& runtime, cl::Kernel& kernel, int width, int height, int lanes, int first_row = 0);
+cl::Event enqueue_packets(Runtime& runtime, cl::Kernel& kernel, int width, int height, int lanes);
 
 // The source of a cl/ file with every #include "…" replaced by the file's text.
 std::string expand_kernel_source(const std::string& path);
