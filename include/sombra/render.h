@@ -117,8 +117,12 @@ struct DsmOptions {
 // The summed-area-table family (lowpass, ao, cone; declared in src/techniques/sat_shadows.cpp).
 struct SatOptions {
     // Filter width W in voxels of the scene's finest volume (Ament §4.2.1: U = V = W/2); ao: the
-    // cube side. Changing it rebuilds no table.
+    // cube side. Changing it rebuilds no table while W ≤ cells_across_patch.
     float filter_width = 3.f;
+    // lowpass: the W × W patch spans at least this many table cells across the light: W > N coarsens
+    // the CSAT and SSAT cells across the light to W/N voxels (fewer cells, a faster build; the box
+    // filter's width grows by ≤ √(1 + 3/N²) − 1, 2.3 % at 8). 0: cells of the finest voxel whatever W.
+    float cells_across_patch = 8.f;
     // "box" (Ament Eq. 11–13) or "gauss": a Gaussian with σ = W/4 over the W × W patch, as 5 × 5
     // sub-boxes of the same tables (Ament §4.3, Eq. 25).
     std::string filter_kernel = "box";

@@ -109,7 +109,7 @@ D3 SatFrame::cell_centre(int i, int j, int k) const {
     D3 p = origin;
     double c[3] = {i + 0.5, j + 0.5, k + 0.5};
     for (int a = 0; a < 3; ++a)
-        for (int r = 0; r < 3; ++r) p[std::size_t(r)] += c[a] * cell_size * axes[std::size_t(a)][std::size_t(r)];
+        for (int r = 0; r < 3; ++r) p[std::size_t(r)] += c[a] * cell(std::size_t(a)) * axes[std::size_t(a)][std::size_t(r)];
     return p;
 }
 
@@ -260,9 +260,9 @@ SphereSpan sphere_span(const std::vector<D3>& corners, const D3& light) {
     return s;
 }
 
-// Cells along φ, θ, r: k voxels along r and at the reference distance across.
-std::array<int, 3> sphere_cells(const SphereSpan& s, double voxel, double k) {
-    double across = voxel * k / s.r_ref;
+// Cells along φ, θ, r: k voxels along r and max(k, k_across) at the reference distance across.
+std::array<int, 3> sphere_cells(const SphereSpan& s, double voxel, double k, double k_across) {
+    double across = voxel * std::max(k, k_across) / s.r_ref;
     return {std::max(1, int(std::ceil((s.phi_hi - s.phi_lo) / across))), std::max(1, int(std::ceil((s.theta_hi - s.theta_lo) / across))),
             std::max(1, int(std::ceil((s.r_max - s.r_min) / (voxel * k))))};
 }
@@ -331,7 +331,8 @@ std::vector<VolumeGroup> volume_groups(const packing::PackedScene& packed, const
 
 }  // namespace
 
-std::vector<SatFrame> plan_csat_tables(const packing::PackedScene& packed, const std::array<D3, 3>& axes, std::size_t max_entries) {
+std::vector<SatFrame> plan_csat_tables(const packing::PackedScene& packed, const std::array<D3, 3>& axes, std::size_t max_entries,
+                                       const std::array<double, 3>& cell_scale) {
     double voxel = 0;
     std::vector<std::vector<D3>> per_volume = occupied_corners_per_volume(packed, voxel);
     if (packed.volumes.empty() || !(voxel > 0)) throw Error("--shadows lowpass: the scene has no volume to build a summed-area table of");
@@ -356,18 +357,20 @@ std::vector<SatFrame> plan_csat_tables(const packing::PackedScene& packed, const
         double start[3];
         int all_dims[3];
         for (std::size_t a = 0; a < 3; ++a) {
-            all_dims[a] = std::max(1, int(std::ceil((all_hi[a] - all_lo[a]) / h - 1e-6)));
-            start[a] = 0.5 * (all_lo[a] + all_hi[a]) - 0.5 * all_dims[a] * h;
+            const double cell = h * cell_scale[a];
+            all_dims[a] = std::max(1, int(std::ceil((all_hi[a] - all_lo[a]) / cell - 1e-6)));
+            start[a] = 0.5 * (all_lo[a] + all_hi[a]) - 0.5 * all_dims[a] * cell;
         }
         for (std::size_t g = 0; g < groups.size(); ++g) {
             SatFrame f;
-            f.axes = axes, f.cell_size = h, f.voxel_size = voxel, f.volume_mask = groups[g].mask;
+            f.axes = axes, f.cell_size = h, f.cell_scale = cell_scale, f.voxel_size = voxel, f.volume_mask = groups[g].mask;
             f.origin = {0, 0, 0};
             for (std::size_t a = 0; a < 3; ++a) {
-                int first = std::clamp(int(std::floor((lo[g][a] - start[a]) / h + 1e-6)), 0, all_dims[a] - 1);
-                int last = std::clamp(int(std::ceil((hi[g][a] - start[a]) / h - 1e-6)), first + 1, all_dims[a]);
+                const double cell = h * cell_scale[a];
+                int first = std::clamp(int(std::floor((lo[g][a] - start[a]) / cell + 1e-6)), 0, all_dims[a] - 1);
+                int last = std::clamp(int(std::ceil((hi[g][a] - start[a]) / cell - 1e-6)), first + 1, all_dims[a]);
                 f.dims[a] = last - first;
-                for (std::size_t r = 0; r < 3; ++r) f.origin[r] += (start[a] + first * h) * axes[a][r];
+                for (std::size_t r = 0; r < 3; ++r) f.origin[r] += (start[a] + first * cell) * axes[a][r];
             }
             total += f.entries(), largest = std::max(largest, f.entries());
             tables.push_back(f);
@@ -377,7 +380,8 @@ std::vector<SatFrame> plan_csat_tables(const packing::PackedScene& packed, const
     return tables;
 }
 
-std::vector<SsatGridGpu> plan_ssat_tables(const packing::PackedScene& packed, const D3& light, std::size_t max_entries) {
+std::vector<SsatGridGpu> plan_ssat_tables(const packing::PackedScene& packed, const D3& light, std::size_t max_entries,
+                                          double coarsen_across) {
     double voxel = 0;
     std::vector<std::vector<D3>> per_volume = occupied_corners_per_volume(packed, voxel);
     if (packed.volumes.empty() || !(voxel > 0)) throw Error("--shadows lowpass: the scene has no volume to build a summed-area table of");
@@ -385,18 +389,23 @@ std::vector<SsatGridGpu> plan_ssat_tables(const packing::PackedScene& packed, co
     // one cell size factor k for every table of the light: the smallest (in 5 % steps) at which
     // they hold at most max_entries together and each at most SOMBRA_SAT_MAX_ENTRIES
     std::vector<SphereSpan> spans;
-    for (const VolumeGroup& g : groups) spans.push_back(sphere_span(g.corners, light));
+    std::vector<double> k_across;  // per table: coarsen_across voxels at its farthest radius
+    for (const VolumeGroup& g : groups) {
+        spans.push_back(sphere_span(g.corners, light));
+        k_across.push_back(coarsen_across * spans.back().r_ref / spans.back().r_max);
+    }
     double k = 1;
     for (;; k *= 1.05) {
         std::size_t total = 0, largest = 0;
-        for (const SphereSpan& s : spans) {
-            std::size_t e = cells_entries(sphere_cells(s, voxel, k));
+        for (std::size_t i = 0; i < spans.size(); ++i) {
+            std::size_t e = cells_entries(sphere_cells(spans[i], voxel, k, k_across[i]));
             total += e, largest = std::max(largest, e);
         }
         if (total <= max_entries && largest <= SOMBRA_SAT_MAX_ENTRIES) break;
     }
     std::vector<SsatGridGpu> tables;
-    for (std::size_t i = 0; i < groups.size(); ++i) tables.push_back(sphere_grid(spans[i], sphere_cells(spans[i], voxel, k), light, groups[i].mask));
+    for (std::size_t i = 0; i < groups.size(); ++i)
+        tables.push_back(sphere_grid(spans[i], sphere_cells(spans[i], voxel, k, k_across[i]), light, groups[i].mask));
     return tables;
 }
 
@@ -430,14 +439,14 @@ void bind_volumes(host::KernelArgs& args, const packing::PackedScene& packed, co
 SatGridGpu sat_grid(const SatFrame& f, std::size_t offset, int axis, bool positive) {
     SatGridGpu g{};
     for (std::size_t a = 0; a < 3; ++a) {
-        D3 row = {f.axes[a][0] / f.cell_size, f.axes[a][1] / f.cell_size, f.axes[a][2] / f.cell_size};
+        D3 row = {f.axes[a][0] / f.cell(a), f.axes[a][1] / f.cell(a), f.axes[a][2] / f.cell(a)};
         g.to_grid[a] = f4(row, -dot(row, f.origin));
     }
     g.dims = {{f.dims[0], f.dims[1], f.dims[2], 1}};
     g.light_axis = cl_uint(axis);
     g.light_positive = positive ? 1 : 0;
     g.tau_per_unit = 1.f / SOMBRA_SAT_UNITS_PER_TAU;
-    g.cell_size = float(f.cell_size);
+    g.cell_size = float(f.cell(std::size_t(axis == 0 ? 1 : 0)));  // across the light (the filter's patch)
     g.filter_cells = 1;
     g.data_offset = cl_uint(offset);
     return g;
@@ -544,7 +553,7 @@ std::string sat_table_geometry_key(const DeviceSat& sat, std::size_t table) {
         return "SSAT " + bits(g);
     }
     const SatFrame& f = sat.frames[table];
-    return "CSAT " + bits(f.axes) + ' ' + bits(f.origin) + ' ' + bits(f.dims) + ' ' + bits(f.cell_size) + ' ' + bits(f.volume_mask) + " axes " +
+    return "CSAT " + bits(f.axes) + ' ' + bits(f.origin) + ' ' + bits(f.dims) + ' ' + bits(f.cell_size) + ' ' + bits(f.cell_scale) + ' ' + bits(f.volume_mask) + " axes " +
            std::to_string(sat_frame_light_axes(sat, table));
 }
 
@@ -601,7 +610,7 @@ void build_one_table(host::Runtime& runtime, const Scene& scene, const packing::
         const char* cell_names[3] = {"cell_u", "cell_v", "cell_w"};
         for (std::size_t axis = 0; axis < 3; ++axis) {
             const D3& r = f.axes[axis];
-            args(cell_names[axis], f4({r[0] * f.cell_size, r[1] * f.cell_size, r[2] * f.cell_size}));
+            args(cell_names[axis], f4({r[0] * f.cell(axis), r[1] * f.cell(axis), r[2] * f.cell(axis)}));
         }
         args("cell_length", float(f.cell_size))("light_axes", sat_frame_light_axes(sat, table))("volume_mask", f.volume_mask).done();
         sat.stage_ms["sat_resample"] += host::run_packets(runtime, resample, f.dims[0], f.dims[1], lanes);
@@ -621,7 +630,28 @@ void build_one_table(host::Runtime& runtime, const Scene& scene, const packing::
 }
 }  // namespace
 
-DeviceSat plan_light_sats(const packing::PackedScene& packed, std::size_t max_entries) {
+// The cell scale of a CSAT frame with `axes`: coarsen_across across the light when the scene's
+// directional lights all shine along one of its axes, else 1 (a light along another axis would
+// filter across that one).
+static std::array<double, 3> csat_cell_scale(const packing::PackedScene& packed, const std::array<D3, 3>& axes, double coarsen_across) {
+    int lit = -1;
+    SatFrame frame;
+    frame.axes = axes;
+    for (const LightGpu& light : packed.lights) {
+        if (light.type != SOMBRA_LIGHT_DIRECTIONAL) continue;
+        bool positive = true;
+        int axis = shared_axis(frame, {-light.direction.s[0], -light.direction.s[1], -light.direction.s[2]}, positive);
+        if (axis < 0) continue;
+        if (lit >= 0 && axis != lit) return {1, 1, 1};
+        lit = axis;
+    }
+    std::array<double, 3> scale{1, 1, 1};
+    for (int a = 0; a < 3; ++a)
+        if (lit >= 0 && a != lit) scale[std::size_t(a)] = std::max(coarsen_across, 1.0);
+    return scale;
+}
+
+DeviceSat plan_light_sats(const packing::PackedScene& packed, std::size_t max_entries, double coarsen_across) {
     DeviceSat sat;
     scene_corners(packed, sat.voxel_size);
     std::vector<std::vector<SatGridGpu>> extra_grids(packed.lights.size());     // per light: its CSATs after the first
@@ -640,7 +670,8 @@ DeviceSat plan_light_sats(const packing::PackedScene& packed, std::size_t max_en
             for (std::size_t i = 0; i < first_tables.size() && axis < 0; ++i)
                 if ((axis = shared_axis(sat.frames[std::size_t(first_tables[i])], towards, positive)) >= 0) frame = first_tables[i];
             if (axis < 0) {  // new tables, founded by this light
-                std::vector<SatFrame> tables = plan_csat_tables(packed, shared_csat_axes(towards), max_entries);
+                const std::array<D3, 3> axes = shared_csat_axes(towards);
+                std::vector<SatFrame> tables = plan_csat_tables(packed, axes, max_entries, csat_cell_scale(packed, axes, coarsen_across));
                 frame = int(sat.frames.size());
                 first_tables.push_back(frame);
                 for (std::size_t i = 0; i < tables.size(); ++i) {
@@ -656,7 +687,7 @@ DeviceSat plan_light_sats(const packing::PackedScene& packed, std::size_t max_en
                 extra_frames[l].push_back(t);
             }
         } else {
-            extra_spheres[l] = plan_ssat_tables(packed, {light.position.s[0], light.position.s[1], light.position.s[2]}, max_entries);
+            extra_spheres[l] = plan_ssat_tables(packed, {light.position.s[0], light.position.s[1], light.position.s[2]}, max_entries, coarsen_across);
             sphere = extra_spheres[l].front();
             extra_spheres[l].erase(extra_spheres[l].begin());
         }
@@ -697,8 +728,8 @@ DeviceSat plan_volume_sat(const packing::PackedScene& packed, std::size_t max_en
 }
 
 DeviceSat build_light_sats(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
-                           const packing::DeviceScene& device_scene, std::size_t max_entries, int lanes) {
-    DeviceSat sat = plan_light_sats(packed, max_entries);
+                           const packing::DeviceScene& device_scene, std::size_t max_entries, int lanes, double coarsen_across) {
+    DeviceSat sat = plan_light_sats(packed, max_entries, coarsen_across);
     sat.lanes = lanes;
     build_all(runtime, scene, packed, device_scene, sat);
     return sat;

@@ -4,6 +4,7 @@
 #pragma once
 #include <CL/opencl.hpp>
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <map>
@@ -35,12 +36,26 @@ struct SatFrame {
     D3 origin;
     std::array<int, 3> dims{0, 0, 0};
     double cell_size = 0;   // h, world units
+    // per axis, the cell's length in units of h: 1 except across the light of a frame whose filter
+    // allows coarser cells (sat_cell_coarsening)
+    std::array<double, 3> cell_scale{1, 1, 1};
     double voxel_size = 0;  // smallest world voxel of the scene: the unit of the filter width
     cl_uint volume_mask = ~cl_uint(0);  // the volumes whose σ the table holds (bit i: volume i)
     int next = -1;  // the next table on the same lattice for the same lights (a group of volumes each), or −1
     std::size_t entries() const { return std::size_t(dims[0] + 1) * std::size_t(dims[1] + 1) * std::size_t(dims[2] + 1); }
     D3 cell_centre(int i, int j, int k) const;  // world position
+    double cell(std::size_t axis) const { return cell_size * cell_scale[axis]; }  // along grid axis `axis`, world units
 };
+
+// Cells across the light no finer than the filter can use (issue 30 item 1): with a low-pass patch
+// of W voxels that must span at least N table cells (SatOptions::cells_across_patch, default 8;
+// 0: no limit), cells across the light coarsen by W / N when W > N — never along the light, whose
+// depth is not filtered. The lookup's cell averaging and linear blend widen the box filter's
+// standard deviation by at most √(1 + 3/N²) − 1 (variance W²/12 + c²/4 for cells c ≤ W/N): 2.3 %
+// at N = 8 (at the default W = 3 on cells of one voxel it is 15 %).
+inline double sat_cell_coarsening(double filter_voxels, double cells_across_patch) {
+    return cells_across_patch > 0 ? std::max(1.0, filter_voxels / cells_across_patch) : 1.0;
+}
 
 // The frame for a light shining towards `towards_light` (unit vector from the scene to the light)
 // over the volumes of `packed`, with cells of the smallest voxel size, coarsened until the table
@@ -58,7 +73,9 @@ std::array<D3, 3> shared_csat_axes(const D3& towards_light);
 // lattice centred on all the groups' bounds (`next` left −1: the caller chains them where it puts them),
 // cells of the smallest voxel coarsened in 5 % steps until they hold at most `max_entries`
 // together. One group: make_sat_frame's frame over the occupied corners.
-std::vector<SatFrame> plan_csat_tables(const packing::PackedScene& packed, const std::array<D3, 3>& axes, std::size_t max_entries);
+// cell_scale: SatFrame::cell_scale of every table.
+std::vector<SatFrame> plan_csat_tables(const packing::PackedScene& packed, const std::array<D3, 3>& axes, std::size_t max_entries,
+                                       const std::array<double, 3>& cell_scale = {1, 1, 1});
 // A frame aligned with the first volume's axes around every volume's occupied bricks (the
 // volume-aligned SAT of the baselines, Schlegel et al. 2011), and one for any orthonormal axes
 // around `corners` (the points the frame must contain: scene_corners or occupied_corners).
@@ -71,8 +88,10 @@ SatFrame make_sat_frame(const std::vector<D3>& corners, double voxel_size, const
 // bounds gets the angles the group subtends; a light inside them (or seeing it over more than 80°)
 // the whole sphere, wrapping at φ = ±π. Cells of one voxel along r and of one voxel at the group's
 // distance across, all coarsened by one factor until the tables have at most `max_entries` entries
-// together. half_width and next are left 0.
-std::vector<SsatGridGpu> plan_ssat_tables(const packing::PackedScene& packed, const D3& light_position, std::size_t max_entries);
+// together; across, coarsened to `coarsen_across` voxels (sat_cell_coarsening) at the table's
+// farthest radius, where a patch is narrowest. half_width and next are left 0.
+std::vector<SsatGridGpu> plan_ssat_tables(const packing::PackedScene& packed, const D3& light_position, std::size_t max_entries,
+                                          double coarsen_across = 1);
 inline std::size_t ssat_entries(const SsatGridGpu& g) {
     return std::size_t(g.dims.s[0] + 1) * std::size_t(g.dims.s[1] + 1) * std::size_t(g.dims.s[2] + 1);
 }
@@ -124,14 +143,17 @@ void build_sat_table(host::Runtime& runtime, const Scene& scene, const packing::
 // light founds the shared frame; one table per group of overlapping volumes, plan_csat_tables), per
 // point or spot light one SSAT per group of overlapping volumes (§4.2.3, plan_ssat_tables). Both are fitted to the occupied bricks (occupied_corners), as is the baselines' volume-aligned SAT
 // (plan_volume_sat; a cone from outside it skips the cubes before it: cl/lowpass.h sat_cone_depth).
-DeviceSat plan_light_sats(const packing::PackedScene& packed, std::size_t max_entries);
+// coarsen_across: how much coarser than a voxel the cells across the light may be
+// (sat_cell_coarsening; a CSAT frame with lights along two or three of its axes stays isotropic).
+DeviceSat plan_light_sats(const packing::PackedScene& packed, std::size_t max_entries, double coarsen_across = 1);
 // The plan of the baselines' one volume-aligned SAT (see build_volume_sat).
 DeviceSat plan_volume_sat(const packing::PackedScene& packed, std::size_t max_entries);
 
 // A plan placed contiguously and built into a fresh buffer (plan_light_sats); lanes: the
 // resamples' packet width (DeviceSat::lanes).
 DeviceSat build_light_sats(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
-                           const packing::DeviceScene& device_scene, std::size_t max_entries, int lanes = 0);
+                           const packing::DeviceScene& device_scene, std::size_t max_entries, int lanes = 0,
+                           double coarsen_across = 1);
 
 // The baselines' one volume-aligned SAT (SAT ambient occlusion and cone shadows, Schlegel et al.
 // 2011): frames[0], described by grids[0] for every light.

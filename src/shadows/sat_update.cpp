@@ -76,8 +76,8 @@ std::vector<std::string> extinction_keys(const Scene& scene, const packing::Pack
 
 DeviceSat update_sats(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
                       const packing::DeviceScene& device_scene, bool light_aligned, std::size_t max_entries, int lanes,
-                      SatPool& pool, SatUpdateCounts& counts) {
-    DeviceSat sat = light_aligned ? plan_light_sats(packed, max_entries) : plan_volume_sat(packed, max_entries);
+                      SatPool& pool, SatUpdateCounts& counts, double coarsen_across) {
+    DeviceSat sat = light_aligned ? plan_light_sats(packed, max_entries, coarsen_across) : plan_volume_sat(packed, max_entries);
     sat.lanes = lanes;
     const std::vector<std::string> extinction = extinction_keys(scene, packed, device_scene.uses_images);
     std::size_t n = sat_table_count(sat), needed = 0;
@@ -163,7 +163,8 @@ bool influences(const packing::PackedScene& packed, const DeviceSat& sat, const 
     double width = std::max(double(options.sat.filter_width), 1.0) * sat.voxel_size;  // the whole patch (≥ its half diagonal)
     double cell = 0;
     if (options.shadows == ShadowTechnique::Ao || sat.light_frame[m] >= 0) {
-        cell = sat.frames[std::size_t(std::max(sat.light_frame[m], 0))].cell_size;
+        const SatFrame& f = sat.frames[std::size_t(std::max(sat.light_frame[m], 0))];
+        cell = std::max({f.cell(0), f.cell(1), f.cell(2)});
     } else {  // an SSAT cell at its farthest, over the light's tables
         for (std::size_t t = m;; t = sat.spheres[t].next) {
             const SsatGridGpu& g = sat.spheres[t];

@@ -26,7 +26,7 @@ CellGrid sat_cells(const Scene& whole_scene, const shadows::SatFrame& frame, uns
                     if (!(axes & (1u << a))) continue;
                     Vec3 lo, hi;
                     for (int c = 0; c < 3; ++c) {
-                        double half = 0.5 * frame.cell_size * frame.axes[std::size_t(a)][std::size_t(c)];
+                        double half = 0.5 * frame.cell(std::size_t(a)) * frame.axes[std::size_t(a)][std::size_t(c)];
                         lo[std::size_t(c)] = float(p[std::size_t(c)] - half), hi[std::size_t(c)] = float(p[std::size_t(c)] + half);
                     }
                     tau += segment_optical_depth(scene, lo, hi), ++count;
@@ -133,7 +133,7 @@ void patch_box(const CellGrid& grid, const shadows::SatFrame& frame, int axis, b
     for (std::size_t a = 0; a < 3; ++a) {
         double c = 0;
         for (std::size_t r = 0; r < 3; ++r) c += (p[r] - frame.origin[r]) * frame.axes[a][r];
-        c /= frame.cell_size;
+        c /= frame.cell(a);
         if (int(a) != axis) lo[a] = c - 0.5 * width, hi[a] = c + 0.5 * width;
         else if (positive) lo[a] = c, hi[a] = grid.dims[a];
         else lo[a] = 0, hi[a] = c;
@@ -173,7 +173,7 @@ std::array<double, 3> grid_coordinates(const shadows::SatFrame& frame, const std
     std::array<double, 3> c{};
     for (std::size_t a = 0; a < 3; ++a) {
         for (std::size_t r = 0; r < 3; ++r) c[a] += (p[r] - frame.origin[r]) * frame.axes[a][r];
-        c[a] /= frame.cell_size;
+        c[a] /= frame.cell(a);
     }
     return c;
 }
