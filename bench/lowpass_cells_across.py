@@ -1,0 +1,128 @@
+"""Low-pass tables with cells across the light fitted to the filter width (issue 30 item 1).
+
+For each scene and filter width W, `sombra render SCENE --shadows lowpass --filter W` at SIZE² with
+the shadow cache off, once with `--sat-cells-across 0` (every table cell one voxel, whatever W) and
+once with the default 8 (W > 8 coarsens the cells across the light to W/8 voxels), `--runs` times
+each, interleaved, in fresh processes: the median table build (the `sat_*`/`ssat_*` stages of
+`--stats`), the median total, the tables' memory, and the image difference between the two (mean,
+95th percentile and max over the pixels of the largest |ΔRGB| of the 8-bit PNGs). For scale, the
+image difference of the voxel-cell tables between W and W + 1, and between low-pass (W) and shadow
+rays (the technique's own departure from the unfiltered shadows).
+
+usage: python3 bench/lowpass_cells_across.py [--size 256] [--runs 3] [--widths 3,8,16,24]
+                                             [--scenes default,smoke,head_in_fog,cup_array] [--out FILE]
+"""
+import argparse
+import json
+import statistics
+import struct
+import subprocess
+import sys
+import tempfile
+import zlib
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def read_png(path):
+    """8-bit PNG (grey, RGB or RGBA) as rows of bytes, and the channel count (stdlib only)."""
+    data = Path(path).read_bytes()
+    pos, idat, width, height, channels = 8, b"", 0, 0, 0
+    while pos < len(data):
+        (n,) = struct.unpack(">I", data[pos:pos + 4])
+        kind, chunk = data[pos + 4:pos + 8], data[pos + 8:pos + 8 + n]
+        pos += 12 + n
+        if kind == b"IHDR":
+            width, height, depth, colour = struct.unpack(">IIBB", chunk[:10])
+            if depth != 8:
+                raise ValueError(f"{path}: {depth}-bit PNG")
+            channels = {0: 1, 2: 3, 4: 2, 6: 4}[colour]
+        elif kind == b"IDAT":
+            idat += chunk
+    raw, stride, rows, previous, p = zlib.decompress(idat), width * channels, [], bytearray(width * channels), 0
+    for _ in range(height):
+        kind, line = raw[p], bytearray(raw[p + 1:p + 1 + stride])
+        p += 1 + stride
+        for i in range(stride):
+            left = line[i - channels] if i >= channels else 0
+            up, corner = previous[i], previous[i - channels] if i >= channels else 0
+            if kind == 1:
+                line[i] = (line[i] + left) & 255
+            elif kind == 2:
+                line[i] = (line[i] + up) & 255
+            elif kind == 3:
+                line[i] = (line[i] + (left + up) // 2) & 255
+            elif kind == 4:
+                pa, pb, pc = abs(up - corner), abs(left - corner), abs(left + up - 2 * corner)
+                line[i] = (line[i] + (left if pa <= pb and pa <= pc else up if pb <= pc else corner)) & 255
+        rows.append(line)
+        previous = line
+    return rows, channels
+
+
+def difference(a_path, b_path):
+    (a, ca), (b, cb) = read_png(a_path), read_png(b_path)
+    d = sorted(max(abs(ra[x * ca + k] - rb[x * cb + k]) for k in range(min(ca, cb, 3))) / 255.0
+               for ra, rb in zip(a, b) for x in range(len(ra) // ca))
+    return sum(d) / len(d), d[int(0.95 * len(d))], d[-1]
+
+
+def render(scene, size, out, stats, extra):
+    command = [str(ROOT / "build" / "sombra"), "render", str(scene), "--width", str(size), "--height", str(size),
+               "--shadow-cache", "off", "-q", "-o", str(out), "--stats", str(stats), *extra]
+    subprocess.run(command, check=True)
+    return json.loads(Path(stats).read_text())
+
+
+def table_ms(stats):
+    return sum(ms for stage, ms in stats["stage_ms"].items() if stage.startswith(("sat_", "ssat_")))
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--size", type=int, default=256)
+    parser.add_argument("--runs", type=int, default=3)
+    parser.add_argument("--widths", default="3,8,16,24")
+    parser.add_argument("--scenes", default="default,smoke,head_in_fog,cup_array")
+    parser.add_argument("--out")
+    args = parser.parse_args()
+    widths = [float(w) for w in args.widths.split(",")]
+    lines = [f"`python3 bench/lowpass_cells_across.py --size {args.size} --runs {args.runs} --widths {args.widths} "
+             f"--scenes {args.scenes}`", "",
+             "| scene | W | tables, voxel cells | tables, cells ≥ W/8 | total, voxel cells | total, cells ≥ W/8 "
+             "| memory | image \\|ΔRGB\\| mean / p95 / max | voxel cells W vs W + 1 | low-pass vs shadow rays |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        for name in args.scenes.split(","):
+            scene = ROOT / "data" / "scenes" / f"{name}.json"
+            render(scene, args.size, tmp / "rays.png", tmp / "rays.json", ["--shadows", "rays"])
+            for width in widths:
+                base = ["--shadows", "lowpass", "--filter", f"{width:g}"]
+                runs = {"fine": [], "coarse": []}
+                for _ in range(args.runs):  # interleaved
+                    for mode, across in (("fine", "0"), ("coarse", "8")):
+                        runs[mode].append(render(scene, args.size, tmp / f"{mode}.png", tmp / f"{mode}.json",
+                                                 base + ["--sat-cells-across", across]))
+                render(scene, args.size, tmp / "wider.png", tmp / "wider.json",
+                       ["--shadows", "lowpass", "--filter", f"{width + 1:g}", "--sat-cells-across", "0"])
+                mean, p95, worst = difference(tmp / "fine.png", tmp / "coarse.png")
+                wider, rays = difference(tmp / "fine.png", tmp / "wider.png")[0], difference(tmp / "fine.png", tmp / "rays.png")[0]
+                med = {mode: (statistics.median(table_ms(s) for s in r), statistics.median(s["total_ms"] for s in r))
+                       for mode, r in runs.items()}
+                mib = {mode: r[-1]["sat"]["bytes"] / 2**20 for mode, r in runs.items()}
+                row = (f"| {name} | {width:g} | {med['fine'][0]:.0f} ms | {med['coarse'][0]:.0f} ms "
+                       f"({med['fine'][0] / max(med['coarse'][0], 1e-9):.1f}×) | {med['fine'][1] / 1000:.2f} s "
+                       f"| {med['coarse'][1] / 1000:.2f} s | {mib['fine']:.0f} → {mib['coarse']:.0f} MiB "
+                       f"| {mean:.1e} / {p95:.1e} / {worst:.3f} | {wider:.1e} | {rays:.1e} |")
+                lines.append(row)
+                print(row, file=sys.stderr, flush=True)
+    text = "\n".join(lines) + "\n"
+    print(text)
+    if args.out:
+        Path(args.out).write_text(text)
+
+
+if __name__ == "__main__":
+    main()
