@@ -264,6 +264,19 @@ public:
         for (int i = 0; i < n; ++i) v |= std::uint64_t(b[little_ ? i : n - 1 - i]) << (8 * i);
         return v;
     }
+    // `count` values of n bytes from `offset` (inside the file, as the caller checked), in one read.
+    std::vector<std::uint64_t> read_values(std::uint64_t offset, std::uint64_t count, int n, const char* what) {
+        std::vector<unsigned char> b(count * std::uint64_t(n));
+        if (offset > size_ || b.size() > size_ - offset)
+            throw file_error(path_, "pages", std::string(what) + " at byte " + std::to_string(offset) + " lie past the end of the file");
+        in_.seekg(std::streamoff(offset));
+        in_.read(reinterpret_cast<char*>(b.data()), std::streamsize(b.size()));
+        if (std::uint64_t(in_.gcount()) != b.size()) throw file_error(path_, "pages", std::string("cannot read ") + what);
+        std::vector<std::uint64_t> values(count, 0);
+        for (std::uint64_t k = 0; k < count; ++k)
+            for (int i = 0; i < n; ++i) values[k] |= std::uint64_t(b[k * std::uint64_t(n) + std::uint64_t(little_ ? i : n - 1 - i)]) << (8 * i);
+        return values;
+    }
     void set_little(bool little) { little_ = little; }
 
 private:
@@ -396,6 +409,7 @@ void check_tiff_pages(const std::string& path, std::uint64_t max_voxels) {
         // one entry per tag (TIFF 6.0 §2): of a BitsPerSample given twice, libtiff and ITK took different ones
         std::set<std::uint64_t> tags;
         std::uint64_t offsets = 0, byte_counts = 0, compression = 1;  // strips or tiles, and how they are packed
+        std::uint64_t offsets_at = 0, offsets_size = 0, counts_at = 0, counts_size = 0;  // where their values are
         for (std::uint64_t e = 0; e < entries; ++e) {
             const std::uint64_t at = next + std::uint64_t(count_bytes) + e * std::uint64_t(entry_bytes);
             const std::uint64_t tag = f.read(at, 2, "a tag"), type = f.read(at + 2, 2, "a tag type");
@@ -427,8 +441,8 @@ void check_tiff_pages(const std::string& path, std::uint64_t max_voxels) {
             const int value_bytes = type == 3 ? 2 : type == 4 ? 4 : type == 16 ? 8 : offset_bytes;  // SHORT, LONG, LONG8
             std::uint64_t value = f.read(at + 4 + std::uint64_t(big ? 8 : 4), value_bytes, "a tag value");
             if (count != 1) value = (std::uint64_t(1) << 63) | count;  // a list (one per sample): compared by its length
-            if (tag == 273 || tag == 324) offsets = count;
-            else if (tag == 279 || tag == 325) byte_counts = count;
+            if (tag == 273 || tag == 324) offsets = count, offsets_at = data_at, offsets_size = size;
+            else if (tag == 279 || tag == 325) byte_counts = count, counts_at = data_at, counts_size = size;
             else if (tag == 259) compression = value;
             if (tag == 256) p.width = value;
             else if (tag == 257) p.length = value;
@@ -442,6 +456,18 @@ void check_tiff_pages(const std::string& path, std::uint64_t max_voxels) {
         if (offsets == 0 || offsets != byte_counts)
             throw file_error(path, "pages", "page " + std::to_string(page) + " has " + std::to_string(offsets) + " strip offsets and " +
                                                 std::to_string(byte_counts) + " byte counts (needs as many, at least one)");
+        // every strip inside the file: a stack cut in its last page's pixels keeps every directory
+        // (writers that put a page's directory before its pixels), and libtiff then failed mid-read
+        const std::vector<std::uint64_t> starts = f.read_values(offsets_at, offsets, int(offsets_size), "the strip offsets");
+        const std::vector<std::uint64_t> lengths = f.read_values(counts_at, byte_counts, int(counts_size), "the strip byte counts");
+        for (std::uint64_t i = 0; i < offsets; ++i) {
+            const std::uint64_t at = starts[i], bytes = lengths[i];
+            if (at > f.size() || bytes > f.size() - at)
+                throw file_error(path, "pages", "page " + std::to_string(page) + " strip " + std::to_string(i) + ": its " +
+                                                    std::to_string(bytes) + " bytes at byte " + std::to_string(at) +
+                                                    " lie past the end of the file (" + std::to_string(f.size()) +
+                                                    " bytes): the file is cut short");
+        }
         if (compression != 1 && compression != 5 && compression != 8 && compression != 32773 && compression != 32946)
             throw file_error(path, "pages", "page " + std::to_string(page) + " has compression " + std::to_string(compression) +
                                                 " (sombra reads none, LZW, Deflate and PackBits)");
