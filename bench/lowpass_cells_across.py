@@ -1,15 +1,16 @@
-"""Low-pass tables with cells across the light fitted to the filter width (issue 30 item 1).
+"""Low-pass (or SAT ambient occlusion) tables with cells fitted to the filter width (issue 30 item 1).
 
 For each scene and filter width W, `sombra render SCENE --shadows lowpass --filter W` at SIZE² with
 the shadow cache off, once with `--sat-cells-across 0` (every table cell one voxel, whatever W) and
-once with the default 8 (W > 8 coarsens the cells across the light to W/8 voxels), `--runs` times
+once with the default 8 (W > 8 coarsens the cells across the light to W/8 voxels; with `--shadows
+ao`, every cell of the volume-aligned table), `--runs` times
 each, interleaved, in fresh processes: the median table build (the `sat_*`/`ssat_*` stages of
 `--stats`), the median total, the tables' memory, and the image difference between the two (mean,
 95th percentile and max over the pixels of the largest |ΔRGB| of the 8-bit PNGs). For scale, the
-image difference of the voxel-cell tables between W and W + 1, and between low-pass (W) and shadow
-rays (the technique's own departure from the unfiltered shadows).
+image difference of the voxel-cell tables between W and W + 1, and between the technique (W) and
+shadow rays (its own departure from the unfiltered shadows).
 
-usage: python3 bench/lowpass_cells_across.py [--size 256] [--runs 3] [--widths 3,8,16,24]
+usage: python3 bench/lowpass_cells_across.py [--shadows lowpass|ao] [--size 256] [--runs 3] [--widths 3,8,16,24]
                                              [--scenes default,smoke,head_in_fog,cup_array] [--out FILE]
 """
 import argparse
@@ -81,6 +82,7 @@ def table_ms(stats):
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--shadows", choices=["lowpass", "ao"], default="lowpass")
     parser.add_argument("--size", type=int, default=256)
     parser.add_argument("--runs", type=int, default=3)
     parser.add_argument("--widths", default="3,8,16,24")
@@ -88,10 +90,10 @@ def main():
     parser.add_argument("--out")
     args = parser.parse_args()
     widths = [float(w) for w in args.widths.split(",")]
-    lines = [f"`python3 bench/lowpass_cells_across.py --size {args.size} --runs {args.runs} --widths {args.widths} "
+    lines = [f"`python3 bench/lowpass_cells_across.py --shadows {args.shadows} --size {args.size} --runs {args.runs} --widths {args.widths} "
              f"--scenes {args.scenes}`", "",
              "| scene | W | tables, voxel cells | tables, cells ≥ W/8 | total, voxel cells | total, cells ≥ W/8 "
-             "| memory | image \\|ΔRGB\\| mean / p95 / max | voxel cells W vs W + 1 | low-pass vs shadow rays |",
+             f"| memory | image \\|ΔRGB\\| mean / p95 / max | voxel cells W vs W + 1 | {args.shadows} vs shadow rays |",
              "|---|---|---|---|---|---|---|---|---|---|"]
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
@@ -99,14 +101,14 @@ def main():
             scene = ROOT / "data" / "scenes" / f"{name}.json"
             render(scene, args.size, tmp / "rays.png", tmp / "rays.json", ["--shadows", "rays"])
             for width in widths:
-                base = ["--shadows", "lowpass", "--filter", f"{width:g}"]
+                base = ["--shadows", args.shadows, "--filter", f"{width:g}"]
                 runs = {"fine": [], "coarse": []}
                 for _ in range(args.runs):  # interleaved
                     for mode, across in (("fine", "0"), ("coarse", "8")):
                         runs[mode].append(render(scene, args.size, tmp / f"{mode}.png", tmp / f"{mode}.json",
                                                  base + ["--sat-cells-across", across]))
                 render(scene, args.size, tmp / "wider.png", tmp / "wider.json",
-                       ["--shadows", "lowpass", "--filter", f"{width + 1:g}", "--sat-cells-across", "0"])
+                       ["--shadows", args.shadows, "--filter", f"{width + 1:g}", "--sat-cells-across", "0"])
                 mean, p95, worst = difference(tmp / "fine.png", tmp / "coarse.png")
                 wider, rays = difference(tmp / "fine.png", tmp / "wider.png")[0], difference(tmp / "fine.png", tmp / "rays.png")[0]
                 med = {mode: (statistics.median(table_ms(s) for s in r), statistics.median(s["total_ms"] for s in r))

@@ -53,7 +53,7 @@ class RenderOptions:
     lowpass_filter_width: float  # lowpass: filter width W (the softness of the shadows); ao: the cube's side
     lowpass_filter_kernel: Literal['box', 'gauss']  # lowpass: box (one SAT box) or gauss (5×5 sub-boxes, Ament Eq. 25)
     lowpass_max_entries: int  # summed-area tables: at most this many 64-bit entries in the tables of one frame or point light (cells coarsen beyond)
-    lowpass_cells_across: float  # lowpass: the filter's patch spans at least N table cells across the light; a wider W coarsens the cells across the light by W/N (0: cells of the finest voxel whatever W, so that changing W rebuilds no table)
+    lowpass_cells_across: float  # lowpass: the filter's patch spans at least N table cells across the light, a wider W coarsening the cells across the light by W/N; ao: the cube spans at least N cells, a wider W coarsening every cell by W/N (0: cells of the finest voxel whatever W, so that changing W rebuilds no table)
     lowpass_precision: Literal['auto', 'double', 'float']  # summed-area-table lookups in auto (double where the device has it), double or float arithmetic
     cone_angle_deg: float  # cone: half angle of the shadow cones
     shadow_ray_step: float  # rays: factor on each volume's step for the shadow rays (< 1: finer)

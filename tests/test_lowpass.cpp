@@ -781,6 +781,33 @@ TEST_CASE("low-pass cells across the light follow a wide filter (--sat-cells-acr
     CHECK(mean < 5e-3);
     CHECK(worst < 0.03);
 
+    // SAT ambient occlusion: its cube of W voxels spans at least N cells, every axis coarsened;
+    // cone shadows (whose width is their angle) keep voxel cells
+    const shadows::DeviceSat volume_fine = shadows::plan_volume_sat(packed, cap);
+    const shadows::DeviceSat volume_coarse = shadows::plan_volume_sat(packed, cap, coarsening);
+    for (std::size_t a = 0; a < 3; ++a) CHECK(volume_coarse.frames[0].cell(a) == Approx(2.0 * volume_fine.frames[0].cell(a)));
+    auto ambient = [&](float cells_across, ShadowTechnique technique, float width = 16.f) {
+        RenderOptions o;
+        o.shadows = technique;
+        o.sat.filter_width = width;
+        o.sat.cells_across_patch = cells_across;
+        return shadow_transmittance(test::context(), scene, 0, points, o).transmittance;
+    };
+    t = ambient(8.f, ShadowTechnique::Ao), t_fine = ambient(0.f, ShadowTechnique::Ao);
+    mean = 0, worst = 0;
+    for (std::size_t i = 0; i < points.size(); ++i)
+        mean += std::fabs(t[i] - t_fine[i]) / double(points.size()), worst = std::max(worst, std::fabs(t[i] - t_fine[i]));
+    // less than a cube one voxel wider moves it (AO's depth is the cube's mean σ × W/2: larger
+    // than the low-pass patch's share of a shadow)
+    const std::vector<double> t_wider = ambient(0.f, ShadowTechnique::Ao, 17.f);
+    double wider = 0;
+    for (std::size_t i = 0; i < points.size(); ++i) wider += std::fabs(t_wider[i] - t_fine[i]) / double(points.size());
+    std::printf("AO W = 16, cells of 2 voxels vs 1: |ΔT| mean %.5f max %.5f (W = 17: %.5f)\n", mean, worst, wider);
+    CHECK(mean < wider);
+    CHECK(mean < 0.01);
+    CHECK(worst < 0.03);
+    CHECK(ambient(8.f, ShadowTechnique::Cone) == ambient(0.f, ShadowTechnique::Cone));
+
     // on a kept Context: a W change up to N rebuilds no table, one beyond it rebuilds them
     Context context(test::device_selector());
     RenderOptions o;

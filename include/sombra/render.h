@@ -121,7 +121,8 @@ struct SatOptions {
     float filter_width = 3.f;
     // lowpass: the W × W patch spans at least this many table cells across the light: W > N coarsens
     // the CSAT and SSAT cells across the light to W/N voxels (fewer cells, a faster build; the box
-    // filter's width grows by ≤ √(1 + 3/N²) − 1, 2.3 % at 8). 0: cells of the finest voxel whatever W.
+    // filter's width grows by ≤ √(1 + 3/N²) − 1, 2.3 % at 8); ao: the cube of side W spans at least
+    // N cells (W > N coarsens every cell to W/N voxels). 0: cells of the finest voxel whatever W.
     float cells_across_patch = 8.f;
     // "box" (Ament Eq. 11–13) or "gauss": a Gaussian with σ = W/4 over the W × W patch, as 5 × 5
     // sub-boxes of the same tables (Ament §4.3, Eq. 25).

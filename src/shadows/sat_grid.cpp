@@ -155,17 +155,18 @@ std::array<D3, 3> shared_csat_axes(const D3& towards_light) {
     return axes;
 }
 
-SatFrame make_volume_sat_frame(const packing::PackedScene& packed, std::size_t max_entries) {
+SatFrame make_volume_sat_frame(const packing::PackedScene& packed, std::size_t max_entries, double coarsen) {
     if (packed.voxel_to_world.empty()) throw Error("--shadows: the scene has no volume to build a summed-area table of");
     const auto& m = packed.voxel_to_world[0];
     D3 x = normalized({m[0], m[4], m[8]}), y = normalized({m[1], m[5], m[9]});
     y = normalized({y[0] - dot(x, y) * x[0], y[1] - dot(x, y) * x[1], y[2] - dot(x, y) * x[2]});  // orthogonal even under shear
     double voxel = 0;
     std::vector<D3> corners = occupied_corners(packed, voxel);  // σ is 0 outside them
-    return make_sat_frame(corners, voxel, {x, y, cross(x, y)}, max_entries);
+    return make_sat_frame(corners, voxel, {x, y, cross(x, y)}, max_entries, coarsen);
 }
 
-SatFrame make_sat_frame(const std::vector<D3>& corners, double voxel_size, const std::array<D3, 3>& axes, std::size_t max_entries) {
+SatFrame make_sat_frame(const std::vector<D3>& corners, double voxel_size, const std::array<D3, 3>& axes, std::size_t max_entries,
+                        double coarsen) {
     SatFrame f;
     f.axes = axes;
     f.voxel_size = voxel_size;
@@ -176,7 +177,7 @@ SatFrame make_sat_frame(const std::vector<D3>& corners, double voxel_size, const
             double c = dot(p, f.axes[a]);
             lo[a] = std::min(lo[a], c), hi[a] = std::max(hi[a], c);
         }
-    f.cell_size = f.voxel_size;
+    f.cell_size = f.voxel_size * std::max(coarsen, 1.0);
     for (;;) {
         for (std::size_t a = 0; a < 3; ++a) f.dims[a] = std::max(1, int(std::ceil((hi[a] - lo[a]) / f.cell_size - 1e-6)));
         if (f.entries() <= std::min<std::size_t>(max_entries, SOMBRA_SAT_MAX_ENTRIES)) break;
@@ -715,10 +716,10 @@ DeviceSat plan_light_sats(const packing::PackedScene& packed, std::size_t max_en
     return sat;
 }
 
-DeviceSat plan_volume_sat(const packing::PackedScene& packed, std::size_t max_entries) {
+DeviceSat plan_volume_sat(const packing::PackedScene& packed, std::size_t max_entries, double coarsen) {
     DeviceSat sat;
     scene_corners(packed, sat.voxel_size);
-    sat.frames.push_back(make_volume_sat_frame(packed, max_entries));
+    sat.frames.push_back(make_volume_sat_frame(packed, max_entries, coarsen));
     sat.offsets.push_back(0);
     sat.grids.assign(std::max<std::size_t>(packed.lights.size(), 1), sat_grid(sat.frames[0], 0, 2, true));
     sat.grid_frame.assign(sat.grids.size(), 0);

@@ -79,8 +79,10 @@ std::vector<SatFrame> plan_csat_tables(const packing::PackedScene& packed, const
 // A frame aligned with the first volume's axes around every volume's occupied bricks (the
 // volume-aligned SAT of the baselines, Schlegel et al. 2011), and one for any orthonormal axes
 // around `corners` (the points the frame must contain: scene_corners or occupied_corners).
-SatFrame make_volume_sat_frame(const packing::PackedScene& packed, std::size_t max_entries);
-SatFrame make_sat_frame(const std::vector<D3>& corners, double voxel_size, const std::array<D3, 3>& axes, std::size_t max_entries);
+// Cells start at `coarsen` voxels (≥ 1: SAT ambient occlusion's cube of W voxels, sat_cell_coarsening).
+SatFrame make_volume_sat_frame(const packing::PackedScene& packed, std::size_t max_entries, double coarsen = 1);
+SatFrame make_sat_frame(const std::vector<D3>& corners, double voxel_size, const std::array<D3, 3>& axes, std::size_t max_entries,
+                        double coarsen = 1);
 
 // A point (or spot) light's spherical grids (SSAT, Ament §4.2.3), one per group of volumes whose
 // occupied boxes overlap (volume_mask; their optical depths add up at lookup): φ, θ around a frame
@@ -147,7 +149,8 @@ void build_sat_table(host::Runtime& runtime, const Scene& scene, const packing::
 // (sat_cell_coarsening; a CSAT frame with lights along two or three of its axes stays isotropic).
 DeviceSat plan_light_sats(const packing::PackedScene& packed, std::size_t max_entries, double coarsen_across = 1);
 // The plan of the baselines' one volume-aligned SAT (see build_volume_sat).
-DeviceSat plan_volume_sat(const packing::PackedScene& packed, std::size_t max_entries);
+// coarsen: its cells' size in voxels at least (ambient occlusion's cube of W voxels; cone shadows: 1).
+DeviceSat plan_volume_sat(const packing::PackedScene& packed, std::size_t max_entries, double coarsen = 1);
 
 // A plan placed contiguously and built into a fresh buffer (plan_light_sats); lanes: the
 // resamples' packet width (DeviceSat::lanes).

@@ -76,8 +76,8 @@ std::vector<std::string> extinction_keys(const Scene& scene, const packing::Pack
 
 DeviceSat update_sats(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
                       const packing::DeviceScene& device_scene, bool light_aligned, std::size_t max_entries, int lanes,
-                      SatPool& pool, SatUpdateCounts& counts, double coarsen_across) {
-    DeviceSat sat = light_aligned ? plan_light_sats(packed, max_entries, coarsen_across) : plan_volume_sat(packed, max_entries);
+                      SatPool& pool, SatUpdateCounts& counts, double coarsen) {
+    DeviceSat sat = light_aligned ? plan_light_sats(packed, max_entries, coarsen) : plan_volume_sat(packed, max_entries, coarsen);
     sat.lanes = lanes;
     const std::vector<std::string> extinction = extinction_keys(scene, packed, device_scene.uses_images);
     std::size_t n = sat_table_count(sat), needed = 0;

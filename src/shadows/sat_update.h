@@ -54,11 +54,12 @@ struct SatUpdateCounts {
 // the lights need (light_aligned: CSATs and SSATs; else the volume-aligned SAT of the baselines),
 // keeps every table of `pool` (the previous call's) whose key is unchanged, where it is, and builds
 // the others into the gaps (or into a new, compact buffer, the kept tables copied, stage
-// "sat_copy"). coarsen_across: how much coarser than a voxel the light-aligned tables' cells across
-// the light may be (plan_light_sats). Returned stage_ms: this call's kernels only.
+// "sat_copy"). coarsen: how much coarser than a voxel the cells may be — the light-aligned tables'
+// across the light (plan_light_sats), the volume-aligned table's on every axis (plan_volume_sat).
+// Returned stage_ms: this call's kernels only.
 DeviceSat update_sats(host::Runtime& runtime, const Scene& scene, const packing::PackedScene& packed,
                       const packing::DeviceScene& device_scene, bool light_aligned, std::size_t max_entries, int lanes,
-                      SatPool& pool, SatUpdateCounts& counts, double coarsen_across = 1);
+                      SatPool& pool, SatUpdateCounts& counts, double coarsen = 1);
 
 // Whether the extinction of volume j can reach the shadow term that `options.shadows` gives volume
 // i's lattice towards light m (conservative: world bounding boxes, the filter patch and two cells

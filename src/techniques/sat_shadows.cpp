@@ -32,9 +32,10 @@ const std::vector<OptionSpec>& sat_option_specs() {
                 .range(1 << 12, double(SOMBRA_SAT_MAX_ENTRIES)).unit("entries").only(family).keys()
                 .commands(kRenderCommand | kVisibilityCommand),
             declare("lowpass_cells_across", "--sat-cells-across", [](auto& o) -> auto& { return o.sat.cells_across_patch; },
-                    "lowpass: the filter's patch spans at least N table cells across the light; a wider W coarsens the cells "
-                    "across the light by W/N (0: cells of the finest voxel whatever W, so that changing W rebuilds no table)")
-                .range(0, 64).unit("cells").only({T::Lowpass}).commands(kRenderCommand | kVisibilityCommand),
+                    "lowpass: the filter's patch spans at least N table cells across the light, a wider W coarsening the cells "
+                    "across the light by W/N; ao: the cube spans at least N cells, a wider W coarsening every cell by W/N "
+                    "(0: cells of the finest voxel whatever W, so that changing W rebuilds no table)")
+                .range(0, 64).unit("cells").only({T::Lowpass, T::Ao}).commands(kRenderCommand | kVisibilityCommand),
             declare("lowpass_precision", "--sat-precision", [](auto& o) -> auto& { return o.sat.precision; },
                     "summed-area-table lookups in auto (double where the device has it), double or float arithmetic")
                 .choices({"auto", "double", "float"}).only(family).commands(kRenderCommand | kVisibilityCommand),
@@ -82,7 +83,9 @@ public:
         shadows::SatUpdateCounts counts;
         sat_ = shadows::update_sats(s.runtime, s.scene, s.packed, s.device, s.options.shadows == ShadowTechnique::Lowpass,
                                     s.options.sat.max_entries, s.options.lanes, pool_, counts,
-                                    shadows::sat_cell_coarsening(s.options.sat.filter_width, s.options.sat.cells_across_patch));
+                                    s.options.shadows == ShadowTechnique::Cone  // the cone's width is its angle, not W
+                                        ? 1.0
+                                        : shadows::sat_cell_coarsening(s.options.sat.filter_width, s.options.sat.cells_across_patch));
         for (auto& [stage, ms] : sat_.stage_ms) stats.stage_ms[stage] = ms;
         light_aligned_ = s.options.shadows == ShadowTechnique::Lowpass;
         volume_names_.clear();
