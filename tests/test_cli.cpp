@@ -107,6 +107,25 @@ TEST_CASE("sombra render --shadows lowpass writes soft shadows", "[cli]") {
     CHECK(std::filesystem::exists(out));
     std::ifstream in(stats);
     CHECK(nlohmann::json::parse(in).at("sat").at("tables").get<int>() == 1);
+
+    // --sat-cells-across: a filter of 16 voxels gets cells of 2 across the light (8 per patch), or
+    // voxel cells with 0; the cells along the light stay
+    auto cells = [&](const std::string& across) {
+        CliRun wide = run_cli("render " + scene + " -o " + out + " --stats " + stats + " --shadows lowpass --filter 16" + across);
+        INFO(wide.stderr_text);
+        REQUIRE(wide.exit_code == 0);
+        std::ifstream stats_in(stats);
+        return nlohmann::json::parse(stats_in).at("sat").at("per_table").at(0).at("cells").get<std::vector<int>>();
+    };
+    const std::vector<int> coarse = cells(""), fine = cells(" --sat-cells-across 0");
+    REQUIRE(coarse.size() == 3);
+    int halved = 0, kept = 0;
+    for (std::size_t a = 0; a < 3; ++a) halved += 2 * coarse[a] <= fine[a] + 2, kept += coarse[a] == fine[a];
+    CHECK(halved == 2);
+    CHECK(kept == 1);
+    CliRun dsm = run_cli("render " + scene + " -o " + out + " --shadows dsm --sat-cells-across 4");
+    CHECK(dsm.exit_code != 0);
+    CHECK(dsm.stderr_text == "sombra: error: --sat-cells-across: applies to --shadows lowpass, ao, not dsm\n");
 }
 
 TEST_CASE("sombra --version prints the project's version", "[cli]") {
