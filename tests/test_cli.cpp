@@ -2,6 +2,7 @@
 // and no output file; good input writes the image and the stats.
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
@@ -110,14 +111,25 @@ TEST_CASE("sombra render --shadows lowpass writes soft shadows", "[cli]") {
 
     // --sat-cells-across: a filter of 16 voxels gets cells of 2 across the light (8 per patch), or
     // voxel cells with 0; the cells along the light stay
+    std::vector<double> cell_voxels;  // the last run's, in finest voxels
     auto cells = [&](const std::string& across) {
         CliRun wide = run_cli("render " + scene + " -o " + out + " --stats " + stats + " --shadows lowpass --filter 16" + across);
         INFO(wide.stderr_text);
         REQUIRE(wide.exit_code == 0);
         std::ifstream stats_in(stats);
-        return nlohmann::json::parse(stats_in).at("sat").at("per_table").at(0).at("cells").get<std::vector<int>>();
+        const nlohmann::json table = nlohmann::json::parse(stats_in).at("sat").at("per_table").at(0);
+        cell_voxels = table.at("cell_voxels").get<std::vector<double>>();
+        std::sort(cell_voxels.begin(), cell_voxels.end());
+        return table.at("cells").get<std::vector<int>>();
     };
-    const std::vector<int> coarse = cells(""), fine = cells(" --sat-cells-across 0");
+    const std::vector<int> fine = cells(" --sat-cells-across 0");
+    REQUIRE(cell_voxels.size() == 3);
+    CHECK(cell_voxels[0] == Approx(1.0));
+    CHECK(cell_voxels[2] == Approx(1.0));
+    const std::vector<int> coarse = cells("");
+    CHECK(cell_voxels[0] == Approx(1.0));  // along the light
+    CHECK(cell_voxels[1] == Approx(2.0));  // across it: 16 / 8
+    CHECK(cell_voxels[2] == Approx(2.0));
     REQUIRE(coarse.size() == 3);
     int halved = 0, kept = 0;
     for (std::size_t a = 0; a < 3; ++a) halved += 2 * coarse[a] <= fine[a] + 2, kept += coarse[a] == fine[a];

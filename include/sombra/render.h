@@ -234,12 +234,14 @@ struct RenderStats {
     int sat_tables = 0;
     unsigned long long sat_bytes = 0;
     // each table: CSAT, SSAT or the baselines' volume-aligned SAT, the lights that read it, the
-    // volumes it holds, its cells and memory, and its build time this call (0 when kept)
+    // volumes it holds, its cells, their size in finest voxels (an SSAT's angles at its farthest
+    // radius), its memory, and its build time this call (0 when kept)
     struct SatTable {
         std::string kind;
         std::vector<int> lights;
         std::vector<std::string> volumes;
         std::array<int, 3> cells{0, 0, 0};
+        std::array<double, 3> cell_voxels{0, 0, 0};
         unsigned long long bytes = 0;
         double build_ms = 0;
         bool reused = false;

@@ -271,6 +271,7 @@ std::string RenderStats::to_json() const {
         j["sat"]["per_table"] = nlohmann::json::array();
         for (const SatTable& t : sat_table_list)
             j["sat"]["per_table"].push_back({{"kind", t.kind}, {"lights", t.lights}, {"volumes", t.volumes}, {"cells", t.cells},
+                                             {"cell_voxels", t.cell_voxels},
                                              {"bytes", t.bytes}, {"build_ms", t.build_ms}, {"reused", t.reused}});
     }
     if (shadow_cache_points_to_fill > 0 || shadow_cache_used || shadow_cache_surface_points > 0) {

@@ -525,6 +525,16 @@ std::array<int, 3> sat_table_cells(const DeviceSat& sat, std::size_t table) {
     return {g.dims.s[0], g.dims.s[1], g.dims.s[2]};
 }
 
+std::array<double, 3> sat_table_cell_voxels(const DeviceSat& sat, std::size_t table) {
+    if (table < sat.frames.size()) {
+        const SatFrame& f = sat.frames[table];
+        return {f.cell(0) / sat.voxel_size, f.cell(1) / sat.voxel_size, f.cell(2) / sat.voxel_size};
+    }
+    const SsatGridGpu& g = sat.spheres[sphere_lights(sat).at(table - sat.frames.size())];
+    const double r_far = double(g.start.s[2]) + double(g.dims.s[2]) * double(g.cell.s[2]);
+    return {double(g.cell.s[0]) * r_far / sat.voxel_size, double(g.cell.s[1]) * r_far / sat.voxel_size, double(g.cell.s[2]) / sat.voxel_size};
+}
+
 cl_uint sat_table_volumes(const DeviceSat& sat, std::size_t table, std::size_t volume_count) {
     if (table >= sat.frames.size()) return sat.spheres[sphere_lights(sat).at(table - sat.frames.size())].volume_mask;
     return sat.frames[table].volume_mask & (volume_count >= 32 ? ~cl_uint(0) : (cl_uint(1) << volume_count) - 1);

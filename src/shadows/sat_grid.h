@@ -129,6 +129,10 @@ cl_uint sat_frame_light_axes(const DeviceSat& sat, std::size_t frame);
 std::size_t sat_table_entries(const DeviceSat& sat, std::size_t table);
 // A table's cells per grid axis, and the volumes its cells hold (bit i: volume i of `volume_count`).
 std::array<int, 3> sat_table_cells(const DeviceSat& sat, std::size_t table);
+// A table's cell along each of its axes in units of the finest voxel (DeviceSat::voxel_size): a
+// CSAT's or volume-aligned SAT's cell lengths; an SSAT's φ and θ extents at its farthest radius
+// (φ on the equator) and its radial length.
+std::array<double, 3> sat_table_cell_voxels(const DeviceSat& sat, std::size_t table);
 cl_uint sat_table_volumes(const DeviceSat& sat, std::size_t table, std::size_t volume_count);
 std::size_t sat_table_offset(const DeviceSat& sat, std::size_t table);
 void place_sat_table(DeviceSat& sat, std::size_t table, std::size_t offset);

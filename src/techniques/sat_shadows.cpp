@@ -117,6 +117,7 @@ public:
             for (std::size_t v = 0; v < volume_names_.size(); ++v)
                 if (volumes & (cl_uint(1) << v)) table.volumes.push_back(volume_names_[v]);
             table.cells = shadows::sat_table_cells(sat_, t);
+            table.cell_voxels = shadows::sat_table_cell_voxels(sat_, t);
             table.bytes = shadows::sat_table_entries(sat_, t) * sizeof(cl_ulong);
             table.build_ms = t < sat_.table_build_ms.size() ? sat_.table_build_ms[t] : 0.0;
             table.reused = !(table.build_ms > 0);
