@@ -16,56 +16,20 @@ usage: python3 bench/lowpass_cells_across.py [--shadows lowpass|ao] [--size 256]
 import argparse
 import json
 import statistics
-import struct
 import subprocess
 import sys
 import tempfile
-import zlib
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-
-
-def read_png(path):
-    """8-bit PNG (grey, RGB or RGBA) as rows of bytes, and the channel count (stdlib only)."""
-    data = Path(path).read_bytes()
-    pos, idat, width, height, channels = 8, b"", 0, 0, 0
-    while pos < len(data):
-        (n,) = struct.unpack(">I", data[pos:pos + 4])
-        kind, chunk = data[pos + 4:pos + 8], data[pos + 8:pos + 8 + n]
-        pos += 12 + n
-        if kind == b"IHDR":
-            width, height, depth, colour = struct.unpack(">IIBB", chunk[:10])
-            if depth != 8:
-                raise ValueError(f"{path}: {depth}-bit PNG")
-            channels = {0: 1, 2: 3, 4: 2, 6: 4}[colour]
-        elif kind == b"IDAT":
-            idat += chunk
-    raw, stride, rows, previous, p = zlib.decompress(idat), width * channels, [], bytearray(width * channels), 0
-    for _ in range(height):
-        kind, line = raw[p], bytearray(raw[p + 1:p + 1 + stride])
-        p += 1 + stride
-        for i in range(stride):
-            left = line[i - channels] if i >= channels else 0
-            up, corner = previous[i], previous[i - channels] if i >= channels else 0
-            if kind == 1:
-                line[i] = (line[i] + left) & 255
-            elif kind == 2:
-                line[i] = (line[i] + up) & 255
-            elif kind == 3:
-                line[i] = (line[i] + (left + up) // 2) & 255
-            elif kind == 4:
-                pa, pb, pc = abs(up - corner), abs(left - corner), abs(left + up - 2 * corner)
-                line[i] = (line[i] + (left if pa <= pb and pa <= pc else up if pb <= pc else corner)) & 255
-        rows.append(line)
-        previous = line
-    return rows, channels
+sys.path.insert(0, str(ROOT / "tests" / "view"))
+from viewer import decode_png  # noqa: E402  (8-bit RGB PNGs, stdlib only)
 
 
 def difference(a_path, b_path):
-    (a, ca), (b, cb) = read_png(a_path), read_png(b_path)
-    d = sorted(max(abs(ra[x * ca + k] - rb[x * cb + k]) for k in range(min(ca, cb, 3))) / 255.0
-               for ra, rb in zip(a, b) for x in range(len(ra) // ca))
+    """Mean, 95th percentile and max over the pixels of the largest |ΔRGB| of two PNGs sombra wrote."""
+    (_, _, a), (_, _, b) = decode_png(Path(a_path).read_bytes()), decode_png(Path(b_path).read_bytes())
+    d = sorted(max(abs(ra[3 * x + k] - rb[3 * x + k]) for k in range(3)) / 255.0 for ra, rb in zip(a, b) for x in range(len(ra) // 3))
     return sum(d) / len(d), d[int(0.95 * len(d))], d[-1]
 
 
