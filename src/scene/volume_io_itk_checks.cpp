@@ -260,9 +260,7 @@ public:
         in_.seekg(std::streamoff(offset));
         in_.read(reinterpret_cast<char*>(b), n);
         if (in_.gcount() != n) throw file_error(path_, "pages", std::string("cannot read ") + what);
-        std::uint64_t v = 0;
-        for (int i = 0; i < n; ++i) v |= std::uint64_t(b[little_ ? i : n - 1 - i]) << (8 * i);
-        return v;
+        return value_at(b, n);
     }
     // `count` values of n bytes from `offset` (inside the file, as the caller checked), in one read.
     std::vector<std::uint64_t> read_values(std::uint64_t offset, std::uint64_t count, int n, const char* what) {
@@ -272,14 +270,20 @@ public:
         in_.seekg(std::streamoff(offset));
         in_.read(reinterpret_cast<char*>(b.data()), std::streamsize(b.size()));
         if (std::uint64_t(in_.gcount()) != b.size()) throw file_error(path_, "pages", std::string("cannot read ") + what);
-        std::vector<std::uint64_t> values(count, 0);
-        for (std::uint64_t k = 0; k < count; ++k)
-            for (int i = 0; i < n; ++i) values[k] |= std::uint64_t(b[k * std::uint64_t(n) + std::uint64_t(little_ ? i : n - 1 - i)]) << (8 * i);
+        std::vector<std::uint64_t> values(count);
+        for (std::uint64_t k = 0; k < count; ++k) values[k] = value_at(b.data() + k * std::uint64_t(n), n);
         return values;
     }
     void set_little(bool little) { little_ = little; }
 
 private:
+    // n bytes in the file's byte order
+    std::uint64_t value_at(const unsigned char* b, int n) const {
+        std::uint64_t v = 0;
+        for (int i = 0; i < n; ++i) v |= std::uint64_t(b[little_ ? i : n - 1 - i]) << (8 * i);
+        return v;
+    }
+
     std::string path_;
     std::uint64_t size_;
     std::ifstream in_;
