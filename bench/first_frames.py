@@ -8,7 +8,7 @@ ratio to DSM's median on the same scene. Runs of one scene are interleaved techn
 so that load on the machine falls on every column alike. Writes a markdown table (stdout, and
 --out) with the slowest stage of each cell and whether it is within 2x of DSM.
 
-usage: python3 bench/first_frames.py [--size 256] [--runs 3] [--scenes smoke,default] [--out FILE]
+usage: python3 bench/first_frames.py [--size 256] [--runs 3] [--scenes smoke,default] [--techniques rays] [--out FILE]
 """
 import argparse
 import json
@@ -38,8 +38,12 @@ def main():
     parser.add_argument("--size", type=int, default=256)
     parser.add_argument("--runs", type=int, default=3)
     parser.add_argument("--scenes", default="", help="comma-separated names without .json (default: all shipped)")
+    parser.add_argument("--techniques", default="", help="comma-separated (default: all six; dsm is always run)")
     parser.add_argument("--out", default="")
     args = parser.parse_args()
+    global TECHNIQUES
+    if args.techniques:
+        TECHNIQUES = ["dsm"] + [t for t in args.techniques.split(",") if t != "dsm"]
     scenes = sorted((ROOT / "data" / "scenes").glob("*.json"))
     if args.scenes:
         wanted = set(args.scenes.split(","))

@@ -67,6 +67,9 @@ static inline lfloat light_transmittance(VOLUME_DATA_PARAM, CameraState* state, 
 }
 #endif
 
+/* dot(row, (pv, 1)): a row of an affine map (ShadowCacheGpu.voxel_to_lattice, voxel_to_world). */
+static inline lfloat lattice_row(float4 row, lfloat3 pv) { return mad(pv.x, row.x, mad(pv.y, row.y, mad(pv.z, row.z, row.w))); }
+
 #ifdef SOMBRA_SHADOW_CACHE
 /* The lattice cell of cache entry c around voxel point pv: its first corner and the trilinear
  * weights of the far corners (the cached read's, and the marking pass's). */
@@ -76,9 +79,11 @@ typedef struct {
 } LatticeCell;
 
 static inline LatticeCell lattice_cell(__global const ShadowCacheGpu* c, lfloat3 pv) {
-    lfloat qx = clamp_index(pv.x / c->spacing.x, (float)(c->dims.x - 1));
-    lfloat qy = clamp_index(pv.y / c->spacing.y, (float)(c->dims.y - 1));
-    lfloat qz = clamp_index(pv.z / c->spacing.z, (float)(c->dims.z - 1));
+    /* ShadowCacheGpu.voxel_to_lattice: w is 1 but in a point light's lattice */
+    const lfloat inv_w = 1.0f / lattice_row(c->voxel_to_lattice[3], pv);
+    lfloat qx = clamp_index(lattice_row(c->voxel_to_lattice[0], pv) * inv_w, (float)(c->dims.x - 1));
+    lfloat qy = clamp_index(lattice_row(c->voxel_to_lattice[1], pv) * inv_w, (float)(c->dims.y - 1));
+    lfloat qz = clamp_index(lattice_row(c->voxel_to_lattice[2], pv), (float)(c->dims.z - 1));
     lfloat bx = floor(qx), by = floor(qy), bz = floor(qz);
     LatticeCell cell = {LCONVERT_INT(bx), LCONVERT_INT(by), LCONVERT_INT(bz), qx - bx, qy - by, qz - bz};
     return cell;
@@ -323,6 +328,18 @@ static inline bool cache_point_read(__global const uchar* occupancy, __global co
     return false;
 }
 
+/* Whether lattice point (x, y, z) is one that fill_mode asks for (shadow_cache_fill), at voxel v. */
+static inline bool cache_point_wanted(__global const uchar* occupancy, __global const VolumeGpu* volume, __global const ShadowCacheGpu* c,
+                                      uint fill_mode, __global const uint* fill_mask, uint x, uint row, float3 v) {
+    if (x >= (uint)c->dims.x) return false;
+    const bool in_mask = fill_mode != 0 && (fill_mask[c->mark_offset + row * c->mark_row_words + x / 32u] >> (x % 32u)) & 1u;
+    if (fill_mode == 1) return in_mask;
+    /* a light's lattice reaches past the volume's box (render.cl cache_point_read clamps to it) */
+    const float3 hi = convert_float3(volume->dims.xyz - 1) + c->reach;
+    if (any(v < -c->reach) || any(v > hi)) return false;
+    return !in_mask && cache_point_read(occupancy, volume, v, c->reach);
+}
+
 /* What a cache fill (shadow_cache_fill, surface_shadow_cache_fill) writes for SOMBRA_LANES
  * neighbouring points: the shadow term of light `light_index` at world points p by the program's
  * technique in the lanes where read[lane], 1 in the others unless keep_unread (they keep their
@@ -392,13 +409,7 @@ __kernel void shadow_cache_fill(SCENE_PARAMS, uint light_index, uint cache_entry
     bool any_read = false;
     for (uint lane = 0; lane < SOMBRA_LANES; ++lane) {
         const uint x = x0 + lane;
-        float3 v = (float3)(x * c->spacing.x, voxel_y, voxel_z);
-        const bool in_mask = fill_mode != 0 && x < (uint)c->dims.x &&
-                             (fill_mask[c->mark_offset + row * c->mark_row_words + x / 32u] >> (x % 32u)) & 1u;
-        if (fill_mode == 1)
-            read[lane] = in_mask ? -1 : 0;
-        else
-            read[lane] = x < (uint)c->dims.x && !in_mask && cache_point_read(occupancy, volume, v, c->reach) ? -1 : 0;
+        read[lane] = cache_point_wanted(occupancy, volume, c, fill_mode, fill_mask, x, row, (float3)(x * c->spacing.x, voxel_y, voxel_z)) ? -1 : 0;
         any_read = any_read || read[lane];
     }
     if (!any_read) {
@@ -419,6 +430,88 @@ __kernel void shadow_cache_fill(SCENE_PARAMS, uint light_index, uint cache_entry
     cache_fill_lanes(volume_data, scene, &shadow, light_index, p, xs, row, read, fill_mode != 0, (uint)c->dims.x - x0,
                      &shadow_cache[c->offset + (size_t)row * c->dims.x + x0], 1u);
 }
+
+#ifdef SOMBRA_SHADOW_COLUMNS
+/* Voxel coordinates of point (x, y, z) of a light's lattice (ShadowCacheGpu.column_axes). */
+static inline lfloat3 column_point_voxel(__global const ShadowCacheGpu* c, lfloat x, float y, float z) {
+    const float v_c = mad(z, c->column_along.y, c->column_along.x), w = mad(c->column_along.z, v_c, c->column_along.w);
+    lfloat axis[3];
+    axis[c->column_axes.x] = mad(mad(x, c->column_across[0].w, c->column_across[0].z), w, mad(c->column_across[0].y, v_c, c->column_across[0].x));
+    axis[c->column_axes.y] = (lfloat)(mad(mad(y, c->column_across[1].w, c->column_across[1].z), w, mad(c->column_across[1].y, v_c, c->column_across[1].x)));
+    axis[c->column_axes.z] = (lfloat)(v_c);
+    return l3(axis[0], axis[1], axis[2]);
+}
+
+/* The light lattices' fill (ShadowCacheGpu.column_axes.w = 1), for the points fill_mode asks for
+ * as shadow_cache_fill: a work-item marches SOMBRA_LANES neighbouring columns (x, y) from the
+ * light. At a column's first point asked for, the shadow ray to the light; then point by point
+ * the piece back to the previous point, T(p_z) = T(p_z → p_z−1) · T(p_z−1): each column costs one
+ * ray's length, not one per point. Columns stop once T < 10⁻⁶ (the shadow ray's own cut-off). */
+__kernel void shadow_cache_fill_columns(SCENE_PARAMS, uint light_index, uint cache_entry, __global const ShadowCacheGpu* shadow_cache_table,
+                                        __global float* shadow_cache, uint fill_mode, __global const uint* fill_mask SHADOW_PARAMS) {
+    __global const ShadowCacheGpu* c = &shadow_cache_table[cache_entry];
+    const uint column_row = get_global_id(1), x0 = get_global_id(0) * SOMBRA_LANES;
+    const uint dims_y = (uint)c->dims.y, dims_z = (uint)c->dims.z;
+    if (column_row >= dims_y) return;
+    __global const VolumeGpu* volume = &volumes[cache_entry / camera->light_count];
+    /* the lattice's y index (auto's probe fills blocks of rows: lattice_voxel in index units) */
+    const float y = lattice_voxel(c, column_row, c->spacing.y, c->block_origin.y);
+    const lint xs = (int)x0 + LANE_INDEX;
+    const lfloat x = LCONVERT_FLOAT(xs);
+    int first[SOMBRA_LANES], last[SOMBRA_LANES];
+    for (uint lane = 0; lane < SOMBRA_LANES; ++lane) first[lane] = (int)dims_z, last[lane] = -1;
+    for (uint z = 0; z < dims_z; ++z) {
+        float vx[SOMBRA_LANES], vy[SOMBRA_LANES], vz[SOMBRA_LANES];
+        const lfloat3 v = column_point_voxel(c, x, y, (float)z);
+        LSTORE(v.x, vx), LSTORE(v.y, vy), LSTORE(v.z, vz);
+        const uint row = column_row + dims_y * z;
+        for (uint lane = 0; lane < SOMBRA_LANES; ++lane) {
+            if (cache_point_wanted(occupancy, volume, c, fill_mode, fill_mask, x0 + lane, row, (float3)(vx[lane], vy[lane], vz[lane]))) {
+                first[lane] = min(first[lane], (int)z), last[lane] = (int)z;
+            } else if (fill_mode == 0 && x0 + lane < (uint)c->dims.x) {
+                shadow_cache[c->offset + (size_t)row * c->dims.x + x0 + lane] = 1.0f;
+            }
+        }
+    }
+    int z_first = (int)dims_z, z_last = -1;
+    for (uint lane = 0; lane < SOMBRA_LANES; ++lane) z_first = min(z_first, first[lane]), z_last = max(z_last, last[lane]);
+    if (z_last < 0) return;
+    SceneRefs scene = scene_refs(camera, lights, volumes, tf_tables, occupancy, (lfloat)(0.0f));
+#define SOMBRA_JITTER_LANE(k) sombra_pixel_jitter((uint)LC(xs, k), column_row, camera->jitter_seed)
+    scene.jitter = LFROM_LANES(SOMBRA_JITTER_LANE);
+#undef SOMBRA_JITTER_LANE
+    ShadowState shadow;
+    SHADOW_STATE_INIT(shadow)
+    const lint first_z = LLOAD(first), last_z = LLOAD(last);
+    lfloat transmittance = (lfloat)(1.0f);
+    lfloat3 previous = l3_splat((float3)(0.0f));
+    for (int z = z_first; z <= z_last; ++z) {
+        const lfloat3 v = column_point_voxel(c, x, y, (float)z);
+        lfloat3 p;
+        p.x = lattice_row(c->voxel_to_world[0], v), p.y = lattice_row(c->voxel_to_world[1], v), p.z = lattice_row(c->voxel_to_world[2], v);
+        const lint zs = (lint)(z);
+        const lmask start = first_z == zs, go_on = (first_z < zs) & (zs <= last_z) & (transmittance >= 1e-6f);
+        if (lany(start | go_on)) {
+            lfloat3 dir, to_previous = l3_sub(previous, p);
+            lfloat t_max, piece = sqrt(l3_dot(to_previous, to_previous));
+            ray_to_light(&lights[light_index], p, &dir, &t_max);
+            to_previous = l3_scale(to_previous, 1.0f / fmax(piece, 1e-30f));
+            dir = l3(select(dir.x, to_previous.x, go_on), select(dir.y, to_previous.y, go_on), select(dir.z, to_previous.z, go_on));
+            t_max = select(t_max, piece, go_on);
+            const lfloat t = piece_transmittance(volume_data, &scene, &shadow, p, dir, t_max, start | go_on);
+            transmittance = select(transmittance, select(transmittance * t, t, start), start | go_on);
+        }
+        previous = p;
+        float values[SOMBRA_LANES], vx[SOMBRA_LANES], vy[SOMBRA_LANES], vz[SOMBRA_LANES];
+        LSTORE(transmittance, values), LSTORE(v.x, vx), LSTORE(v.y, vy), LSTORE(v.z, vz);
+        const uint row = column_row + dims_y * (uint)z;
+        for (uint lane = 0; lane < SOMBRA_LANES; ++lane)
+            if (first[lane] <= z && z <= last[lane] &&
+                cache_point_wanted(occupancy, volume, c, fill_mode, fill_mask, x0 + lane, row, (float3)(vx[lane], vy[lane], vz[lane])))
+                shadow_cache[c->offset + (size_t)row * c->dims.x + x0 + lane] = values[lane];
+    }
+}
+#endif
 
 #ifdef SOMBRA_HAS_MESHES
 /* The surface shadow cache's fill: the shadow term of light `light_index` at surface points

@@ -47,19 +47,23 @@ static inline lfloat surfaces_transmittance(const ShadowRayGeometry* g, lfloat3 
 }
 #endif
 
-/* Transmittance from p to the light (with meshes, times surfaces_transmittance). */
-static inline lfloat shadow_ray(VOLUME_DATA_PARAM, const SceneRefs* scene, const ShadowRayGeometry* geometry,
-                         __global const LightGpu* light, lfloat3 p, lmask lanes) {
-    lfloat3 dir;
-    lfloat t_max;
+/* The ray from p to the light: its unit direction and length (INFINITY for a directional light). */
+static inline void ray_to_light(__global const LightGpu* light, lfloat3 p, lfloat3* dir, lfloat* t_max) {
     if (light->type == SOMBRA_LIGHT_DIRECTIONAL) {
-        dir = l3_splat(-light->direction.xyz);
-        t_max = (lfloat)(INFINITY);
+        *dir = l3_splat(-light->direction.xyz);
+        *t_max = (lfloat)(INFINITY);
     } else {
         lfloat3 d = l3_sub(l3_splat(light->position.xyz), p);
-        t_max = sqrt(l3_dot(d, d));
-        dir = l3_scale(d, 1.0f / fmax(t_max, 1e-30f));
+        *t_max = sqrt(l3_dot(d, d));
+        *dir = l3_scale(d, 1.0f / fmax(*t_max, 1e-30f));
     }
+}
+
+/* Transmittance along p + t·dir, 0 < t < t_max (|dir| = 1; with meshes, times
+ * surfaces_transmittance): the shadow ray to the light, or a piece of one (the light lattices'
+ * columns, render.cl shadow_cache_fill_columns). */
+static inline lfloat segment_transmittance(VOLUME_DATA_PARAM, const SceneRefs* scene, const ShadowRayGeometry* geometry, lfloat3 p,
+                                           lfloat3 dir, lfloat t_max, lmask lanes) {
     uint volume_count = scene->camera->volume_count;
     VolumeRay ray;
     make_volume_ray(&ray, scene->volumes, volume_count, p, dir, (lfloat)(0.0f), t_max);
@@ -90,5 +94,14 @@ static inline lfloat shadow_ray(VOLUME_DATA_PARAM, const SceneRefs* scene, const
 #else
     return LLOAD(depth_lane);
 #endif
+}
+
+/* Transmittance from p to the light. */
+static inline lfloat shadow_ray(VOLUME_DATA_PARAM, const SceneRefs* scene, const ShadowRayGeometry* geometry,
+                                __global const LightGpu* light, lfloat3 p, lmask lanes) {
+    lfloat3 dir;
+    lfloat t_max;
+    ray_to_light(light, p, &dir, &t_max);
+    return segment_transmittance(volume_data, scene, geometry, p, dir, t_max, lanes);
 }
 #endif

@@ -315,6 +315,21 @@ typedef struct {
      * prepare_volume_fill): point (x, y, z) is bit x % 32 of word mark_offset + (y + dims.y · z) ·
      * mark_row_words + x / 32 (rows start on a word) */
     sb_uint mark_offset, mark_row_words, mark_pad0, mark_pad1;
+    /* lattice coordinates q of voxel point v (render.cl lattice_cell): q.x = dot(rows[0], (v, 1)) /
+     * dot(rows[3], (v, 1)), q.y likewise with rows[1], q.z = dot(rows[2], (v, 1)). A volume lattice:
+     * rows diag(1 / spacing) and rows[3] = (0, 0, 0, 1). */
+    sb_float4 voxel_to_lattice[4];
+    /* A light's lattice (column_axes.w = 1; src/render/shadow_cache_columns.cpp): lattice column
+     * (x, y) lies on one ray of the light, point z = 0 nearest the light, so that one march along
+     * the column fills all its points (render.cl shadow_cache_fill_columns). Voxel axes a, b, c =
+     * column_axes.xyz; point (x, y, z): v_c = along.x + z · along.y, w = along.z · v_c + along.w,
+     * v_a = across[0].x + across[0].y · v_c + w · (across[0].z + x · across[0].w), v_b likewise
+     * with across[1] and y. A directional light: w = 1 (parallel columns sheared along it); a
+     * point light: w = v_c − light_c, the columns fan out from the light. column_axes.w = 0: a
+     * volume lattice (voxel k · spacing). */
+    sb_int4 column_axes;
+    sb_float4 column_along;
+    sb_float4 column_across[2];
 } ShadowCacheGpu;
 
 #endif /* SOMBRA_SHARED_TYPES_H */

@@ -30,6 +30,15 @@ typedef struct {
 } ShadowState;
 #define SHADOW_STATE_INIT(s) SHADOW_MESH_INIT((s).geometry) SHADOW_BOUND_INIT((s).geometry)
 
+/* The shadow term multiplies along a light's ray (T(p) = T(p → q) · T(q) for q between p and the
+ * light): the light lattices' columns are filled by one march each (render.cl
+ * shadow_cache_fill_columns). Transmittance along p + t·dir, 0 < t < t_max. */
+#define SOMBRA_SHADOW_COLUMNS
+static inline lfloat piece_transmittance(VOLUME_DATA_PARAM, const SceneRefs* scene, ShadowState* s, lfloat3 p, lfloat3 dir, lfloat t_max,
+                                         lmask lanes) {
+    return segment_transmittance(volume_data, scene, &s->geometry, p, dir, t_max, lanes);
+}
+
 static inline lfloat shadow_transmittance(VOLUME_DATA_PARAM, const SceneRefs* scene, ShadowState* s, uint m, lfloat3 p, lmask lanes) {
     return shadow_ray(volume_data, scene, &s->geometry, &scene->lights[m], p, lanes);
 }

@@ -139,10 +139,16 @@ struct SatOptions {
 };
 
 // The shadow-ray baseline (declared in src/techniques/rays.cpp).
+enum class RayCacheLattice { Light, Volume };
+
 struct RayOptions {
     // A factor on each volume's step for the shadow rays only (the camera rays keep theirs);
     // smaller is finer and slower. In [0.01, 16].
     float step = 1.f;
+    // The shadow cache's lattices: Light (columns along each light's rays where the volume lies
+    // to one side of the light, one march per column: src/render/shadow_cache_columns.cpp) or
+    // Volume (the volume's voxel axes, one ray per point).
+    RayCacheLattice cache_lattice = RayCacheLattice::Light;
 };
 
 // Every option's name, range, default and help: its declaration (sombra/options.h).
@@ -258,6 +264,8 @@ struct RenderStats {
     // the lattice points the frame's samples read that were not filled yet, all of which it filled
     bool shadow_cache_visible_fill = false;
     unsigned long long shadow_cache_points_marked = 0;
+    // entries on a light lattice (columns along the light's rays, RayCacheLattice::Light)
+    int shadow_cache_light_lattices = 0;
     double shadow_cache_probe_ms = 0, shadow_cache_estimated_fill_ms = 0, shadow_cache_estimated_cached_ms = 0,
            shadow_cache_estimated_per_sample_ms = 0;
     // auto made no new choice: this frame (scene, camera, size, options, device) was rendered

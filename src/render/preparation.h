@@ -3,6 +3,7 @@
 // moved camera rebuilds nothing; moved lights rebuild what depends on them (Knecht §3.2
 // "Deep Shadow Map Re-Generation").
 #pragma once
+#include <array>
 #include <chrono>
 #include <memory>
 #include <optional>
@@ -159,6 +160,22 @@ constexpr bool shadow_cache_pays(double fill_ms, double cached_ms, double per_sa
 // row_block_stride).
 // Points of a cache lattice (dims.x · dims.y · dims.z).
 std::size_t lattice_points(const ShadowCacheGpu& c);
+
+constexpr std::size_t kShadowCachePoints = std::size_t(1) << 23;  // a volume lattice's points, per volume and light (32 MiB)
+
+// A volume lattice's voxel → lattice map (ShadowCacheGpu.voxel_to_lattice: diag(1 / spacing)).
+void set_volume_lattice_map(ShadowCacheGpu& c);
+
+// The light lattice (src/render/shadow_cache_columns.cpp) of volume `volume` for `light`, made
+// from the volume lattice (its planes, spacing, offsets and masks' place are re-set by the
+// caller), or none: a positional light inside or too near the volume's slabs on every axis, or a
+// lattice over 4 times the volume lattice's points.
+std::optional<ShadowCacheGpu> light_lattice(const ShadowCacheGpu& volume_lattice, const VolumeGpu& volume, const LightGpu& light,
+                                            float step_voxels);
+
+// Voxel coordinates of point (x, y, z) of a lattice, volume or light (cl/render.cl
+// column_point_voxel).
+std::array<double, 3> lattice_point_voxel(const ShadowCacheGpu& c, double x, double y, double z);
 
 std::vector<ShadowCacheGpu> probe_lattices(const std::vector<ShadowCacheGpu>& layout, int block, int stride);
 

@@ -281,7 +281,8 @@ std::string RenderStats::to_json() const {
                              {"entries_reused", shadow_cache_entries_reused},
                              {"points_to_fill", shadow_cache_points_to_fill},
                              {"visible_fill", shadow_cache_visible_fill},
-                             {"points_marked", shadow_cache_points_marked}};
+                             {"points_marked", shadow_cache_points_marked},
+                             {"light_lattices", shadow_cache_light_lattices}};
         if (shadow_cache_probe_ms > 0 || shadow_cache_auto_remembered || shadow_cache_auto_history)
             j["shadow_cache"]["auto"] = {{"remembered", shadow_cache_auto_remembered},
                                          {"from_history", shadow_cache_auto_history},

@@ -33,7 +33,6 @@ namespace {
 // Words of a lattice's bit masks (ShadowCacheGpu.mark_row_words per row of y and z).
 std::size_t mask_words(const ShadowCacheGpu& c) { return std::size_t(c.mark_row_words) * std::size_t(c.dims.s[1]) * std::size_t(c.dims.s[2]); }
 
-constexpr std::size_t kShadowCachePoints = std::size_t(1) << 23;  // per volume and light (32 MiB)
 constexpr std::size_t kSurfacePoints = std::size_t(1) << 22;      // the surface part's, over all meshes (64 MiB + 4 MiB per light)
 constexpr int kSurfaceMaxSubdivision = 1024;                        // lattice intervals along a triangle's edge
 constexpr int kSurfaceRowPoints = 1024;                              // rows of the surface fill's launch
@@ -80,7 +79,7 @@ std::array<int, 3> cache_lattice(const std::array<int, 3>& dims) {
 
 // Entry (volume i, light m) of the cache: its lattice, its place in the values, the volume's
 // voxel → world rows.
-std::vector<ShadowCacheGpu> cache_layout(const Scene& scene, const packing::PackedScene& packed) {
+std::vector<ShadowCacheGpu> cache_layout(const Scene& scene, const packing::PackedScene& packed, bool light_columns) {
     std::vector<ShadowCacheGpu> table;
     std::size_t total = 0, words = 0;
     for (std::size_t i = 0; i < scene.volumes.size(); ++i) {
@@ -98,9 +97,13 @@ std::vector<ShadowCacheGpu> cache_layout(const Scene& scene, const packing::Pack
             // step (≤ step_voxels voxels on every axis) and interpolates its voxel's corners
             c.reach = std::max({c.spacing.s[0], c.spacing.s[1], c.spacing.s[2]}) + scene.volumes[i].step_voxels + 1.f;
             c.row_block = c.row_block_stride = 1;  // evenly spaced points (the probe's come in blocks)
+            set_volume_lattice_map(c);
+            if (light_columns) {
+                if (std::optional<ShadowCacheGpu> g = light_lattice(c, packed.volumes[i], packed.lights[m], scene.volumes[i].step_voxels)) c = *g;
+            }
             c.offset = cl_uint(total);
             total += lattice_points(c);
-            c.mark_row_words = cl_uint((n[0] + 31) / 32);  // the visible fill's masks: rows start on a word
+            c.mark_row_words = cl_uint((c.dims.s[0] + 31) / 32);  // the visible fill's masks: rows start on a word
             c.mark_offset = cl_uint(words);
             words += mask_words(c);
             if (total > 0xffffffffull) throw Error("shadow cache: more than 2^32 entries");
@@ -276,7 +279,8 @@ VolumePlan plan_volume_entries(host::Runtime& runtime, const Scene& scene, const
     const PreparedScene& p = prepared.scene;
     const std::size_t lights = scene.lights.size();
     VolumePlan plan;
-    plan.layout = cache_layout(scene, p.packed);
+    // light lattices: not across polyhedral bounds (a piece of a column starting inside a bound)
+    plan.layout = cache_layout(scene, p.packed, prepared.technique.fills_light_columns(options) && p.packed.bound_triangles.empty());
     plan.keys = prepared.technique.shadow_cache_keys({runtime, scene, p.packed, p.packed_surfaces, p.device, options, p.use_images});
     if (plan.keys.empty()) plan.keys = generic_keys(scene, p, prepared.technique, options);
     plan.same_layout = cache.layout.size() == plan.layout.size() &&
@@ -291,6 +295,7 @@ VolumePlan plan_volume_entries(host::Runtime& runtime, const Scene& scene, const
             if (plan.stale[i * lights + m]) to_fill += visible * double(lattice_points(plan.layout[i * lights + m]));
     }
     stats.shadow_cache_points_to_fill = static_cast<unsigned long long>(to_fill);
+    stats.shadow_cache_light_lattices = int(std::count_if(plan.layout.begin(), plan.layout.end(), [](const ShadowCacheGpu& c) { return c.column_axes.s[3] != 0; }));
     plan.use = options.shadow_cache == ShadowCacheMode::On || to_fill == 0;
     return plan;
 }
@@ -354,7 +359,31 @@ struct RowRange {
     int first = 0, count = 0;
 };
 
-RowRange all_rows(const ShadowCacheGpu& c) { return {0, c.dims.s[1] * c.dims.s[2]}; }
+// A fill launch's rows: a volume lattice's rows along x; a light lattice's rows of columns (y).
+RowRange all_rows(const ShadowCacheGpu& c) { return {0, c.column_axes.s[3] ? c.dims.s[1] : c.dims.s[1] * c.dims.s[2]}; }
+
+// The fill kernels of a program: shadow_cache_fill for volume lattices, shadow_cache_fill_columns
+// (only in techniques that define it, cl/techniques/rays.h) for light lattices.
+struct FillKernels {
+    cl::Program& program;
+    std::optional<cl::Kernel> volume, columns;
+    cl::Kernel& of(const ShadowCacheGpu& c) {
+        std::optional<cl::Kernel>& k = c.column_axes.s[3] ? columns : volume;
+        if (!k) k = cl::Kernel(program, c.column_axes.s[3] ? "shadow_cache_fill_columns" : "shadow_cache_fill");
+        return *k;
+    }
+};
+
+// The points of `words` (an entry's whole mask, ShadowCacheGpu.mark_offset) in launch rows `r`.
+unsigned long long mask_points_in_rows(const std::vector<cl_uint>& words, const ShadowCacheGpu& c, RowRange r) {
+    unsigned long long points = 0;
+    const int planes = c.column_axes.s[3] ? c.dims.s[2] : 1, rows_per_plane = all_rows(c).count;
+    for (int z = 0; z < planes; ++z)
+        for (int row = r.first; row < r.first + r.count; ++row)
+            for (std::size_t w = 0; w < c.mark_row_words; ++w)
+                points += unsigned(__builtin_popcount(words[(std::size_t(z) * std::size_t(rows_per_plane) + std::size_t(row)) * c.mark_row_words + w]));
+    return points;
+}
 
 // shadow_cache_fill's arguments for entry e of `table` into `values`, by the launch's technique,
 // for the points `mode` and `mask` select.
@@ -371,9 +400,10 @@ void bind_fill(const FillLaunch& launch, cl::Kernel& kernel, std::size_t e, std:
 // shadow_cache_fill of entry e of `table` (lattice c) into `values`, by the launch's technique, of
 // the points `mode` and `mask` select in `rows` (default: all), in bands; returns the kernel time.
 // The frame's fill and auto's probe warm-up run it.
-double fill_lattice(const FillLaunch& launch, cl::Kernel& kernel, std::size_t e, const ShadowCacheGpu& c, std::size_t lights,
+double fill_lattice(const FillLaunch& launch, FillKernels& kernels, std::size_t e, const ShadowCacheGpu& c, std::size_t lights,
                     const cl::Buffer& table, const cl::Buffer& values, FillMode mode = FillMode::All, const cl::Buffer* mask = nullptr,
                     std::optional<RowRange> rows = std::nullopt) {
+    cl::Kernel& kernel = kernels.of(c);
     bind_fill(launch, kernel, e, lights, table, values, mode, mask);
     const RowRange r = rows.value_or(all_rows(c));
     return host::run_packets(launch.runtime, kernel, c.dims.s[0], r.count, launch.lanes, 1, r.first);
@@ -510,7 +540,7 @@ double measure_marked_fill(const FillLaunch& launch, ShadowCache& cache, const V
     host::Runtime& runtime = launch.runtime;
     // its short launches must not make the frame's fill run unbanded, as the probe's (tiled_launch.cpp)
     const double last_launch_ms = runtime.progress().last_launch_ms;
-    cl::Kernel kernel(launch.program, "shadow_cache_fill");
+    FillKernels kernels{launch.program, {}, {}};
     fill.done.assign(plan.layout.size(), {});
     const std::size_t entries = std::size_t(std::count_if(fill.mode.begin(), fill.mode.end(), [](const auto& m) { return m == FillMode::Marked; }));
     const int bands_per_entry = std::clamp(kMeasuredMaxLaunches / int(std::max<std::size_t>(entries, 1)), 1, kMeasuredBands);
@@ -525,15 +555,13 @@ double measure_marked_fill(const FillLaunch& launch, ShadowCache& cache, const V
         // bands of a multiple of 4 rows (the packets' work-groups), centred in equal parts of the rows
         const int band = std::min(rows, std::max(4, (rows / (kMeasuredShare * bands_per_entry) + 3) / 4 * 4));
         const int bands = std::min(bands_per_entry, rows / band);
-        std::vector<cl_uint> words(std::size_t(band) * c.mark_row_words);
+        std::vector<cl_uint> words(mask_words(c));
+        runtime.queue().enqueueReadBuffer(cache.need, CL_TRUE, c.mark_offset * sizeof(cl_uint), words.size() * sizeof(cl_uint), words.data());
         for (int b = 0; b < bands; ++b) {
             const int first = std::min(rows - band, int((double(b) + 0.5) * rows / bands - 0.5 * band) / 4 * 4);
             if (!fill.done[e].empty() && first < fill.done[e].back().first + fill.done[e].back().count) continue;
-            runtime.queue().enqueueReadBuffer(cache.need, CL_TRUE, (c.mark_offset + std::size_t(first) * c.mark_row_words) * sizeof(cl_uint),
-                                              words.size() * sizeof(cl_uint), words.data());
-            unsigned long long points = 0;
-            for (cl_uint w : words) points += unsigned(__builtin_popcount(w));
-            entry_ms[e] += fill_lattice(launch, kernel, e, c, lights, cache.table, cache.values, FillMode::Marked, &cache.need, RowRange{first, band});
+            const unsigned long long points = mask_points_in_rows(words, c, RowRange{first, band});
+            entry_ms[e] += fill_lattice(launch, kernels, e, c, lights, cache.table, cache.values, FillMode::Marked, &cache.need, RowRange{first, band});
             entry_points[e] += points;
             fill.done[e].push_back({first, band});
         }
@@ -559,7 +587,7 @@ double fill_volume_entries(const FillLaunch& launch, ShadowCache& cache, const V
     const std::size_t stale_entries = std::size_t(std::count(plan.stale.begin(), plan.stale.end(), true));
     stats.shadow_cache_entries_reused += int(plan.layout.size() - stale_entries);
     double ms = 0;
-    cl::Kernel kernel(launch.program, "shadow_cache_fill");
+    FillKernels kernels{launch.program, {}, {}};
     const std::size_t entries = std::size_t(std::count_if(fill.mode.begin(), fill.mode.end(), [](const auto& m) { return m.has_value(); }));
     host::ProgressStage stage(runtime.progress(), "shadow cache", double(entries));
     for (std::size_t e = 0; e < plan.layout.size(); ++e) {
@@ -575,7 +603,7 @@ double fill_volume_entries(const FillLaunch& launch, ShadowCache& cache, const V
             bands.push_back({rows, 0});
             for (const RowRange& band : bands) {
                 if (band.first > next)
-                    ms += fill_lattice(launch, kernel, e, plan.layout[e], lights, cache.table, cache.values, mode, mask, RowRange{next, band.first - next});
+                    ms += fill_lattice(launch, kernels, e, plan.layout[e], lights, cache.table, cache.values, mode, mask, RowRange{next, band.first - next});
                 next = band.first + band.count;
             }
         }
@@ -630,9 +658,12 @@ std::vector<ShadowCacheGpu> probe_lattices(const std::vector<ShadowCacheGpu>& la
     std::vector<ShadowCacheGpu> small = layout;
     std::size_t total = 0;
     for (ShadowCacheGpu& c : small) {
-        const int b = std::min({block, c.dims.s[1], c.dims.s[2]});
-        for (std::size_t a = 1; a < 3; ++a) {
-            const int n = c.dims.s[a], blocks = std::max(1, (n - b) / stride + 1);  // whole blocks inside
+        // a light lattice: blocks of whole columns along y only, as many of its points
+        const bool columns = c.column_axes.s[3] != 0;
+        const int b = std::min({block, c.dims.s[1], columns ? block : c.dims.s[2]});
+        for (std::size_t a = 1; a < (columns ? 2u : 3u); ++a) {
+            const int step = columns ? stride * stride / b : stride;
+            const int n = c.dims.s[a], blocks = std::max(1, (n - b) / step + 1);  // whole blocks inside
             // centred: a lattice's border rows are mostly empty space, cheap to fill
             c.block_origin.s[a] = float((n - ((blocks - 1) * stride + b)) / 2) * c.spacing.s[a];
             c.dims.s[a] = blocks * b;
@@ -686,7 +717,7 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
         const std::size_t total = small.back().offset + lattice_points(small.back());
         values = host::make_buffer(runtime, CL_MEM_READ_WRITE, total * sizeof(float), nullptr, "shadow cache probe");
         table = host::make_buffer(runtime, CL_MEM_READ_ONLY, small.size() * sizeof(ShadowCacheGpu), small.data(), "shadow cache probe table");
-        cl::Kernel kernel(launch.program, "shadow_cache_fill");
+        FillKernels kernels{launch.program, {}, {}};
         double fill_ms = 0;
         // the first milliseconds of launches after the frame's preparation run slow (smoke, rays at
         // 256²: every 16th row's 2–4 ms launches took up to 2× their later time): the first
@@ -696,7 +727,7 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
             ShadowCacheGpu warm = small[0];
             warm.dims.s[2] = std::min(warm.dims.s[2], int(warm.row_block));
             for (int k = 0; warm_ms < kProbeWarmupMs && k < kProbeWarmupLaunches; ++k)
-                warm_ms += fill_lattice(launch, kernel, 0, warm, lights, table, values);
+                warm_ms += fill_lattice(launch, kernels, 0, warm, lights, table, values);
             costs.probe_ms += warm_ms;
         }
         // every entry's small lattice enqueued before any is waited for, one launch each, each
@@ -705,8 +736,9 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
         // bench/README.md "Where a first run's extra time goes")
         std::vector<cl::Event> events;
         for (std::size_t e = 0; e < small.size(); ++e) {
+            cl::Kernel& kernel = kernels.of(small[e]);
             bind_fill(launch, kernel, e, lights, table, values);
-            events.push_back(host::enqueue_packets(runtime, kernel, small[e].dims.s[0], small[e].dims.s[1] * small[e].dims.s[2], launch.lanes));
+            events.push_back(host::enqueue_packets(runtime, kernel, small[e].dims.s[0], all_rows(small[e]).count, launch.lanes));
         }
         runtime.queue().flush();
         double probe_ms = 0;

@@ -22,6 +22,13 @@ const std::vector<OptionSpec>& ray_option_specs() {
             .only({ShadowTechnique::Rays})
             .keys()
             .commands(kRenderCommand | kVisibilityCommand),
+        declare_enum<RayCacheLattice>("ray_cache_lattice", "--ray-cache-lattice", [](auto& o) -> auto& { return o.rays.cache_lattice; },
+                                      "rays: the shadow cache's lattice per volume and light: light (columns along the light's rays, "
+                                      "one march fills a column; where the volume lies to one side of a positional light) or volume "
+                                      "(the voxel axes, one ray per point)",
+                                      {{"light", RayCacheLattice::Light}, {"volume", RayCacheLattice::Volume}})
+            .only({ShadowTechnique::Rays})
+            .commands(kRenderCommand),
     };
     return specs;
 }
@@ -59,6 +66,8 @@ public:
         if (bounds_) bound_bvh_ = surfaces::upload_shadow_bvh(s.runtime, s.packed.bound_triangles, "volume bound");
         stats.stage_ms["bvh_build"] = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
     }
+
+    bool fills_light_columns(const RenderOptions& options) const override { return options.rays.cache_lattice == RayCacheLattice::Light; }
 
     // SHADOW_MESH_PARAMS and SHADOW_BOUND_PARAMS of cl/techniques/rays.h
     void bind(host::KernelArgs& args, host::Runtime&, const RenderOptions&) const override {

@@ -43,6 +43,10 @@ public:
     virtual void add_defines(const Scene& scene, const RenderOptions& options, std::vector<std::string>& defines) const = 0;
     // Whether the technique attenuates light (SHADOW_TERM of its kernel header; none: false).
     virtual bool has_shadow_term() const { return true; }
+    // Whether its shadow term multiplies along a light's rays and its kernels define
+    // shadow_cache_fill_columns (SOMBRA_SHADOW_COLUMNS): the shadow cache then uses light lattices
+    // (src/render/shadow_cache_columns.cpp).
+    virtual bool fills_light_columns(const RenderOptions&) const { return false; }
     // Whether its shadow data can be exchanged between the ranks of a distributed render, so that
     // every rank's lookups see every region's objects (a technique without shadows trivially can).
     virtual bool crosses_ranks() const { return !has_shadow_term(); }
