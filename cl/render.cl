@@ -444,9 +444,11 @@ static inline lfloat3 column_point_voxel(__global const ShadowCacheGpu* c, lfloa
 
 /* The light lattices' fill (ShadowCacheGpu.column_axes.w = 1), for the points fill_mode asks for
  * as shadow_cache_fill: a work-item marches SOMBRA_LANES neighbouring columns (x, y) from the
- * light. At a column's first point asked for, the shadow ray to the light; then point by point
- * the piece back to the previous point, T(p_z) = T(p_z → p_z−1) · T(p_z−1): each column costs one
- * ray's length, not one per point. Columns stop once T < 10⁻⁶ (the shadow ray's own cut-off). */
+ * light. At a column's first point a sample can read (whatever the mode: a point's value does not
+ * depend on which points a fill asks for), the shadow ray to the light; then point by point the
+ * piece back to the previous point, T(p_z) = T(p_z → p_z−1) · T(p_z−1), up to the last point asked
+ * for: each column costs one ray's length, not one per point. A column stops once T < 10⁻⁶ (the
+ * shadow ray's own cut-off). */
 __kernel void shadow_cache_fill_columns(SCENE_PARAMS, uint light_index, uint cache_entry, __global const ShadowCacheGpu* shadow_cache_table,
                                         __global float* shadow_cache, uint fill_mode, __global const uint* fill_mask SHADOW_PARAMS) {
     __global const ShadowCacheGpu* c = &shadow_cache_table[cache_entry];
@@ -466,8 +468,10 @@ __kernel void shadow_cache_fill_columns(SCENE_PARAMS, uint light_index, uint cac
         LSTORE(v.x, vx), LSTORE(v.y, vy), LSTORE(v.z, vz);
         const uint row = column_row + dims_y * z;
         for (uint lane = 0; lane < SOMBRA_LANES; ++lane) {
-            if (cache_point_wanted(occupancy, volume, c, fill_mode, fill_mask, x0 + lane, row, (float3)(vx[lane], vy[lane], vz[lane]))) {
-                first[lane] = min(first[lane], (int)z), last[lane] = (int)z;
+            const float3 v_lane = (float3)(vx[lane], vy[lane], vz[lane]);
+            if (first[lane] == (int)dims_z && cache_point_wanted(occupancy, volume, c, 0, fill_mask, x0 + lane, row, v_lane)) first[lane] = (int)z;
+            if (cache_point_wanted(occupancy, volume, c, fill_mode, fill_mask, x0 + lane, row, v_lane)) {
+                first[lane] = min(first[lane], (int)z), last[lane] = (int)z;  /* (a marked point is one a sample reads) */
             } else if (fill_mode == 0 && x0 + lane < (uint)c->dims.x) {
                 shadow_cache[c->offset + (size_t)row * c->dims.x + x0 + lane] = 1.0f;
             }

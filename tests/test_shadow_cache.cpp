@@ -5,6 +5,7 @@
 #include <catch2/catch.hpp>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -39,7 +40,7 @@ RenderOptions cache_options(ShadowTechnique technique, ShadowCacheMode mode) {
 
 // World position of lattice point (x, y, z) of a cache entry.
 Vec3 lattice_world(const ShadowCacheGpu& c, int x, int y, int z) {
-    float v[3] = {x * c.spacing.s[0], y * c.spacing.s[1], z * c.spacing.s[2]};
+    const std::array<double, 3> v = pipeline::lattice_point_voxel(c, x, y, z);  // a volume or a light lattice
     Vec3 p;
     for (int r = 0; r < 3; ++r)
         p[std::size_t(r)] = c.voxel_to_world[r].s[0] * v[0] + c.voxel_to_world[r].s[1] * v[1] + c.voxel_to_world[r].s[2] * v[2] +

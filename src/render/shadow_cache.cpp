@@ -286,8 +286,15 @@ VolumePlan plan_volume_entries(host::Runtime& runtime, const Scene& scene, const
     plan.same_layout = cache.layout.size() == plan.layout.size() &&
                        std::equal(plan.layout.begin(), plan.layout.end(), cache.layout.begin(),
                                   [](const ShadowCacheGpu& a, const ShadowCacheGpu& b) { return std::memcmp(&a, &b, sizeof a) == 0; });
+    // an entry whose lattice is the same but for its place in the buffers is kept (a moved light's
+    // new light lattice moves the others': prepare_volume_fill copies them over)
+    auto same_lattice = [](ShadowCacheGpu a, ShadowCacheGpu b) {
+        a.offset = b.offset, a.mark_offset = b.mark_offset;
+        return std::memcmp(&a, &b, sizeof a) == 0;
+    };
     plan.stale.assign(plan.layout.size(), true);
-    for (std::size_t e = 0; e < plan.layout.size(); ++e) plan.stale[e] = !plan.same_layout || cache.keys[e] != plan.keys[e];
+    for (std::size_t e = 0; e < plan.layout.size() && cache.layout.size() == plan.layout.size(); ++e)
+        plan.stale[e] = !same_lattice(cache.layout[e], plan.layout[e]) || cache.keys[e] != plan.keys[e];
     double to_fill = 0;
     for (std::size_t i = 0; i < scene.volumes.size(); ++i) {
         double visible = visible_brick_fraction(p.packed, i);
@@ -462,11 +469,14 @@ struct VolumeFill {
 VolumeFill prepare_volume_fill(const FillLaunch& launch, ShadowCache& cache, const VolumePlan& plan, bool visible,
                                const SurfaceShadowCache* surface_cache, RenderStats& stats) {
     host::Runtime& runtime = launch.runtime;
-    if (!plan.same_layout) {  // other volumes or lights: new lattices
-        ShadowCache fresh;  // the old buffers freed before the new are made
+    if (!plan.same_layout) {  // other volumes or lights, or a light lattice's size: new lattices
+        ShadowCache fresh;
         fresh.surfaces = std::move(cache.surfaces);
         fresh.volumes_used = cache.volumes_used, fresh.surfaces_used = cache.surfaces_used;
         fresh.history_pending = std::move(cache.history_pending);
+        const bool keeps = std::count(plan.stale.begin(), plan.stale.end(), false) > 0;
+        ShadowCache old = std::move(cache);  // freed before the new buffers are made, unless entries are kept
+        if (!keeps) old = ShadowCache();
         cache = std::move(fresh);
         cache.layout = plan.layout;
         cache.keys.assign(plan.layout.size(), std::string());
@@ -485,6 +495,17 @@ VolumeFill prepare_volume_fill(const FillLaunch& launch, ShadowCache& cache, con
         cache.need_count = host::make_buffer(runtime, CL_MEM_READ_WRITE, sizeof(cl_uint), nullptr, "shadow cache points to fill count");
         runtime.queue().enqueueFillBuffer(cache.values, 1.0f, 0, total * sizeof(float));  // never read unfilled; defined anyway
         cache.bytes = total * sizeof(float) + 3 * mask_bytes;
+        // the kept entries' values and filled points, copied over
+        for (std::size_t e = 0; e < plan.layout.size() && keeps; ++e) {
+            if (plan.stale[e]) continue;
+            const ShadowCacheGpu &from = old.layout[e], &to = plan.layout[e];
+            runtime.queue().enqueueCopyBuffer(old.values, cache.values, from.offset * sizeof(float), to.offset * sizeof(float),
+                                              lattice_points(to) * sizeof(float));
+            runtime.queue().enqueueCopyBuffer(old.filled, cache.filled, from.mark_offset * sizeof(cl_uint), to.mark_offset * sizeof(cl_uint),
+                                              mask_words(to) * sizeof(cl_uint));
+            cache.keys[e] = old.keys[e], cache.complete[e] = old.complete[e], cache.filled_view[e] = old.filled_view[e];
+        }
+        if (keeps) runtime.queue().finish();  // before the old buffers go
     }
     // stale entries start empty; incomplete ones filled for another view are completed (the same
     // view again reads only what it filled: the same samples). The samples that read entry e
