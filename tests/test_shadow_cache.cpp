@@ -10,6 +10,8 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <optional>
+#include <random>
 #include <sstream>
 
 #include "host/runtime.h"
@@ -842,4 +844,160 @@ TEST_CASE("surface shadow cache auto: on when its points cost fewer evaluations 
     CHECK_FALSE(again.shadow_cache_surfaces_used);
     o.shadow_cache = ShadowCacheMode::Off;
     CHECK_FALSE(render(context, scene, o).stats.shadow_cache_surfaces_used);
+}
+
+namespace {
+
+// The kernel's voxel → lattice map (cl/render.cl lattice_cell), unclamped.
+std::array<double, 3> voxel_to_lattice(const ShadowCacheGpu& c, const std::array<double, 3>& v) {
+    auto row = [&](int r) {
+        const cl_float4& m = c.voxel_to_lattice[r];
+        return m.s[0] * v[0] + m.s[1] * v[1] + m.s[2] * v[2] + m.s[3];
+    };
+    const double w = row(3);
+    return {row(0) / w, row(1) / w, row(2)};
+}
+
+std::array<double, 3> voxel_to_world(const std::array<float, 16>& m, const std::array<double, 3>& v) {
+    std::array<double, 3> p{};
+    for (int r = 0; r < 3; ++r) p[std::size_t(r)] = m[std::size_t(4 * r)] * v[0] + m[std::size_t(4 * r + 1)] * v[1] + m[std::size_t(4 * r + 2)] * v[2] + m[std::size_t(4 * r + 3)];
+    return p;
+}
+
+}  // namespace
+
+TEST_CASE("shadow cache light lattices: columns lie on the light's rays, nearest point first, and cover the volume", "[shadow_cache]") {
+    // random volumes (dims, spacing, rotation, placement) and lights (directional, point, spot)
+    std::mt19937 rng(2026);
+    std::uniform_real_distribution<float> unit(0.f, 1.f);
+    int directional = 0, positional = 0, refused = 0;
+    for (int trial = 0; trial < 300; ++trial) {
+        Scene scene;
+        VolumeInstance v;
+        const int nx = 4 + int(unit(rng) * 40), ny = 4 + int(unit(rng) * 40), nz = 4 + int(unit(rng) * 40);
+        auto volume = std::make_shared<Volume>();
+        volume->dims = {nx, ny, nz};
+        volume->voxels.assign(volume->voxel_count(), 0.5f);
+        volume->update_range();
+        v.volume = volume;
+        v.spacing = {0.5f + unit(rng), 0.5f + unit(rng), 0.5f + unit(rng)};
+        v.transform = make_transform({unit(rng) - 0.5f, unit(rng) - 0.5f, unit(rng) - 0.5f},
+                                     {360 * unit(rng), 360 * unit(rng), 360 * unit(rng)}, {0.03f, 0.03f, 0.03f});
+        v.transfer_function = test::ramp_tf(0.1f, 0.7f, 0.5f);
+        scene.volumes.push_back(v);
+        Light light;
+        light.type = trial % 3 == 0 ? LightType::Directional : trial % 3 == 1 ? LightType::Point : LightType::Spot;
+        light.direction = {unit(rng) - 0.5f, unit(rng) - 0.5f, unit(rng) - 0.5f};
+        if (trial % 17 == 0) light.direction = {0.f, 0.f, -1.f};  // along an axis of the world
+        const float distance = 0.5f + 4 * unit(rng);               // some inside the box (refused)
+        light.position = {distance * (unit(rng) - 0.5f), distance * (unit(rng) - 0.5f), distance * (unit(rng) - 0.5f)};
+        scene.lights.push_back(light);
+        const packing::PackedScene packed = packing::pack_scene(scene);
+        ShadowCacheGpu volume_lattice{};
+        for (int a = 0; a < 3; ++a) volume_lattice.dims.s[a] = volume->dims[std::size_t(a)], volume_lattice.spacing.s[a] = 1.f;
+        volume_lattice.reach = 1.f + v.step_voxels + 1.f;
+        pipeline::set_volume_lattice_map(volume_lattice);
+        const std::optional<ShadowCacheGpu> g = pipeline::light_lattice(volume_lattice, packed.volumes[0], packed.lights[0], v.step_voxels);
+        INFO("trial " << trial);
+        if (!g) {
+            ++refused;
+            continue;
+        }
+        REQUIRE(g->column_axes.s[3] == 1);
+        (light.type == LightType::Directional ? directional : positional)++;
+        // at most 2× the volume lattice's points (and its cap)
+        CHECK(double(pipeline::lattice_points(*g)) <= 2.0 * double(pipeline::lattice_points(volume_lattice)) * 1.05 + 1e4);
+        // the lookup map inverts the points' placement
+        for (int k = 0; k < 20; ++k) {
+            const double x = std::floor(unit(rng) * float(g->dims.s[0])), y = std::floor(unit(rng) * float(g->dims.s[1])),
+                         z = std::floor(unit(rng) * float(g->dims.s[2]));
+            const std::array<double, 3> q = voxel_to_lattice(*g, pipeline::lattice_point_voxel(*g, x, y, z));
+            CHECK(q[0] == Approx(x).margin(2e-3));
+            CHECK(q[1] == Approx(y).margin(2e-3));
+            CHECK(q[2] == Approx(z).margin(2e-3));
+        }
+        // every point of the box maps inside the lattice: a lookup never clamps
+        for (int k = 0; k < 40; ++k) {
+            std::array<double, 3> voxel = {unit(rng) * (nx - 1.f), unit(rng) * (ny - 1.f), unit(rng) * (nz - 1.f)};
+            if (k < 8) voxel = {(k & 1) * (nx - 1.0), (k >> 1 & 1) * (ny - 1.0), (k >> 2 & 1) * (nz - 1.0)};  // the corners
+            const std::array<double, 3> q = voxel_to_lattice(*g, voxel);
+            for (int a = 0; a < 3; ++a) {
+                CHECK(q[std::size_t(a)] >= -2e-3);
+                CHECK(q[std::size_t(a)] <= g->dims.s[a] - 1 + 2e-3);
+            }
+        }
+        // a column is one ray of the light, point 0 nearest it
+        const double x = std::floor(unit(rng) * float(g->dims.s[0])), y = std::floor(unit(rng) * float(g->dims.s[1]));
+        const Vec3& L = light.position;
+        double previous_distance = -INFINITY;
+        for (int z = 1; z < g->dims.s[2]; ++z) {
+            const std::array<double, 3> near = voxel_to_world(packed.voxel_to_world[0], pipeline::lattice_point_voxel(*g, x, y, z - 1)),
+                                        far = voxel_to_world(packed.voxel_to_world[0], pipeline::lattice_point_voxel(*g, x, y, z));
+            const std::array<double, 3> step = {near[0] - far[0], near[1] - far[1], near[2] - far[2]};
+            const double length = std::hypot(step[0], step[1], step[2]);
+            REQUIRE(length > 0);
+            std::array<double, 3> to_light;
+            double distance;
+            if (light.type == LightType::Directional) {
+                const double n = std::hypot(light.direction[0], light.direction[1], light.direction[2]);
+                to_light = {-light.direction[0] / n, -light.direction[1] / n, -light.direction[2] / n};
+                distance = -(far[0] * to_light[0] + far[1] * to_light[1] + far[2] * to_light[2]);
+            } else {
+                const std::array<double, 3> d = {L[0] - far[0], L[1] - far[1], L[2] - far[2]};
+                distance = std::hypot(d[0], d[1], d[2]);
+                to_light = {d[0] / distance, d[1] / distance, d[2] / distance};
+            }
+            const double cosine = (step[0] * to_light[0] + step[1] * to_light[1] + step[2] * to_light[2]) / length;
+            CHECK(cosine == Approx(1.0).margin(1e-4));
+            CHECK(distance > previous_distance);
+            previous_distance = distance;
+        }
+    }
+    INFO(directional << " directional and " << positional << " positional light lattices, " << refused << " refused");
+    CHECK(directional > 60);
+    CHECK(positional > 40);
+    CHECK(refused > 20);  // lights inside or next to the box keep the volume lattice
+}
+
+TEST_CASE("shadow cache light lattices: the column fill agrees with the ground truth as the volume lattice's fill does", "[shadow_cache]") {
+    Scene scene = test::overlapping_scene();
+    double mean_error[2] = {0, 0};
+    for (RayCacheLattice lattice : {RayCacheLattice::Volume, RayCacheLattice::Light}) {
+        const bool light = lattice == RayCacheLattice::Light;
+        INFO((light ? "light" : "volume") << " lattices");
+        Context context(test::device_selector());
+        RenderOptions o = cache_options(ShadowTechnique::Rays, ShadowCacheMode::On);
+        o.shadow_cache_fill = ShadowCacheFill::All;
+        o.rays.cache_lattice = lattice;
+        RenderResult r = render(context, scene, o);
+        REQUIRE(r.stats.shadow_cache_used);
+        const pipeline::ShadowCache& cache = *context.kept_scenes().shadow_cache;
+        const int light_lattices = int(std::count_if(cache.layout.begin(), cache.layout.end(), [](const ShadowCacheGpu& c) { return c.column_axes.s[3] != 0; }));
+        CHECK(r.stats.shadow_cache_light_lattices == light_lattices);
+        CHECK(light_lattices == (light ? 6 : 0));  // the spot and the point light lie outside both volumes
+        std::vector<float> values(cache.layout.back().offset + pipeline::lattice_points(cache.layout.back()));
+        context.runtime().queue().enqueueReadBuffer(cache.values, CL_TRUE, 0, values.size() * sizeof(float), values.data());
+        // every 31st point a sample can read (not 1: unread points hold 1): the ground truth there (CPU, double)
+        double sum = 0, worst = 0;
+        int compared = 0, shadowed = 0;
+        for (std::size_t e = 0; e < cache.layout.size(); ++e) {
+            const ShadowCacheGpu& c = cache.layout[e];
+            for (std::size_t k = 0; k < pipeline::lattice_points(c); k += 31) {
+                const float cached = values[c.offset + k];
+                if (cached == 1.f) continue;
+                const int x = int(k % std::size_t(c.dims.s[0])), y = int(k / std::size_t(c.dims.s[0]) % std::size_t(c.dims.s[1])),
+                          z = int(k / (std::size_t(c.dims.s[0]) * std::size_t(c.dims.s[1])));
+                const double truth = reference_transmittance(scene, int(e % scene.lights.size()), lattice_world(c, x, y, z), 0.25);
+                const double error = std::abs(double(cached) - truth);
+                sum += error, worst = std::max(worst, error), ++compared, shadowed += truth < 0.9;
+            }
+        }
+        INFO(compared << " points, " << shadowed << " in shadow, mean |error| " << sum / compared << ", worst " << worst);
+        CHECK(compared > 300);
+        CHECK(shadowed > 30);
+        CHECK(worst < 3e-2);
+        mean_error[light] = sum / compared;
+    }
+    INFO("mean |error| against the ground truth: volume lattice " << mean_error[0] << ", light lattices " << mean_error[1]);
+    CHECK(mean_error[1] < 1.5 * mean_error[0] + 1e-4);
 }
