@@ -57,6 +57,7 @@ class RenderOptions:
     lowpass_precision: Literal['auto', 'double', 'float']  # summed-area-table lookups in auto (double where the device has it), double or float arithmetic
     cone_angle_deg: float  # cone: half angle of the shadow cones
     shadow_ray_step: float  # rays: factor on each volume's step for the shadow rays (< 1: finer)
+    ray_cache_lattice: Literal['light', 'volume']  # rays: the shadow cache's lattice per volume and light: light (columns along the light's rays, one march fills a column; where the volume lies to one side of a positional light) or volume (the voxel axes, one ray per point)
     def __init__(self, **kwargs: Unpack[RenderOptionKeywords]) -> None: ...
     def copy(self) -> RenderOptions: ...
 
@@ -94,6 +95,7 @@ class RenderOptionKeywords(TypedDict, total=False):
     lowpass_precision: Literal['auto', 'double', 'float']
     cone_angle_deg: float
     shadow_ray_step: float
+    ray_cache_lattice: Literal['light', 'volume']
 
 class Scene:
     width: int

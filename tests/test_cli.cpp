@@ -504,7 +504,7 @@ TEST_CASE("enumerated render options by name: every name round-trips, unknown on
           "shadows: unknown value 'dsmm' (none, rays, dsm, shadowmap, lowpass, ao, cone) (did you mean 'dsm'?)");
     CHECK(test::error_of([] { render_option_values("shadow"); }) ==
           "unknown enumerated render option 'shadow' (shadows, shading, gradient, shadow_cache, shadow_cache_fill, volume_storage, dsm_error, dsm_storage, "
-          "dsm_lookup, dsm_prefilter, lowpass_filter_kernel, lowpass_precision) (did you mean 'shadows'?)");
+          "dsm_lookup, dsm_prefilter, lowpass_filter_kernel, lowpass_precision, ray_cache_lattice) (did you mean 'shadows'?)");
     CHECK(parse_light_type("omni") == LightType::Point);
     CHECK(test::error_of([] { parse_light_type("sun"); }) == "unknown light type 'sun' (directional, spot, point)");
 }
