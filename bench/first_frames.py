@@ -8,7 +8,7 @@ ratio to DSM's median on the same scene. Runs of one scene are interleaved techn
 so that load on the machine falls on every column alike. Writes a markdown table (stdout, and
 --out) with the slowest stage of each cell and whether it is within 2x of DSM.
 
-usage: python3 bench/first_frames.py [--size 256] [--runs 3] [--scenes smoke,default] [--techniques rays] [--out FILE]
+usage: python3 bench/first_frames.py [--size 256] [--runs 3] [--scenes smoke,default] [--techniques rays,rays:--ray-cache-lattice=volume] [--out FILE]
 """
 import argparse
 import json
@@ -23,6 +23,9 @@ TECHNIQUES = ["dsm", "rays", "shadowmap", "lowpass", "ao", "cone"]
 
 
 def render(scene, technique, size, stats_path, extra=()):
+    # a column "rays:--ray-cache-lattice=volume": the technique with options of its own
+    technique, *options = technique.split(":")
+    extra = tuple(part for option in options for part in option.split("=", 1)) + tuple(extra)
     command = [str(ROOT / "build" / "sombra"), "render", str(scene), "--shadows", technique, "--width", str(size),
                "--height", str(size), "-o", str(Path(stats_path).with_suffix(".png")), "--stats", str(stats_path), *extra]
     done = subprocess.run(command, capture_output=True, text=True)
@@ -38,7 +41,8 @@ def main():
     parser.add_argument("--size", type=int, default=256)
     parser.add_argument("--runs", type=int, default=3)
     parser.add_argument("--scenes", default="", help="comma-separated names without .json (default: all shipped)")
-    parser.add_argument("--techniques", default="", help="comma-separated (default: all six; dsm is always run)")
+    parser.add_argument("--techniques", default="", help="comma-separated (default: all six; dsm is always run); "
+                        "a technique with options of its own: rays:--ray-cache-lattice=volume")
     parser.add_argument("--out", default="")
     args = parser.parse_args()
     global TECHNIQUES
