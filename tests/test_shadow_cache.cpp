@@ -40,6 +40,12 @@ RenderOptions cache_options(ShadowTechnique technique, ShadowCacheMode mode) {
     return o;
 }
 
+std::size_t lattice_points_total(const std::vector<ShadowCacheGpu>& layout) {
+    std::size_t n = 0;
+    for (const ShadowCacheGpu& c : layout) n += pipeline::lattice_points(c);
+    return n;
+}
+
 // World position of lattice point (x, y, z) of a cache entry.
 Vec3 lattice_world(const ShadowCacheGpu& c, int x, int y, int z) {
     const std::array<double, 3> v = pipeline::lattice_point_voxel(c, x, y, z);  // a volume or a light lattice
@@ -168,10 +174,17 @@ TEST_CASE("shadow cache: kept across camera moves, refilled for the light that m
         CHECK(moved.stats.shadow_cache_entries_built == 0);
         CHECK(moved.stats.shadow_cache_entries_reused == 6);
         CHECK(moved.stats.stage_ms.count("shadow_cache") == 0);
+        const std::vector<ShadowCacheGpu> before = context.kept_scenes().shadow_cache->layout;
         scene.lights[1].position = {1.4f, 1.1f, 1.5f};  // the spot light moves: its 2 entries only
         RenderResult lit = render(context, scene, o);
         CHECK(lit.stats.shadow_cache_entries_built == 2);
         CHECK(lit.stats.shadow_cache_entries_reused == 4);
+        if (technique == ShadowTechnique::Rays) {
+            // its light lattices changed size, so the other entries moved in the buffers: kept by copying
+            const std::vector<ShadowCacheGpu>& after = context.kept_scenes().shadow_cache->layout;
+            CHECK(lattice_points_total(before) != lattice_points_total(after));
+            CHECK(after[2].offset != before[2].offset);  // volume 0, light 2 (entry volume · 3 + light)
+        }
         CHECK(test::compare(lit.image, render(fresh, scene, o).image).max_abs <= 1e-6);  // as if built anew
         scene.lights[2].color = {0.2f, 0.4f, 1.f};  // colour is shading only
         CHECK(render(context, scene, o).stats.shadow_cache_entries_built == 0);
