@@ -40,7 +40,7 @@ void write_text_file(const std::string& path, const std::string& text) {
 
 // "shadow cache off (auto: 1.1 × (fill ≈ 35.1 s + cached pass ≈ 0.6 s) ≥ per sample ≈ 12.8 s, measured
 // in 0.42 s; surfaces on: 0.3 M points to fill, ≤ 0.5 M fragments); ", "shadow cache on, 0.94 M
-// points this view reads filled (auto: …); " — what the frame did with
+// points this view reads filled, 2 lattices along the lights' rays (auto: …); " — what the frame did with
 // the shadow cache and, for auto, why; nothing when the frame has no shadow term to cache.
 std::string shadow_cache_note(const sombra::RenderStats& s, const sombra::RenderOptions& o) {
     if (!s.shadow_cache_used && s.shadow_cache_points_to_fill == 0 && s.shadow_cache_probe_ms == 0) return "";
@@ -52,6 +52,8 @@ std::string shadow_cache_note(const sombra::RenderStats& s, const sombra::Render
     std::string note = std::string("shadow cache ") + (s.shadow_cache_used ? "on" : "off");
     if (s.shadow_cache_used && s.shadow_cache_visible_fill)  // the visible fill (docs/shadows.md)
         note += text(", %.2f M points this view reads filled", double(s.shadow_cache_points_marked) / 1e6);
+    if (s.shadow_cache_used && s.shadow_cache_light_lattices > 0)  // shadow rays' columns (docs/shadows.md)
+        note += text(", %.0f lattices along the lights' rays", double(s.shadow_cache_light_lattices));
     if (o.shadow_cache == sombra::ShadowCacheMode::Auto) {
         std::vector<std::string> parts;
         if (s.shadow_cache_probe_ms > 0)
