@@ -169,7 +169,7 @@ void set_volume_lattice_map(ShadowCacheGpu& c);
 // The light lattice (src/render/shadow_cache_columns.cpp) of volume `volume` for `light`, made
 // from the volume lattice (its planes, spacing, offsets and masks' place are re-set by the
 // caller), or none: a positional light inside or too near the volume's slabs on every axis, or
-// columns that would have to be spaced over 2× the volume lattice's to fit 4× its points or 2²⁴.
+// columns that would have to be spaced over 3× the volume lattice's to fit 4× its points or 2²⁴.
 std::optional<ShadowCacheGpu> light_lattice(const ShadowCacheGpu& volume_lattice, const VolumeGpu& volume, const LightGpu& light,
                                             float step_voxels);
 
