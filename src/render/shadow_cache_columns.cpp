@@ -143,14 +143,15 @@ std::optional<ShadowCacheGpu> light_lattice(const ShadowCacheGpu& volume_lattice
         g.voxel_to_lattice[3].s[c] = float(w_slope);
         g.voxel_to_lattice[3].s[3] = float(w_offset);
         // a sample reads its cell's points: the farthest apart along a column (its steepest ray)
-        // or across it (at the far plane: the volume lattice's spacing)
+        // or across it (at the far plane: the volume lattice's spacing, times the coarsening)
         double along_length = 0;
         for (double u0 : {across[0].origin, across[0].origin + (across[0].points - 1) * across[0].step})
             for (double u1 : {across[1].origin, across[1].origin + (across[1].points - 1) * across[1].step}) {
                 const double slope0 = directional ? across[0].slope : u0, slope1 = directional ? across[1].slope : u1;
                 along_length = std::max(along_length, s_c * std::sqrt(1 + slope0 * slope0 + slope1 * slope1));
             }
-        g.reach = float(std::max({along_length, double(volume_lattice.spacing.s[a]), double(volume_lattice.spacing.s[b])}) + step_voxels + 1.0);
+        g.reach = float(std::max({along_length, coarsening * volume_lattice.spacing.s[a], coarsening * volume_lattice.spacing.s[b]}) +
+                        step_voxels + 1.0);
         best = g;
         best_score = score;
     }
