@@ -469,8 +469,11 @@ __kernel void shadow_cache_fill_columns(SCENE_PARAMS, uint light_index, uint cac
         const uint row = column_row + dims_y * z;
         for (uint lane = 0; lane < SOMBRA_LANES; ++lane) {
             const float3 v_lane = (float3)(vx[lane], vy[lane], vz[lane]);
-            if (first[lane] == (int)dims_z && cache_point_wanted(occupancy, volume, c, 0, fill_mask, x0 + lane, row, v_lane)) first[lane] = (int)z;
-            if (cache_point_wanted(occupancy, volume, c, fill_mode, fill_mask, x0 + lane, row, v_lane)) {
+            const bool wanted = cache_point_wanted(occupancy, volume, c, fill_mode, fill_mask, x0 + lane, row, v_lane);
+            /* the chain's start: the first point a sample can read (fill_mode 0 asks for exactly those) */
+            if (first[lane] == (int)dims_z && (fill_mode == 0 ? wanted : cache_point_wanted(occupancy, volume, c, 0, fill_mask, x0 + lane, row, v_lane)))
+                first[lane] = (int)z;
+            if (wanted) {
                 first[lane] = min(first[lane], (int)z), last[lane] = (int)z;  /* (a marked point is one a sample reads) */
             } else if (fill_mode == 0 && x0 + lane < (uint)c->dims.x) {
                 shadow_cache[c->offset + (size_t)row * c->dims.x + x0 + lane] = 1.0f;

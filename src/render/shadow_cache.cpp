@@ -682,15 +682,15 @@ std::vector<ShadowCacheGpu> probe_lattices(const std::vector<ShadowCacheGpu>& la
         // a light lattice: blocks of whole columns along y only, as many of its points
         const bool columns = c.column_axes.s[3] != 0;
         const int b = std::min({block, c.dims.s[1], columns ? block : c.dims.s[2]});
+        const int step = columns ? stride * stride / b : stride;  // rows from one block to the next
         for (std::size_t a = 1; a < (columns ? 2u : 3u); ++a) {
-            const int step = columns ? stride * stride / b : stride;
             const int n = c.dims.s[a], blocks = std::max(1, (n - b) / step + 1);  // whole blocks inside
             // centred: a lattice's border rows are mostly empty space, cheap to fill
-            c.block_origin.s[a] = float((n - ((blocks - 1) * stride + b)) / 2) * c.spacing.s[a];
+            c.block_origin.s[a] = float((n - ((blocks - 1) * step + b)) / 2) * c.spacing.s[a];
             c.dims.s[a] = blocks * b;
-            c.spacing.s[a] *= float(stride);
+            c.spacing.s[a] *= float(step);
         }
-        c.row_block = cl_uint(b), c.row_block_stride = cl_uint(stride);
+        c.row_block = cl_uint(b), c.row_block_stride = cl_uint(step);
         c.offset = cl_uint(total);  // c.reach stays: points near the same bricks are evaluated
         total += lattice_points(c);
     }
