@@ -459,7 +459,9 @@ __kernel void shadow_cache_fill_columns(SCENE_PARAMS, uint light_index, uint cac
     /* the lattice's y index (auto's probe fills blocks of rows: lattice_voxel in index units) */
     const float y = lattice_voxel(c, column_row, c->spacing.y, c->block_origin.y);
     const lint xs = (int)x0 + LANE_INDEX;
-    const lfloat x = LCONVERT_FLOAT(xs);
+    /* the column's x index (auto's probe fills every k-th packet: ShadowCacheGpu.block_origin) */
+    const float packet_columns = c->block_origin.w > 0.0f ? c->block_origin.w : (float)SOMBRA_LANES;
+    const lfloat x = (lfloat)(mad((float)get_global_id(0), packet_columns, c->block_origin.x)) + LCONVERT_FLOAT(LANE_INDEX);
     int first[SOMBRA_LANES], last[SOMBRA_LANES];
     for (uint lane = 0; lane < SOMBRA_LANES; ++lane) first[lane] = (int)dims_z, last[lane] = -1;
     for (uint z = 0; z < dims_z; ++z) {

@@ -348,7 +348,7 @@ TEST_CASE("shadow cache auto: the probe's lattices are centred blocks of neighbo
         layout.push_back(c);
     }
     for (auto [block, stride] : {std::pair{2, 64}, std::pair{2, 32}, std::pair{4, 32}}) {
-        std::vector<ShadowCacheGpu> small = pipeline::probe_lattices(layout, block, stride);
+        std::vector<ShadowCacheGpu> small = pipeline::probe_lattices(layout, block, stride, 8);
         REQUIRE(small.size() == layout.size());
         cl_uint next = 0;
         for (std::size_t e = 0; e < small.size(); ++e) {
@@ -385,6 +385,68 @@ TEST_CASE("shadow cache auto: the probe's lattices are centred blocks of neighbo
                 const double expected = double(block * block) / (double(c.row_block_stride) * c.row_block_stride);
                 CHECK(share > 0.5 * expected);
                 CHECK(share < 2.0 * expected);
+            }
+        }
+    }
+}
+
+TEST_CASE("shadow cache auto: a light lattice's probe takes blocks of rows along y and spread packets of columns along x", "[shadow_cache]") {
+    // light lattices (column_axes.w = 1, index units): big, small (the cups'), narrower than a packet
+    const int dims[][3] = {{300, 520, 180}, {96, 64, 200}, {40, 32, 32}, {6, 50, 70}, {17, 3, 9}};
+    for (int lanes : {8, 16}) {
+        std::vector<ShadowCacheGpu> layout;
+        cl_uint offset = 0;
+        for (const auto& d : dims) {
+            ShadowCacheGpu c{};
+            for (int a = 0; a < 3; ++a) c.dims.s[a] = d[a], c.spacing.s[a] = 1.f;
+            c.column_axes = cl_int4{{0, 1, 2, 1}};
+            c.row_block = c.row_block_stride = 1;
+            c.offset = offset;
+            offset += cl_uint(d[0] * d[1] * d[2]);
+            layout.push_back(c);
+        }
+        for (auto [block, stride] : {std::pair{2, 64}, std::pair{2, 32}, std::pair{4, 32}}) {
+            const std::vector<ShadowCacheGpu> small = pipeline::probe_lattices(layout, block, stride, lanes);
+            REQUIRE(small.size() == layout.size());
+            for (std::size_t e = 0; e < small.size(); ++e) {
+                const ShadowCacheGpu &c = small[e], &full = layout[e];
+                INFO(lanes << " lanes, block " << block << " every " << stride << ", entry " << e << ": " << c.dims.s[0] << " x "
+                           << c.dims.s[1] << " x " << c.dims.s[2]);
+                CHECK(c.dims.s[2] == full.dims.s[2]);  // whole columns
+                // the columns along x: the frame lattice's column of each probe index (render.cl
+                // shadow_cache_fill_columns), whole packets of neighbours, spread evenly, centred
+                std::vector<int> columns;
+                const float packet_columns = c.block_origin.s[3] > 0 ? c.block_origin.s[3] : float(lanes);
+                for (int k = 0; k < c.dims.s[0]; ++k) columns.push_back(int(float(k / lanes) * packet_columns + c.block_origin.s[0]) + k % lanes);
+                if (full.dims.s[0] <= lanes) {
+                    CHECK(c.dims.s[0] == full.dims.s[0]);
+                    CHECK(c.block_origin.s[0] == 0.f);
+                } else {
+                    CHECK(c.dims.s[0] % lanes == 0);
+                    CHECK(int(packet_columns) % lanes == 0);
+                }
+                CHECK(columns.front() >= 0);
+                CHECK(columns.back() <= full.dims.s[0] - 1);
+                CHECK(std::abs(columns.front() - (full.dims.s[0] - 1 - columns.back())) <= 1);
+                CHECK(columns.back() + int(packet_columns) > full.dims.s[0] - 1);  // as many packets as fit
+                for (std::size_t k = 1; k < columns.size(); ++k) CHECK(columns[k] > columns[k - 1]);
+                // the rows along y: blocks of neighbours, `row_block_stride` apart, centred
+                const int b = std::min(block, full.dims.s[1]);
+                CHECK(int(c.row_block) == b);
+                std::vector<int> rows;
+                for (int k = 0; k < c.dims.s[1]; ++k) rows.push_back(int(std::lround(lattice_voxel_reference(c, unsigned(k), c.spacing.s[1], c.block_origin.s[1]))));
+                CHECK(rows.front() >= 0);
+                CHECK(rows.back() <= full.dims.s[1] - 1);
+                CHECK(std::abs(rows.front() - (full.dims.s[1] - 1 - rows.back())) <= 1);
+                // packets as far apart in columns as the blocks are in rows (within a packet)
+                if (full.dims.s[0] > lanes) CHECK(std::abs(packet_columns - float(c.row_block_stride)) < float(lanes));
+                // big lattices: ≈ (block / stride)² of the points, as a volume lattice's probe
+                if (full.dims.s[0] >= 2 * int(c.row_block_stride) && full.dims.s[1] >= 2 * int(c.row_block_stride)) {
+                    const double share = double(pipeline::lattice_points(c)) / double(pipeline::lattice_points(full));
+                    const double expected = double(block * block) / (double(stride) * stride);
+                    CHECK(share > 0.5 * expected);
+                    CHECK(share < 2.0 * expected);
+                }
             }
         }
     }

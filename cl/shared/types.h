@@ -310,7 +310,10 @@ typedef struct {
     sb_uint row_block, row_block_stride;
     /* world = (dot(row.xyz, voxel) + row.w, …): the volume's voxel → world transform (the fill) */
     sb_float4 voxel_to_world[3];
-    sb_float4 block_origin; /* voxel coordinates of the first block along y and z (x and w unused) */
+    /* voxel coordinates of the first block along y and z. A light lattice's columns: x, the first
+     * one's index; w, the columns from one packet of SOMBRA_LANES to the next (auto's probe fills
+     * every k-th packet; 0: SOMBRA_LANES, neighbouring packets) */
+    sb_float4 block_origin;
     /* the visible fill's bit masks (one bit per lattice point, src/render/shadow_cache.cpp
      * prepare_volume_fill): point (x, y, z) is bit x % 32 of word mark_offset + (y + dims.y · z) ·
      * mark_row_words + x / 32 (rows start on a word) */

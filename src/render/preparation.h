@@ -177,7 +177,10 @@ std::optional<ShadowCacheGpu> light_lattice(const ShadowCacheGpu& volume_lattice
 // column_point_voxel).
 std::array<double, 3> lattice_point_voxel(const ShadowCacheGpu& c, double x, double y, double z);
 
-std::vector<ShadowCacheGpu> probe_lattices(const std::vector<ShadowCacheGpu>& layout, int block, int stride);
+// Auto's probe lattices: of each lattice, blocks of `block` neighbouring rows along y and z (of a
+// light lattice along y, and every k-th packet of `lanes` columns along x), `stride` rows apart,
+// about (block / stride)² of its points (ShadowCacheGpu.row_block, block_origin).
+std::vector<ShadowCacheGpu> probe_lattices(const std::vector<ShadowCacheGpu>& layout, int block, int stride, int lanes);
 
 // The shadow cache this frame reads, its stale entries filled, or nullptr when every sample and
 // fragment evaluates the technique (options.shadow_cache). Auto weighs the volume part by

@@ -43,6 +43,10 @@ constexpr int kProbeBlock = 2, kProbeCloseCallBlock = 4, kProbeCoarseStride = 64
 // A decision from the coarse fill alone needs one side to cost 3 times the other (twice after the
 // finer fills).
 constexpr double kProbeCoarseClear = 3, kProbeClear = 2;
+// The camera pass's scout, a launch's rows with a quarter of its packets (1/256 of a 256² image),
+// decides for the cache when the per-sample pass costs 3 times the coarse fill and the cached pass.
+constexpr double kProbeScoutClear = 3;
+constexpr int kProbeScoutThinning = 4;
 // and renders 16 image rows a launch, every 4th packet of each (the pixels of 4 rows; of images
 // under 256 rows every (4 · 256 / height)th: 1/64 of the image), at most 4 launches
 constexpr int kProbeRowsPerLaunch = 16, kProbePacketStride = 4, kProbeLaunches = 4;
@@ -675,20 +679,33 @@ double fill_surface_entries(const FillLaunch& launch, SurfaceShadowCache& sc, co
 
 }  // namespace
 
-std::vector<ShadowCacheGpu> probe_lattices(const std::vector<ShadowCacheGpu>& layout, int block, int stride) {
+std::vector<ShadowCacheGpu> probe_lattices(const std::vector<ShadowCacheGpu>& layout, int block, int stride, int lanes) {
     std::vector<ShadowCacheGpu> small = layout;
     std::size_t total = 0;
     for (ShadowCacheGpu& c : small) {
-        // a light lattice: blocks of whole columns along y only, as many of its points
+        // a light lattice: blocks of whole columns along y, and along x every k-th packet of
+        // `lanes` neighbouring columns, k · lanes columns apart as the blocks' rows are (below)
         const bool columns = c.column_axes.s[3] != 0;
         const int b = std::min({block, c.dims.s[1], columns ? block : c.dims.s[2]});
-        const int step = columns ? stride * stride / b : stride;  // rows from one block to the next
+        const int step = columns ? int(std::lround(std::sqrt(double(b) * lanes) * stride / b)) : stride;  // rows from one block to the next
         for (std::size_t a = 1; a < (columns ? 2u : 3u); ++a) {
             const int n = c.dims.s[a], blocks = std::max(1, (n - b) / step + 1);  // whole blocks inside
             // centred: a lattice's border rows are mostly empty space, cheap to fill
             c.block_origin.s[a] = float((n - ((blocks - 1) * step + b)) / 2) * c.spacing.s[a];
             c.dims.s[a] = blocks * b;
             c.spacing.s[a] *= float(step);
+        }
+        if (columns && c.dims.s[0] > lanes) {
+            // (b / step) · (lanes / step) = (block / stride)², the share of the points a volume
+            // lattice's blocks hold. Before, whole rows of blocks along y every stride² / b rows:
+            // a small lattice's one block held 2/dims.y of its points (the cup array's 48 entries:
+            // 1/16, a 37 ms probe of a 1 s fill; the CT's: 1/128), and the CT's centred block
+            // estimated its fill of all points, 0.87 s, at 1.5–1.8 s
+            const int n = c.dims.s[0], k = std::max(1, step / lanes);
+            const int packets = (n - lanes) / (k * lanes) + 1;  // whole packets inside, centred
+            c.block_origin.s[0] = float((n - ((packets - 1) * k * lanes + lanes)) / 2);
+            c.block_origin.s[3] = float(k * lanes);
+            c.dims.s[0] = packets * lanes;
         }
         c.row_block = cl_uint(b), c.row_block_stride = cl_uint(step);
         c.offset = cl_uint(total);  // c.reach stays: points near the same bricks are evaluated
@@ -714,7 +731,8 @@ namespace {
 // 32nd, …), each launch once evaluating the technique per sample and once reading the small
 // lattices (a lattice costs the same to read at any size; its values are thrown away), scaled by
 // the packets. It stops when one side costs twice the other, after 4 launches, or when its next
-// launch would take the probe past kProbeBudget of the cheaper frame.
+// launch would take the probe past kProbeBudget of the cheaper frame. Before the first launch, a
+// scout with a quarter of its packets may decide for the cache at 3×.
 struct VolumeCosts {
     double fill_ms = 0, per_sample_ms = 0, cached_ms = 0, probe_ms = 0;
     int launches = 0;  // of the camera pass's probe
@@ -734,7 +752,7 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
     double warm_ms = 0;
     double last_fill_probe_ms = 0, last_fill_probe_share = 0;  // the last fill probe's time and (block/stride)²
     auto fill_blocks = [&](int block, int stride, bool warm_up) {
-        const std::vector<ShadowCacheGpu> small = probe_lattices(plan.layout, block, stride);
+        const std::vector<ShadowCacheGpu> small = probe_lattices(plan.layout, block, stride, launch.lanes);
         const std::size_t total = small.back().offset + lattice_points(small.back());
         values = host::make_buffer(runtime, CL_MEM_READ_WRITE, total * sizeof(float), nullptr, "shadow cache probe");
         table = host::make_buffer(runtime, CL_MEM_READ_ONLY, small.size() * sizeof(ShadowCacheGpu), small.data(), "shadow cache probe table");
@@ -809,6 +827,11 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
         const double cheaper = std::min(costs.per_sample_ms, costs.fill_ms + costs.cached_ms);
         return costs.probe_ms + per_sample_sum + cached_sum + step_ms <= kProbeBudget * cheaper;
     };
+    // the packets a launch renders in its row `row` (render_camera)
+    auto packets_in_row = [&](const CameraGpu& c, cl_uint row) {
+        const int offset = int((c.first_packet + row) % c.packet_stride);
+        return double(std::max(0, (row_packets - offset + int(c.packet_stride) - 1) / int(c.packet_stride)));
+    };
     // untimed first: one packet each way. A kernel's first launch in a process pays the driver's
     // loading of its code (PoCL: 1–2.5 ms), a large share of a launch of a 100–300 ms frame's
     // 1/64 (two_smokes_wall's shadow rays at 256²: 3.8–5.0 ms against 2.5 ms after it)
@@ -818,8 +841,31 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
         for (const CameraPassReads* reads : {&per_sample, &cached})
             costs.probe_ms += run_camera_pass(runtime, launch.scene, launch.prepared, launch.options, lanes, one, *reads, image, counts);
     }
+    // a scout first, where the image is wide enough: the first launch's rows, every
+    // kProbeScoutThinning-th of its packets. Only the cache's side may be decided from it (as from
+    // the coarse fill, at 3×): a frame whose per-sample pass costs many times the cache paid 1/64
+    // of that pass to learn it (the head in fog's shadow rays at 256²: 470 ms of a 30 s pass, the
+    // cache's frame 1.56 s), while a scout that misses the volumes makes the per-sample pass look
+    // cheap, which the launches below then cost little to correct. Its 32–64 packets estimate the
+    // pass within about ± 50 % (the CT's shadow rays at 256²: 5.2–6.5 s against 3.6 s).
+    bool scouted = false;
+    const int scout_stride = std::min(row_packets, int(kProbeScoutThinning * camera.packet_stride));
+    if (scout_stride > int(camera.packet_stride)) {
+        CameraGpu scout = camera;
+        scout.packet_stride = cl_uint(scout_stride), scout.first_row = camera.row_stride / 2, scout.first_packet = 0;
+        const double per_sample_scout = run_camera_pass(runtime, launch.scene, launch.prepared, launch.options, lanes, scout, per_sample, image, counts);
+        const double cached_scout = run_camera_pass(runtime, launch.scene, launch.prepared, launch.options, lanes, scout, cached, image, counts);
+        costs.probe_ms += per_sample_scout + cached_scout;
+        double scout_packets = 0;
+        for (cl_uint row = 0, y = scout.first_row; y < cl_uint(height); ++row, y += scout.row_stride)
+            scout_packets += packets_in_row(scout, row);
+        costs.per_sample_ms = per_sample_scout * image_packets / scout_packets, costs.cached_ms = cached_scout * image_packets / scout_packets;
+        costs.launches = 1;
+        scouted = costs.per_sample_ms > kProbeScoutClear * (costs.fill_ms + costs.cached_ms);
+    }
     std::vector<bool> done(camera.row_stride, false);
-    for (unsigned k = 1; k <= 4 * kProbeLaunches && packets_done < image_packets; ++k) {
+    int launches_run = 0;
+    for (unsigned k = 1; !scouted && k <= 4 * kProbeLaunches && packets_done < image_packets; ++k) {
         double fraction = 0;  // van der Corput: k's bits mirrored behind the binary point
         for (unsigned bits = k, weight = 2; bits; bits >>= 1, weight *= 2) fraction += double(bits & 1u) / weight;
         const cl_uint first = std::min(camera.row_stride - 1, cl_uint(fraction * camera.row_stride));
@@ -830,11 +876,8 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
         const double per_sample_launch = run_camera_pass(runtime, launch.scene, launch.prepared, launch.options, lanes, camera, per_sample, image, counts);
         const double cached_launch = run_camera_pass(runtime, launch.scene, launch.prepared, launch.options, lanes, camera, cached, image, counts);
         per_sample_sum += per_sample_launch, cached_sum += cached_launch, last_launch = per_sample_launch + cached_launch;
-        for (cl_uint row = 0, y = first; y < cl_uint(height); ++row, y += camera.row_stride) {
-            const int offset = int((camera.first_packet + row) % camera.packet_stride);
-            packets_done += std::max(0, (row_packets - offset + int(camera.packet_stride) - 1) / int(camera.packet_stride));
-        }
-        ++costs.launches;
+        for (cl_uint row = 0, y = first; y < cl_uint(height); ++row, y += camera.row_stride) packets_done += packets_in_row(camera, row);
+        costs.launches = ++launches_run;  // the scout's estimate replaced
         costs.per_sample_ms = per_sample_sum * image_packets / packets_done, costs.cached_ms = cached_sum * image_packets / packets_done;
         if (decided(fine_fill ? kProbeClear : kProbeCoarseClear)) break;
         // not decided by the coarse fill: the fill every kProbeBlockStride rows (≈ 4 × the first),
