@@ -251,17 +251,6 @@ cl::Event enqueue_packets(Runtime& runtime, cl::Kernel& kernel, int width, int h
     return event;
 }
 
-std::vector<std::size_t> packet_group_items(int width, int height, int lanes) {
-    const PacketGrid grid = packet_grid(width, height, lanes);
-    std::vector<std::size_t> items;
-    if (grid.local.dimensions() == 0) return items;
-    const std::size_t columns = std::size_t((width + lanes - 1) / lanes), rows = std::size_t(height);
-    for (std::size_t y = 0; y < grid.global[1]; y += grid.local[1])
-        for (std::size_t x = 0; x < grid.global[0]; x += grid.local[0])
-            items.push_back(std::min(grid.local[0], columns - std::min(columns, x)) * std::min(grid.local[1], rows - std::min(rows, y)));
-    return items;
-}
-
 void check_allocation(const Runtime& runtime, std::uint64_t bytes, const std::string& what) {
     const DeviceInfo& device = runtime.info();
     const auto mib = [](std::uint64_t b) { return std::to_string((b + (1u << 20) - 1) >> 20) + " MiB"; };

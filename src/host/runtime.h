@@ -85,10 +85,6 @@ double run_packets(Runtime& runtime, cl::Kernel& kernel, int width, int height, 
 // one small lattice per cache entry: 48 on the cup array). Returns the launch's event.
 cl::Event enqueue_packets(Runtime& runtime, cl::Kernel& kernel, int width, int height, int lanes);
 
-// The work-items (not padding) of each work-group of that grid; empty where the implementation
-// chooses the groups (lanes 1).
-std::vector<std::size_t> packet_group_items(int width, int height, int lanes);
-
 // The source of a cl/ file with every #include "…" replaced by the file's text.
 std::string expand_kernel_source(const std::string& path);
 

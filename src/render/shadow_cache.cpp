@@ -547,23 +547,6 @@ VolumeFill prepare_volume_fill(const FillLaunch& launch, ShadowCache& cache, con
     return fill;
 }
 
-// The share of the device's compute units a packet launch of width × rows keeps busy, its groups'
-// work-items dealt to the units largest first (a unit runs a group's items one after the other):
-// a launch of fewer or uneven groups takes as long as the busiest unit, while the frame's fill
-// keeps every unit busy. Auto's small fills are scaled by it: a light lattice's probe is one or
-// two groups (the MRI's: 8 and 4 work-items on 2 cores, 0.75).
-double busy_share(host::Runtime& runtime, int width, int rows, int lanes) {
-    std::vector<std::size_t> items = host::packet_group_items(width, rows, lanes);
-    const std::size_t units = std::max<cl_uint>(1, runtime.device().getInfo<CL_DEVICE_MAX_COMPUTE_UNITS>());
-    if (items.size() >= 64 * units) return 1.0;  // many: evenly dealt
-    std::sort(items.rbegin(), items.rend());
-    std::vector<std::size_t> load(units, 0);
-    std::size_t total = 0;
-    for (std::size_t n : items) *std::min_element(load.begin(), load.end()) += n, total += n;
-    const std::size_t busiest = *std::max_element(load.begin(), load.end());
-    return busiest == 0 ? 1.0 : double(total) / double(units * busiest);
-}
-
 // Auto's measurement of a visible fill after its marking pass: the probe's blocks of rows cost
 // 1.2–4.6× more per point than the frame's visible fill, whose points lie where the camera sees
 // the volume (bench/README.md "The visible fill, measured"). Per entry that needs points, its
@@ -588,9 +571,8 @@ double measure_marked_fill(const FillLaunch& launch, ShadowCache& cache, const V
     const int bands_per_entry = std::clamp(kMeasuredMaxLaunches / int(std::max<std::size_t>(entries, 1)), 1, kMeasuredBands);
     std::vector<double> entry_ms(plan.layout.size(), 0);
     std::vector<unsigned long long> entry_points(plan.layout.size(), 0);
-    double total_ms = 0;  // as the frame's fill would take them (busy_share)
+    double total_ms = 0;
     unsigned long long total_points = 0;
-    *measured_ms = 0;
     for (std::size_t e = 0; e < plan.layout.size(); ++e) {
         if (fill.mode[e] != FillMode::Marked || fill.needed[e] == 0) continue;
         const ShadowCacheGpu& c = plan.layout[e];
@@ -604,14 +586,13 @@ double measure_marked_fill(const FillLaunch& launch, ShadowCache& cache, const V
             const int first = std::min(rows - band, int((double(b) + 0.5) * rows / bands - 0.5 * band) / 4 * 4);
             if (!fill.done[e].empty() && first < fill.done[e].back().first + fill.done[e].back().count) continue;
             const unsigned long long points = mask_points_in_rows(words, c, RowRange{first, band});
-            const double ms = fill_lattice(launch, kernels, e, c, lights, cache.table, cache.values, FillMode::Marked, &cache.need, RowRange{first, band});
-            *measured_ms += ms;
-            entry_ms[e] += ms * busy_share(runtime, c.dims.s[0], band, launch.lanes);
+            entry_ms[e] += fill_lattice(launch, kernels, e, c, lights, cache.table, cache.values, FillMode::Marked, &cache.need, RowRange{first, band});
             entry_points[e] += points;
             fill.done[e].push_back({first, band});
         }
         total_ms += entry_ms[e], total_points += entry_points[e];
     }
+    *measured_ms = total_ms;
     runtime.progress().last_launch_ms = last_launch_ms;
     if (total_points < kMeasuredMinPoints) return -1;  // too few to tell: the probe's estimate stands
     double estimate = 0;
@@ -804,9 +785,7 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
             events[e].wait();
             const double ms = host::Runtime::event_ms(events[e]);
             probe_ms += ms;
-            if (plan.stale[e])
-                fill_ms += ms * busy_share(runtime, small[e].dims.s[0], all_rows(small[e]).count, launch.lanes) *
-                           double(lattice_points(plan.layout[e])) / double(lattice_points(small[e]));
+            if (plan.stale[e]) fill_ms += ms * double(lattice_points(plan.layout[e])) / double(lattice_points(small[e]));
         }
         costs.probe_ms += probe_ms;
         last_fill_probe_ms = probe_ms, last_fill_probe_share = double(block * block) / (double(stride) * stride);
