@@ -735,7 +735,6 @@ namespace {
 // scout with a quarter of its packets may decide for the cache at 3×.
 struct VolumeCosts {
     double fill_ms = 0, per_sample_ms = 0, cached_ms = 0, probe_ms = 0;
-    int launches = 0;  // of the camera pass's probe
 };
 
 VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan, std::size_t lights, int width, int height,
@@ -866,7 +865,6 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
             scouted = costs.per_sample_ms > (half == 0 ? kProbeHalfScoutClear : kProbeScoutClear) * (costs.fill_ms + costs.cached_ms);
         }
         costs.probe_ms += per_sample_scout + cached_scout;
-        costs.launches = 1;
     }
     std::vector<bool> done(camera.row_stride, false);
     int launches_run = 0;
@@ -882,7 +880,7 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
         const double cached_launch = run_camera_pass(runtime, launch.scene, launch.prepared, launch.options, lanes, camera, cached, image, counts);
         per_sample_sum += per_sample_launch, cached_sum += cached_launch, last_launch = per_sample_launch + cached_launch;
         for (cl_uint row = 0, y = first; y < cl_uint(height); ++row, y += camera.row_stride) packets_done += packets_in_row(camera, row);
-        costs.launches = ++launches_run;  // the scout's estimate replaced
+        ++launches_run;
         costs.per_sample_ms = per_sample_sum * image_packets / packets_done, costs.cached_ms = cached_sum * image_packets / packets_done;
         if (decided(fine_fill ? kProbeClear : kProbeCoarseClear)) break;
         // not decided by the coarse fill: the fill every kProbeBlockStride rows (≈ 4 × the first),
@@ -893,7 +891,7 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
             fine_fill = true;
             if (decided(kProbeClear)) break;
         }
-        if (costs.launches >= kProbeLaunches) break;
+        if (launches_run >= kProbeLaunches) break;
     }
     // a close call: the fill again on 1/64 of the rows (4 × 4 blocks: single estimates from the
     // 1/256's few blocks spread by ± 40 %), when it fits the budget
