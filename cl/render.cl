@@ -1,14 +1,13 @@
 /* sombra — camera pass: ray casting through homogeneous segments, classification, gradient,
  * Phong, front-to-back compositing (Knecht Eq. 3.10–3.11), early ray termination. A work-item
  * renders SOMBRA_LANES neighbouring pixels of one row as a packet (lanes.h). The shadow term of
- * each light comes from the program's shadow technique (techniques/technique.h), or with
- * SOMBRA_SHADOW_CACHE from the shadow cache it filled.
+ * each light comes from the program's shadow technique (techniques/technique.h), or, in a launch
+ * with shadow_cache_reads set, from the shadow cache it filled.
  * Defines: SOMBRA_LANES (1 on GPUs, 8 or 16 on CPUs), SOMBRA_VOLUME_SLOTS (volumes in the scene),
  * SOMBRA_LIGHT_SLOTS (lights), SOMBRA_USE_IMAGES (3D image atlas instead of a buffer),
  * SOMBRA_SOBEL (Sobel gradients), SOMBRA_SKIP_EMPTY (brick skipping), SOMBRA_HAS_LIGHTS (any light
  * in the scene), SOMBRA_SCATTERING (single scattering instead of Phong), SOMBRA_TECHNIQUE_<NAME>
- * (the shadow technique and its own defines: src/techniques/), SOMBRA_SHADOW_CACHE (the shadow
- * term read from the shadow cache), SOMBRA_SHADOW_CACHE_MARK (with SOMBRA_SHADOW_CACHE: the visible
+ * (the shadow technique and its own defines: src/techniques/), SOMBRA_SHADOW_CACHE_MARK (the visible
  * fill's marking pass: the cached pass's samples, marking the lattice cells they would read,
  * shading nothing), SOMBRA_HAS_MESHES (per-pixel fragment lists of surfaces and
  * polyhedral volume bounds merged into the segment cursor's boundaries, traversal.h; surfaces
@@ -23,10 +22,16 @@
 #include "traversal.h"
 #include "scene_refs.h"
 #include "techniques/technique.h"
+/* SOMBRA_SHADOW_CACHE: the camera pass can read the shadow cache — in every program whose technique
+ * has a shadow term, chosen per launch by shadow_cache_reads, so that a frame evaluating per sample,
+ * one reading the cache and auto's probe of both load one program — or mark it (the marking pass). */
+#if defined(SOMBRA_SHADOW_CACHE_MARK) || SHADOW_TERM
+#define SOMBRA_SHADOW_CACHE
+#endif
 #ifdef SOMBRA_SHADOW_CACHE_MARK
 #define SHADOW_CACHE_PARAMS , __global uint *shadow_cache_marks, __global const ShadowCacheGpu *shadow_cache_table
 #elif defined(SOMBRA_SHADOW_CACHE)
-#define SHADOW_CACHE_PARAMS , __global const float *shadow_cache, __global const ShadowCacheGpu *shadow_cache_table
+#define SHADOW_CACHE_PARAMS , __global const float *shadow_cache, __global const ShadowCacheGpu *shadow_cache_table, uint shadow_cache_reads
 #else
 #define SHADOW_CACHE_PARAMS
 #endif
@@ -51,6 +56,7 @@ typedef struct {
     uint last_mark_word[SOMBRA_LIGHT_SLOTS][SOMBRA_LANES], last_mark_bit[SOMBRA_LIGHT_SLOTS][SOMBRA_LANES]; /* per light and lane */
 #else
     __global const float* shadow_cache;
+    uint shadow_cache_reads; /* 1: the shadow term read from shadow_cache; 0: evaluated per sample */
 #endif
 #endif
 #ifdef SOMBRA_SURFACE_SHADOW_CACHE
@@ -191,10 +197,14 @@ static inline lmask shade_sample(VOLUME_DATA_PARAM, CameraState* state, const Vo
 #ifdef SOMBRA_SHADOW_CACHE_MARK /* the lookups the cached pass makes, marked */
             mark_cached_cell(state, i, m, ray_voxel_point(ray, i, t_light), needed);
             lfloat transmittance_to_light = (lfloat)(1.0f);
-#elif defined(SOMBRA_SHADOW_CACHE)
-            lfloat transmittance_to_light = cached_shadow(state, i, m, ray_voxel_point(ray, i, t_light));
 #else
-            lfloat transmittance_to_light = light_transmittance(volume_data, state, m, p_light, needed);
+            lfloat transmittance_to_light;
+#ifdef SOMBRA_SHADOW_CACHE
+            if (state->shadow_cache_reads)
+                transmittance_to_light = cached_shadow(state, i, m, ray_voxel_point(ray, i, t_light));
+            else
+#endif
+                transmittance_to_light = light_transmittance(volume_data, state, m, p_light, needed);
 #endif
             shadow[m] = select(shadow[m], transmittance_to_light, needed);
             shadow_known[m] |= needed;
@@ -268,6 +278,7 @@ __kernel void render_camera(SCENE_PARAMS, __global float4* image, __global uint*
         for (uint lane = 0; lane < SOMBRA_LANES; ++lane) state.last_mark_word[m][lane] = state.last_mark_bit[m][lane] = 0u; /* no bit */
 #else
     state.shadow_cache = shadow_cache;
+    state.shadow_cache_reads = shadow_cache_reads;
 #endif
 #endif
 #ifdef SOMBRA_SURFACE_SHADOW_CACHE

@@ -472,6 +472,13 @@ TEST_CASE("shadow cache auto: measures the fill and both camera passes, chooses 
         // and the frame is the one the chosen mode renders: the probe leaves no trace in the image
         o.shadow_cache = s.shadow_cache_used ? ShadowCacheMode::On : ShadowCacheMode::Off;
         CHECK(test::compare(r.image, render(forced, scene, o).image).max_abs == 0.0);
+        // the probe's per-sample and cached launches are one program's (render.cl
+        // shadow_cache_reads): auto's first frame loads the programs of a frame without the cache,
+        // and the marking pass's when it marks
+        Context fresh(test::device_selector());
+        o.shadow_cache = ShadowCacheMode::Off;
+        const RenderStats off = render(fresh, scene, o).stats;
+        CHECK(s.programs_loaded + s.programs_compiled == off.programs_loaded + off.programs_compiled + (s.shadow_cache_visible_fill ? 1 : 0));
     }
     forget_shadow_cache_choices();
     Context context(test::device_selector());

@@ -92,7 +92,7 @@ struct ShadowCache {
     std::vector<std::string> filled_view;
     std::size_t bytes = 0;
     SurfaceShadowCache surfaces;
-    bool volumes_used = false, surfaces_used = false;  // what this frame reads (SOMBRA_SHADOW_CACHE, SOMBRA_SURFACE_SHADOW_CACHE)
+    bool volumes_used = false, surfaces_used = false;  // what this frame reads (render.cl shadow_cache_reads, SOMBRA_SURFACE_SHADOW_CACHE)
     // auto's history to record once the frame's camera pass is timed (record_auto_history)
     struct PendingHistory {
         std::string key;
@@ -117,7 +117,7 @@ int check_light(const Scene& scene, int light_index);
 // -D defines of render.cl's kernels for this scene and these options, SOMBRA_LANES = lanes
 // (renderer.cpp), and the arguments they share (SCENE_PARAMS, cl/scene_refs.h).
 std::vector<std::string> camera_pass_defines(const Scene& scene, const RenderOptions& options, const Prepared& p, int lanes,
-                                             bool shadow_cache, bool surface_cache = false, bool mark_shadow_cache = false);
+                                             bool surface_cache = false, bool mark_shadow_cache = false);
 void bind_scene(host::KernelArgs& args, const PreparedScene& p, const cl::Buffer& camera);
 
 // The camera of a frame of width × height: the scene's camera with the options' termination,

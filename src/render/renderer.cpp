@@ -120,7 +120,7 @@ std::unique_ptr<PreparedScene> prepare_anew(host::Runtime& runtime, const Scene&
 
 // -D defines for the camera pass: what this scene and these options need, nothing more.
 std::vector<std::string> camera_pass_defines(const Scene& scene, const RenderOptions& options, const Prepared& p, int lanes,
-                                             bool shadow_cache, bool surface_cache, bool mark_shadow_cache) {
+                                             bool surface_cache, bool mark_shadow_cache) {
     std::vector<std::string> defines = shadows::volume_pass_defines(scene, p.scene.use_images, options.empty_space_skipping);
     defines.push_back("SOMBRA_LANES=" + std::to_string(lanes));
     defines.push_back("SOMBRA_LIGHT_SLOTS=" + std::to_string(std::max<std::size_t>(scene.lights.size(), 1)));
@@ -129,7 +129,6 @@ std::vector<std::string> camera_pass_defines(const Scene& scene, const RenderOpt
     if (options.shading == ShadingModel::Scattering) defines.push_back("SOMBRA_SCATTERING");
     if (surfaces::has_fragments(scene)) defines.push_back("SOMBRA_HAS_MESHES");
     p.technique.add_defines(scene, options, defines);
-    if (shadow_cache || mark_shadow_cache) defines.push_back("SOMBRA_SHADOW_CACHE");
     if (mark_shadow_cache) defines.push_back("SOMBRA_SHADOW_CACHE_MARK");
     if (surface_cache) defines.push_back("SOMBRA_SURFACE_SHADOW_CACHE");
     return defines;
@@ -218,7 +217,7 @@ double run_shadow_probe(host::Runtime& runtime, const Scene& scene, const Prepar
     CameraGpu camera = packing::pack_camera(scene, scene.width, scene.height);
     camera.jitter_seed = options.jitter_seed;
     cl::Buffer camera_buffer = host::make_buffer(runtime, CL_MEM_READ_ONLY, sizeof(CameraGpu), &camera, "camera");
-    cl::Kernel kernel(runtime.program("render.cl", camera_pass_defines(scene, options, prepared, 1, false, false)), "shadow_probe");
+    cl::Kernel kernel(runtime.program("render.cl", camera_pass_defines(scene, options, prepared, 1)), "shadow_probe");
     host::KernelArgs args(kernel);
     bind_scene(args, prepared.scene, camera_buffer);
     args("light_index", cl_uint(light))("points", points)("transmittance", out);
@@ -335,8 +334,7 @@ double run_camera_pass(host::Runtime& runtime, const Scene& scene, const Prepare
     cl::Buffer camera_buffer = host::make_buffer(runtime, CL_MEM_READ_ONLY, sizeof(CameraGpu), &camera, "camera");
     auto build_start = std::chrono::steady_clock::now();
     cl::Program& program = runtime.program(
-        "render.cl", camera_pass_defines(scene, options, prepared, lanes, reads.volume_cache != nullptr, reads.surface_cache != nullptr,
-                                         reads.volume_cache_marks != nullptr));
+        "render.cl", camera_pass_defines(scene, options, prepared, lanes, reads.surface_cache != nullptr, reads.volume_cache_marks != nullptr));
     if (stats)
         stats->stage_ms["program_build"] = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - build_start).count();
     cl::Kernel kernel(program, "render_camera");
@@ -344,8 +342,16 @@ double run_camera_pass(host::Runtime& runtime, const Scene& scene, const Prepare
     bind_scene(args, prepared.scene, camera_buffer);
     args("image", image)("sample_counts", sample_counts);
     prepared.technique.bind(args, runtime, options);
-    if (reads.volume_cache_marks) args("shadow_cache_marks", *reads.volume_cache_marks)("shadow_cache_table", *reads.volume_cache_table);
-    else if (reads.volume_cache) args("shadow_cache", *reads.volume_cache)("shadow_cache_table", *reads.volume_cache_table);
+    // a program with a shadow term reads the volume lattices or not per launch (shadow_cache_reads);
+    // a launch that does not binds this stand-in, alive until the launch is done
+    cl::Buffer no_cache;
+    if (reads.volume_cache_marks) {
+        args("shadow_cache_marks", *reads.volume_cache_marks)("shadow_cache_table", *reads.volume_cache_table);
+    } else if (prepared.technique.has_shadow_term()) {
+        if (!reads.volume_cache) no_cache = host::make_buffer(runtime, CL_MEM_READ_ONLY, sizeof(ShadowCacheGpu), nullptr, "no shadow cache");
+        args("shadow_cache", reads.volume_cache ? *reads.volume_cache : no_cache)("shadow_cache_table", reads.volume_cache ? *reads.volume_cache_table : no_cache);
+        args("shadow_cache_reads", cl_uint(reads.volume_cache != nullptr));
+    }
     if (reads.surface_cache) args("surface_shadow_cache", reads.surface_cache->values)("surface_cache_triangles", reads.surface_cache->triangle_buffer);
     if (reads.fragments) {
         const PreparedScene& p = prepared.scene;

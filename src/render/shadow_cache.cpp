@@ -1013,9 +1013,10 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
     }
 
     camera.jitter_seed = options.jitter_seed;  // the fills' shadow rays start where the camera pass's would
-    // the program of a camera pass reading the volume lattices (the fills read no cache: any variant fills alike)
+    // the program of the frame's camera pass (it reads the volume lattices or not per launch; the
+    // fills read no cache: any variant fills alike)
     const FillLaunch launch{runtime, scene, prepared, options,
-                            runtime.program("render.cl", camera_pass_defines(scene, options, prepared, lanes, volumes.use || measure, surfaces.use)),
+                            runtime.program("render.cl", camera_pass_defines(scene, options, prepared, lanes, surfaces.use)),
                             host::make_buffer(runtime, CL_MEM_READ_ONLY, sizeof(CameraGpu), &camera, "camera"), lanes,
                             host::make_buffer(runtime, CL_MEM_READ_ONLY, sizeof(cl_uint), nullptr, "no points to fill"), width, height,
                             fragments};
