@@ -199,11 +199,9 @@ static inline lmask shade_sample(VOLUME_DATA_PARAM, CameraState* state, const Vo
             lfloat transmittance_to_light = (lfloat)(1.0f);
 #else
             lfloat transmittance_to_light;
-#ifdef SOMBRA_SHADOW_CACHE
             if (state->shadow_cache_reads)
                 transmittance_to_light = cached_shadow(state, i, m, ray_voxel_point(ray, i, t_light));
             else
-#endif
                 transmittance_to_light = light_transmittance(volume_data, state, m, p_light, needed);
 #endif
             shadow[m] = select(shadow[m], transmittance_to_light, needed);

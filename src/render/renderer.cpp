@@ -342,15 +342,15 @@ double run_camera_pass(host::Runtime& runtime, const Scene& scene, const Prepare
     bind_scene(args, prepared.scene, camera_buffer);
     args("image", image)("sample_counts", sample_counts);
     prepared.technique.bind(args, runtime, options);
-    // a program with a shadow term reads the volume lattices or not per launch (shadow_cache_reads);
-    // a launch that does not binds this stand-in, alive until the launch is done
-    cl::Buffer no_cache;
     if (reads.volume_cache_marks) {
         args("shadow_cache_marks", *reads.volume_cache_marks)("shadow_cache_table", *reads.volume_cache_table);
     } else if (prepared.technique.has_shadow_term()) {
-        if (!reads.volume_cache) no_cache = host::make_buffer(runtime, CL_MEM_READ_ONLY, sizeof(ShadowCacheGpu), nullptr, "no shadow cache");
-        args("shadow_cache", reads.volume_cache ? *reads.volume_cache : no_cache)("shadow_cache_table", reads.volume_cache ? *reads.volume_cache_table : no_cache);
-        args("shadow_cache_reads", cl_uint(reads.volume_cache != nullptr));
+        // a program with a shadow term reads the volume lattices or not per launch
+        // (shadow_cache_reads); a launch that does not binds the camera's buffer in their place,
+        // never read
+        const bool read_cache = reads.volume_cache != nullptr;
+        args("shadow_cache", read_cache ? *reads.volume_cache : camera_buffer)("shadow_cache_table", read_cache ? *reads.volume_cache_table : camera_buffer);
+        args("shadow_cache_reads", cl_uint(read_cache));
     }
     if (reads.surface_cache) args("surface_shadow_cache", reads.surface_cache->values)("surface_cache_triangles", reads.surface_cache->triangle_buffer);
     if (reads.fragments) {

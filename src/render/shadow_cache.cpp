@@ -831,14 +831,14 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
         const int offset = int((c.first_packet + row) % c.packet_stride);
         return double(std::max(0, (row_packets - offset + int(c.packet_stride) - 1) / int(c.packet_stride)));
     };
-    // untimed first: one packet each way. A kernel's first launch in a process pays the driver's
-    // loading of its code (PoCL: 1–2.5 ms), a large share of a launch of a 100–300 ms frame's
-    // 1/64 (two_smokes_wall's shadow rays at 256²: 3.8–5.0 ms against 2.5 ms after it)
+    // untimed first: one packet. A kernel's first launch in a process pays the driver's loading of
+    // its code (PoCL: 1–2.5 ms), a large share of a launch of a 100–300 ms frame's 1/64
+    // (two_smokes_wall's shadow rays at 256²: 3.8–5.0 ms against 2.5 ms after it); both kinds of
+    // launch run the same kernel (render.cl shadow_cache_reads)
     {
         CameraGpu one = camera;
         one.row_stride = cl_uint(height), one.packet_stride = cl_uint(row_packets), one.first_row = cl_uint(height / 2);
-        for (const CameraPassReads* reads : {&per_sample, &cached})
-            costs.probe_ms += run_camera_pass(runtime, launch.scene, launch.prepared, launch.options, lanes, one, *reads, image, counts);
+        costs.probe_ms += run_camera_pass(runtime, launch.scene, launch.prepared, launch.options, lanes, one, per_sample, image, counts);
     }
     // a scout first, where the image is wide enough: the first launch's rows, every
     // kProbeScoutThinning-th of its packets. Only the cache's side may be decided from it (as from
