@@ -10,6 +10,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <optional>
 #include <random>
 #include <sstream>
@@ -492,6 +493,42 @@ TEST_CASE("shadow cache auto: measures the fill and both camera passes, chooses 
     CHECK(again.stats.shadow_cache_probe_ms == 0);
     o.shadow_cache = ShadowCacheMode::Off;
     CHECK_FALSE(render(context, scene, o).stats.shadow_cache_used);
+}
+
+TEST_CASE("shadow cache auto: SOMBRA_AUTO_PROBE_ALL runs and reports every stage of the probe", "[shadow_cache]") {
+    // bench/probe_accuracy.py compares each stage's estimate with the frame's real stages
+    const Scene scene = test::overlapping_scene();
+    forget_shadow_cache_choices();
+    Context context(test::device_selector()), forced(test::device_selector());
+    RenderOptions o = cache_options(ShadowTechnique::Dsm, ShadowCacheMode::Auto);
+    o.width = o.height = 200;
+    CHECK(render(context, scene, o).stats.shadow_cache_probe_stages.empty());  // not without it
+    forget_shadow_cache_choices();
+    ::setenv("SOMBRA_AUTO_PROBE_ALL", "1", 1);
+    Context probed(test::device_selector());
+    const RenderResult r = render(probed, scene, o);
+    ::unsetenv("SOMBRA_AUTO_PROBE_ALL");
+    std::map<std::string, const RenderStats::ProbeStage*> stages;
+    for (const RenderStats::ProbeStage& stage : r.stats.shadow_cache_probe_stages) {
+        INFO(stage.quantity << " " << stage.stage);
+        CHECK(stage.ms > 0);
+        CHECK(std::isfinite(stage.estimate_ms));
+        CHECK(stage.estimate_ms >= stage.ms);  // a stage runs a part of the whole
+        stages[stage.quantity + " " + stage.stage] = &stage;
+    }
+    // every fill, however far apart the earlier ones found the two modes, and every launch
+    for (const char* name : {"fill blocks 2 every 64", "fill blocks 2 every 32", "fill blocks 4 every 32", "fill blocks 4 every 64",
+                             "fill blocks 8 every 64", "per_sample scout 1", "cached scout 2", "per_sample launch 1", "cached launch 4"}) {
+        INFO(name);
+        CHECK(stages.count(name) == 1);
+    }
+    // the estimates auto chose from are its last stages'
+    REQUIRE(stages.count("per_sample launch 4"));
+    CHECK(r.stats.shadow_cache_estimated_per_sample_ms == stages["per_sample launch 4"]->estimate_ms);
+    CHECK(r.stats.shadow_cache_estimated_cached_ms == stages["cached launch 4"]->estimate_ms);
+    // and the frame is the chosen mode's
+    o.shadow_cache = r.stats.shadow_cache_used ? ShadowCacheMode::On : ShadowCacheMode::Off;
+    CHECK(test::compare(r.image, render(forced, scene, o).image).max_abs == 0.0);
 }
 
 TEST_CASE("shadow cache auto: a measured visible fill fills its bands of rows, then the rest, as one fill does", "[shadow_cache]") {

@@ -268,6 +268,15 @@ struct RenderStats {
     int shadow_cache_light_lattices = 0;
     double shadow_cache_probe_ms = 0, shadow_cache_estimated_fill_ms = 0, shadow_cache_estimated_cached_ms = 0,
            shadow_cache_estimated_per_sample_ms = 0;
+    // With SOMBRA_AUTO_PROBE_ALL set, auto's probe runs every stage whatever the earlier ones
+    // found, and reports each (bench/probe_accuracy.py): what it estimates ("fill",
+    // "per_sample", "cached"), the stage ("blocks 2 every 64", "scout 1", "launch 3", …), the
+    // stage's kernel time and the estimate of the whole after it.
+    struct ProbeStage {
+        std::string quantity, stage;
+        double ms = 0, estimate_ms = 0;
+    };
+    std::vector<ProbeStage> shadow_cache_probe_stages;
     // auto made no new choice: this frame (scene, camera, size, options, device) was rendered
     // before in this process, and chose as then (forget_shadow_cache_choices); the estimates are then's
     bool shadow_cache_auto_remembered = false;

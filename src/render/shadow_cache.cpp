@@ -737,8 +737,11 @@ struct VolumeCosts {
     double fill_ms = 0, per_sample_ms = 0, cached_ms = 0, probe_ms = 0;
 };
 
+// `all_stages` (SOMBRA_AUTO_PROBE_ALL): every stage runs whatever the earlier ones found, each
+// reported there, and two more fills, in blocks of 4 and 8 rows every 64 (bench/probe_accuracy.py).
 VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan, std::size_t lights, int width, int height,
-                               const surfaces::ViewFragments* fragments, const SurfaceShadowCache* surface_cache) {
+                               const surfaces::ViewFragments* fragments, const SurfaceShadowCache* surface_cache,
+                               std::vector<RenderStats::ProbeStage>* all_stages) {
     host::Runtime& runtime = launch.runtime;
     // the probe's short launches must not make the frame's long ones run unbanded (tiled_launch.cpp)
     const double last_launch_ms = runtime.progress().last_launch_ms;
@@ -787,6 +790,7 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
             if (plan.stale[e]) fill_ms += ms * double(lattice_points(plan.layout[e])) / double(lattice_points(small[e]));
         }
         costs.probe_ms += probe_ms;
+        if (all_stages) all_stages->push_back({"fill", "blocks " + std::to_string(block) + " every " + std::to_string(stride), probe_ms, fill_ms});
         last_fill_probe_ms = probe_ms, last_fill_probe_share = double(block * block) / (double(stride) * stride);
         return fill_ms;
     };
@@ -862,6 +866,12 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
                 scout_packets += packets_in_row(scout, row);
             if (scout_packets == 0) continue;
             costs.per_sample_ms = per_sample_scout * image_packets / scout_packets, costs.cached_ms = cached_scout * image_packets / scout_packets;
+            if (all_stages) {
+                const std::string stage = "scout " + std::to_string(half + 1);
+                all_stages->push_back({"per_sample", stage, per_sample_scout, costs.per_sample_ms});
+                all_stages->push_back({"cached", stage, cached_scout, costs.cached_ms});
+                continue;
+            }
             scouted = costs.per_sample_ms > (half == 0 ? kProbeHalfScoutClear : kProbeScoutClear) * (costs.fill_ms + costs.cached_ms);
         }
         costs.probe_ms += per_sample_scout + cached_scout;
@@ -875,28 +885,33 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
         if (done[first]) continue;
         done[first] = true;
         camera.first_row = first, camera.first_packet = cl_uint(k);
-        if (packets_done > 0 && !within_budget(last_launch)) break;
+        if (packets_done > 0 && !within_budget(last_launch) && !all_stages) break;
         const double per_sample_launch = run_camera_pass(runtime, launch.scene, launch.prepared, launch.options, lanes, camera, per_sample, image, counts);
         const double cached_launch = run_camera_pass(runtime, launch.scene, launch.prepared, launch.options, lanes, camera, cached, image, counts);
         per_sample_sum += per_sample_launch, cached_sum += cached_launch, last_launch = per_sample_launch + cached_launch;
         for (cl_uint row = 0, y = first; y < cl_uint(height); ++row, y += camera.row_stride) packets_done += packets_in_row(camera, row);
         ++launches_run;
         costs.per_sample_ms = per_sample_sum * image_packets / packets_done, costs.cached_ms = cached_sum * image_packets / packets_done;
-        if (decided(fine_fill ? kProbeClear : kProbeCoarseClear)) break;
+        if (all_stages) {
+            const std::string stage = "launch " + std::to_string(launches_run);
+            all_stages->push_back({"per_sample", stage, per_sample_sum, costs.per_sample_ms});
+            all_stages->push_back({"cached", stage, cached_sum, costs.cached_ms});
+        } else if (decided(fine_fill ? kProbeClear : kProbeCoarseClear)) break;
         // not decided by the coarse fill: the fill every kProbeBlockStride rows (≈ 4 × the first),
         // whatever the budget (decisions on small frames from the coarse fill alone chose the
         // slower mode more often: two_smokes_wall's AO at 128², 1.27 → 1.56×)
         if (!fine_fill) {
             costs.fill_ms = fill_blocks(kProbeBlock, kProbeBlockStride, false);
             fine_fill = true;
-            if (decided(kProbeClear)) break;
+            if (decided(kProbeClear) && !all_stages) break;
         }
         if (launches_run >= kProbeLaunches) break;
     }
     // a close call: the fill again on 1/64 of the rows (4 × 4 blocks: single estimates from the
     // 1/256's few blocks spread by ± 40 %), when it fits the budget
-    if (!decided(kProbeClear) && within_budget(fill_probe_ms(kProbeCloseCallBlock, kProbeBlockStride)))
+    if (all_stages || (!decided(kProbeClear) && within_budget(fill_probe_ms(kProbeCloseCallBlock, kProbeBlockStride))))
         costs.fill_ms = fill_blocks(kProbeCloseCallBlock, kProbeBlockStride, false);
+    if (all_stages) fill_blocks(4, 64, false), fill_blocks(8, 64, false);
     costs.probe_ms += per_sample_sum + cached_sum;
     runtime.progress().last_launch_ms = last_launch_ms;
     return costs;
@@ -1028,7 +1043,9 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
     if (surfaces.use) ms += fill_surface_entries(launch, cache->surfaces, surfaces, lights, stats);
     if (measure) {  // a probe's passes read the surface part as the frame will
         const auto probe_start = std::chrono::steady_clock::now();
-        VolumeCosts costs = probe_volume_costs(launch, volumes, lights, width, height, fragments, surface_reads);
+        const bool all_stages = std::getenv("SOMBRA_AUTO_PROBE_ALL") != nullptr;
+        VolumeCosts costs = probe_volume_costs(launch, volumes, lights, width, height, fragments, surface_reads,
+                                               all_stages ? &stats.shadow_cache_probe_stages : nullptr);
         const auto probe_end = std::chrono::steady_clock::now();
         // the visible fill's marking pass costs about a cached camera pass: it is run when that
         // is under half the fill and an eighth of the per-sample pass (the most it wastes when
