@@ -235,13 +235,40 @@ static inline lmask shade_sample(VOLUME_DATA_PARAM, CameraState* state, const Vo
 #include "surfaces.h"
 #endif
 
-__kernel void render_camera(SCENE_PARAMS, __global float4* image, __global uint* sample_counts SHADOW_PARAMS
+/* The launch row a work-item renders, its launch's rows of work-groups interleaved `ways` ways: the
+ * groups' p-th row renders launch group row (p − start(r)) · ways + r, residue r taking the
+ * positions from start(r) on (residue 0 first, each in order). A CPU device (PoCL) hands each of
+ * its threads a contiguous run of a launch's groups, often half of those left: in order, each
+ * thread rendered one strip of a band of rows, and the one with the denser strip kept the other
+ * waiting (the smoke's cone at 128²: 446–459 ms in bands, 341–350 in one launch); interleaved by
+ * the threads, each run spans the band, its groups `ways` rows apart (bench/README.md
+ * "sombra_bench_tiles"). ways = 1 (GPUs): the launch's order. */
+#define kInterleavedGroups 64u /* PoCL's runs: up to 64 groups, or half of those left */
+static inline uint interleaved_launch_row(uint ways) {
+    /* the band's first row: the launch's global offset (get_global_offset is missing from libclc's
+     * PTX, tests/portability) */
+    const uint group_rows = (uint)get_local_size(1), groups = (uint)get_num_groups(1), position = (uint)get_group_id(1);
+    const uint first = (uint)get_global_id(1) - position * group_rows - (uint)get_local_id(1);
+    /* a launch of more groups is handed out in runs of 64 as threads come free, which balances it;
+     * interleaved, its neighbouring groups' shared reads were lost (teapot_fog's AO at 256²: +15 %) */
+    if (groups * (uint)get_num_groups(0) > kInterleavedGroups * ways) ways = 1;
+    uint residue = 0, start = 0;
+    for (; residue + 1 < ways; ++residue) {
+        const uint count = (groups - min(residue, groups) + ways - 1) / ways;  /* group rows ≡ residue (mod ways) */
+        if (position < start + count) break;
+        start += count;
+    }
+    return first + ((position - start) * ways + residue) * group_rows + (uint)get_local_id(1);
+}
+
+__kernel void render_camera(SCENE_PARAMS, __global float4* image, __global uint* sample_counts, uint row_interleave SHADOW_PARAMS
                             SHADOW_CACHE_PARAMS SURFACE_SHADOW_CACHE_PARAMS
 #ifdef SOMBRA_HAS_MESHES
                             , SURFACE_PARAMS
 #endif
 ) {
-    uint row = get_global_id(1); /* the launch's row; y: the image's (CameraGpu first_row, row_stride) */
+    /* the launch's row; y: the image's (CameraGpu first_row, row_stride) */
+    uint row = interleaved_launch_row(max(row_interleave, 1u));
     uint y = camera->first_row + row * camera->row_stride;
     if (y >= camera->height) return;
     uint packet_stride = max(camera->packet_stride, 1u); /* the image's packet (CameraGpu packet_stride) */

@@ -331,6 +331,12 @@ CameraGpu frame_camera(const Scene& scene, const RenderOptions& options, int wid
     return camera;
 }
 
+// How many ways render_camera interleaves a launch's rows of groups: a CPU device's compute units
+// (its threads), 1 on a GPU (render.cl interleaved_launch_row).
+cl_uint camera_row_interleave(host::Runtime& runtime) {
+    return runtime.info().is_gpu ? 1u : std::max<cl_uint>(1u, runtime.device().getInfo<CL_DEVICE_MAX_COMPUTE_UNITS>());
+}
+
 double run_camera_pass(host::Runtime& runtime, const Scene& scene, const Prepared& prepared, const RenderOptions& options, int lanes,
                        const CameraGpu& camera, const CameraPassReads& reads, const cl::Buffer& image, const cl::Buffer& sample_counts,
                        RenderStats* stats) {
@@ -343,7 +349,9 @@ double run_camera_pass(host::Runtime& runtime, const Scene& scene, const Prepare
     cl::Kernel kernel(program, "render_camera");
     host::KernelArgs args(kernel);
     bind_scene(args, prepared.scene, camera_buffer);
-    args("image", image)("sample_counts", sample_counts);
+    // a CPU device's threads each take a contiguous run of the launch's groups: its rows are
+    // interleaved by the threads (render.cl interleaved_launch_row)
+    args("image", image)("sample_counts", sample_counts)("row_interleave", camera_row_interleave(runtime));
     prepared.technique.bind(args, runtime, options);
     if (reads.volume_cache_marks) {
         args("shadow_cache_marks", *reads.volume_cache_marks)("shadow_cache_table", *reads.volume_cache_table);
