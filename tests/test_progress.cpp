@@ -177,4 +177,32 @@ TEST_CASE("progress: kernels run in bands write the image one launch writes, bit
         }
 }
 
+TEST_CASE("camera pass: rows of work-groups interleaved any number of ways render the image of the launch's order", "[progress]") {
+    // render.cl interleaved_launch_row: each group row once, whatever the band and the ways
+    Scene scene = test::overlapping_scene();
+    RenderOptions options;
+    options.dsm.resolution = 30;
+    options.shadow_cache = ShadowCacheMode::Off;
+    host::Runtime& runtime = test::context().runtime();
+    const auto image_with = [&](int ways, int tiles) {
+        runtime.set_camera_row_interleave(ways);
+        LaunchTiles bands(tiles);
+        Image image = render(test::context(), scene, options).image;
+        runtime.set_camera_row_interleave(0);
+        return image;
+    };
+    for (int size : {5, 37, 130}) {  // one group row, bands ending inside the padding, many groups
+        options.width = options.height = size;
+        for (ShadowTechnique technique : {ShadowTechnique::Rays, ShadowTechnique::Dsm}) {
+            options.shadows = technique;
+            const Image in_order = image_with(1, 1);
+            for (int ways : {0, 2, 3, 7})
+                for (int tiles : {1, 5}) {
+                    INFO("size " << size << ", technique " << int(technique) << ", ways " << ways << ", bands " << tiles);
+                    CHECK(same_bits(in_order, image_with(ways, tiles)));
+                }
+        }
+    }
+}
+
 }  // namespace sombra

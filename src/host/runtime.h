@@ -47,10 +47,16 @@ public:
     Progress& progress() { return progress_; }
     int launch_tiles() const { return launch_tiles_; }
     void set_launch_tiles(int tiles) { launch_tiles_ = tiles; }
+    // How many ways the camera pass interleaves a launch's rows of groups (render.cl
+    // interleaved_launch_row): 0 as the device asks (its threads on a CPU with packets, else 1),
+    // n > 0 n ways (tests).
+    int camera_row_interleave() const { return camera_row_interleave_; }
+    void set_camera_row_interleave(int ways) { camera_row_interleave_ = ways; }
 
 private:
     Progress progress_;
     int launch_tiles_ = 0;
+    int camera_row_interleave_ = 0;
     DeviceInfo info_;
     std::string build_options_;  // every program's: OpenCL C 1.2, argument names, exact division
     cl::Context context_;

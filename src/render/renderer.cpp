@@ -331,10 +331,14 @@ CameraGpu frame_camera(const Scene& scene, const RenderOptions& options, int wid
     return camera;
 }
 
-// How many ways render_camera interleaves a launch's rows of groups: a CPU device's compute units
-// (its threads), 1 on a GPU (render.cl interleaved_launch_row).
-cl_uint camera_row_interleave(host::Runtime& runtime) {
-    return runtime.info().is_gpu ? 1u : std::max<cl_uint>(1u, runtime.device().getInfo<CL_DEVICE_MAX_COMPUTE_UNITS>());
+// How many ways render_camera interleaves a launch's rows of groups (render.cl
+// interleaved_launch_row): a CPU device's compute units (its threads); 1 on a GPU, and without
+// packets, whose launches leave the group size to the device (Intel's CPU runtime then makes the
+// last group smaller, where the interleave needs groups of one size).
+cl_uint camera_row_interleave(host::Runtime& runtime, int lanes) {
+    if (runtime.camera_row_interleave() > 0) return cl_uint(runtime.camera_row_interleave());
+    if (runtime.info().is_gpu || lanes <= 1) return 1u;
+    return std::max<cl_uint>(1u, runtime.device().getInfo<CL_DEVICE_MAX_COMPUTE_UNITS>());
 }
 
 double run_camera_pass(host::Runtime& runtime, const Scene& scene, const Prepared& prepared, const RenderOptions& options, int lanes,
@@ -351,7 +355,7 @@ double run_camera_pass(host::Runtime& runtime, const Scene& scene, const Prepare
     bind_scene(args, prepared.scene, camera_buffer);
     // a CPU device's threads each take a contiguous run of the launch's groups: its rows are
     // interleaved by the threads (render.cl interleaved_launch_row)
-    args("image", image)("sample_counts", sample_counts)("row_interleave", camera_row_interleave(runtime));
+    args("image", image)("sample_counts", sample_counts)("row_interleave", camera_row_interleave(runtime, lanes));
     prepared.technique.bind(args, runtime, options);
     if (reads.volume_cache_marks) {
         args("shadow_cache_marks", *reads.volume_cache_marks)("shadow_cache_table", *reads.volume_cache_table);
