@@ -353,8 +353,6 @@ double run_camera_pass(host::Runtime& runtime, const Scene& scene, const Prepare
     cl::Kernel kernel(program, "render_camera");
     host::KernelArgs args(kernel);
     bind_scene(args, prepared.scene, camera_buffer);
-    // a CPU device's threads each take a contiguous run of the launch's groups: its rows are
-    // interleaved by the threads (render.cl interleaved_launch_row)
     args("image", image)("sample_counts", sample_counts)("row_interleave", camera_row_interleave(runtime, lanes));
     prepared.technique.bind(args, runtime, options);
     if (reads.volume_cache_marks) {
