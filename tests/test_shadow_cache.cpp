@@ -937,26 +937,32 @@ TEST_CASE("surface shadow cache: kept across camera moves, refilled for moved li
     CHECK(json.find("\"estimated_fragments\"") != std::string::npos);
 }
 
-TEST_CASE("surface shadow cache auto: on when its points cost fewer evaluations than the frame's fragments", "[shadow_cache]") {
+TEST_CASE("surface shadow cache auto: on when the frame's fragments are kSurfaceFragmentsPerPoint times its points", "[shadow_cache]") {
     Scene scene = surface_scene();
     Context context(test::device_selector());
     RenderOptions o = cache_options(ShadowTechnique::Dsm, ShadowCacheMode::Auto);
-    // 8² pixels: few fragments against ~5k points × 2 lights; 400²: more fragments; then 9², filled:
-    // nothing to fill, on at any size (8² again is the frame auto chose for before: off again)
+    // 8² pixels: few fragments against ~5k points × 2 lights; a size with more fragments than
+    // points but fewer than kSurfaceFragmentsPerPoint times them: off (a fragment's cached read
+    // saves less than a point's fill costs); 400²: on; then 9², filled: nothing to fill, on at any
+    // size (8² again is the frame auto chose for before: off again)
     forget_shadow_cache_choices();
     struct Step {
         int size;
         bool used;
     };
-    for (Step step : {Step{8, false}, Step{400, true}, Step{9, true}}) {
+    bool between_seen = false;
+    for (Step step : {Step{8, false}, Step{120, false}, Step{400, true}, Step{9, true}}) {
         INFO(step.size << " pixels a side");
         o.width = o.height = step.size;
         RenderStats stats = render(context, scene, o).stats;
         CHECK(stats.shadow_cache_surfaces_used == step.used);
         CHECK(stats.shadow_cache_estimated_fragments > 0);
-        if (step.used) CHECK(stats.shadow_cache_surface_points_to_fill < stats.shadow_cache_estimated_fragments);
-        else CHECK(stats.shadow_cache_surface_points_to_fill > stats.shadow_cache_estimated_fragments);
+        const double points = double(stats.shadow_cache_surface_points_to_fill), fragments = double(stats.shadow_cache_estimated_fragments);
+        if (step.used) CHECK(pipeline::kSurfaceFragmentsPerPoint * points <= fragments);
+        else CHECK(pipeline::kSurfaceFragmentsPerPoint * points > fragments);
+        if (step.size == 120) between_seen = points < fragments;
     }
+    CHECK(between_seen);  // the 120² frame is one the count of one evaluation per point chose on for
     o.width = o.height = 8;
     const RenderStats again = render(context, scene, o).stats;
     CHECK(again.shadow_cache_auto_remembered);

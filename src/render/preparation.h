@@ -153,6 +153,17 @@ constexpr bool shadow_cache_pays(double fill_ms, double cached_ms, double per_sa
     return kShadowCacheAutoMargin * (fill_ms + cached_ms) < per_sample_ms;
 }
 
+// Auto fills the surface part when the frame's surface fragments × lights are at least
+// kSurfaceFragmentsPerPoint times the points × stale lights to fill. Not every fragment counted is
+// shaded (those behind an opaque one are not): on the cups a fragment's cached read saved 0–0.9
+// of what a point's fill cost (the six techniques at 256² and 512², PoCL). With fragments 1.06 ×
+// the points (256²) the fill cost 1.0–3.7× what it saved (AO saved nothing), with 4.2 × (512²)
+// 0.4–0.75× (docs/shadows.md "Auto").
+constexpr double kSurfaceFragmentsPerPoint = 3;
+constexpr bool surface_shadow_cache_pays(double points_to_fill, double fragment_evaluations) {
+    return kSurfaceFragmentsPerPoint * points_to_fill <= fragment_evaluations;
+}
+
 // Auto's probe lattices for a frame's `layout`: each lattice's rows (whole along x) in blocks of
 // block × block neighbours along y and z (fewer where the lattice is thinner), one block every
 // `stride` rows of the lattice on each axis, whole blocks only (at least one), centred:

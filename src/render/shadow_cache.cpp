@@ -311,8 +311,8 @@ VolumePlan plan_volume_entries(host::Runtime& runtime, const Scene& scene, const
     return plan;
 }
 
-// The surface points: a light's entry is stale when its key changed or the meshes did. Auto: a
-// point costs one evaluation per light, as a shaded surface fragment does.
+// The surface points: a light's entry is stale when its key changed or the meshes did. Auto:
+// surface_shadow_cache_pays, by the points to fill and the fragments the frame would evaluate.
 struct SurfacePlan {
     std::vector<std::string> keys;
     std::vector<bool> stale;
@@ -341,7 +341,7 @@ SurfacePlan plan_surface_entries(const Scene& scene, const Prepared& prepared, c
     stats.shadow_cache_surface_points_to_fill = static_cast<unsigned long long>(stale_lights * double(sc.point_count()));
     stats.shadow_cache_estimated_fragments = static_cast<unsigned long long>(double(surface_fragments) * double(lights));
     plan.use = options.shadow_cache == ShadowCacheMode::On ||
-               stale_lights * double(sc.point_count()) < double(surface_fragments) * double(lights);
+               surface_shadow_cache_pays(stale_lights * double(sc.point_count()), double(surface_fragments) * double(lights));
     return plan;
 }
 
