@@ -7,6 +7,8 @@
 // come from the on-disk program cache (a 16² frame of every variant first), so compiling is not
 // what is timed. A cell's frames run in rounds (off, on, auto first, auto learned), as many as
 // make about --cell-ms of off frames, and each column is the median of its round's frames.
+// --noise adds a second off frame to each round: its median ÷ the off column's is what the bench
+// alone makes of two runs of one mode (the yardstick for auto's 1.10×).
 #include <algorithm>
 #include <chrono>
 #include <cstdlib>
@@ -59,10 +61,10 @@ Frame one_frame(const std::string& device, const sombra::Scene& scene, const som
 }
 
 // A cell's four columns, `rounds` frames each, interleaved round by round (off, on, auto's first
-// run, auto learned), so that a change of load on the machine falls on every column alike;
-// medians, and the mode the median-th frame of each auto column chose.
+// run, auto learned, and with --noise off again), so that a change of load on the machine falls
+// on every column alike; medians, and the mode the median-th frame of each auto column chose.
 struct Cell {
-    Frame off, on, first, learned;
+    Frame off, on, first, learned, off_again;
 };
 
 // The median time of `frames`, with the mode of the frame at the median's place.
@@ -74,11 +76,11 @@ Frame median_frame(std::vector<Frame> frames) {
 }
 
 Cell time_cell(const std::string& device, const sombra::Scene& scene, const std::function<sombra::RenderOptions(const char*)>& options,
-               int rounds, int learn, const HistoryFolders& history) {
+               int rounds, int learn, const HistoryFolders& history, bool noise) {
     empty_folder(history.learned);
     use_history(history.learned);
     for (int k = 0; k < learn; ++k) one_frame(device, scene, options("auto"));
-    std::vector<Frame> off, on, first, learned;
+    std::vector<Frame> off, on, first, learned, off_again;
     for (int r = 0; r < rounds; ++r) {
         off.push_back(one_frame(device, scene, options("off")));
         on.push_back(one_frame(device, scene, options("on")));
@@ -87,8 +89,9 @@ Cell time_cell(const std::string& device, const sombra::Scene& scene, const std:
         first.push_back(one_frame(device, scene, options("auto")));
         use_history(history.learned);
         learned.push_back(one_frame(device, scene, options("auto")));
+        if (noise) off_again.push_back(one_frame(device, scene, options("off")));
     }
-    return {median_frame(off), median_frame(on), median_frame(first), median_frame(learned)};
+    return {median_frame(off), median_frame(on), median_frame(first), median_frame(learned), noise ? median_frame(off_again) : Frame()};
 }
 
 }  // namespace
@@ -104,6 +107,7 @@ int main(int argc, char** argv) {
     int repeats = 3, max_repeats = 15, learn = 6;
     double slow_ms = 4000, cell_ms = 2000;
     std::string device = "auto", out;
+    bool noise = false;
     app.add_option("--scene", scenes, "scene files (default: every data/scenes/*.json)");
     app.add_option("--shadows", techniques, "techniques")->capture_default_str();
     app.add_option("--size", sizes, "image widths and heights")->capture_default_str();
@@ -115,6 +119,7 @@ int main(int argc, char** argv) {
     app.add_option("--slow-ms", slow_ms, "a cell whose off frame takes longer is timed once per mode")->capture_default_str();
     app.add_option("--device", device, "OpenCL device")->capture_default_str();
     app.add_option("--out", out, "also write the Markdown table here");
+    app.add_flag("--noise", noise, "a second off frame per round: off again ÷ off, the bench's own spread");
     CLI11_PARSE(app, argc, argv);
     const std::filesystem::path history_root = std::filesystem::temp_directory_path() / "sombra-bench-cache-auto-history";
     const HistoryFolders history{(history_root / "first").string(), (history_root / "learned").string()};
@@ -122,10 +127,10 @@ int main(int argc, char** argv) {
     std::filesystem::create_directories(history.learned);
 
     std::ostringstream table;
-    table << "| scene | technique | size | off ms | on ms | auto first ms | chose | ÷ faster | auto learned ms | chose | ÷ faster | frames |\n"
-             "|---|---|---|---|---|---|---|---|---|---|---|---|\n";
-    double worst = 0, worst_learned = 0;
-    int cells = 0, within = 0, within_learned = 0;
+    table << "| scene | technique | size | off ms | on ms | auto first ms | chose | ÷ faster | auto learned ms | chose | ÷ faster | frames |"
+          << (noise ? " off again ÷ off |\n" : "\n") << "|---|---|---|---|---|---|---|---|---|---|---|---|" << (noise ? "---|\n" : "\n");
+    double worst = 0, worst_learned = 0, worst_again = 0;
+    int cells = 0, within = 0, within_learned = 0, within_again = 0;
     for (const std::string& path : scenes) {
         const sombra::Scene scene = sombra::load_scene(path);
         const std::string scene_name = std::filesystem::path(path).stem().string();
@@ -153,16 +158,20 @@ int main(int argc, char** argv) {
                 // where the off frame takes over --slow-ms
                 const double off_ms = one_frame(device, scene, options_for("off", size)).ms;
                 const int rounds = off_ms > slow_ms ? 1 : std::clamp(int(std::ceil(cell_ms / off_ms)), repeats, std::max(repeats, max_repeats));
-                const Cell cell = time_cell(device, scene, [&](const char* mode) { return options_for(mode, size); }, rounds, learn, history);
+                const Cell cell = time_cell(device, scene, [&](const char* mode) { return options_for(mode, size); }, rounds, learn, history, noise);
                 const Frame &off = cell.off, &on = cell.on, &automatic = cell.first, &learned = cell.learned;
                 const double ratio = automatic.ms / std::min(on.ms, off.ms), ratio_learned = learned.ms / std::min(on.ms, off.ms);
                 worst = std::max(worst, ratio), ++cells, within += ratio <= 1.10;
                 worst_learned = std::max(worst_learned, ratio_learned), within_learned += ratio_learned <= 1.10;
+                const double ratio_again = cell.off_again.ms / off.ms;
+                worst_again = std::max(worst_again, ratio_again), within_again += ratio_again <= 1.10;
                 std::ostringstream row;
                 row << "| " << scene_name << " | " << technique << " | " << size << " | " << fixed(off.ms, 0) << " | " << fixed(on.ms, 0)
                     << " | " << fixed(automatic.ms, 0) << " | " << (automatic.cache_used ? "on" : "off") << " | " << fixed(ratio, 2)
                     << " | " << fixed(learned.ms, 0) << " | " << (learned.cache_used ? "on" : "off") << " | " << fixed(ratio_learned, 2)
-                    << " | " << rounds << " |\n";
+                    << " | " << rounds << " |";
+                if (noise) row << " " << fixed(ratio_again, 2) << " |";
+                row << "\n";
                 std::cout << row.str() << std::flush;
                 table << row.str();
             }
@@ -172,6 +181,7 @@ int main(int argc, char** argv) {
     summary << "\nauto's first run: " << within << " of " << cells << " cells within 1.10× of the faster mode; worst " << fixed(worst, 2)
             << "×\nauto after " << learn << " runs: " << within_learned << " of " << cells << " cells within 1.10×; worst "
             << fixed(worst_learned, 2) << "×\n";
+    if (noise) summary << "off again against off: " << within_again << " of " << cells << " cells within 1.10×; worst " << fixed(worst_again, 2) << "×\n";
     table << summary.str();
     std::cout << summary.str();
     if (!out.empty()) std::ofstream(out) << table.str();

@@ -425,20 +425,32 @@ __kernel void shadow_cache_need(__global const ShadowCacheGpu* shadow_cache_tabl
     if (need) atomic_add(need_count, popcount(need));
 }
 
-/* The shadow cache's first pass (Ament Alg. 1, updateShadowCache): the shadow term of light
- * `light_index` at the lattice points of cache entry `cache_entry`, by the program's technique; a
+/* The entry a cache fill's work-item fills: cache_entry + its third index (a launch may fill
+ * several: auto's probe fills every entry's small lattice in one launch, as waiting for one launch
+ * per entry kept the second core idle), if that entry's lattice is of the kind the kernel fills
+ * (ShadowCacheGpu.column_axes.w: 1 for a light lattice); its light: entry mod light count. */
+static inline bool fill_entry(uint cache_entry, __global const ShadowCacheGpu* shadow_cache_table, uint columns, uint* entry) {
+    *entry = cache_entry + (uint)get_global_id(2);
+    return (shadow_cache_table[*entry].column_axes.w != 0) == (columns != 0);
+}
+
+/* The shadow cache's first pass (Ament Alg. 1, updateShadowCache): the shadow term of the entry's
+ * light (fill_entry) at the lattice points of its entry, by the program's technique; a
  * work-item evaluates SOMBRA_LANES neighbouring points of a lattice row (rows: y + dims.y · z).
  * fill_mask (ShadowCacheGpu.mark_offset) and fill_mode: 0 (all) — points no shaded sample can
  * read (cache_point_read) are not evaluated and hold 1, the mask is not read; 1 (visible) — the
  * points whose mask bit is set; 2 (the rest) — the points a sample can read whose bit is not set.
  * With 1 and 2 the others keep their values. */
-__kernel void shadow_cache_fill(SCENE_PARAMS, uint light_index, uint cache_entry, __global const ShadowCacheGpu* shadow_cache_table,
+__kernel void shadow_cache_fill(SCENE_PARAMS, uint cache_entry, __global const ShadowCacheGpu* shadow_cache_table,
                                 __global float* shadow_cache, uint fill_mode, __global const uint* fill_mask SHADOW_PARAMS) {
-    __global const ShadowCacheGpu* c = &shadow_cache_table[cache_entry];
+    uint entry;
+    if (!fill_entry(cache_entry, shadow_cache_table, 0u, &entry)) return;
+    __global const ShadowCacheGpu* c = &shadow_cache_table[entry];
     uint row = get_global_id(1);
     if (row >= (uint)(c->dims.y * c->dims.z)) return;
     uint x0 = get_global_id(0) * SOMBRA_LANES;
-    __global const VolumeGpu* volume = &volumes[cache_entry / camera->light_count];
+    const uint light_index = entry % camera->light_count;
+    __global const VolumeGpu* volume = &volumes[entry / camera->light_count];
     const float voxel_y = lattice_voxel(c, row % c->dims.y, c->spacing.y, c->block_origin.y);
     const float voxel_z = lattice_voxel(c, row / c->dims.y, c->spacing.z, c->block_origin.z);
     int read[SOMBRA_LANES];
@@ -485,13 +497,16 @@ static inline lfloat3 column_point_voxel(__global const ShadowCacheGpu* c, lfloa
  * piece back to the previous point, T(p_z) = T(p_z → p_z−1) · T(p_z−1), up to the last point asked
  * for: each column costs one ray's length, not one per point. A column stops once T < 10⁻⁶ (the
  * shadow ray's own cut-off). */
-__kernel void shadow_cache_fill_columns(SCENE_PARAMS, uint light_index, uint cache_entry, __global const ShadowCacheGpu* shadow_cache_table,
+__kernel void shadow_cache_fill_columns(SCENE_PARAMS, uint cache_entry, __global const ShadowCacheGpu* shadow_cache_table,
                                         __global float* shadow_cache, uint fill_mode, __global const uint* fill_mask SHADOW_PARAMS) {
-    __global const ShadowCacheGpu* c = &shadow_cache_table[cache_entry];
+    uint entry;
+    if (!fill_entry(cache_entry, shadow_cache_table, 1u, &entry)) return;
+    __global const ShadowCacheGpu* c = &shadow_cache_table[entry];
     const uint column_row = get_global_id(1), x0 = get_global_id(0) * SOMBRA_LANES;
     const uint dims_y = (uint)c->dims.y, dims_z = (uint)c->dims.z;
     if (column_row >= dims_y) return;
-    __global const VolumeGpu* volume = &volumes[cache_entry / camera->light_count];
+    const uint light_index = entry % camera->light_count;
+    __global const VolumeGpu* volume = &volumes[entry / camera->light_count];
     /* the lattice's y index (auto's probe fills blocks of rows: lattice_voxel in index units) */
     const float y = lattice_voxel(c, column_row, c->spacing.y, c->block_origin.y);
     const lint xs = (int)x0 + LANE_INDEX;

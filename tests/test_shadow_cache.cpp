@@ -453,6 +453,32 @@ TEST_CASE("shadow cache auto: a light lattice's probe takes blocks of rows along
     }
 }
 
+TEST_CASE("shadow cache auto: the probe's one launch over all entries fills each as its own launch does", "[shadow_cache]") {
+    // two volumes × two lights: four entries in one launch (render.cl fill_entry: entry from the
+    // launch's third index, light = entry mod lights); volume lattices (DSM, low-pass) and light
+    // lattices (shadow rays' columns), coarse and finer blocks
+    Scene scene = test::overlapping_scene();
+    Context context(test::device_selector());
+    for (ShadowTechnique technique : {ShadowTechnique::Dsm, ShadowTechnique::Rays, ShadowTechnique::Lowpass}) {
+        for (int stride : {8, 16}) {
+            INFO(shadow_technique_name(technique) << ", blocks of 2 every " << stride << " rows");
+            const RenderOptions o = cache_options(technique, ShadowCacheMode::Auto);
+            const std::vector<float> one = pipeline::probe_fill_values(context, scene, o, 2, stride, true);
+            const std::vector<float> each = pipeline::probe_fill_values(context, scene, o, 2, stride, false);
+            REQUIRE(one.size() == each.size());
+            std::size_t differ = 0, unfilled = 0, shadowed = 0;
+            for (std::size_t k = 0; k < one.size(); ++k) {
+                differ += one[k] != each[k];
+                unfilled += one[k] < 0.f;  // the buffer held -1: every point is written (1 where no sample reads it)
+                shadowed += one[k] >= 0.f && one[k] < 0.99f;
+            }
+            CHECK(differ == 0);
+            CHECK(unfilled == 0);
+            CHECK(shadowed > 0);
+        }
+    }
+}
+
 TEST_CASE("shadow cache auto: measures the fill and both camera passes, chooses the cheaper, reads a filled cache", "[shadow_cache]") {
     Scene scene = test::overlapping_scene();
     for (int size : {4, 200}) {

@@ -244,10 +244,16 @@ double run_packets(Runtime& runtime, cl::Kernel& kernel, int width, int height, 
     return run_tiled(runtime, kernel, grid.global, grid.local, units, std::size_t(first_row));
 }
 
-cl::Event enqueue_packets(Runtime& runtime, cl::Kernel& kernel, int width, int height, int lanes) {
+cl::Event enqueue_packets(Runtime& runtime, cl::Kernel& kernel, int width, int height, int lanes, int depth) {
     const PacketGrid grid = packet_grid(width, height, lanes);
     cl::Event event;
-    runtime.queue().enqueueNDRangeKernel(kernel, cl::NullRange, grid.global, grid.local, nullptr, &event);
+    if (depth > 1) {
+        const cl::NDRange global(grid.global[0], grid.global[1], std::size_t(depth));
+        const cl::NDRange local = lanes > 1 ? cl::NDRange(grid.local[0], grid.local[1], 1) : cl::NullRange;
+        runtime.queue().enqueueNDRangeKernel(kernel, cl::NullRange, global, local, nullptr, &event);
+    } else {
+        runtime.queue().enqueueNDRangeKernel(kernel, cl::NullRange, grid.global, grid.local, nullptr, &event);
+    }
     return event;
 }
 

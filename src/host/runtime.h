@@ -86,10 +86,10 @@ int generation_lanes(const Runtime& runtime, int requested);
 // (the kernels read get_global_id, which includes the offset).
 double run_packets(Runtime& runtime, cl::Kernel& kernel, int width, int height, int lanes, double units = 1, int first_row = 0);
 
-// The same grid as one launch, enqueued without waiting (no bands, no progress): for series of
-// short launches whose host round trips cost about as much as their kernels (auto's probe fills
-// one small lattice per cache entry: 48 on the cup array). Returns the launch's event.
-cl::Event enqueue_packets(Runtime& runtime, cl::Kernel& kernel, int width, int height, int lanes);
+// The same grid as one launch, enqueued without waiting (no bands, no progress), `depth` deep
+// (get_global_id(2): auto's probe fills the small lattices of all cache entries in one launch, 48
+// on the cup array). Returns the launch's event.
+cl::Event enqueue_packets(Runtime& runtime, cl::Kernel& kernel, int width, int height, int lanes, int depth = 1);
 
 // The source of a cl/ file with every #include "…" replaced by the file's text.
 std::string expand_kernel_source(const std::string& path);

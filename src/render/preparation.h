@@ -164,11 +164,6 @@ constexpr bool surface_shadow_cache_pays(double points_to_fill, double fragment_
     return kSurfaceFragmentsPerPoint * points_to_fill <= fragment_evaluations;
 }
 
-// Auto's probe lattices for a frame's `layout`: each lattice's rows (whole along x) in blocks of
-// block × block neighbours along y and z (fewer where the lattice is thinner), one block every
-// `stride` rows of the lattice on each axis, whole blocks only (at least one), centred:
-// ≈ (block/stride)² of the points, placed one after the other (ShadowCacheGpu.row_block,
-// row_block_stride).
 // Points of a cache lattice (dims.x · dims.y · dims.z).
 std::size_t lattice_points(const ShadowCacheGpu& c);
 
@@ -192,6 +187,13 @@ std::array<double, 3> lattice_point_voxel(const ShadowCacheGpu& c, double x, dou
 // light lattice along y, and every k-th packet of `lanes` columns along x), `stride` rows apart,
 // about (block / stride)² of its points (ShadowCacheGpu.row_block, block_origin).
 std::vector<ShadowCacheGpu> probe_lattices(const std::vector<ShadowCacheGpu>& layout, int block, int stride, int lanes);
+
+// Tests: auto's probe lattices (probe_lattices(…, block, stride, …)) of the frame's cache layout,
+// filled as the probe fills them (one launch per kind of lattice, shadow_cache.cpp
+// fill_small_lattices) or, one_launch false, entry by entry as the frame's fill launches; their
+// values one after the other (points a sample cannot read hold 1).
+std::vector<float> probe_fill_values(Context& context, const Scene& scene, const RenderOptions& options, int block, int stride,
+                                     bool one_launch);
 
 // The shadow cache this frame reads, its stale entries filled, or nullptr when every sample and
 // fragment evaluates the technique (options.shadow_cache). Auto weighs the volume part by

@@ -398,11 +398,11 @@ unsigned long long mask_points_in_rows(const std::vector<cl_uint>& words, const 
 
 // shadow_cache_fill's arguments for entry e of `table` into `values`, by the launch's technique,
 // for the points `mode` and `mask` select.
-void bind_fill(const FillLaunch& launch, cl::Kernel& kernel, std::size_t e, std::size_t lights, const cl::Buffer& table,
+void bind_fill(const FillLaunch& launch, cl::Kernel& kernel, std::size_t e, const cl::Buffer& table,
                const cl::Buffer& values, FillMode mode = FillMode::All, const cl::Buffer* mask = nullptr) {
     host::KernelArgs args{kernel};
     bind_scene(args, launch.prepared.scene, launch.camera);
-    args("light_index", cl_uint(e % lights))("cache_entry", cl_uint(e))("shadow_cache_table", table)("shadow_cache", values);
+    args("cache_entry", cl_uint(e))("shadow_cache_table", table)("shadow_cache", values);
     args("fill_mode", cl_uint(mode))("fill_mask", mask ? *mask : launch.no_mask);
     launch.prepared.technique.bind(args, launch.runtime, launch.options);
     args.done();
@@ -411,11 +411,11 @@ void bind_fill(const FillLaunch& launch, cl::Kernel& kernel, std::size_t e, std:
 // shadow_cache_fill of entry e of `table` (lattice c) into `values`, by the launch's technique, of
 // the points `mode` and `mask` select in `rows` (default: all), in bands; returns the kernel time.
 // The frame's fill and auto's probe warm-up run it.
-double fill_lattice(const FillLaunch& launch, FillKernels& kernels, std::size_t e, const ShadowCacheGpu& c, std::size_t lights,
+double fill_lattice(const FillLaunch& launch, FillKernels& kernels, std::size_t e, const ShadowCacheGpu& c,
                     const cl::Buffer& table, const cl::Buffer& values, FillMode mode = FillMode::All, const cl::Buffer* mask = nullptr,
                     std::optional<RowRange> rows = std::nullopt) {
     cl::Kernel& kernel = kernels.of(c);
-    bind_fill(launch, kernel, e, lights, table, values, mode, mask);
+    bind_fill(launch, kernel, e, table, values, mode, mask);
     const RowRange r = rows.value_or(all_rows(c));
     return host::run_packets(launch.runtime, kernel, c.dims.s[0], r.count, launch.lanes, 1, r.first);
 }
@@ -560,7 +560,7 @@ VolumeFill prepare_volume_fill(const FillLaunch& launch, ShadowCache& cache, con
 constexpr int kMeasuredBands = 4, kMeasuredShare = 16, kMeasuredMaxLaunches = 64;
 constexpr unsigned long long kMeasuredMinPoints = 256;
 
-double measure_marked_fill(const FillLaunch& launch, ShadowCache& cache, const VolumePlan& plan, VolumeFill& fill, std::size_t lights,
+double measure_marked_fill(const FillLaunch& launch, ShadowCache& cache, const VolumePlan& plan, VolumeFill& fill,
                            double* measured_ms) {
     host::Runtime& runtime = launch.runtime;
     // its short launches must not make the frame's fill run unbanded, as the probe's (tiled_launch.cpp)
@@ -586,7 +586,7 @@ double measure_marked_fill(const FillLaunch& launch, ShadowCache& cache, const V
             const int first = std::min(rows - band, int((double(b) + 0.5) * rows / bands - 0.5 * band) / 4 * 4);
             if (!fill.done[e].empty() && first < fill.done[e].back().first + fill.done[e].back().count) continue;
             const unsigned long long points = mask_points_in_rows(words, c, RowRange{first, band});
-            entry_ms[e] += fill_lattice(launch, kernels, e, c, lights, cache.table, cache.values, FillMode::Marked, &cache.need, RowRange{first, band});
+            entry_ms[e] += fill_lattice(launch, kernels, e, c, cache.table, cache.values, FillMode::Marked, &cache.need, RowRange{first, band});
             entry_points[e] += points;
             fill.done[e].push_back({first, band});
         }
@@ -607,7 +607,7 @@ double measure_marked_fill(const FillLaunch& launch, ShadowCache& cache, const V
 
 // Fills the entries `fill` names (prepare_volume_fill); returns the kernel time.
 double fill_volume_entries(const FillLaunch& launch, ShadowCache& cache, const VolumePlan& plan, const VolumeFill& fill,
-                           std::size_t lights, RenderStats& stats) {
+                           RenderStats& stats) {
     host::Runtime& runtime = launch.runtime;
     const std::size_t stale_entries = std::size_t(std::count(plan.stale.begin(), plan.stale.end(), true));
     stats.shadow_cache_entries_reused += int(plan.layout.size() - stale_entries);
@@ -628,7 +628,7 @@ double fill_volume_entries(const FillLaunch& launch, ShadowCache& cache, const V
             bands.push_back({rows, 0});
             for (const RowRange& band : bands) {
                 if (band.first > next)
-                    ms += fill_lattice(launch, kernels, e, plan.layout[e], lights, cache.table, cache.values, mode, mask, RowRange{next, band.first - next});
+                    ms += fill_lattice(launch, kernels, e, plan.layout[e], cache.table, cache.values, mode, mask, RowRange{next, band.first - next});
                 next = band.first + band.count;
             }
         }
@@ -675,6 +675,40 @@ double fill_surface_entries(const FillLaunch& launch, SurfaceShadowCache& sc, co
         ++stats.shadow_cache_surface_entries_built;
     }
     return ms;
+}
+
+// One launch of a fill kernel over the entries first … last of a table whose lattices are of one
+// kind (columns: light lattices), and its kernel time.
+struct KindFill {
+    bool columns = false;
+    std::size_t first = 0, last = 0;
+    double ms = 0;
+};
+
+// Auto's probe fill: the small lattices of all entries of `table` (probe_lattices), each kind
+// (volume, light lattices) in one launch as deep as its entries (render.cl fill_entry), into
+// `values`. One launch per entry ran 2–8 work-groups at a time and kept the second core idle
+// (bench/README.md "Where a first run's extra time goes").
+std::vector<KindFill> fill_small_lattices(const FillLaunch& launch, FillKernels& kernels, const std::vector<ShadowCacheGpu>& small,
+                                          const cl::Buffer& table, const cl::Buffer& values) {
+    std::vector<KindFill> fills;
+    for (const bool columns : {false, true}) {
+        KindFill kind{columns, small.size(), 0, 0};
+        int width = 0, rows = 0;
+        for (std::size_t e = 0; e < small.size(); ++e) {
+            if ((small[e].column_axes.s[3] != 0) != columns) continue;
+            kind.first = std::min(kind.first, e), kind.last = e;
+            width = std::max(width, small[e].dims.s[0]), rows = std::max(rows, all_rows(small[e]).count);
+        }
+        if (kind.first > kind.last) continue;
+        cl::Kernel& kernel = kernels.of(small[kind.first]);
+        bind_fill(launch, kernel, kind.first, table, values);
+        cl::Event event = host::enqueue_packets(launch.runtime, kernel, width, rows, launch.lanes, int(kind.last - kind.first + 1));
+        event.wait();
+        kind.ms = host::Runtime::event_ms(event);
+        fills.push_back(kind);
+    }
+    return fills;
 }
 
 }  // namespace
@@ -739,7 +773,7 @@ struct VolumeCosts {
 
 // `all_stages` (SOMBRA_AUTO_PROBE_ALL): every stage runs whatever the earlier ones found, each
 // reported there, and two more fills, in blocks of 4 and 8 rows every 64 (bench/probe_accuracy.py).
-VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan, std::size_t lights, int width, int height,
+VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan, int width, int height,
                                const surfaces::ViewFragments* fragments, const SurfaceShadowCache* surface_cache,
                                std::vector<RenderStats::ProbeStage>* all_stages) {
     host::Runtime& runtime = launch.runtime;
@@ -768,26 +802,19 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
             ShadowCacheGpu warm = small[0];
             warm.dims.s[2] = std::min(warm.dims.s[2], int(warm.row_block));
             for (int k = 0; warm_ms < kProbeWarmupMs && k < kProbeWarmupLaunches; ++k)
-                warm_ms += fill_lattice(launch, kernels, 0, warm, lights, table, values);
+                warm_ms += fill_lattice(launch, kernels, 0, warm, table, values);
             costs.probe_ms += warm_ms;
         }
-        // every entry's small lattice enqueued before any is waited for, one launch each, each
-        // timed by its event: waiting on each cost the cup array's 48 entries ≈ 0.08 ms apiece
-        // (its rays' fill probe 12.0–12.2 → 8.2–8.5 ms wall for the same kernel time,
-        // bench/README.md "Where a first run's extra time goes")
-        std::vector<cl::Event> events;
-        for (std::size_t e = 0; e < small.size(); ++e) {
-            cl::Kernel& kernel = kernels.of(small[e]);
-            bind_fill(launch, kernel, e, lights, table, values);
-            events.push_back(host::enqueue_packets(runtime, kernel, small[e].dims.s[0], all_rows(small[e]).count, launch.lanes));
-        }
-        runtime.queue().flush();
         double probe_ms = 0;
-        for (std::size_t e = 0; e < small.size(); ++e) {
-            events[e].wait();
-            const double ms = host::Runtime::event_ms(events[e]);
-            probe_ms += ms;
-            if (plan.stale[e]) fill_ms += ms * double(lattice_points(plan.layout[e])) / double(lattice_points(small[e]));
+        for (const KindFill& kind : fill_small_lattices(launch, kernels, small, table, values)) {
+            probe_ms += kind.ms;
+            double small_points = 0, stale_points = 0;
+            for (std::size_t e = kind.first; e <= kind.last; ++e) {
+                if ((small[e].column_axes.s[3] != 0) != kind.columns) continue;
+                small_points += double(lattice_points(small[e]));
+                if (plan.stale[e]) stale_points += double(lattice_points(plan.layout[e]));
+            }
+            fill_ms += kind.ms * stale_points / std::max(small_points, 1.0);
         }
         costs.probe_ms += probe_ms;
         if (all_stages) all_stages->push_back({"fill", "blocks " + std::to_string(block) + " every " + std::to_string(stride), probe_ms, fill_ms});
@@ -1044,7 +1071,7 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
     if (measure) {  // a probe's passes read the surface part as the frame will
         const auto probe_start = std::chrono::steady_clock::now();
         const bool all_stages = std::getenv("SOMBRA_AUTO_PROBE_ALL") != nullptr;
-        VolumeCosts costs = probe_volume_costs(launch, volumes, lights, width, height, fragments, surface_reads,
+        VolumeCosts costs = probe_volume_costs(launch, volumes, width, height, fragments, surface_reads,
                                                all_stages ? &stats.shadow_cache_probe_stages : nullptr);
         const auto probe_end = std::chrono::steady_clock::now();
         // the visible fill's marking pass costs about a cached camera pass: it is run when that
@@ -1067,7 +1094,7 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
             if ((!shadow_cache_pays(costs.fill_ms, costs.cached_ms, costs.per_sample_ms) &&
                  shadow_cache_pays(costs.fill_ms / kMeasureFillBelow, costs.cached_ms, costs.per_sample_ms)) ||
                 test_measure) {
-                const double measured = measure_marked_fill(launch, *cache, volumes, fill, lights, &measured_fill_ms);
+                const double measured = measure_marked_fill(launch, *cache, volumes, fill, &measured_fill_ms);
                 if (measured >= 0) costs.fill_ms = measured;
                 stats.stage_ms["shadow_cache_measure"] = measured_fill_ms;
             }
@@ -1102,13 +1129,42 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
     }
     if (volumes.use) {
         if (!fill.prepared) fill = prepare_volume_fill(launch, *cache, volumes, mark_for_fill, surface_reads, stats);
-        ms += fill_volume_entries(launch, *cache, volumes, fill, lights, stats);
+        ms += fill_volume_entries(launch, *cache, volumes, fill, stats);
     }
     if (ms > 0 || stats.shadow_cache_entries_built + stats.shadow_cache_surface_entries_built > 0) stats.stage_ms["shadow_cache"] = ms;
     stats.shadow_cache_used = true;
     stats.shadow_cache_surfaces_used = surfaces.use;
     stats.shadow_cache_bytes = (volumes.use ? cache->bytes : 0) + (surfaces.use ? cache->surfaces.bytes : 0);
     return cache.get();
+}
+
+std::vector<float> probe_fill_values(Context& context, const Scene& scene, const RenderOptions& options, int block, int stride,
+                                     bool one_launch) {
+    RenderStats stats;
+    const Prepared prepared = prepare(context, scene, options, stats);
+    host::Runtime& runtime = context.runtime();
+    const int width = options.width > 0 ? options.width : scene.width, height = options.height > 0 ? options.height : scene.height;
+    const int lanes = host::packet_lanes(runtime, options.lanes);
+    const VolumePlan plan = plan_volume_entries(runtime, scene, prepared, options, ShadowCache(), stats);
+    CameraGpu camera = packing::pack_camera(scene, width, height);
+    camera.jitter_seed = options.jitter_seed;
+    const FillLaunch launch{runtime, scene, prepared, options,
+                            runtime.program("render.cl", camera_pass_defines(scene, options, prepared, lanes, false)),
+                            host::make_buffer(runtime, CL_MEM_READ_ONLY, sizeof(CameraGpu), &camera, "camera"), lanes,
+                            host::make_buffer(runtime, CL_MEM_READ_ONLY, sizeof(cl_uint), nullptr, "no points to fill"), width, height,
+                            nullptr};
+    const std::vector<ShadowCacheGpu> small = probe_lattices(plan.layout, block, stride, lanes);
+    std::vector<float> values(small.back().offset + lattice_points(small.back()), -1.f);
+    cl::Buffer value_buffer = host::make_buffer(runtime, CL_MEM_READ_WRITE, values.size() * sizeof(float), values.data(), "probe values");
+    cl::Buffer table = host::make_buffer(runtime, CL_MEM_READ_ONLY, small.size() * sizeof(ShadowCacheGpu), small.data(), "probe table");
+    FillKernels kernels{launch.program, {}, {}};
+    if (one_launch) {
+        fill_small_lattices(launch, kernels, small, table, value_buffer);
+    } else {
+        for (std::size_t e = 0; e < small.size(); ++e) fill_lattice(launch, kernels, e, small[e], table, value_buffer);
+    }
+    runtime.queue().enqueueReadBuffer(value_buffer, CL_TRUE, 0, values.size() * sizeof(float), values.data());
+    return values;
 }
 
 void record_auto_history(Context& context, const RenderStats& stats) {
