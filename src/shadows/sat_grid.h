@@ -114,6 +114,7 @@ struct DeviceSat {
     std::size_t bytes = 0;
     std::map<std::string, double> stage_ms;
     std::vector<double> table_build_ms;  // per table: its kernels' time when this call built it, else 0
+    std::vector<std::string> extinction;  // per volume: the extinction key the tables were built for (sat_update.h extinction_keys)
 };
 
 // The tables of a DeviceSat, numbered: first its CSAT frames, then the SSAT of each point or spot

@@ -79,7 +79,8 @@ DeviceSat update_sats(host::Runtime& runtime, const Scene& scene, const packing:
                       SatPool& pool, SatUpdateCounts& counts, double coarsen) {
     DeviceSat sat = light_aligned ? plan_light_sats(packed, max_entries, coarsen) : plan_volume_sat(packed, max_entries, coarsen);
     sat.lanes = lanes;
-    const std::vector<std::string> extinction = extinction_keys(scene, packed, device_scene.uses_images);
+    sat.extinction = extinction_keys(scene, packed, device_scene.uses_images);
+    const std::vector<std::string>& extinction = sat.extinction;
     std::size_t n = sat_table_count(sat), needed = 0;
     std::vector<std::string> keys(n);
     for (std::size_t t = 0; t < n; ++t) {  // a table depends on the volumes it holds only
