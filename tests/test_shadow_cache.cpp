@@ -328,6 +328,21 @@ TEST_CASE("shadow cache: a volume's change refills only the entries it can reach
         s.volumes[0].transform[3] = -0.9f;  // a moved volume moves every light's maps: every entry
         CHECK(render(context, s, o).stats.shadow_cache_entries_built == 4);
     }
+    // the SAT techniques key entries by the tables they read and the extinction keys their tables
+    // were built for (DeviceSat.extinction): a changed volume refills its own entries, and the
+    // image is a fresh Context's
+    for (ShadowTechnique technique : {ShadowTechnique::Lowpass, ShadowTechnique::Ao}) {
+        INFO(shadow_technique_name(technique));
+        Context context(test::device_selector()), fresh(test::device_selector());
+        Scene s = scene;
+        RenderOptions o = cache_options(technique, ShadowCacheMode::On);
+        CHECK(render(context, s, o).stats.shadow_cache_entries_built == 4);
+        CHECK(render(context, s, o).stats.shadow_cache_entries_built == 0);  // nothing changed
+        s.volumes[1].transfer_function = test::ramp_tf(0.2f, 0.6f, 0.8f);
+        RenderResult r = render(context, s, o);
+        CHECK(r.stats.shadow_cache_entries_built >= 2);
+        CHECK(test::compare(r.image, render(fresh, s, o).image).max_abs <= 1e-6);
+    }
 }
 
 // Voxel coordinate of index k of a lattice along y or z: render.cl lattice_voxel.
