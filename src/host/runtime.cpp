@@ -246,14 +246,10 @@ double run_packets(Runtime& runtime, cl::Kernel& kernel, int width, int height, 
 
 cl::Event enqueue_packets(Runtime& runtime, cl::Kernel& kernel, int width, int height, int lanes, int depth) {
     const PacketGrid grid = packet_grid(width, height, lanes);
+    const cl::NDRange global(grid.global[0], grid.global[1], std::size_t(depth));
+    const cl::NDRange local = lanes > 1 ? cl::NDRange(grid.local[0], grid.local[1], 1) : cl::NullRange;
     cl::Event event;
-    if (depth > 1) {
-        const cl::NDRange global(grid.global[0], grid.global[1], std::size_t(depth));
-        const cl::NDRange local = lanes > 1 ? cl::NDRange(grid.local[0], grid.local[1], 1) : cl::NullRange;
-        runtime.queue().enqueueNDRangeKernel(kernel, cl::NullRange, global, local, nullptr, &event);
-    } else {
-        runtime.queue().enqueueNDRangeKernel(kernel, cl::NullRange, grid.global, grid.local, nullptr, &event);
-    }
+    runtime.queue().enqueueNDRangeKernel(kernel, cl::NullRange, global, local, nullptr, &event);
     return event;
 }
 

@@ -360,6 +360,19 @@ struct FillLaunch {
     const surfaces::ViewFragments* fragments;  // the frame's (mesh scenes; else null)
 };
 
+// The fills' launch for a frame: its camera (jittered as the frame's) and the camera pass's
+// program (reading the surface part when `surface_reads`).
+FillLaunch fill_launch(host::Runtime& runtime, const Scene& scene, const Prepared& prepared, const RenderOptions& options, int lanes,
+                       bool surface_reads, int width, int height, const surfaces::ViewFragments* fragments) {
+    CameraGpu camera = packing::pack_camera(scene, width, height);
+    camera.jitter_seed = options.jitter_seed;  // the fills' shadow rays start where the camera pass's would
+    return FillLaunch{runtime, scene, prepared, options,
+                      runtime.program("render.cl", camera_pass_defines(scene, options, prepared, lanes, surface_reads)),
+                      host::make_buffer(runtime, CL_MEM_READ_ONLY, sizeof(CameraGpu), &camera, "camera"), lanes,
+                      host::make_buffer(runtime, CL_MEM_READ_ONLY, sizeof(cl_uint), nullptr, "no points to fill"), width, height,
+                      fragments};
+}
+
 // Which points of a lattice shadow_cache_fill evaluates (its fill_mode): every point a sample can
 // read; those of a mask (the visible fill's need); those a sample can read outside a mask (the
 // rest of an entry, after its filled points).
@@ -677,11 +690,10 @@ double fill_surface_entries(const FillLaunch& launch, SurfaceShadowCache& sc, co
     return ms;
 }
 
-// One launch of a fill kernel over the entries first … last of a table whose lattices are of one
-// kind (columns: light lattices), and its kernel time.
+// The kernel time of one launch of a fill kernel over a table's lattices of one kind (columns:
+// light lattices).
 struct KindFill {
     bool columns = false;
-    std::size_t first = 0, last = 0;
     double ms = 0;
 };
 
@@ -693,20 +705,19 @@ std::vector<KindFill> fill_small_lattices(const FillLaunch& launch, FillKernels&
                                           const cl::Buffer& table, const cl::Buffer& values) {
     std::vector<KindFill> fills;
     for (const bool columns : {false, true}) {
-        KindFill kind{columns, small.size(), 0, 0};
+        std::size_t first = small.size(), last = 0;  // the kind's entries lie in first … last
         int width = 0, rows = 0;
         for (std::size_t e = 0; e < small.size(); ++e) {
             if ((small[e].column_axes.s[3] != 0) != columns) continue;
-            kind.first = std::min(kind.first, e), kind.last = e;
+            first = std::min(first, e), last = e;
             width = std::max(width, small[e].dims.s[0]), rows = std::max(rows, all_rows(small[e]).count);
         }
-        if (kind.first > kind.last) continue;
-        cl::Kernel& kernel = kernels.of(small[kind.first]);
-        bind_fill(launch, kernel, kind.first, table, values);
-        cl::Event event = host::enqueue_packets(launch.runtime, kernel, width, rows, launch.lanes, int(kind.last - kind.first + 1));
+        if (first > last) continue;
+        cl::Kernel& kernel = kernels.of(small[first]);
+        bind_fill(launch, kernel, first, table, values);
+        cl::Event event = host::enqueue_packets(launch.runtime, kernel, width, rows, launch.lanes, int(last - first + 1));
         event.wait();
-        kind.ms = host::Runtime::event_ms(event);
-        fills.push_back(kind);
+        fills.push_back({columns, host::Runtime::event_ms(event)});
     }
     return fills;
 }
@@ -809,7 +820,7 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
         for (const KindFill& kind : fill_small_lattices(launch, kernels, small, table, values)) {
             probe_ms += kind.ms;
             double small_points = 0, stale_points = 0;
-            for (std::size_t e = kind.first; e <= kind.last; ++e) {
+            for (std::size_t e = 0; e < small.size(); ++e) {
                 if ((small[e].column_axes.s[3] != 0) != kind.columns) continue;
                 small_points += double(lattice_points(small[e]));
                 if (plan.stale[e]) stale_points += double(lattice_points(plan.layout[e]));
@@ -1001,7 +1012,6 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
     if (!cache) cache = std::make_unique<ShadowCache>();
     cache->history_pending.reset();
     const std::size_t lights = scene.lights.size();
-    CameraGpu camera = packing::pack_camera(scene, width, height);
     VolumePlan volumes = scene.volumes.empty() ? VolumePlan() : plan_volume_entries(runtime, scene, prepared, options, *cache, stats);
     SurfacePlan surfaces = has_surfaces ? plan_surface_entries(scene, prepared, options, fragments ? fragments->fragments.stats.fragments : 0, cache->surfaces, stats)
                                         : SurfacePlan();
@@ -1054,14 +1064,9 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
         return nullptr;
     }
 
-    camera.jitter_seed = options.jitter_seed;  // the fills' shadow rays start where the camera pass's would
     // the program of the frame's camera pass (it reads the volume lattices or not per launch; the
     // fills read no cache: any variant fills alike)
-    const FillLaunch launch{runtime, scene, prepared, options,
-                            runtime.program("render.cl", camera_pass_defines(scene, options, prepared, lanes, surfaces.use)),
-                            host::make_buffer(runtime, CL_MEM_READ_ONLY, sizeof(CameraGpu), &camera, "camera"), lanes,
-                            host::make_buffer(runtime, CL_MEM_READ_ONLY, sizeof(cl_uint), nullptr, "no points to fill"), width, height,
-                            fragments};
+    const FillLaunch launch = fill_launch(runtime, scene, prepared, options, lanes, surfaces.use, width, height, fragments);
     const bool may_mark = options.shadow_cache_fill == ShadowCacheFill::Visible;
     bool mark_for_fill = may_mark && history_marks;  // the frame's fill, when the cache is read and not yet marked
     const SurfaceShadowCache* surface_reads = surfaces.use ? &cache->surfaces : nullptr;
@@ -1146,13 +1151,7 @@ std::vector<float> probe_fill_values(Context& context, const Scene& scene, const
     const int width = options.width > 0 ? options.width : scene.width, height = options.height > 0 ? options.height : scene.height;
     const int lanes = host::packet_lanes(runtime, options.lanes);
     const VolumePlan plan = plan_volume_entries(runtime, scene, prepared, options, ShadowCache(), stats);
-    CameraGpu camera = packing::pack_camera(scene, width, height);
-    camera.jitter_seed = options.jitter_seed;
-    const FillLaunch launch{runtime, scene, prepared, options,
-                            runtime.program("render.cl", camera_pass_defines(scene, options, prepared, lanes, false)),
-                            host::make_buffer(runtime, CL_MEM_READ_ONLY, sizeof(CameraGpu), &camera, "camera"), lanes,
-                            host::make_buffer(runtime, CL_MEM_READ_ONLY, sizeof(cl_uint), nullptr, "no points to fill"), width, height,
-                            nullptr};
+    const FillLaunch launch = fill_launch(runtime, scene, prepared, options, lanes, false, width, height, nullptr);
     const std::vector<ShadowCacheGpu> small = probe_lattices(plan.layout, block, stride, lanes);
     std::vector<float> values(small.back().offset + lattice_points(small.back()), -1.f);
     cl::Buffer value_buffer = host::make_buffer(runtime, CL_MEM_READ_WRITE, values.size() * sizeof(float), values.data(), "probe values");
