@@ -48,6 +48,14 @@ struct Frame {
     bool cache_used = false;
 };
 
+// --estimates: each frame's line on stderr, auto's estimates next to the kernel times the frame took
+bool print_estimates = false;
+
+double stage_ms(const sombra::RenderStats& stats, const char* stage) {
+    const auto found = stats.stage_ms.find(stage);
+    return found == stats.stage_ms.end() ? 0 : found->second;
+}
+
 // One frame on a fresh Context with auto's remembered choices forgotten (a first frame of the
 // process): the wall time of render().
 Frame one_frame(const std::string& device, const sombra::Scene& scene, const sombra::RenderOptions& options) {
@@ -57,6 +65,16 @@ Frame one_frame(const std::string& device, const sombra::Scene& scene, const som
     const sombra::RenderResult result = sombra::render(context, scene, options);
     // the volume lattices' part (what auto chooses; the meshes' surface part follows its own counts)
     const bool volumes_cached = result.stats.shadow_cache_used && result.stats.shadow_cache_entries_built + result.stats.shadow_cache_entries_reused > 0;
+    if (print_estimates) {
+        const sombra::RenderStats& s = result.stats;
+        std::cerr << "  " << sombra::render_option_value(options, "shadow_cache") << (volumes_cached ? " (cache)" : " (no cache)")
+                  << ": kernels fill " << fixed(stage_ms(s, "shadow_cache"), 1) << " camera pass " << fixed(stage_ms(s, "camera_pass"), 1);
+        if (s.shadow_cache_probe_ms > 0)
+            std::cerr << "; estimated fill " << fixed(s.shadow_cache_estimated_fill_ms, 1) << " cached pass "
+                      << fixed(s.shadow_cache_estimated_cached_ms, 1) << " per-sample pass " << fixed(s.shadow_cache_estimated_per_sample_ms, 1)
+                      << " probe " << fixed(s.shadow_cache_probe_ms, 1);
+        std::cerr << "\n";
+    }
     return {std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count(), volumes_cached};
 }
 
@@ -119,6 +137,7 @@ int main(int argc, char** argv) {
     app.add_option("--slow-ms", slow_ms, "a cell whose off frame takes longer is timed once per mode")->capture_default_str();
     app.add_option("--device", device, "OpenCL device")->capture_default_str();
     app.add_option("--out", out, "also write the Markdown table here");
+    app.add_flag("--estimates", print_estimates, "each frame's kernel times and auto's estimates on stderr");
     app.add_flag("--noise", noise, "a second off frame per round: off again ÷ off, the bench's own spread");
     CLI11_PARSE(app, argc, argv);
     const std::filesystem::path history_root = std::filesystem::temp_directory_path() / "sombra-bench-cache-auto-history";

@@ -350,9 +350,14 @@ float lattice_voxel_reference(const ShadowCacheGpu& c, unsigned k, float spacing
     return float(k / c.row_block) * spacing + float(k % c.row_block) * (spacing / float(c.row_block_stride)) + origin;
 }
 
+// Blocks of `b` rows, `step` apart, centred inside `n` rows: how many whole ones fit
+// (shadow_cache.cpp probe_lattices).
+int probe_blocks(int n, int b, int step) { return std::max(1, (n - b) / step + 1); }
+
 TEST_CASE("shadow cache auto: the probe's lattices are centred blocks of neighbouring rows inside each lattice", "[shadow_cache]") {
-    // frames' lattices: big cubes, a volume's halved one, thin ones (one row along y; 3 rows)
-    const int dims[][3] = {{112, 112, 112}, {181, 217, 181}, {64, 1, 40}, {20, 3, 100}, {8, 40, 33}};
+    // frames' lattices: big cubes, a volume's halved one, thin ones (one row along y; 3 rows),
+    // small ones as the steaming cups' steam (48–105 rows across)
+    const int dims[][3] = {{112, 112, 112}, {181, 217, 181}, {64, 1, 40}, {20, 3, 100}, {8, 40, 33}, {48, 48, 48}, {64, 79, 74}, {83, 40, 53}};
     std::vector<ShadowCacheGpu> layout;
     cl_uint offset = 0;
     for (const auto& d : dims) {
@@ -376,6 +381,27 @@ TEST_CASE("shadow cache auto: the probe's lattices are centred blocks of neighbo
             CHECK(c.spacing.s[0] == full.spacing.s[0]);
             const int b = std::min({block, full.dims.s[1], full.dims.s[2]});
             CHECK(int(c.row_block) == b);
+            // blocks `step` apart: `stride`, or closer on a small lattice, until 4 lie along each
+            // axis or the probe would hold over 4 × (block / stride)² of the lattice's points
+            const int step = int(c.row_block_stride);
+            CHECK(step <= stride);
+            CHECK(step >= b);
+            auto fewest_blocks = [&](int s) {
+                int fewest = 1 << 30;
+                for (int a = 1; a < 3; ++a)
+                    if (full.dims.s[a] > b) fewest = std::min(fewest, probe_blocks(full.dims.s[a], b, s));
+                return fewest;
+            };
+            auto probe_points = [&](int s) {
+                return double(full.dims.s[0]) * probe_blocks(full.dims.s[1], b, s) * b * probe_blocks(full.dims.s[2], b, s) * b;
+            };
+            const double cap = 4.0 * double(block * block) / (double(stride) * stride) * double(pipeline::lattice_points(full));
+            CHECK(double(pipeline::lattice_points(c)) == probe_points(step));
+            if (step < stride) {
+                CHECK(fewest_blocks(step + 1) < 4);  // closer only while too few
+                CHECK(probe_points(step) <= cap);
+            }
+            if (fewest_blocks(step) < 4 && step > b) CHECK(probe_points(step - 1) > cap);  // no closer within the cap
             for (int a = 1; a < 3; ++a) {
                 REQUIRE(c.dims.s[a] % b == 0);
                 REQUIRE(c.dims.s[a] >= b);
@@ -389,14 +415,13 @@ TEST_CASE("shadow cache auto: the probe's lattices are centred blocks of neighbo
                 CHECK(rows.front() >= 0);  // inside, centred
                 CHECK(rows.back() <= full.dims.s[a] - 1);
                 CHECK(std::abs(rows.front() - (full.dims.s[a] - 1 - rows.back())) <= 1);
-                CHECK(int(c.row_block_stride) == stride);
-                for (std::size_t k = 1; k < rows.size(); ++k)  // neighbours in a block, blocks `stride` rows apart
-                    CHECK(rows[k] - rows[k - 1] == (k % std::size_t(b) ? 1 : stride - b + 1));
-                CHECK(rows.back() + stride > full.dims.s[a] - 1);  // as many blocks as fit: a next one would not
+                for (std::size_t k = 1; k < rows.size(); ++k)  // neighbours in a block, blocks `step` rows apart
+                    CHECK(rows[k] - rows[k - 1] == (k % std::size_t(b) ? 1 : step - b + 1));
+                CHECK(rows.back() + step > full.dims.s[a] - 1);  // as many blocks as fit: a next one would not
             }
             // big lattices: ≈ (block / stride)² of the points
-            CHECK(c.row_block_stride >= 8);  // few enough points to be a probe
-            if (full.dims.s[1] >= 64 && full.dims.s[2] >= 64) {
+            CHECK(c.row_block_stride >= std::min<cl_uint>(8, cl_uint(stride) / 2));  // few enough points to be a probe
+            if (step == stride && full.dims.s[1] >= 64 && full.dims.s[2] >= 64) {
                 const double share = double(c.dims.s[1]) * c.dims.s[2] / (double(full.dims.s[1]) * full.dims.s[2]);
                 const double expected = double(block * block) / (double(c.row_block_stride) * c.row_block_stride);
                 CHECK(share > 0.5 * expected);
@@ -408,7 +433,7 @@ TEST_CASE("shadow cache auto: the probe's lattices are centred blocks of neighbo
 
 TEST_CASE("shadow cache auto: a light lattice's probe takes blocks of rows along y and spread packets of columns along x", "[shadow_cache]") {
     // light lattices (column_axes.w = 1, index units): big, small (the cups'), narrower than a packet
-    const int dims[][3] = {{300, 520, 180}, {96, 64, 200}, {40, 32, 32}, {6, 50, 70}, {17, 3, 9}};
+    const int dims[][3] = {{300, 520, 180}, {96, 64, 200}, {40, 32, 32}, {6, 50, 70}, {17, 3, 9}, {600, 700, 90}};
     for (int lanes : {8, 16}) {
         std::vector<ShadowCacheGpu> layout;
         cl_uint offset = 0;
@@ -456,10 +481,15 @@ TEST_CASE("shadow cache auto: a light lattice's probe takes blocks of rows along
                 CHECK(std::abs(rows.front() - (full.dims.s[1] - 1 - rows.back())) <= 1);
                 // packets as far apart in columns as the blocks are in rows (within a packet)
                 if (full.dims.s[0] > lanes) CHECK(std::abs(packet_columns - float(c.row_block_stride)) < float(lanes));
-                // big lattices: ≈ (block / stride)² of the points, as a volume lattice's probe
-                if (full.dims.s[0] >= 2 * int(c.row_block_stride) && full.dims.s[1] >= 2 * int(c.row_block_stride)) {
-                    const double share = double(pipeline::lattice_points(c)) / double(pipeline::lattice_points(full));
-                    const double expected = double(block * block) / (double(stride) * stride);
+                // big lattices: ≈ (block / stride)² of the points, as a volume lattice's probe; small
+                // ones, whose blocks lie closer, at most 4 × that
+                const double share = double(pipeline::lattice_points(c)) / double(pipeline::lattice_points(full));
+                const double expected = double(block * block) / (double(stride) * stride);
+                const int nominal_step = int(std::lround(std::sqrt(double(b) * lanes) * stride / b));
+                CHECK(int(c.row_block_stride) <= nominal_step);
+                if (int(c.row_block_stride) < nominal_step) CHECK(share <= 4 * expected);
+                if (full.dims.s[0] >= 4 * nominal_step && full.dims.s[1] >= 4 * nominal_step) CHECK(int(c.row_block_stride) == nominal_step);
+                if (int(c.row_block_stride) == nominal_step && full.dims.s[0] >= 2 * nominal_step && full.dims.s[1] >= 2 * nominal_step) {
                     CHECK(share > 0.5 * expected);
                     CHECK(share < 2.0 * expected);
                 }

@@ -12,6 +12,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <deque>
+#include <limits>
 #include <map>
 #include <mutex>
 #include <numeric>
@@ -40,6 +41,10 @@ constexpr int kSurfaceRowPoints = 1024;                              // rows of 
 // first (1/1024 of the points), every 32 rows unless that already decided (1/256), on close calls
 // 4 × 4 every 32 (1/64)
 constexpr int kProbeBlock = 2, kProbeCloseCallBlock = 4, kProbeCoarseStride = 64, kProbeBlockStride = 32;
+// along each axis of a lattice, however small, while it holds at most 4 × (block / stride)² of its
+// points (probe_lattices)
+constexpr int kProbeMinBlocks = 4;
+constexpr double kProbeMaxShare = 4;
 // A decision from the coarse fill alone needs one side to cost 3 times the other (twice after the
 // finer fills).
 constexpr double kProbeCoarseClear = 3, kProbeClear = 2;
@@ -725,36 +730,62 @@ std::vector<KindFill> fill_small_lattices(const FillLaunch& launch, FillKernels&
 }  // namespace
 
 std::vector<ShadowCacheGpu> probe_lattices(const std::vector<ShadowCacheGpu>& layout, int block, int stride, int lanes) {
-    std::vector<ShadowCacheGpu> small = layout;
+    std::vector<ShadowCacheGpu> small;
     std::size_t total = 0;
-    for (ShadowCacheGpu& c : small) {
+    for (const ShadowCacheGpu& full : layout) {
         // a light lattice: blocks of whole columns along y, and along x every k-th packet of
         // `lanes` neighbouring columns, k · lanes columns apart as the blocks' rows are (below)
-        const bool columns = c.column_axes.s[3] != 0;
-        const int b = std::min({block, c.dims.s[1], columns ? block : c.dims.s[2]});
-        const int step = columns ? int(std::lround(std::sqrt(double(b) * lanes) * stride / b)) : stride;  // rows from one block to the next
-        for (std::size_t a = 1; a < (columns ? 2u : 3u); ++a) {
-            const int n = c.dims.s[a], blocks = std::max(1, (n - b) / step + 1);  // whole blocks inside
-            // centred: a lattice's border rows are mostly empty space, cheap to fill
-            c.block_origin.s[a] = float((n - ((blocks - 1) * step + b)) / 2) * c.spacing.s[a];
-            c.dims.s[a] = blocks * b;
-            c.spacing.s[a] *= float(step);
+        const bool columns = full.column_axes.s[3] != 0;
+        const int b = std::min({block, full.dims.s[1], columns ? block : full.dims.s[2]});
+        // the probe lattice of blocks `s` rows apart (on a volume lattice), and how many blocks it
+        // has along its fewest axis
+        auto blocks_apart = [&](int s, int* fewest) {
+            ShadowCacheGpu c = full;
+            // rows from one block to the next
+            const int step = std::max(b, columns ? int(std::lround(std::sqrt(double(b) * lanes) * s / b)) : s);
+            *fewest = std::numeric_limits<int>::max();
+            for (std::size_t a = 1; a < (columns ? 2u : 3u); ++a) {
+                const int n = c.dims.s[a], blocks = std::max(1, (n - b) / step + 1);  // whole blocks inside
+                if (n > b) *fewest = std::min(*fewest, blocks);
+                // centred: a lattice's border rows are mostly empty space, cheap to fill
+                c.block_origin.s[a] = float((n - ((blocks - 1) * step + b)) / 2) * c.spacing.s[a];
+                c.dims.s[a] = blocks * b;
+                c.spacing.s[a] *= float(step);
+            }
+            if (columns && c.dims.s[0] > lanes) {
+                // (b / step) · (lanes / step) = (block / stride)², the share of the points a volume
+                // lattice's blocks hold. Before, whole rows of blocks along y every stride² / b rows:
+                // a small lattice's one block held 2/dims.y of its points (the cup array's 48 entries:
+                // 1/16, a 37 ms probe of a 1 s fill; the CT's: 1/128), and the CT's centred block
+                // estimated its fill of all points, 0.87 s, at 1.5–1.8 s
+                const int n = c.dims.s[0], k = std::max(1, step / lanes);
+                const int packets = (n - lanes) / (k * lanes) + 1;  // whole packets inside, centred
+                *fewest = std::min(*fewest, packets);
+                c.block_origin.s[0] = float((n - ((packets - 1) * k * lanes + lanes)) / 2);
+                c.block_origin.s[3] = float(k * lanes);
+                c.dims.s[0] = packets * lanes;
+            }
+            c.row_block = cl_uint(b), c.row_block_stride = cl_uint(step);
+            return c;
+        };
+        int fewest = 0;
+        ShadowCacheGpu c = blocks_apart(stride, &fewest);
+        // a small lattice: blocks closer together, until kProbeMinBlocks lie along each axis (and
+        // as many packets along a light lattice's x) or the probe would hold kProbeMaxShare times
+        // (block / stride)² of its points. One centred block of a lattice 40–105 rows across
+        // sampled its densest middle: the steaming cups' low-pass fill, 32–37 ms, was estimated
+        // at 64–109 ms from one block every 64 rows, at 18–22 ms from two every 32
+        // (bench/README.md "At least four blocks along each axis")
+        const double max_points = kProbeMaxShare * double(block * block) / (double(stride) * stride) * double(lattice_points(full));
+        for (int s = stride - 1; s >= b && fewest < kProbeMinBlocks; --s) {
+            int closer_fewest = 0;
+            const ShadowCacheGpu closer = blocks_apart(s, &closer_fewest);
+            if (double(lattice_points(closer)) > max_points) break;
+            c = closer, fewest = closer_fewest;
         }
-        if (columns && c.dims.s[0] > lanes) {
-            // (b / step) · (lanes / step) = (block / stride)², the share of the points a volume
-            // lattice's blocks hold. Before, whole rows of blocks along y every stride² / b rows:
-            // a small lattice's one block held 2/dims.y of its points (the cup array's 48 entries:
-            // 1/16, a 37 ms probe of a 1 s fill; the CT's: 1/128), and the CT's centred block
-            // estimated its fill of all points, 0.87 s, at 1.5–1.8 s
-            const int n = c.dims.s[0], k = std::max(1, step / lanes);
-            const int packets = (n - lanes) / (k * lanes) + 1;  // whole packets inside, centred
-            c.block_origin.s[0] = float((n - ((packets - 1) * k * lanes + lanes)) / 2);
-            c.block_origin.s[3] = float(k * lanes);
-            c.dims.s[0] = packets * lanes;
-        }
-        c.row_block = cl_uint(b), c.row_block_stride = cl_uint(step);
         c.offset = cl_uint(total);  // c.reach stays: points near the same bricks are evaluated
         total += lattice_points(c);
+        small.push_back(c);
     }
     return small;
 }
