@@ -6,6 +6,7 @@
 #include <fstream>
 #include <map>
 #include <set>
+#include <thread>
 #include <nlohmann/json.hpp>
 
 #include "host/kernel_args.h"
@@ -267,4 +268,40 @@ TEST_CASE("runtime: PoCL's work-group specialization is turned off unless the us
     std::size_t specialized = 0;  // kernels with more than the generic function
     for (const auto& [kernel, names] : variants_after_render("1")) specialized += names.size() > 1;
     CHECK(specialized >= 2);  // the DSM build and the camera pass, launched in bands
+}
+
+// PoCL's worker threads are pinned, one per CPU, unless the user set POCL_AFFINITY (src/host/
+// runtime.cpp set_pocl_defaults; unpinned, auto's short probe launches ran at about half speed in
+// most processes). Checked on the threads themselves: after a render, PoCL's workers each allow
+// one CPU, and together more than one (/proc/self/task/*/status Cpus_allowed_list).
+TEST_CASE("runtime: PoCL's threads are pinned unless the user set POCL_AFFINITY", "[program_cache]") {
+    const char* before = std::getenv("POCL_AFFINITY");
+    if (before && std::string(before) != "1") {
+        WARN("POCL_AFFINITY=" << before << " set by the user: kept, not checked");
+        return;
+    }
+    bool pocl = false;
+    for (const auto& d : list_devices()) pocl = pocl || d.platform.find("Portable Computing Language") != std::string::npos;
+    if (!pocl || std::thread::hardware_concurrency() < 2) {
+        WARN("no PoCL platform or one CPU: not checked");
+        return;
+    }
+    REQUIRE(std::getenv("POCL_AFFINITY") != nullptr);
+    CHECK(std::string(std::getenv("POCL_AFFINITY")) == "1");
+    Context context(test::device_selector());
+    RenderOptions o = test::unshadowed();
+    o.width = o.height = 16;
+    render(context, test::overlapping_scene(), o);  // PoCL starts its workers at its first launch
+    std::set<std::string> single_cpus;  // the CPUs of threads allowed on one CPU only
+    for (const auto& task : fs::directory_iterator("/proc/self/task")) {
+        std::ifstream status(task.path() / "status");
+        for (std::string line; std::getline(status, line);) {
+            const std::string key = "Cpus_allowed_list:";
+            if (line.compare(0, key.size(), key) != 0) continue;
+            std::string cpus = line.substr(key.size());
+            cpus.erase(0, cpus.find_first_not_of(" \t"));
+            if (cpus.find_first_of(",-") == std::string::npos) single_cpus.insert(cpus);
+        }
+    }
+    CHECK(single_cpus.size() >= 2);
 }

@@ -25,17 +25,26 @@ void ensure_linker_on_path() {
     }
 }
 
-// PoCL compiles each kernel's work-group function once per launch shape it meets: for offset-0
-// and other global offsets (the tiled launches' first band and the rest), for each local size,
-// and once more without specialization for the binary the program cache stores. Without
-// specialization it compiles one function per kernel, used by every launch: the default scene's
-// first render with both caches cold 10.6 → 6.2 s, the same images, kernel times within
-// run-to-run noise (docs/architecture.md "Facts about PoCL"). A value the user set is kept.
+// PoCL's settings, where the user set none (docs/architecture.md "Facts about PoCL"):
+// - POCL_WORK_GROUP_SPECIALIZATION=0. PoCL compiles each kernel's work-group function once per
+//   launch shape it meets: for offset-0 and other global offsets (the tiled launches' first band
+//   and the rest), for each local size, and once more without specialization for the binary the
+//   program cache stores. Without specialization it compiles one function per kernel, used by
+//   every launch: the default scene's first render with both caches cold 10.6 → 6.2 s, the same
+//   images, kernel times within run-to-run noise.
+// - POCL_AFFINITY=1: its worker threads pinned, one per CPU. Unpinned, the short launches of
+//   auto's probe ran at about half speed in most processes (two_smokes_wall's AO at 256²: its
+//   four camera launches 4.3–5.0 ms in 7 of 8 processes, pinned 2.8–3.6 ms in 7 of 8), and whole
+//   frames ran 2.5–4.5 % slower in the median (bench/README.md "At least four blocks along each
+//   axis").
 // Once per process, so that later Runtimes never write the environment while other threads may
 // read it.
-void prefer_generic_work_groups() {
+void set_pocl_defaults() {
     static std::once_flag once;
-    std::call_once(once, [] { setenv("POCL_WORK_GROUP_SPECIALIZATION", "0", 0); });  // 0: a set value stays
+    std::call_once(once, [] {
+        setenv("POCL_WORK_GROUP_SPECIALIZATION", "0", 0);  // 0: a set value stays
+        setenv("POCL_AFFINITY", "1", 0);
+    });
 }
 
 struct DeviceEntry {
@@ -46,7 +55,7 @@ struct DeviceEntry {
 
 std::vector<DeviceEntry> enumerate() {
     ensure_linker_on_path();
-    prefer_generic_work_groups();
+    set_pocl_defaults();
     std::vector<DeviceEntry> entries;
     std::vector<cl::Platform> platforms;
     try {
