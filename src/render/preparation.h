@@ -185,7 +185,8 @@ std::array<double, 3> lattice_point_voxel(const ShadowCacheGpu& c, double x, dou
 
 // Auto's probe lattices: of each lattice, blocks of `block` neighbouring rows along y and z (of a
 // light lattice along y, and every k-th packet of `lanes` columns along x), `stride` rows apart,
-// about (block / stride)² of its points (ShadowCacheGpu.row_block, block_origin).
+// about (block / stride)² of its points; on a small lattice closer, until 4 blocks lie along each
+// axis, within 4 × that share (ShadowCacheGpu.row_block, row_block_stride, block_origin).
 std::vector<ShadowCacheGpu> probe_lattices(const std::vector<ShadowCacheGpu>& layout, int block, int stride, int lanes);
 
 // Tests: auto's probe lattices (probe_lattices(…, block, stride, …)) of the frame's cache layout,
