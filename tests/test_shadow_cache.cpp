@@ -674,6 +674,35 @@ TEST_CASE("shadow cache auto: the same frame again, on any Context, chooses as t
     CHECK(remeasured.stats.shadow_cache_probe_ms > 0);
 }
 
+TEST_CASE("shadow cache auto: the marking pass runs where its best case saves at least what it costs", "[shadow_cache]") {
+    using pipeline::visible_fill_worth_marking;
+    // the probe's estimates (fill of every point, cached pass, per-sample pass; ms), measured
+    CHECK(visible_fill_worth_marking(3755, 652, 3152));   // the CT's cone at 512²: visible fill 1.5 s of stages against 2.5 s
+    CHECK(visible_fill_worth_marking(3454, 245, 1534));   // the MRI's cone at 256²: 0.74 s against 1.33 s
+    CHECK(visible_fill_worth_marking(4600, 120, 1500));   // the MRI's shadow rays at 256² (cached pass ≤ 1/8)
+    CHECK_FALSE(visible_fill_worth_marking(3385, 200, 890));  // the CT's cone at 256²: per sample 0.65 s, marked 0.93 s
+    CHECK_FALSE(visible_fill_worth_marking(300, 200, 2000));  // a fill cheaper than two cached passes
+    CHECK_FALSE(visible_fill_worth_marking(800, 60, 180));    // a small frame: the best case barely pays
+    // over random estimates: every case of the rule before (cached pass ≤ 1/8 of the per-sample
+    // pass) still marks, and the added ones save at least the marking pass in their best case
+    std::mt19937 rng(29);
+    std::uniform_real_distribution<double> log_ms(0.0, 4.0);
+    int added = 0;
+    for (int i = 0; i < 20000; ++i) {
+        const double fill = std::pow(10.0, log_ms(rng)), cached = std::pow(10.0, log_ms(rng)), per_sample = std::pow(10.0, log_ms(rng));
+        const double best_case = sombra::kShadowCacheAutoMargin * (fill / pipeline::kVisibleFillBound + 2 * cached);
+        const bool before = 2 * cached < fill && 8 * cached <= per_sample && best_case < per_sample;
+        const bool now = visible_fill_worth_marking(fill, cached, per_sample);
+        if (before) REQUIRE(now);
+        if (now && !before) {
+            ++added;
+            REQUIRE(per_sample - best_case >= cached);
+        }
+        if (now) REQUIRE(best_case < per_sample);
+    }
+    CHECK(added > 0);
+}
+
 TEST_CASE("shadow cache auto across processes: a run that compiled code on the way is not recorded", "[shadow_cache]") {
     using pipeline::history_run_compiled;
     // what was measured after a wiped ~/.cache/pocl (wall ms of the run, its kernels' ms)

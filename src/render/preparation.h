@@ -153,6 +153,21 @@ constexpr bool shadow_cache_pays(double fill_ms, double cached_ms, double per_sa
     return kShadowCacheAutoMargin * (fill_ms + cached_ms) < per_sample_ms;
 }
 
+// Whether auto's probe runs the visible fill's marking pass (shadow_cache.cpp; docs/shadows.md
+// "Auto"). The pass costs about a cached camera pass and is wasted when the points it marks then
+// do not pay, so it runs only when the cache would pay at 1/kVisibleFillBound of the probe's fill
+// of every point (the shipped scenes mark 18–62 % of the points, at less per point than the
+// probe's blocks), the cached pass costs under half that fill, and either the pass is at most an
+// eighth of the per-sample pass or that best case saves at least the pass. The second arm: the
+// CT's and the MRI's cone shadows at 512² and 256² (per-sample pass 3–6× the cached one) were
+// left per sample on the fill of every point, 1.3–1.4× the visible fill's frames.
+constexpr double kVisibleFillBound = 8;
+constexpr bool visible_fill_worth_marking(double fill_ms, double cached_ms, double per_sample_ms) {
+    const double best_case_ms = kShadowCacheAutoMargin * (fill_ms / kVisibleFillBound + 2 * cached_ms);  // marking, fill, cached pass
+    return 2 * cached_ms < fill_ms && best_case_ms < per_sample_ms &&
+           (8 * cached_ms <= per_sample_ms || per_sample_ms - best_case_ms >= cached_ms);
+}
+
 // Auto fills the surface part when the frame's surface fragments × lights are at least
 // kSurfaceFragmentsPerPoint times the points × stale lights to fill. Not every fragment counted is
 // shaded (those behind an opaque one are not): on the cups a fragment's cached read saved 0–0.9

@@ -58,11 +58,11 @@ constexpr int kProbeRowsPerLaunch = 16, kProbePacketStride = 4, kProbeLaunches =
 constexpr double kProbeWarmupMs = 10;                        // before its first fill, ≥ 10 ms of untimed fills
 constexpr int kProbeWarmupLaunches = 8;                      // (or 8 launches)
 constexpr double kProbeBudget = 0.05;                        // beyond its first launch, at most 5 % of the cheaper frame
-// A visible fill may cost as little as 1/kVisibleFillBound of the probe's fill of every point: a
+// A visible fill may cost as little as 1/kVisibleFillBound (preparation.h) of the probe's fill of every point: a
 // quarter of the points (the shipped scenes' marking passes keep 18–62 %) at half the probe's
 // time per point (its blocks ran 1.2–4.6× the visible fill's). When the probe's estimate for the
 // marked points does not pay but a kMeasureFillBelow times lower one would, the fill is measured.
-constexpr double kVisibleFillBound = 8, kMeasureFillBelow = 3;
+constexpr double kMeasureFillBelow = 3;
 constexpr std::size_t kRememberedChoices = 4096;            // auto's choices kept per process (the oldest go first)
 
 double triangle_longest_edge(const SurfaceTriangleGpu& t) {
@@ -1110,18 +1110,14 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
         VolumeCosts costs = probe_volume_costs(launch, volumes, width, height, fragments, surface_reads,
                                                all_stages ? &stats.shadow_cache_probe_stages : nullptr);
         const auto probe_end = std::chrono::steady_clock::now();
-        // the visible fill's marking pass costs about a cached camera pass: it is run when that
-        // is under half the fill and an eighth of the per-sample pass (the most it wastes when
-        // auto then evaluates per sample), and the cache would pay at 1/kVisibleFillBound of the
-        // probe's fill (bench/README.md "With the visible fill"); the fill is then estimated for
-        // the points it found, at the probe's cost per point, or measured (measure_marked_fill)
+        // the visible fill's marking pass, where it may pay (visible_fill_worth_marking;
+        // bench/README.md "With the visible fill"); the fill is then estimated for the points it
+        // found, at the probe's cost per point, or measured (measure_marked_fill)
         bool marked = false;
         double measured_fill_ms = 0;
         // tests/test_shadow_cache.cpp: mark, measure and read the cache whatever the probe found
         const bool test_measure = std::getenv("SOMBRA_TEST_MEASURE_FILL") != nullptr;
-        if (may_mark && ((marking_may_pay(costs) && 8 * costs.cached_ms <= costs.per_sample_ms &&
-                          shadow_cache_pays(costs.fill_ms / kVisibleFillBound + costs.cached_ms, costs.cached_ms, costs.per_sample_ms)) ||
-                         test_measure)) {
+        if (may_mark && (visible_fill_worth_marking(costs.fill_ms, costs.cached_ms, costs.per_sample_ms) || test_measure)) {
             marked = true;
             fill = prepare_volume_fill(launch, *cache, volumes, true, surface_reads, stats);
             costs.fill_ms *= std::min(1.0, double(fill.needed_points()) / std::max(1.0, double(stats.shadow_cache_points_to_fill)));
