@@ -683,8 +683,10 @@ TEST_CASE("shadow cache auto: the marking pass runs where its best case saves at
     CHECK_FALSE(visible_fill_worth_marking(3385, 200, 890));  // the CT's cone at 256²: per sample 0.65 s, marked 0.93 s
     CHECK_FALSE(visible_fill_worth_marking(300, 200, 2000));  // a fill cheaper than two cached passes
     CHECK_FALSE(visible_fill_worth_marking(800, 60, 180));    // a small frame: the best case barely pays
+    CHECK_FALSE(visible_fill_worth_marking(83, 12, 75));      // two_smokes_wall's cone at 128²: marked, then per sample, 1.31×
     // over random estimates: every case of the rule before (cached pass ≤ 1/8 of the per-sample
-    // pass) still marks, and the added ones save at least the marking pass in their best case
+    // pass) still marks, and the added ones, on per-sample passes of at least
+    // kMarkingBestCaseMinMs, save at least the marking pass in their best case
     std::mt19937 rng(29);
     std::uniform_real_distribution<double> log_ms(0.0, 4.0);
     int added = 0;
@@ -697,6 +699,7 @@ TEST_CASE("shadow cache auto: the marking pass runs where its best case saves at
         if (now && !before) {
             ++added;
             REQUIRE(per_sample - best_case >= cached);
+            REQUIRE(per_sample >= pipeline::kMarkingBestCaseMinMs);
         }
         if (now) REQUIRE(best_case < per_sample);
     }

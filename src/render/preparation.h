@@ -158,14 +158,19 @@ constexpr bool shadow_cache_pays(double fill_ms, double cached_ms, double per_sa
 // do not pay, so it runs only when the cache would pay at 1/kVisibleFillBound of the probe's fill
 // of every point (the shipped scenes mark 18–62 % of the points, at less per point than the
 // probe's blocks), the cached pass costs under half that fill, and either the pass is at most an
-// eighth of the per-sample pass or that best case saves at least the pass. The second arm: the
-// CT's and the MRI's cone shadows at 512² and 256² (per-sample pass 3–6× the cached one) were
-// left per sample on the fill of every point, 1.3–1.4× the visible fill's frames.
-constexpr double kVisibleFillBound = 8;
+// eighth of the per-sample pass or, on a per-sample pass of at least kMarkingBestCaseMinMs, that
+// best case saves at least the pass. The second arm: the CT's and the MRI's cone shadows at 512²
+// and 256² (per-sample pass 1.5–3 s, 3–6× the cached one) were left per sample on the fill of
+// every point, 1.3–1.4× the visible fill's frames. Not on shorter frames, whose estimates come
+// from launches of a few milliseconds and spread by ± 40 %, and whose scenes mark more of their
+// points (54–73 %): two_smokes_wall's cone at 128² (per sample 55–75 ms) marked, then stayed per
+// sample, 1.31× (bench/README.md "Every shipped scene").
+constexpr double kVisibleFillBound = 8, kMarkingBestCaseMinMs = 300;
 constexpr bool visible_fill_worth_marking(double fill_ms, double cached_ms, double per_sample_ms) {
     const double best_case_ms = kShadowCacheAutoMargin * (fill_ms / kVisibleFillBound + 2 * cached_ms);  // marking, fill, cached pass
     return 2 * cached_ms < fill_ms && best_case_ms < per_sample_ms &&
-           (8 * cached_ms <= per_sample_ms || per_sample_ms - best_case_ms >= cached_ms);
+           (8 * cached_ms <= per_sample_ms ||
+            (per_sample_ms >= kMarkingBestCaseMinMs && per_sample_ms - best_case_ms >= cached_ms));
 }
 
 // Auto fills the surface part when the frame's surface fragments × lights are at least
