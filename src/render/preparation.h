@@ -153,6 +153,11 @@ constexpr bool shadow_cache_pays(double fill_ms, double cached_ms, double per_sa
     return kShadowCacheAutoMargin * (fill_ms + cached_ms) < per_sample_ms;
 }
 
+// Whether marking the points a frame reads can pay: the marking pass costs about a cached pass,
+// and saves at most the fill of the points it leaves out (both the probe's marking condition,
+// visible_fill_worth_marking, and the frame's fill after an unmarked choice ask it).
+constexpr bool marking_may_pay(double fill_ms, double cached_ms) { return 2 * cached_ms < fill_ms; }
+
 // Whether auto's probe runs the visible fill's marking pass (shadow_cache.cpp; docs/shadows.md
 // "Auto"). The pass costs about a cached camera pass and is wasted when the points it marks then
 // do not pay, so it runs only when the cache would pay at 1/kVisibleFillBound of the probe's fill
@@ -168,7 +173,7 @@ constexpr bool shadow_cache_pays(double fill_ms, double cached_ms, double per_sa
 constexpr double kVisibleFillBound = 8, kMarkingBestCaseMinMs = 300;
 constexpr bool visible_fill_worth_marking(double fill_ms, double cached_ms, double per_sample_ms) {
     const double best_case_ms = kShadowCacheAutoMargin * (fill_ms / kVisibleFillBound + 2 * cached_ms);  // marking, fill, cached pass
-    return 2 * cached_ms < fill_ms && best_case_ms < per_sample_ms &&
+    return marking_may_pay(fill_ms, cached_ms) && best_case_ms < per_sample_ms &&
            (8 * cached_ms <= per_sample_ms ||
             (per_sample_ms >= kMarkingBestCaseMinMs && per_sample_ms - best_case_ms >= cached_ms));
 }

@@ -58,10 +58,11 @@ constexpr int kProbeRowsPerLaunch = 16, kProbePacketStride = 4, kProbeLaunches =
 constexpr double kProbeWarmupMs = 10;                        // before its first fill, ≥ 10 ms of untimed fills
 constexpr int kProbeWarmupLaunches = 8;                      // (or 8 launches)
 constexpr double kProbeBudget = 0.05;                        // beyond its first launch, at most 5 % of the cheaper frame
-// A visible fill may cost as little as 1/kVisibleFillBound (preparation.h) of the probe's fill of every point: a
-// quarter of the points (the shipped scenes' marking passes keep 18–62 %) at half the probe's
-// time per point (its blocks ran 1.2–4.6× the visible fill's). When the probe's estimate for the
-// marked points does not pay but a kMeasureFillBelow times lower one would, the fill is measured.
+// A visible fill may cost as little as 1/kVisibleFillBound (preparation.h) of the probe's fill of
+// every point: a quarter of the points (the shipped scenes' marking passes keep 18–62 %) at half
+// the probe's time per point (its blocks ran 1.2–4.6× the visible fill's). When the probe's
+// estimate for the marked points does not pay but a kMeasureFillBelow times lower one would, the
+// fill is measured.
 constexpr double kMeasureFillBelow = 3;
 constexpr std::size_t kRememberedChoices = 4096;            // auto's choices kept per process (the oldest go first)
 
@@ -986,11 +987,6 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
     return costs;
 }
 
-// Whether marking the points a frame reads can pay: the marking pass costs about a cached pass,
-// and saves at most the fill of the points it leaves out (both the probe's marking condition and
-// the frame's fill after an unmarked choice ask it).
-bool marking_may_pay(const VolumeCosts& costs) { return 2 * costs.cached_ms < costs.fill_ms; }
-
 // What auto measured (or, remembered, what the frame's first render measured) into the stats.
 void report_auto_costs(const VolumeCosts& costs, RenderStats& stats) {
     stats.shadow_cache_estimated_fill_ms = costs.fill_ms;
@@ -1134,7 +1130,7 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
         volumes.use = shadow_cache_pays(costs.fill_ms, costs.cached_ms, costs.per_sample_ms) || (test_measure && marked);
         // where marking cannot pay, the frame fills every point (teapot_fog's DSM at 256²: a
         // marking pass of 50 ms before a fill of 6 ms, where a fill of all points takes 10–17 ms)
-        mark_for_fill = may_mark && marking_may_pay(costs);
+        mark_for_fill = may_mark && marking_may_pay(costs.fill_ms, costs.cached_ms);
         if (volumes.use) ms += measured_fill_ms;  // the frame's fill: its bands are filled
         else if (measured_fill_ms > 0) costs.probe_ms += measured_fill_ms;
         if (cache->history_pending) {
