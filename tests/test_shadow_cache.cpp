@@ -593,6 +593,16 @@ TEST_CASE("shadow cache auto: SOMBRA_AUTO_PROBE_ALL runs and reports every stage
         INFO(name);
         CHECK(stages.count(name) == 1);
     }
+    // the scout in four quarters of its rows, each stage counting the rows so far (none empty)
+    for (int piece = 2; piece <= 4; ++piece)
+        for (const char* quantity : {"per_sample", "cached"}) {
+            const std::string before = std::string(quantity) + " scout " + std::to_string(piece - 1),
+                              now = std::string(quantity) + " scout " + std::to_string(piece);
+            INFO(now);
+            REQUIRE(stages.count(before) == 1);
+            REQUIRE(stages.count(now) == 1);
+            CHECK(stages[now]->ms > stages[before]->ms);
+        }
     // the estimates auto chose from are its last stages'
     REQUIRE(stages.count("per_sample launch 4"));
     CHECK(r.stats.shadow_cache_estimated_per_sample_ms == stages["per_sample launch 4"]->estimate_ms);

@@ -50,7 +50,7 @@ constexpr double kProbeMaxShare = 4;
 constexpr double kProbeCoarseClear = 3, kProbeClear = 2;
 // The camera pass's scout, a launch's rows with a quarter of its packets (1/256 of a 256² image),
 // decides for the cache when the per-sample pass costs 3 times the coarse fill and the cached pass.
-constexpr double kProbeScoutClear = 3, kProbeHalfScoutClear = 6;  // (its first half alone at 6×)
+constexpr double kProbeScoutClear = 3, kProbeHalfScoutClear = 6, kProbeQuarterScoutClear = 8;  // (its first half at 6×, quarter at 8×)
 constexpr int kProbeScoutThinning = 4;
 // and renders 16 image rows a launch, every 4th packet of each (the pixels of 4 rows; of images
 // under 256 rows every (4 · 256 / height)th: 1/64 of the image), at most 4 launches
@@ -921,15 +921,22 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
     // cache's frame 1.56 s), while a scout that misses the volumes makes the per-sample pass look
     // cheap, which the launches below then cost little to correct. Its 32–64 packets estimate the
     // pass within about ± 50 % (the CT's shadow rays at 256²: 5.2–6.5 s against 3.6 s).
-    // It runs in two halves (every other of its packets), and the first decides alone at
-    // kProbeHalfScoutClear: the head in fog's shadow-ray scout at 256² took 200 ms.
+    // It runs in four quarters of its rows (every 4th row, a quarter spread over the image; in the
+    // order 1st, 3rd, 2nd, 4th, so that the first two are every other row), each deciding on all
+    // rows so far: the first alone at kProbeQuarterScoutClear, the first two or three at
+    // kProbeHalfScoutClear, all four at kProbeScoutClear. The head in fog's shadow rays at 128²:
+    // its per-sample pass 11 times the cache's frame, a scout's half of 91 ms on a 1.1 s frame.
+    // (Quarters of its packets would leave some empty: at 128² a row holds one scout packet.)
     bool scouted = false;
     const int scout_stride = std::min(row_packets, int(kProbeScoutThinning * camera.packet_stride));
     if (scout_stride > int(camera.packet_stride)) {
         double per_sample_scout = 0, cached_scout = 0, scout_packets = 0;
-        for (int half = 0; half < 2 && !scouted; ++half) {
+        constexpr int kQuarters = 4, quarter_order[kQuarters] = {0, 2, 1, 3};
+        for (int piece = 0; piece < kQuarters && !scouted; ++piece) {
             CameraGpu scout = camera;
-            scout.packet_stride = cl_uint(2 * scout_stride), scout.first_row = camera.row_stride / 2, scout.first_packet = cl_uint(half * scout_stride);
+            scout.row_stride = camera.row_stride * kQuarters, scout.first_row = camera.row_stride / 2 + quarter_order[piece] * camera.row_stride;
+            scout.packet_stride = cl_uint(scout_stride), scout.first_packet = cl_uint(quarter_order[piece]);
+            if (scout.first_row >= cl_uint(height)) continue;
             per_sample_scout += run_camera_pass(runtime, launch.scene, launch.prepared, launch.options, lanes, scout, per_sample, image, counts);
             cached_scout += run_camera_pass(runtime, launch.scene, launch.prepared, launch.options, lanes, scout, cached, image, counts);
             for (cl_uint row = 0, y = scout.first_row; y < cl_uint(height); ++row, y += scout.row_stride)
@@ -937,12 +944,13 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
             if (scout_packets == 0) continue;
             costs.per_sample_ms = per_sample_scout * image_packets / scout_packets, costs.cached_ms = cached_scout * image_packets / scout_packets;
             if (all_stages) {
-                const std::string stage = "scout " + std::to_string(half + 1);
+                const std::string stage = "scout " + std::to_string(piece + 1);
                 all_stages->push_back({"per_sample", stage, per_sample_scout, costs.per_sample_ms});
                 all_stages->push_back({"cached", stage, cached_scout, costs.cached_ms});
                 continue;
             }
-            scouted = costs.per_sample_ms > (half == 0 ? kProbeHalfScoutClear : kProbeScoutClear) * (costs.fill_ms + costs.cached_ms);
+            const double clear = piece == 0 ? kProbeQuarterScoutClear : piece < kQuarters - 1 ? kProbeHalfScoutClear : kProbeScoutClear;
+            scouted = costs.per_sample_ms > clear * (costs.fill_ms + costs.cached_ms);
         }
         costs.probe_ms += per_sample_scout + cached_scout;
     }
