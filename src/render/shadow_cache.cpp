@@ -50,7 +50,7 @@ constexpr double kProbeMaxShare = 4;
 constexpr double kProbeCoarseClear = 3, kProbeClear = 2;
 // The camera pass's scout, a launch's rows with a quarter of its packets (1/256 of a 256² image),
 // decides for the cache when the per-sample pass costs 3 times the coarse fill and the cached pass.
-constexpr double kProbeScoutClear = 3, kProbeHalfScoutClear = 6, kProbeQuarterScoutClear = 8;  // (its first half at 6×, quarter at 8×)
+constexpr double kProbeScoutClear = 3, kProbeHalfScoutClear = 6, kProbeQuarterScoutClear = 8;  // (its first half or three quarters at 6×, first quarter at 8×)
 constexpr int kProbeScoutThinning = 4;
 // and renders 16 image rows a launch, every 4th packet of each (the pixels of 4 rows; of images
 // under 256 rows every (4 · 256 / height)th: 1/64 of the image), at most 4 launches
@@ -932,11 +932,12 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
     if (scout_stride > int(camera.packet_stride)) {
         double per_sample_scout = 0, cached_scout = 0, scout_packets = 0;
         constexpr int kQuarters = 4, quarter_order[kQuarters] = {0, 2, 1, 3};
+        constexpr double clear_after[kQuarters] = {kProbeQuarterScoutClear, kProbeHalfScoutClear, kProbeHalfScoutClear, kProbeScoutClear};
         for (int piece = 0; piece < kQuarters && !scouted; ++piece) {
             CameraGpu scout = camera;
             scout.row_stride = camera.row_stride * kQuarters, scout.first_row = camera.row_stride / 2 + quarter_order[piece] * camera.row_stride;
             scout.packet_stride = cl_uint(scout_stride), scout.first_packet = cl_uint(quarter_order[piece]);
-            if (scout.first_row >= cl_uint(height)) continue;
+            if (scout.first_row >= cl_uint(height)) continue;  // images of a few rows (row_stride 1)
             per_sample_scout += run_camera_pass(runtime, launch.scene, launch.prepared, launch.options, lanes, scout, per_sample, image, counts);
             cached_scout += run_camera_pass(runtime, launch.scene, launch.prepared, launch.options, lanes, scout, cached, image, counts);
             for (cl_uint row = 0, y = scout.first_row; y < cl_uint(height); ++row, y += scout.row_stride)
@@ -949,8 +950,7 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
                 all_stages->push_back({"cached", stage, cached_scout, costs.cached_ms});
                 continue;
             }
-            const double clear = piece == 0 ? kProbeQuarterScoutClear : piece < kQuarters - 1 ? kProbeHalfScoutClear : kProbeScoutClear;
-            scouted = costs.per_sample_ms > clear * (costs.fill_ms + costs.cached_ms);
+            scouted = costs.per_sample_ms > clear_after[piece] * (costs.fill_ms + costs.cached_ms);
         }
         costs.probe_ms += per_sample_scout + cached_scout;
     }
