@@ -12,6 +12,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <deque>
+#include <functional>
 #include <limits>
 #include <map>
 #include <mutex>
@@ -816,9 +817,16 @@ struct VolumeCosts {
 
 // `all_stages` (SOMBRA_AUTO_PROBE_ALL): every stage runs whatever the earlier ones found, each
 // reported there, and two more fills, in blocks of 4 and 8 rows every 64 (bench/probe_accuracy.py).
+// `mark_points` (where the frame may mark the points it reads, --shadow-cache-fill visible): the
+// marking pass, returning the share of the points it found. The probe runs it once, after its
+// first launch and fill every 32 rows, when visible_fill_worth_marking holds, and goes on with the
+// fill's estimates scaled by that share: its decision and budget then weigh the frame the cache
+// would take (the MRI's cone shadows at 512²: every point's fill estimated at 3 s, the marked
+// points' at 0.7 s; three more launches and a close call's fill, 160 ms of probe, had decided
+// between the per-sample pass and the fill of every point, which the frame never runs).
 VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan, int width, int height,
                                const surfaces::ViewFragments* fragments, const SurfaceShadowCache* surface_cache,
-                               std::vector<RenderStats::ProbeStage>* all_stages) {
+                               const std::function<double()>* mark_points, std::vector<RenderStats::ProbeStage>* all_stages) {
     host::Runtime& runtime = launch.runtime;
     // the probe's short launches must not make the frame's long ones run unbanded (tiled_launch.cpp)
     const double last_launch_ms = runtime.progress().last_launch_ms;
@@ -875,6 +883,7 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
     };
     costs.fill_ms = fill_blocks(kProbeBlock, kProbeCoarseStride, true);
     bool fine_fill = false;  // the fill measured every kProbeBlockStride rows
+    double visible_share = 1;  // of the points, those the marking pass found (mark_points)
     CameraGpu camera = frame_camera(launch.scene, launch.options, width, height);
     // a launch: kProbeRowsPerLaunch rows spread over the image, every kProbePacketStride-th packet
     // of each (of small images more: a launch is at most 1/64 of the image), staggered from row to
@@ -953,6 +962,21 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
             scouted = costs.per_sample_ms > clear_after[piece] * (costs.fill_ms + costs.cached_ms);
         }
         costs.probe_ms += per_sample_scout + cached_scout;
+        // decided by the scout: the cached pass again on the first launch's packets, 4 (at 512²
+        // 16) times the scout's first quarter, for the marking condition and the fill after it
+        // (marking_may_pay: 2 × cached pass < fill). A scout's cached launches of a few packets
+        // estimated the pass at 1.7–2.4× (the head in fog's cone shadows at 512²: 3.4 s against
+        // 1.4 s, so the frame filled all points, 4.8 s, not the visible ones, 1.3 + 2.4 s); the
+        // launch costs a 1/64 (at 512² a 1/128) of the cached pass.
+        if (scouted) {
+            CameraGpu first = camera;
+            first.first_row = camera.row_stride / 2, first.first_packet = 1;
+            const double cached_launch = run_camera_pass(runtime, launch.scene, launch.prepared, launch.options, lanes, first, cached, image, counts);
+            double first_packets = 0;
+            for (cl_uint row = 0, y = first.first_row; y < cl_uint(height); ++row, y += first.row_stride) first_packets += packets_in_row(first, row);
+            if (first_packets > 0) costs.cached_ms = cached_launch * image_packets / first_packets;
+            costs.probe_ms += cached_launch;
+        }
     }
     std::vector<bool> done(camera.row_stride, false);
     int launches_run = 0;
@@ -981,6 +1005,10 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
         if (!fine_fill) {
             costs.fill_ms = fill_blocks(kProbeBlock, kProbeBlockStride, false);
             fine_fill = true;
+            if (mark_points && visible_fill_worth_marking(costs.fill_ms, costs.cached_ms, costs.per_sample_ms)) {
+                visible_share = (*mark_points)();
+                costs.fill_ms *= visible_share;
+            }
             if (decided(kProbeClear) && !all_stages) break;
         }
         if (launches_run >= kProbeLaunches) break;
@@ -988,7 +1016,7 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
     // a close call: the fill again on 1/64 of the rows (4 × 4 blocks: single estimates from the
     // 1/256's few blocks spread by ± 40 %), when it fits the budget
     if (all_stages || (!decided(kProbeClear) && within_budget(fill_probe_ms(kProbeCloseCallBlock, kProbeBlockStride))))
-        costs.fill_ms = fill_blocks(kProbeCloseCallBlock, kProbeBlockStride, false);
+        costs.fill_ms = visible_share * fill_blocks(kProbeCloseCallBlock, kProbeBlockStride, false);
     if (all_stages) fill_blocks(4, 64, false), fill_blocks(8, 64, false);
     costs.probe_ms += per_sample_sum + cached_sum;
     runtime.progress().last_launch_ms = last_launch_ms;
@@ -1111,20 +1139,29 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
     if (measure) {  // a probe's passes read the surface part as the frame will
         const auto probe_start = std::chrono::steady_clock::now();
         const bool all_stages = std::getenv("SOMBRA_AUTO_PROBE_ALL") != nullptr;
-        VolumeCosts costs = probe_volume_costs(launch, volumes, width, height, fragments, surface_reads,
-                                               all_stages ? &stats.shadow_cache_probe_stages : nullptr);
-        const auto probe_end = std::chrono::steady_clock::now();
         // the visible fill's marking pass, where it may pay (visible_fill_worth_marking;
-        // bench/README.md "With the visible fill"); the fill is then estimated for the points it
-        // found, at the probe's cost per point, or measured (measure_marked_fill)
+        // bench/README.md "With the visible fill"), in the probe or after it; the fill is then
+        // estimated for the points it found, at the probe's cost per point, or measured
+        // (measure_marked_fill)
         bool marked = false;
-        double measured_fill_ms = 0;
-        // tests/test_shadow_cache.cpp: mark, measure and read the cache whatever the probe found
-        const bool test_measure = std::getenv("SOMBRA_TEST_MEASURE_FILL") != nullptr;
-        if (may_mark && (visible_fill_worth_marking(costs.fill_ms, costs.cached_ms, costs.per_sample_ms) || test_measure)) {
+        double marking_ms = 0, measured_fill_ms = 0;
+        const std::function<double()> mark_points = [&] {
+            const auto start = std::chrono::steady_clock::now();
             marked = true;
             fill = prepare_volume_fill(launch, *cache, volumes, true, surface_reads, stats);
-            costs.fill_ms *= std::min(1.0, double(fill.needed_points()) / std::max(1.0, double(stats.shadow_cache_points_to_fill)));
+            marking_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+            return std::min(1.0, double(fill.needed_points()) / std::max(1.0, double(stats.shadow_cache_points_to_fill)));
+        };
+        VolumeCosts costs = probe_volume_costs(launch, volumes, width, height, fragments, surface_reads,
+                                               may_mark && !all_stages ? &mark_points : nullptr,
+                                               all_stages ? &stats.shadow_cache_probe_stages : nullptr);
+        const auto probe_end = std::chrono::steady_clock::now();
+        const double marking_in_probe_ms = marking_ms;
+        // tests/test_shadow_cache.cpp: mark, measure and read the cache whatever the probe found
+        const bool test_measure = std::getenv("SOMBRA_TEST_MEASURE_FILL") != nullptr;
+        if (may_mark && !marked && (visible_fill_worth_marking(costs.fill_ms, costs.cached_ms, costs.per_sample_ms) || test_measure))
+            costs.fill_ms *= mark_points();
+        if (marked) {
             // a close call by the probe's estimate (which runs high on visible points): the
             // visible fill measured on a part of its points decides
             if ((!shadow_cache_pays(costs.fill_ms, costs.cached_ms, costs.per_sample_ms) &&
@@ -1151,8 +1188,10 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
             cache->history_pending->history.estimated_off_ms = costs.per_sample_ms;
             cache->history_pending->history.mark_fill = marked || mark_for_fill;
             // not the mode's time: the probe, and its marking pass when the cache is then left off
+            // (a marking pass in the probe is the cache's frame's)
             cache->history_pending->probe_ms =
-                std::chrono::duration<double, std::milli>((volumes.use ? probe_end : std::chrono::steady_clock::now()) - probe_start).count();
+                volumes.use ? std::chrono::duration<double, std::milli>(probe_end - probe_start).count() - marking_in_probe_ms
+                            : std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - probe_start).count();
         }
         stats.shadow_cache_probe_ms = costs.probe_ms;
         report_auto_costs(costs, stats);
