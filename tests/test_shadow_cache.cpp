@@ -650,6 +650,57 @@ TEST_CASE("shadow cache auto: a measured visible fill fills its bands of rows, t
     }
 }
 
+TEST_CASE("shadow cache auto: a marking pass inside the probe leaves the frame the chosen mode's, and its fill the marked points", "[shadow_cache]") {
+    // SOMBRA_TEST_MARK_IN_PROBE: the probe marks before its camera launches, which then run with
+    // the marks made, and the fill's estimate is the marked points'; with SOMBRA_TEST_MEASURE_FILL
+    // too, the cache is read whatever the probe found
+    const Scene scene = test::overlapping_scene();
+    for (ShadowTechnique technique : shadowing_techniques()) {
+        INFO(shadow_technique_name(technique));
+        for (int size : {40, 160}) {
+            INFO("size " << size);
+            for (bool read_cache : {false, true}) {
+                INFO("read whatever found: " << read_cache);
+                forget_shadow_cache_choices();
+                Context probed(test::device_selector()), plain(test::device_selector());
+                RenderOptions o = cache_options(technique, ShadowCacheMode::Auto);
+                o.width = o.height = size;
+                ::setenv("SOMBRA_TEST_MARK_IN_PROBE", "1", 1);
+                if (read_cache) ::setenv("SOMBRA_TEST_MEASURE_FILL", "1", 1);
+                const RenderResult r = render(probed, scene, o);
+                ::unsetenv("SOMBRA_TEST_MARK_IN_PROBE");
+                ::unsetenv("SOMBRA_TEST_MEASURE_FILL");
+                CHECK(r.stats.shadow_cache_auto_marked == "in probe");
+                CHECK(r.stats.shadow_cache_probe_ms > 0);
+                CHECK(r.stats.shadow_cache_estimated_fill_ms > 0);
+                if (read_cache) REQUIRE(r.stats.shadow_cache_used);
+                o.shadow_cache = r.stats.shadow_cache_used ? ShadowCacheMode::On : ShadowCacheMode::Off;
+                const RenderResult forced = render(plain, scene, o);
+                CHECK(test::compare(r.image, forced.image).max_abs == 0.0);
+                if (!r.stats.shadow_cache_used) continue;
+                CHECK(r.stats.shadow_cache_visible_fill);
+                CHECK(r.stats.shadow_cache_points_marked == forced.stats.shadow_cache_points_marked);
+                const pipeline::ShadowCache& a = *probed.kept_scenes().shadow_cache;
+                const pipeline::ShadowCache& b = *plain.kept_scenes().shadow_cache;
+                const std::size_t lattice = a.layout.back().offset + pipeline::lattice_points(a.layout.back());
+                std::vector<float> in_probe(lattice), after(lattice);
+                probed.runtime().queue().enqueueReadBuffer(a.values, CL_TRUE, 0, lattice * sizeof(float), in_probe.data());
+                plain.runtime().queue().enqueueReadBuffer(b.values, CL_TRUE, 0, lattice * sizeof(float), after.data());
+                CHECK(in_probe == after);
+            }
+        }
+    }
+    // without the switch, a probe that marked says where
+    forget_shadow_cache_choices();
+    Context context(test::device_selector());
+    RenderOptions o = cache_options(ShadowTechnique::Dsm, ShadowCacheMode::Auto);
+    o.width = o.height = 64;
+    ::setenv("SOMBRA_TEST_MEASURE_FILL", "1", 1);
+    const RenderResult r = render(context, scene, o);
+    ::unsetenv("SOMBRA_TEST_MEASURE_FILL");
+    CHECK((r.stats.shadow_cache_auto_marked == "in probe" || r.stats.shadow_cache_auto_marked == "after probe"));
+}
+
 TEST_CASE("shadow cache auto: the same frame again, on any Context, chooses as the first did and renders the same image", "[shadow_cache]") {
     Scene scene = test::overlapping_scene();
     RenderOptions o = cache_options(ShadowTechnique::Dsm, ShadowCacheMode::Auto);

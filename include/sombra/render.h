@@ -280,6 +280,9 @@ struct RenderStats {
     // auto made no new choice: this frame (scene, camera, size, options, device) was rendered
     // before in this process, and chose as then (forget_shadow_cache_choices); the estimates are then's
     bool shadow_cache_auto_remembered = false;
+    // where auto's probe ran the visible fill's marking pass: "in probe" (after its first launch,
+    // the later stages weighing the marked points' fill), "after probe", or "" (not marked)
+    std::string shadow_cache_auto_marked;
     // auto chose without a probe, from the times earlier processes measured for this frame with
     // the cache on and off (ms, < 0: not measured; docs/shadows.md "Auto across processes")
     bool shadow_cache_auto_history = false;

@@ -285,6 +285,7 @@ std::string RenderStats::to_json() const {
         if (shadow_cache_probe_ms > 0 || shadow_cache_auto_remembered || shadow_cache_auto_history)
             j["shadow_cache"]["auto"] = {{"remembered", shadow_cache_auto_remembered},
                                          {"from_history", shadow_cache_auto_history},
+                                         {"marked", shadow_cache_auto_marked},
                                          {"history_on_ms", shadow_cache_history_on_ms},
                                          {"history_off_ms", shadow_cache_history_off_ms},
                                          {"probe_ms", shadow_cache_probe_ms},

@@ -884,6 +884,14 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
     costs.fill_ms = fill_blocks(kProbeBlock, kProbeCoarseStride, true);
     bool fine_fill = false;  // the fill measured every kProbeBlockStride rows
     double visible_share = 1;  // of the points, those the marking pass found (mark_points)
+    bool marked = false;
+    auto mark = [&] {
+        marked = true;
+        visible_share = (*mark_points)();
+        costs.fill_ms *= visible_share;
+    };
+    // tests/test_shadow_cache.cpp: marks here, before the camera launches, whatever they find
+    if (mark_points && std::getenv("SOMBRA_TEST_MARK_IN_PROBE")) mark();
     CameraGpu camera = frame_camera(launch.scene, launch.options, width, height);
     // a launch: kProbeRowsPerLaunch rows spread over the image, every kProbePacketStride-th packet
     // of each (of small images more: a launch is at most 1/64 of the image), staggered from row to
@@ -1005,10 +1013,7 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
         if (!fine_fill) {
             costs.fill_ms = fill_blocks(kProbeBlock, kProbeBlockStride, false);
             fine_fill = true;
-            if (mark_points && visible_fill_worth_marking(costs.fill_ms, costs.cached_ms, costs.per_sample_ms)) {
-                visible_share = (*mark_points)();
-                costs.fill_ms *= visible_share;
-            }
+            if (mark_points && !marked && visible_fill_worth_marking(costs.fill_ms, costs.cached_ms, costs.per_sample_ms)) mark();
             if (decided(kProbeClear) && !all_stages) break;
         }
         if (launches_run >= kProbeLaunches) break;
@@ -1159,8 +1164,11 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
         const double marking_in_probe_ms = marking_ms;
         // tests/test_shadow_cache.cpp: mark, measure and read the cache whatever the probe found
         const bool test_measure = std::getenv("SOMBRA_TEST_MEASURE_FILL") != nullptr;
-        if (may_mark && !marked && (visible_fill_worth_marking(costs.fill_ms, costs.cached_ms, costs.per_sample_ms) || test_measure))
+        if (marked) stats.shadow_cache_auto_marked = "in probe";
+        if (may_mark && !marked && (visible_fill_worth_marking(costs.fill_ms, costs.cached_ms, costs.per_sample_ms) || test_measure)) {
             costs.fill_ms *= mark_points();
+            stats.shadow_cache_auto_marked = "after probe";
+        }
         if (marked) {
             // a close call by the probe's estimate (which runs high on visible points): the
             // visible fill measured on a part of its points decides
