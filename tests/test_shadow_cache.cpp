@@ -101,6 +101,15 @@ Scene surface_scene() {
     return scene;
 }
 
+// The values of the volume lattices a Context's shadow cache holds.
+std::vector<float> volume_cache_values(Context& context) {
+    const pipeline::ShadowCache& cache = *context.kept_scenes().shadow_cache;
+    const std::size_t points = cache.layout.back().offset + pipeline::lattice_points(cache.layout.back());
+    std::vector<float> values(points);
+    context.runtime().queue().enqueueReadBuffer(cache.values, CL_TRUE, 0, points * sizeof(float), values.data());
+    return values;
+}
+
 }  // namespace
 
 TEST_CASE("shadow cache: every lattice point a sample can read holds the technique's own shadow term there", "[shadow_cache]") {
@@ -638,13 +647,8 @@ TEST_CASE("shadow cache auto: a measured visible fill fills its bands of rows, t
             CHECK(r.stats.shadow_cache_points_marked == on.stats.shadow_cache_points_marked);
             CHECK(test::compare(r.image, on.image).max_abs == 0.0);
             // the same points filled with the same values, none twice or left out
-            const pipeline::ShadowCache& a = *measured.kept_scenes().shadow_cache;
-            const pipeline::ShadowCache& b = *plain.kept_scenes().shadow_cache;
-            const std::size_t lattice = a.layout.back().offset + pipeline::lattice_points(a.layout.back());
-            std::vector<float> banded(lattice), whole(lattice);
-            measured.runtime().queue().enqueueReadBuffer(a.values, CL_TRUE, 0, lattice * sizeof(float), banded.data());
-            plain.runtime().queue().enqueueReadBuffer(b.values, CL_TRUE, 0, lattice * sizeof(float), whole.data());
-            CHECK(banded == whole);
+            const std::vector<float> whole = volume_cache_values(plain);
+            CHECK(volume_cache_values(measured) == whole);
             CHECK(std::count_if(whole.begin(), whole.end(), [](float v) { return v < 1.0f; }) > 0);  // something was shadowed
         }
     }
@@ -680,13 +684,7 @@ TEST_CASE("shadow cache auto: a marking pass inside the probe leaves the frame t
                 if (!r.stats.shadow_cache_used) continue;
                 CHECK(r.stats.shadow_cache_visible_fill);
                 CHECK(r.stats.shadow_cache_points_marked == forced.stats.shadow_cache_points_marked);
-                const pipeline::ShadowCache& a = *probed.kept_scenes().shadow_cache;
-                const pipeline::ShadowCache& b = *plain.kept_scenes().shadow_cache;
-                const std::size_t lattice = a.layout.back().offset + pipeline::lattice_points(a.layout.back());
-                std::vector<float> in_probe(lattice), after(lattice);
-                probed.runtime().queue().enqueueReadBuffer(a.values, CL_TRUE, 0, lattice * sizeof(float), in_probe.data());
-                plain.runtime().queue().enqueueReadBuffer(b.values, CL_TRUE, 0, lattice * sizeof(float), after.data());
-                CHECK(in_probe == after);
+                CHECK(volume_cache_values(probed) == volume_cache_values(plain));
             }
         }
     }
