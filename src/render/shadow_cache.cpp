@@ -917,10 +917,15 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
         const double cheaper = std::min(costs.per_sample_ms, costs.fill_ms + costs.cached_ms);
         return costs.probe_ms + per_sample_sum + cached_sum + step_ms <= kProbeBudget * cheaper;
     };
-    // the packets a launch renders in its row `row` (render_camera)
-    auto packets_in_row = [&](const CameraGpu& c, cl_uint row) {
-        const int offset = int((c.first_packet + row) % c.packet_stride);
-        return double(std::max(0, (row_packets - offset + int(c.packet_stride) - 1) / int(c.packet_stride)));
+    // the packets a launch renders: in its row `row`, every packet_stride-th from (first_packet +
+    // row) mod packet_stride (render_camera)
+    auto launch_packets = [&](const CameraGpu& c) {
+        double packets = 0;
+        for (cl_uint row = 0, y = c.first_row; y < cl_uint(height); ++row, y += c.row_stride) {
+            const int offset = int((c.first_packet + row) % c.packet_stride);
+            packets += double(std::max(0, (row_packets - offset + int(c.packet_stride) - 1) / int(c.packet_stride)));
+        }
+        return packets;
     };
     // untimed first: one packet. A kernel's first launch in a process pays the driver's loading of
     // its code (PoCL: 1–2.5 ms), a large share of a launch of a 100–300 ms frame's 1/64
@@ -957,8 +962,7 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
             if (scout.first_row >= cl_uint(height)) continue;  // images of a few rows (row_stride 1)
             per_sample_scout += run_camera_pass(runtime, launch.scene, launch.prepared, launch.options, lanes, scout, per_sample, image, counts);
             cached_scout += run_camera_pass(runtime, launch.scene, launch.prepared, launch.options, lanes, scout, cached, image, counts);
-            for (cl_uint row = 0, y = scout.first_row; y < cl_uint(height); ++row, y += scout.row_stride)
-                scout_packets += packets_in_row(scout, row);
+            scout_packets += launch_packets(scout);
             if (scout_packets == 0) continue;
             costs.per_sample_ms = per_sample_scout * image_packets / scout_packets, costs.cached_ms = cached_scout * image_packets / scout_packets;
             if (all_stages) {
@@ -980,8 +984,7 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
             CameraGpu first = camera;
             first.first_row = camera.row_stride / 2, first.first_packet = 1;
             const double cached_launch = run_camera_pass(runtime, launch.scene, launch.prepared, launch.options, lanes, first, cached, image, counts);
-            double first_packets = 0;
-            for (cl_uint row = 0, y = first.first_row; y < cl_uint(height); ++row, y += first.row_stride) first_packets += packets_in_row(first, row);
+            const double first_packets = launch_packets(first);
             if (first_packets > 0) costs.cached_ms = cached_launch * image_packets / first_packets;
             costs.probe_ms += cached_launch;
         }
@@ -999,7 +1002,7 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
         const double per_sample_launch = run_camera_pass(runtime, launch.scene, launch.prepared, launch.options, lanes, camera, per_sample, image, counts);
         const double cached_launch = run_camera_pass(runtime, launch.scene, launch.prepared, launch.options, lanes, camera, cached, image, counts);
         per_sample_sum += per_sample_launch, cached_sum += cached_launch, last_launch = per_sample_launch + cached_launch;
-        for (cl_uint row = 0, y = first; y < cl_uint(height); ++row, y += camera.row_stride) packets_done += packets_in_row(camera, row);
+        packets_done += launch_packets(camera);
         ++launches_run;
         costs.per_sample_ms = per_sample_sum * image_packets / packets_done, costs.cached_ms = cached_sum * image_packets / packets_done;
         if (all_stages) {
