@@ -30,7 +30,7 @@ class RenderOptions:
     shading: Literal['phong', 'scattering']  # phong (gradient normals) or scattering (single scattering with shadows, Ament 2014 Eq. 1-3)
     phase_g: float  # Henyey-Greenstein asymmetry g for --shading scattering
     gradient: Literal['central', 'sobel']  # central or sobel
-    shadow_cache: Literal['auto', 'on', 'off']  # the shadow term per volume and light on a lattice, filled by the technique, read trilinearly: on, off, or auto (on when filling it costs fewer points than the frame's samples)
+    shadow_cache: Literal['auto', 'on', 'off']  # the shadow term per volume and light on a lattice, filled by the technique, read trilinearly: on, off, or auto (on when a short probe of both finds the fill and the cached camera pass cheaper than evaluating the technique per sample; later runs of a frame choose by the times earlier runs recorded)
     shadow_cache_fill: Literal['visible', 'all']  # which lattice points a shadow cache fill evaluates: visible (those this frame's samples read, found by a marking camera pass; a frame from another view completes the lattice) or all (every point near a visible brick at once, no marking pass); the image is the same
     volume_storage: Literal['auto', 'buffer', 'image']  # auto (buffer on CPUs, image on GPUs), buffer or image
     empty_space_skipping: bool  # march empty bricks too (for comparisons)

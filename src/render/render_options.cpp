@@ -53,7 +53,8 @@ std::vector<OptionSpec> generic_option_specs() {
                                      {{"central", GradientMethod::CentralDifferences}, {"sobel", GradientMethod::Sobel}}),
         declare_enum<ShadowCacheMode>("shadow_cache", "--shadow-cache", [](auto& o) -> auto& { return o.shadow_cache; },
                                       "the shadow term per volume and light on a lattice, filled by the technique, read "
-                                      "trilinearly: on, off, or auto (on when filling it costs fewer points than the frame's samples)",
+                                      "trilinearly: on, off, or auto (on when a short probe of both finds the fill and the cached camera pass "
+                                      "cheaper than evaluating the technique per sample; later runs of a frame choose by the times earlier runs recorded)",
                                       {{"auto", ShadowCacheMode::Auto}, {"on", ShadowCacheMode::On}, {"off", ShadowCacheMode::Off}}),
         declare_enum<ShadowCacheFill>("shadow_cache_fill", "--shadow-cache-fill", [](auto& o) -> auto& { return o.shadow_cache_fill; },
                                       "which lattice points a shadow cache fill evaluates: visible (those this frame's samples "
