@@ -978,6 +978,82 @@ TEST_CASE("camera pass by rows: single rows (first_row, row_stride) are the fram
     }
 }
 
+// Auto's probe launches must sample the whole image: a packet stride past a row's packets once
+// left every row whose staggered offset lay past them empty, so that a 64² launch's packets lay in
+// its first and last rows (the background around a centred volume).
+TEST_CASE("auto's probe launches spread their packets over the image's rows at every size", "[shadow_cache]") {
+    for (int lanes : {1, 4, 8, 16}) {
+        for (std::array<int, 2> size : {std::array<int, 2>{16, 16}, {32, 32}, {48, 40}, {64, 64}, {80, 80}, {100, 60}, {128, 128},
+                                        {256, 256}, {512, 512}, {1000, 50}, {50, 1000}, {333, 127}}) {
+            INFO("lanes " << lanes << ", " << size[0] << " × " << size[1]);
+            CameraGpu frame{};
+            frame.width = cl_uint(size[0]), frame.height = cl_uint(size[1]);
+            const CameraGpu probe = pipeline::probe_launch_camera(frame, lanes);
+            const int row_packets = (size[0] + lanes - 1) / lanes;
+            const double image_packets = double(row_packets) * size[1];
+            REQUIRE(probe.packet_stride >= 1u);
+            REQUIRE(int(probe.packet_stride) <= row_packets);  // every launch row holds a packet
+            for (cl_uint first_row = 0; first_row < probe.row_stride; ++first_row) {
+                for (cl_uint first_packet = 1; first_packet <= 4; ++first_packet) {
+                    CameraGpu launch = probe;
+                    launch.first_row = first_row, launch.first_packet = first_packet;
+                    const std::vector<std::array<int, 2>> packets = pipeline::camera_launch_packets(launch, lanes);
+                    REQUIRE(!packets.empty());
+                    // about 1/64 of the image (of images of few packets, at most a launch row's share)
+                    CHECK(double(packets.size()) <= std::max(image_packets / 32, double(size[1] + probe.row_stride - 1) / probe.row_stride));
+                    // spread: as many packets in the top half as in the bottom half, within one
+                    // launch row's packets and a quarter
+                    double top = 0, bottom = 0;
+                    for (const auto& [y, packet] : packets) {
+                        CHECK(packet < row_packets);
+                        (2 * y < size[1] ? top : bottom) += 1;
+                    }
+                    const double per_row = double(row_packets) / probe.packet_stride + 1;
+                    CHECK(std::abs(top - bottom) <= per_row + 0.25 * double(packets.size()));
+                }
+            }
+        }
+    }
+}
+
+// ... and the kernel renders the packets camera_launch_packets names, each the frame's pixels.
+TEST_CASE("a probe launch of render_camera writes the packets camera_launch_packets names, the frame's pixels", "[shadow_cache]") {
+    Scene scene = test::overlapping_scene();
+    Context context(test::device_selector());
+    RenderOptions o = cache_options(ShadowTechnique::Rays, ShadowCacheMode::Off);
+    o.width = 64, o.height = 48;
+    const RenderResult frame = render(context, scene, o);
+    const pipeline::Prepared prepared = pipeline::prepare(context, scene, o, *std::make_unique<RenderStats>());
+    host::Runtime& runtime = context.runtime();
+    const int lanes = host::packet_lanes(runtime, o.lanes);
+    CameraGpu launch = pipeline::probe_launch_camera(pipeline::frame_camera(scene, o, o.width, o.height), lanes);
+    const std::size_t launch_rows = (std::size_t(o.height) + launch.row_stride - 1) / launch.row_stride;
+    const std::size_t pixels = std::size_t(o.width) * launch_rows;
+    cl::Buffer image = host::make_buffer(runtime, CL_MEM_READ_WRITE, pixels * sizeof(cl_float4), nullptr, "probe launch");
+    cl::Buffer counts = host::make_buffer(runtime, CL_MEM_WRITE_ONLY, pixels * sizeof(cl_uint), nullptr, "probe launch samples");
+    for (cl_uint first_packet : {1u, 2u, 3u}) {
+        launch.first_row = first_packet % launch.row_stride, launch.first_packet = first_packet;
+        INFO("first row " << launch.first_row << ", first packet " << first_packet << ", lanes " << lanes);
+        const float unwritten = -7.f;
+        runtime.queue().enqueueFillBuffer(image, unwritten, 0, pixels * sizeof(cl_float4));
+        pipeline::run_camera_pass(runtime, scene, prepared, o, lanes, launch, {}, image, counts);
+        std::vector<float> rgba(pixels * 4);
+        runtime.queue().enqueueReadBuffer(image, CL_TRUE, 0, rgba.size() * sizeof(float), rgba.data());
+        std::vector<bool> named(pixels, false);
+        for (const auto& [y, packet] : pipeline::camera_launch_packets(launch, lanes)) {
+            const std::size_t row = (std::size_t(y) - launch.first_row) / launch.row_stride;
+            for (int x = packet * lanes; x < std::min(o.width, (packet + 1) * lanes); ++x) {
+                named[row * std::size_t(o.width) + std::size_t(x)] = true;
+                for (std::size_t k = 0; k < 4; ++k)
+                    REQUIRE(rgba[(row * std::size_t(o.width) + std::size_t(x)) * 4 + k] ==
+                            frame.image.rgba[(std::size_t(y) * std::size_t(o.width) + std::size_t(x)) * 4 + k]);
+            }
+        }
+        for (std::size_t p = 0; p < pixels; ++p)
+            if (!named[p]) REQUIRE(rgba[p * 4] == unwritten);
+    }
+}
+
 TEST_CASE("shadow cache option: names round-trip and a wrong one is refused naming the key", "[shadow_cache]") {
     RenderOptions o;
     CHECK(render_option_values("shadow_cache") == std::vector<std::string>{"auto", "on", "off"});

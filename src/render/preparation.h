@@ -214,6 +214,22 @@ std::array<double, 3> lattice_point_voxel(const ShadowCacheGpu& c, double x, dou
 // axis, within 4 × that share (ShadowCacheGpu.row_block, row_block_stride, block_origin).
 std::vector<ShadowCacheGpu> probe_lattices(const std::vector<ShadowCacheGpu>& layout, int block, int stride, int lanes);
 
+// Auto's probe camera launches (shadow_cache.cpp probe_volume_costs) over `frame`'s image of
+// `lanes`-pixel packets: kProbeRowsPerLaunch rows spread over the image, row_stride apart, every
+// kProbePacketStride-th packet of each (of images under 256 rows every (4 · 256 / height)-th: a
+// launch is about 1/64 of the image), staggered from row to row; the probe moves first_row and
+// first_packet from launch to launch. Where that stride passes a row's packets (images under
+// about 90² at 8 lanes), one packet a row and proportionally fewer rows: a stride past the row's
+// packets left every row whose staggered offset lies past them empty, so that a 64² launch's
+// packets lay in its first and last rows, on the background (the head in fog's shadow rays at
+// 64²: the per-sample pass estimated at 0.19 s against 2.9 s, and left per sample, 3.5× the cache).
+CameraGpu probe_launch_camera(CameraGpu frame, int lanes);
+
+// The packets a launch of render_camera (cl/render.cl) renders: {image row, packet index}, in
+// launch row j (image row first_row + j · row_stride) every packet_stride-th packet from
+// (first_packet + j) mod packet_stride.
+std::vector<std::array<int, 2>> camera_launch_packets(const CameraGpu& camera, int lanes);
+
 // Tests: auto's probe lattices (probe_lattices(…, block, stride, …)) of the frame's cache layout,
 // filled as the probe fills them (one launch per kind of lattice, shadow_cache.cpp
 // fill_small_lattices) or, one_launch false, entry by entry as the frame's fill launches; their

@@ -792,6 +792,26 @@ std::vector<ShadowCacheGpu> probe_lattices(const std::vector<ShadowCacheGpu>& la
     return small;
 }
 
+CameraGpu probe_launch_camera(CameraGpu frame, int lanes) {
+    const int width = int(frame.width), height = std::max(1, int(frame.height));
+    const int row_packets = std::max(1, (width + lanes - 1) / lanes);
+    const int wanted_stride = kProbePacketStride * std::max(1, 256 / height);
+    const int packet_stride = std::min(wanted_stride, row_packets);
+    frame.first_row = 0, frame.first_packet = 0;
+    frame.packet_stride = cl_uint(packet_stride);
+    frame.row_stride = cl_uint(std::min(height, std::max(1, height / kProbeRowsPerLaunch) * ((wanted_stride + packet_stride - 1) / packet_stride)));
+    return frame;
+}
+
+std::vector<std::array<int, 2>> camera_launch_packets(const CameraGpu& camera, int lanes) {
+    std::vector<std::array<int, 2>> packets;
+    const int row_packets = (int(camera.width) + lanes - 1) / lanes, stride = int(std::max(camera.packet_stride, cl_uint(1)));
+    for (cl_uint row = 0, y = camera.first_row; y < camera.height; ++row, y += std::max(camera.row_stride, cl_uint(1)))
+        for (int packet = int((camera.first_packet + row) % cl_uint(stride)); packet < row_packets; packet += stride)
+            packets.push_back({int(y), packet});
+    return packets;
+}
+
 namespace {
 
 // Auto's measurement (issue 29 item 5): what the frame's shadow terms cost both ways, from small
@@ -892,13 +912,8 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
     };
     // tests/test_shadow_cache.cpp: marks here, before the camera launches, whatever they find
     if (mark_points && std::getenv("SOMBRA_TEST_MARK_IN_PROBE")) mark();
-    CameraGpu camera = frame_camera(launch.scene, launch.options, width, height);
-    // a launch: kProbeRowsPerLaunch rows spread over the image, every kProbePacketStride-th packet
-    // of each (of small images more: a launch is at most 1/64 of the image), staggered from row to
-    // row (CameraGpu first_packet, packet_stride)
-    camera.row_stride = cl_uint(std::max(1, height / kProbeRowsPerLaunch));
-    camera.packet_stride = cl_uint(kProbePacketStride * std::max(1, 256 / std::max(height, 1)));
     const int lanes = launch.lanes, row_packets = (width + lanes - 1) / lanes;
+    CameraGpu camera = probe_launch_camera(frame_camera(launch.scene, launch.options, width, height), lanes);
     const double image_packets = double(row_packets) * height;
     CameraPassReads per_sample, cached;
     per_sample.fragments = cached.fragments = fragments;
@@ -917,16 +932,7 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
         const double cheaper = std::min(costs.per_sample_ms, costs.fill_ms + costs.cached_ms);
         return costs.probe_ms + per_sample_sum + cached_sum + step_ms <= kProbeBudget * cheaper;
     };
-    // the packets a launch renders: in its row `row`, every packet_stride-th from (first_packet +
-    // row) mod packet_stride (render_camera)
-    auto launch_packets = [&](const CameraGpu& c) {
-        double packets = 0;
-        for (cl_uint row = 0, y = c.first_row; y < cl_uint(height); ++row, y += c.row_stride) {
-            const int offset = int((c.first_packet + row) % c.packet_stride);
-            packets += double(std::max(0, (row_packets - offset + int(c.packet_stride) - 1) / int(c.packet_stride)));
-        }
-        return packets;
-    };
+    auto launch_packets = [&](const CameraGpu& c) { return double(camera_launch_packets(c, lanes).size()); };
     // untimed first: one packet. A kernel's first launch in a process pays the driver's loading of
     // its code (PoCL: 1–2.5 ms), a large share of a launch of a 100–300 ms frame's 1/64
     // (two_smokes_wall's shadow rays at 256²: 3.8–5.0 ms against 2.5 ms after it); both kinds of
