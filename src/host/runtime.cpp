@@ -234,11 +234,11 @@ struct PacketGrid {
     cl::NDRange global, local;
 };
 
-PacketGrid packet_grid(int width, int height, int lanes) {
+PacketGrid packet_grid(int width, int height, int lanes, int group_side = 4) {
     std::size_t columns = std::size_t((width + lanes - 1) / lanes), rows = std::size_t(height);
     cl::NDRange local = cl::NullRange;
     if (lanes > 1) {
-        const std::size_t group = 4;
+        const std::size_t group = std::size_t(std::max(1, group_side));
         columns = (columns + group - 1) / group * group;
         rows = (rows + group - 1) / group * group;
         local = cl::NDRange(group, group);
@@ -248,8 +248,8 @@ PacketGrid packet_grid(int width, int height, int lanes) {
 
 }  // namespace
 
-double run_packets(Runtime& runtime, cl::Kernel& kernel, int width, int height, int lanes, double units, int first_row) {
-    const PacketGrid grid = packet_grid(width, height, lanes);
+double run_packets(Runtime& runtime, cl::Kernel& kernel, int width, int height, int lanes, double units, int first_row, int group) {
+    const PacketGrid grid = packet_grid(width, height, lanes, group);
     return run_tiled(runtime, kernel, grid.global, grid.local, units, std::size_t(first_row));
 }
 

@@ -83,8 +83,12 @@ int generation_lanes(const Runtime& runtime, int requested);
 // overflows it for 8- and 16-lane packets; 4×4 measured fastest). Kernels ignore the padding.
 // Runs it in bands of rows (host/tiled_launch.h, advancing the progress stage by `units`) and
 // returns the profiled time in ms. first_row > 0: rows first_row … first_row + height − 1 only
-// (the kernels read get_global_id, which includes the offset).
-double run_packets(Runtime& runtime, cl::Kernel& kernel, int width, int height, int lanes, double units = 1, int first_row = 0);
+// (the kernels read get_global_id, which includes the offset). `group`: the work-groups' side in
+// packets; 1 for a launch of packets far apart (auto's probe, whose neighbours share no reads):
+// there a 4 × 4 group held few packets, and PoCL ran a 64² probe launch's two groups of 4 packets
+// as slowly on 2 threads as on 1 (18 ms either way, 10 ms in groups of one packet).
+double run_packets(Runtime& runtime, cl::Kernel& kernel, int width, int height, int lanes, double units = 1, int first_row = 0,
+                   int group = 4);
 
 // The same grid as one launch, enqueued without waiting (no bands, no progress), `depth` deep
 // (get_global_id(2): auto's probe fills the small lattices of all cache entries in one launch, 48

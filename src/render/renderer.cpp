@@ -376,9 +376,11 @@ double run_camera_pass(host::Runtime& runtime, const Scene& scene, const Prepare
     }
     args.done();
     const cl_uint rows = (camera.height - std::min(camera.first_row, camera.height) + camera.row_stride - 1) / camera.row_stride;
-    // a launch row's packets: every packet_stride-th of the image's (CameraGpu)
+    // a launch row's packets: every packet_stride-th of the image's (CameraGpu); a launch of packets
+    // apart (auto's probe) in groups of one packet
     const cl_uint stride = std::max(camera.packet_stride, cl_uint(1)), packets = (camera.width + lanes - 1) / lanes;
-    return host::run_packets(runtime, kernel, int((packets + stride - 1) / stride) * lanes, int(rows), lanes);
+    const bool spread = stride > 1 || camera.row_stride > 1;
+    return host::run_packets(runtime, kernel, int((packets + stride - 1) / stride) * lanes, int(rows), lanes, 1, 0, spread ? 1 : 4);
 }
 
 }  // namespace pipeline
