@@ -234,7 +234,7 @@ struct PacketGrid {
     cl::NDRange global, local;
 };
 
-PacketGrid packet_grid(int width, int height, int lanes, int group_side = 4) {
+PacketGrid packet_grid(int width, int height, int lanes, int group_side = kPacketGroupSide) {
     std::size_t columns = std::size_t((width + lanes - 1) / lanes), rows = std::size_t(height);
     cl::NDRange local = cl::NullRange;
     if (lanes > 1) {

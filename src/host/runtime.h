@@ -87,8 +87,9 @@ int generation_lanes(const Runtime& runtime, int requested);
 // packets; 1 for a launch of packets far apart (auto's probe, whose neighbours share no reads):
 // there a 4 × 4 group held few packets, and PoCL ran a 64² probe launch's two groups of 4 packets
 // as slowly on 2 threads as on 1 (18 ms either way, 10 ms in groups of one packet).
+constexpr int kPacketGroupSide = 4;  // the frame's work-groups: 4 × 4 neighbouring packets
 double run_packets(Runtime& runtime, cl::Kernel& kernel, int width, int height, int lanes, double units = 1, int first_row = 0,
-                   int group = 4);
+                   int group = kPacketGroupSide);
 
 // The same grid as one launch, enqueued without waiting (no bands, no progress), `depth` deep
 // (get_global_id(2): auto's probe fills the small lattices of all cache entries in one launch, 48

@@ -380,7 +380,7 @@ double run_camera_pass(host::Runtime& runtime, const Scene& scene, const Prepare
     // apart (auto's probe) in groups of one packet
     const cl_uint stride = std::max(camera.packet_stride, cl_uint(1)), packets = (camera.width + lanes - 1) / lanes;
     const bool spread = stride > 1 || camera.row_stride > 1;
-    return host::run_packets(runtime, kernel, int((packets + stride - 1) / stride) * lanes, int(rows), lanes, 1, 0, spread ? 1 : 4);
+    return host::run_packets(runtime, kernel, int((packets + stride - 1) / stride) * lanes, int(rows), lanes, 1, 0, spread ? 1 : host::kPacketGroupSide);
 }
 
 }  // namespace pipeline
