@@ -261,7 +261,8 @@ static inline uint interleaved_launch_row(uint ways) {
     return first + ((position - start) * ways + residue) * group_rows + (uint)get_local_id(1);
 }
 
-__kernel void render_camera(SCENE_PARAMS, __global float4* image, __global uint* sample_counts, uint row_interleave SHADOW_PARAMS
+__kernel void render_camera(SCENE_PARAMS, __global float4* image, __global uint* sample_counts, uint row_interleave,
+                            uint write_image_rows, __global const uint* rendered_packets, uint skip_rendered SHADOW_PARAMS
                             SHADOW_CACHE_PARAMS SURFACE_SHADOW_CACHE_PARAMS
 #ifdef SOMBRA_HAS_MESHES
                             , SURFACE_PARAMS
@@ -273,6 +274,10 @@ __kernel void render_camera(SCENE_PARAMS, __global float4* image, __global uint*
     if (y >= camera->height) return;
     uint packet_stride = max(camera->packet_stride, 1u); /* the image's packet (CameraGpu packet_stride) */
     uint x0 = (uint)(get_global_id(0) * packet_stride + (camera->first_packet + row) % packet_stride) * SOMBRA_LANES;
+    /* a packet auto's probe already rendered into the frame's image (CameraPassReads.rendered_packets:
+     * a bit per packet, image row · packets per row + packet) keeps its pixels */
+    uint packet = y * ((camera->width + SOMBRA_LANES - 1) / SOMBRA_LANES) + x0 / SOMBRA_LANES;
+    if (skip_rendered && x0 < camera->width && (rendered_packets[packet / 32u] >> (packet % 32u)) & 1u) return;
     lint xs = (int)x0 + LANE_INDEX;
     lmask lanes = xs < (int)camera->width;
 
@@ -344,7 +349,7 @@ __kernel void render_camera(SCENE_PARAMS, __global float4* image, __global uint*
     LSTORE(state.transmittance, transmittance);
     LSTORE(state.samples, samples);
     for (uint lane = 0; lane < SOMBRA_LANES && x0 + lane < camera->width; ++lane) {
-        size_t pixel = (size_t)row * camera->width + x0 + lane;
+        size_t pixel = (size_t)(write_image_rows ? y : row) * camera->width + x0 + lane; /* CameraPassReads.image_rows */
         image[pixel] = (float4)(red[lane], green[lane], blue[lane], 1.0f - transmittance[lane]);
         sample_counts[pixel] = samples[lane];
     }

@@ -552,7 +552,10 @@ TEST_CASE("shadow cache auto: measures the fill and both camera passes, chooses 
                                                                  s.shadow_cache_estimated_per_sample_ms));
         // and the frame is the one the chosen mode renders: the probe leaves no trace in the image
         o.shadow_cache = s.shadow_cache_used ? ShadowCacheMode::On : ShadowCacheMode::Off;
-        CHECK(test::compare(r.image, render(forced, scene, o).image).max_abs == 0.0);
+        const RenderResult chosen = render(forced, scene, o);
+        CHECK(test::compare(r.image, chosen.image).max_abs == 0.0);
+        CHECK(s.samples == chosen.stats.samples);
+        CHECK((s.shadow_cache_probe_pixels_kept > 0) == !s.shadow_cache_used);  // per sample: the probe's pixels are the frame's
         // the probe's per-sample and cached launches are one program's (render.cl
         // shadow_cache_reads): auto's first frame loads the programs of a frame without the cache,
         // and the marking pass's when it marks
@@ -1052,6 +1055,79 @@ TEST_CASE("a probe launch of render_camera writes the packets camera_launch_pack
         for (std::size_t p = 0; p < pixels; ++p)
             if (!named[p]) REQUIRE(rgba[p * 4] == unwritten);
     }
+}
+
+TEST_CASE("a launch into the image's rows writes the frame's pixels there, and a frame leaves the packets it is told were rendered", "[shadow_cache]") {
+    Scene scene = test::overlapping_scene();
+    Context context(test::device_selector());
+    RenderOptions o = cache_options(ShadowTechnique::Rays, ShadowCacheMode::Off);
+    o.width = 53, o.height = 37;  // a partial last packet
+    const RenderResult frame = render(context, scene, o);
+    const pipeline::Prepared prepared = pipeline::prepare(context, scene, o, *std::make_unique<RenderStats>());
+    host::Runtime& runtime = context.runtime();
+    const int lanes = host::packet_lanes(runtime, o.lanes), row_packets = (o.width + lanes - 1) / lanes;
+    const std::size_t pixels = std::size_t(o.width) * std::size_t(o.height);
+    cl::Buffer image = host::make_buffer(runtime, CL_MEM_READ_WRITE, pixels * sizeof(cl_float4), nullptr, "frame image");
+    cl::Buffer counts = host::make_buffer(runtime, CL_MEM_READ_WRITE, pixels * sizeof(cl_uint), nullptr, "frame samples");
+    const float unwritten = -7.f;
+    auto read_image = [&] {
+        std::vector<float> rgba(pixels * 4);
+        runtime.queue().enqueueReadBuffer(image, CL_TRUE, 0, rgba.size() * sizeof(float), rgba.data());
+        return rgba;
+    };
+    CameraGpu launch = pipeline::probe_launch_camera(pipeline::frame_camera(scene, o, o.width, o.height), lanes);
+    launch.first_row = 1 % launch.row_stride, launch.first_packet = 1;
+    std::vector<bool> named(pixels, false);
+    std::vector<cl_uint> bits((std::size_t(row_packets) * std::size_t(o.height) + 31) / 32, 0u);
+    for (const auto& [y, packet] : pipeline::camera_launch_packets(launch, lanes)) {
+        const std::size_t bit = std::size_t(y) * std::size_t(row_packets) + std::size_t(packet);
+        bits[bit / 32] |= 1u << (bit % 32);
+        for (int x = packet * lanes; x < std::min(o.width, (packet + 1) * lanes); ++x) named[std::size_t(y) * std::size_t(o.width) + std::size_t(x)] = true;
+    }
+    REQUIRE(std::count(named.begin(), named.end(), true) > 0);
+    // the launch, into the image's rows: its packets hold the frame's pixels, the rest is untouched
+    pipeline::CameraPassReads into_rows;
+    into_rows.image_rows = true;
+    runtime.queue().enqueueFillBuffer(image, unwritten, 0, pixels * sizeof(cl_float4));
+    pipeline::run_camera_pass(runtime, scene, prepared, o, lanes, launch, into_rows, image, counts);
+    std::vector<float> rgba = read_image();
+    for (std::size_t p = 0; p < pixels; ++p)
+        for (std::size_t k = 0; k < 4; ++k) REQUIRE(rgba[p * 4 + k] == (named[p] ? frame.image.rgba[p * 4 + k] : unwritten));
+    // the whole frame told those packets were rendered leaves them, and renders the rest as the frame
+    cl::Buffer rendered = host::make_buffer(runtime, CL_MEM_READ_ONLY, bits.size() * sizeof(cl_uint), bits.data(), "rendered packets");
+    pipeline::CameraPassReads rest;
+    rest.rendered_packets = &rendered;
+    runtime.queue().enqueueFillBuffer(image, unwritten, 0, pixels * sizeof(cl_float4));
+    pipeline::run_camera_pass(runtime, scene, prepared, o, lanes, pipeline::frame_camera(scene, o, o.width, o.height), rest, image, counts);
+    rgba = read_image();
+    for (std::size_t p = 0; p < pixels; ++p)
+        for (std::size_t k = 0; k < 4; ++k) REQUIRE(rgba[p * 4 + k] == (named[p] ? unwritten : frame.image.rgba[p * 4 + k]));
+}
+
+TEST_CASE("shadow cache auto: a frame evaluated per sample keeps the probe's per-sample pixels and is the off frame", "[shadow_cache]") {
+    Scene scene = test::overlapping_scene();
+    int kept_frames = 0;
+    for (ShadowTechnique technique : {ShadowTechnique::Dsm, ShadowTechnique::Rays, ShadowTechnique::Ao})
+        for (int size : {5, 64, 160}) {
+            INFO(shadow_technique_name(technique) << " at " << size << "²");
+            forget_shadow_cache_choices();
+            Context context(test::device_selector()), off_context(test::device_selector());
+            RenderOptions o = cache_options(technique, ShadowCacheMode::Auto);
+            o.width = o.height = size;
+            const RenderResult automatic = render(context, scene, o);
+            if (automatic.stats.shadow_cache_used) {
+                CHECK(automatic.stats.shadow_cache_probe_pixels_kept == 0);
+                continue;
+            }
+            ++kept_frames;
+            CHECK(automatic.stats.shadow_cache_probe_pixels_kept > 0);
+            CHECK(automatic.stats.shadow_cache_probe_pixels_kept < std::size_t(size) * std::size_t(size));
+            o.shadow_cache = ShadowCacheMode::Off;
+            const RenderResult off = render(off_context, scene, o);
+            CHECK(test::compare(automatic.image, off.image).max_abs == 0.0);
+            CHECK(automatic.stats.samples == off.stats.samples);
+        }
+    CHECK(kept_frames > 0);  // some frame here is evaluated per sample
 }
 
 TEST_CASE("shadow cache option: names round-trip and a wrong one is refused naming the key", "[shadow_cache]") {

@@ -268,6 +268,9 @@ struct RenderStats {
     int shadow_cache_light_lattices = 0;
     double shadow_cache_probe_ms = 0, shadow_cache_estimated_fill_ms = 0, shadow_cache_estimated_cached_ms = 0,
            shadow_cache_estimated_per_sample_ms = 0;
+    // the pixels auto's probe rendered per sample that a frame then evaluating per sample kept
+    // (the camera pass rendered the others)
+    unsigned long long shadow_cache_probe_pixels_kept = 0;
     // With SOMBRA_AUTO_PROBE_ALL set, auto's probe runs every stage whatever the earlier ones
     // found, and reports each (bench/probe_accuracy.py): what it estimates ("fill",
     // "per_sample", "cached"), the stage ("blocks 2 every 64", "scout 1", "launch 3", …), the

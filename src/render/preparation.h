@@ -133,6 +133,19 @@ struct CameraPassReads {
     // the lattice cells the cached pass would read here instead of reading volume_cache
     const cl::Buffer* volume_cache_marks = nullptr;
     const SurfaceShadowCache* surface_cache = nullptr;
+    // where the pass writes: its launch rows one after the other, or (image_rows) at the image's
+    // rows, as auto's probe writes its per-sample launches into the frame's image; and the packets
+    // it leaves as they are, a bit per packet of the image (row · packets per row + packet): those
+    // the probe rendered per sample, in a frame that then evaluates per sample
+    bool image_rows = false;
+    const cl::Buffer* rendered_packets = nullptr;
+};
+// The frame's image and sample counts, which auto's probe (shadow_cache_for_frame) renders its
+// per-sample launches into; `rendered_packets` (CameraPassReads) when the frame then evaluates per
+// sample and keeps them.
+struct FrameImage {
+    cl::Buffer image, sample_counts;
+    std::optional<cl::Buffer> rendered_packets;
 };
 // render.cl's render_camera for `camera` (its width × the rows first_row, first_row + row_stride, …)
 // into `image` and `sample_counts` (one row per row rendered); returns the kernel time (ms). The
@@ -243,10 +256,11 @@ std::vector<float> probe_fill_values(Context& context, const Scene& scene, const
 // counting: surface points to fill against the frame's surface fragments × lights. Auto's choice
 // is remembered for the process: the same frame again chooses the same (forget_shadow_cache_choices
 // in render.h). `fragments`:
-// the frame's view fragments (mesh scenes; else null) — shadow_cache.cpp.
+// the frame's view fragments (mesh scenes; else null); `frame`: the frame's image, which a frame
+// that then evaluates per sample takes from the probe as FrameImage says — shadow_cache.cpp.
 const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, const Prepared& prepared,
                                           const RenderOptions& options, int width, int height, int lanes,
-                                          const surfaces::ViewFragments* fragments, RenderStats& stats);
+                                          const surfaces::ViewFragments* fragments, FrameImage& frame, RenderStats& stats);
 // After the frame's camera pass: a frame whose auto choice was new in this process and filled
 // every entry records the wall time its mode took, unless it compiled code on the way (its
 // kernels' times in `stats`; shadow_cache_history.h).

@@ -289,6 +289,7 @@ std::string RenderStats::to_json() const {
                                          {"history_on_ms", shadow_cache_history_on_ms},
                                          {"history_off_ms", shadow_cache_history_off_ms},
                                          {"probe_ms", shadow_cache_probe_ms},
+                                         {"pixels_kept", shadow_cache_probe_pixels_kept},
                                          {"estimated_fill_ms", shadow_cache_estimated_fill_ms},
                                          {"estimated_cached_camera_pass_ms", shadow_cache_estimated_cached_ms},
                                          {"estimated_per_sample_camera_pass_ms", shadow_cache_estimated_per_sample_ms}};
@@ -355,6 +356,8 @@ double run_camera_pass(host::Runtime& runtime, const Scene& scene, const Prepare
     host::KernelArgs args(kernel);
     bind_scene(args, prepared.scene, camera_buffer);
     args("image", image)("sample_counts", sample_counts)("row_interleave", camera_row_interleave(runtime, lanes));
+    args("write_image_rows", cl_uint(reads.image_rows));
+    args("rendered_packets", reads.rendered_packets ? *reads.rendered_packets : camera_buffer)("skip_rendered", cl_uint(reads.rendered_packets != nullptr));
     prepared.technique.bind(args, runtime, options);
     if (reads.volume_cache_marks) {
         args("shadow_cache_marks", *reads.volume_cache_marks)("shadow_cache_table", *reads.volume_cache_table);
@@ -409,15 +412,17 @@ RenderResult render(Context& context, const Scene& scene, const RenderOptions& o
         stats.stage_ms["camera_fragments"] = fragments.fragments.stats.count_ms + fragments.fragments.stats.write_ms;
     }
     // the shadow cache is filled first: its fill binds the technique's per-call buffers anew
+    const std::size_t pixels = std::size_t(width) * std::size_t(height);
+    pipeline::FrameImage frame{host::make_buffer(runtime, CL_MEM_WRITE_ONLY, pixels * sizeof(cl_float4), nullptr, "image"),
+                               host::make_buffer(runtime, CL_MEM_WRITE_ONLY, pixels * sizeof(cl_uint), nullptr, "sample counts"), {}};
     const pipeline::ShadowCache* cache = pipeline::shadow_cache_for_frame(context, scene, prepared, options, width, height, lanes,
-                                                                          surfaces::has_fragments(scene) ? &fragments : nullptr, stats);
+                                                                          surfaces::has_fragments(scene) ? &fragments : nullptr, frame, stats);
     bool cached = cache && cache->volumes_used, surfaces_cached = cache && cache->surfaces_used;
 
     const CameraGpu camera = pipeline::frame_camera(scene, options, width, height);
-    std::size_t pixels = std::size_t(width) * std::size_t(height);
-    cl::Buffer image_buffer = host::make_buffer(runtime, CL_MEM_WRITE_ONLY, pixels * sizeof(cl_float4), nullptr, "image");
-    cl::Buffer count_buffer = host::make_buffer(runtime, CL_MEM_WRITE_ONLY, pixels * sizeof(cl_uint), nullptr, "sample counts");
+    const cl::Buffer &image_buffer = frame.image, &count_buffer = frame.sample_counts;
     pipeline::CameraPassReads reads;
+    if (frame.rendered_packets) reads.rendered_packets = &*frame.rendered_packets;  // auto's probe's per-sample pixels, kept
     if (surfaces::has_fragments(scene)) reads.fragments = &fragments;
     if (cached) reads.volume_cache = &cache->values, reads.volume_cache_table = &cache->table;
     if (surfaces_cached) reads.surface_cache = &cache->surfaces;

@@ -846,7 +846,8 @@ struct VolumeCosts {
 // between the per-sample pass and the fill of every point, which the frame never runs).
 VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan, int width, int height,
                                const surfaces::ViewFragments* fragments, const SurfaceShadowCache* surface_cache,
-                               const std::function<double()>* mark_points, std::vector<RenderStats::ProbeStage>* all_stages) {
+                               const std::function<double()>* mark_points, std::vector<RenderStats::ProbeStage>* all_stages,
+                               FrameImage& frame, std::vector<cl_uint>& rendered_packets) {
     host::Runtime& runtime = launch.runtime;
     // the probe's short launches must not make the frame's long ones run unbanded (tiled_launch.cpp)
     const double last_launch_ms = runtime.progress().last_launch_ms;
@@ -916,6 +917,7 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
     CameraGpu camera = probe_launch_camera(frame_camera(launch.scene, launch.options, width, height), lanes);
     const double image_packets = double(row_packets) * height;
     CameraPassReads per_sample, cached;
+    per_sample.image_rows = true;  // the frame's pixels, kept when it then evaluates per sample (FrameImage)
     per_sample.fragments = cached.fragments = fragments;
     per_sample.surface_cache = cached.surface_cache = surface_cache;
     cached.volume_cache = &values, cached.volume_cache_table = &table;
@@ -933,6 +935,16 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
         return costs.probe_ms + per_sample_sum + cached_sum + step_ms <= kProbeBudget * cheaper;
     };
     auto launch_packets = [&](const CameraGpu& c) { return double(camera_launch_packets(c, lanes).size()); };
+    // a per-sample launch into the frame's image rows, its packets noted (a bit per packet of the image)
+    rendered_packets.assign((std::size_t(row_packets) * std::size_t(height) + 31) / 32, 0u);
+    auto run_per_sample = [&](const CameraGpu& c) {
+        const double ms = run_camera_pass(runtime, launch.scene, launch.prepared, launch.options, lanes, c, per_sample, frame.image, frame.sample_counts);
+        for (const auto& [y, packet] : camera_launch_packets(c, lanes)) {
+            const std::size_t bit = std::size_t(y) * std::size_t(row_packets) + std::size_t(packet);
+            rendered_packets[bit / 32] |= 1u << (bit % 32);
+        }
+        return ms;
+    };
     // untimed first: one packet. A kernel's first launch in a process pays the driver's loading of
     // its code (PoCL: 1–2.5 ms), a large share of a launch of a 100–300 ms frame's 1/64
     // (two_smokes_wall's shadow rays at 256²: 3.8–5.0 ms against 2.5 ms after it); both kinds of
@@ -940,7 +952,7 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
     {
         CameraGpu one = camera;
         one.row_stride = cl_uint(height), one.packet_stride = cl_uint(row_packets), one.first_row = cl_uint(height / 2);
-        costs.probe_ms += run_camera_pass(runtime, launch.scene, launch.prepared, launch.options, lanes, one, per_sample, image, counts);
+        costs.probe_ms += run_per_sample(one);
     }
     // a scout first, where the image is wide enough: the first launch's rows, every
     // kProbeScoutThinning-th of its packets. Only the cache's side may be decided from it (as from
@@ -966,7 +978,7 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
             scout.row_stride = camera.row_stride * kQuarters, scout.first_row = camera.row_stride / 2 + quarter_order[piece] * camera.row_stride;
             scout.packet_stride = cl_uint(scout_stride), scout.first_packet = cl_uint(quarter_order[piece]);
             if (scout.first_row >= cl_uint(height)) continue;  // images of a few rows (row_stride 1)
-            per_sample_scout += run_camera_pass(runtime, launch.scene, launch.prepared, launch.options, lanes, scout, per_sample, image, counts);
+            per_sample_scout += run_per_sample(scout);
             cached_scout += run_camera_pass(runtime, launch.scene, launch.prepared, launch.options, lanes, scout, cached, image, counts);
             scout_packets += launch_packets(scout);
             if (scout_packets == 0) continue;
@@ -1005,7 +1017,7 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
         done[first] = true;
         camera.first_row = first, camera.first_packet = cl_uint(k);
         if (packets_done > 0 && !within_budget(last_launch) && !all_stages) break;
-        const double per_sample_launch = run_camera_pass(runtime, launch.scene, launch.prepared, launch.options, lanes, camera, per_sample, image, counts);
+        const double per_sample_launch = run_per_sample(camera);
         const double cached_launch = run_camera_pass(runtime, launch.scene, launch.prepared, launch.options, lanes, camera, cached, image, counts);
         per_sample_sum += per_sample_launch, cached_sum += cached_launch, last_launch = per_sample_launch + cached_launch;
         packets_done += launch_packets(camera);
@@ -1078,7 +1090,7 @@ std::string the_choice_key(host::Runtime& runtime, const Scene& scene, const Pre
 
 const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, const Prepared& prepared,
                                           const RenderOptions& options, int width, int height, int lanes,
-                                          const surfaces::ViewFragments* fragments, RenderStats& stats) {
+                                          const surfaces::ViewFragments* fragments, FrameImage& frame, RenderStats& stats) {
     const PreparedScene& p = prepared.scene;
     const bool has_surfaces = !p.packed_surfaces.triangles.empty();
     if (options.shadow_cache == ShadowCacheMode::Off || !prepared.technique.has_shadow_term() ||
@@ -1166,9 +1178,10 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
             marking_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
             return std::min(1.0, double(fill.needed_points()) / std::max(1.0, double(stats.shadow_cache_points_to_fill)));
         };
+        std::vector<cl_uint> rendered_packets;  // those the probe rendered per sample into the frame's image
         VolumeCosts costs = probe_volume_costs(launch, volumes, width, height, fragments, surface_reads,
                                                may_mark && !all_stages ? &mark_points : nullptr,
-                                               all_stages ? &stats.shadow_cache_probe_stages : nullptr);
+                                               all_stages ? &stats.shadow_cache_probe_stages : nullptr, frame, rendered_packets);
         const auto probe_end = std::chrono::steady_clock::now();
         const double marking_in_probe_ms = marking_ms;
         // tests/test_shadow_cache.cpp: mark, measure and read the cache whatever the probe found
@@ -1190,6 +1203,16 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
             }
         }
         volumes.use = shadow_cache_pays(costs.fill_ms, costs.cached_ms, costs.per_sample_ms) || (test_measure && marked);
+        // per sample: the frame keeps the pixels the probe rendered per sample, as the frame renders
+        // them (the same program and image rows; tests/test_shadow_cache.cpp)
+        if (!volumes.use) {
+            frame.rendered_packets = host::make_buffer(runtime, CL_MEM_READ_ONLY, rendered_packets.size() * sizeof(cl_uint),
+                                                       rendered_packets.data(), "packets the probe rendered");
+            const std::size_t row_packets = std::size_t((width + lanes - 1) / lanes);
+            for (std::size_t bit = 0; bit < rendered_packets.size() * 32; ++bit)
+                if ((rendered_packets[bit / 32] >> (bit % 32)) & 1u)
+                    stats.shadow_cache_probe_pixels_kept += std::size_t(std::min(lanes, width - int(bit % row_packets) * lanes));
+        }
         // where marking cannot pay, the frame fills every point (teapot_fog's DSM at 256²: a
         // marking pass of 50 ms before a fill of 6 ms, where a fill of all points takes 10–17 ms)
         mark_for_fill = may_mark && marking_may_pay(costs.fill_ms, costs.cached_ms);
