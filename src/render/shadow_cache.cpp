@@ -830,7 +830,9 @@ namespace {
 // lattices (a lattice costs the same to read at any size; its values are thrown away), scaled by
 // the packets. It stops when one side costs twice the other, after 4 launches, or when its next
 // launch would take the probe past kProbeBudget of the cheaper frame. Before the first launch, a
-// scout with a quarter of its packets may decide for the cache at 3×.
+// scout with a quarter of its packets may decide for the cache at 3×. The per-sample launches
+// write into `frame`'s image rows and note their packets in `rendered_packets` (a bit per packet
+// of the image), which a frame then evaluated per sample keeps (FrameImage).
 struct VolumeCosts {
     double fill_ms = 0, per_sample_ms = 0, cached_ms = 0, probe_ms = 0;
 };
