@@ -1065,7 +1065,7 @@ TEST_CASE("a launch into the image's rows writes the frame's pixels there, and a
     const RenderResult frame = render(context, scene, o);
     const pipeline::Prepared prepared = pipeline::prepare(context, scene, o, *std::make_unique<RenderStats>());
     host::Runtime& runtime = context.runtime();
-    const int lanes = host::packet_lanes(runtime, o.lanes), row_packets = (o.width + lanes - 1) / lanes;
+    const int lanes = host::packet_lanes(runtime, o.lanes);
     const std::size_t pixels = std::size_t(o.width) * std::size_t(o.height);
     cl::Buffer image = host::make_buffer(runtime, CL_MEM_READ_WRITE, pixels * sizeof(cl_float4), nullptr, "frame image");
     cl::Buffer counts = host::make_buffer(runtime, CL_MEM_READ_WRITE, pixels * sizeof(cl_uint), nullptr, "frame samples");
@@ -1078,13 +1078,14 @@ TEST_CASE("a launch into the image's rows writes the frame's pixels there, and a
     CameraGpu launch = pipeline::probe_launch_camera(pipeline::frame_camera(scene, o, o.width, o.height), lanes);
     launch.first_row = 1 % launch.row_stride, launch.first_packet = 1;
     std::vector<bool> named(pixels, false);
-    std::vector<cl_uint> bits((std::size_t(row_packets) * std::size_t(o.height) + 31) / 32, 0u);
+    pipeline::RenderedPackets rendered_packets(o.width, o.height, lanes);
     for (const auto& [y, packet] : pipeline::camera_launch_packets(launch, lanes)) {
-        const std::size_t bit = std::size_t(y) * std::size_t(row_packets) + std::size_t(packet);
-        bits[bit / 32] |= 1u << (bit % 32);
+        rendered_packets.add(y, packet);
+        rendered_packets.add(y, packet);  // counted once
         for (int x = packet * lanes; x < std::min(o.width, (packet + 1) * lanes); ++x) named[std::size_t(y) * std::size_t(o.width) + std::size_t(x)] = true;
     }
     REQUIRE(std::count(named.begin(), named.end(), true) > 0);
+    CHECK(rendered_packets.pixels == std::size_t(std::count(named.begin(), named.end(), true)));
     // the launch, into the image's rows: its packets hold the frame's pixels, the rest is untouched
     pipeline::CameraPassReads into_rows;
     into_rows.image_rows = true;
@@ -1094,7 +1095,8 @@ TEST_CASE("a launch into the image's rows writes the frame's pixels there, and a
     for (std::size_t p = 0; p < pixels; ++p)
         for (std::size_t k = 0; k < 4; ++k) REQUIRE(rgba[p * 4 + k] == (named[p] ? frame.image.rgba[p * 4 + k] : unwritten));
     // the whole frame told those packets were rendered leaves them, and renders the rest as the frame
-    cl::Buffer rendered = host::make_buffer(runtime, CL_MEM_READ_ONLY, bits.size() * sizeof(cl_uint), bits.data(), "rendered packets");
+    cl::Buffer rendered = host::make_buffer(runtime, CL_MEM_READ_ONLY, rendered_packets.bits.size() * sizeof(cl_uint),
+                                            rendered_packets.bits.data(), "rendered packets");
     pipeline::CameraPassReads rest;
     rest.rendered_packets = &rendered;
     runtime.queue().enqueueFillBuffer(image, unwritten, 0, pixels * sizeof(cl_float4));

@@ -147,6 +147,16 @@ struct FrameImage {
     cl::Buffer image, sample_counts;
     std::optional<cl::Buffer> rendered_packets;
 };
+// Packets of an image of `width` × `height` noted as rendered: a bit per packet (row · packets per
+// row + packet, CameraPassReads.rendered_packets), and the pixels they hold.
+struct RenderedPackets {
+    RenderedPackets(int width, int height, int lanes);
+    void add(int y, int packet);  // (a packet noted twice counts once)
+    std::vector<cl_uint> bits;
+    unsigned long long pixels = 0;
+private:
+    int width_, lanes_, row_packets_;
+};
 // render.cl's render_camera for `camera` (its width × the rows first_row, first_row + row_stride, …)
 // into `image` and `sample_counts` (one row per row rendered); returns the kernel time (ms). The
 // render and the shadow cache's auto probe run it.

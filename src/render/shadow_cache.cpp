@@ -803,6 +803,18 @@ CameraGpu probe_launch_camera(CameraGpu frame, int lanes) {
     return frame;
 }
 
+RenderedPackets::RenderedPackets(int width, int height, int lanes)
+    : width_(width), lanes_(lanes), row_packets_((width + lanes - 1) / lanes) {
+    bits.assign((std::size_t(row_packets_) * std::size_t(std::max(height, 0)) + 31) / 32, 0u);
+}
+
+void RenderedPackets::add(int y, int packet) {
+    const std::size_t bit = std::size_t(y) * std::size_t(row_packets_) + std::size_t(packet);
+    if ((bits[bit / 32] >> (bit % 32)) & 1u) return;
+    bits[bit / 32] |= 1u << (bit % 32);
+    pixels += unsigned(std::min(lanes_, width_ - packet * lanes_));
+}
+
 std::vector<std::array<int, 2>> camera_launch_packets(const CameraGpu& camera, int lanes) {
     std::vector<std::array<int, 2>> packets;
     const int row_packets = (int(camera.width) + lanes - 1) / lanes, stride = int(std::max(camera.packet_stride, cl_uint(1)));
@@ -849,7 +861,7 @@ struct VolumeCosts {
 VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan, int width, int height,
                                const surfaces::ViewFragments* fragments, const SurfaceShadowCache* surface_cache,
                                const std::function<double()>* mark_points, std::vector<RenderStats::ProbeStage>* all_stages,
-                               FrameImage& frame, std::vector<cl_uint>& rendered_packets) {
+                               const FrameImage& frame, RenderedPackets& rendered_packets) {
     host::Runtime& runtime = launch.runtime;
     // the probe's short launches must not make the frame's long ones run unbanded (tiled_launch.cpp)
     const double last_launch_ms = runtime.progress().last_launch_ms;
@@ -937,14 +949,10 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
         return costs.probe_ms + per_sample_sum + cached_sum + step_ms <= kProbeBudget * cheaper;
     };
     auto launch_packets = [&](const CameraGpu& c) { return double(camera_launch_packets(c, lanes).size()); };
-    // a per-sample launch into the frame's image rows, its packets noted (a bit per packet of the image)
-    rendered_packets.assign((std::size_t(row_packets) * std::size_t(height) + 31) / 32, 0u);
+    // a per-sample launch into the frame's image rows, its packets noted
     auto run_per_sample = [&](const CameraGpu& c) {
         const double ms = run_camera_pass(runtime, launch.scene, launch.prepared, launch.options, lanes, c, per_sample, frame.image, frame.sample_counts);
-        for (const auto& [y, packet] : camera_launch_packets(c, lanes)) {
-            const std::size_t bit = std::size_t(y) * std::size_t(row_packets) + std::size_t(packet);
-            rendered_packets[bit / 32] |= 1u << (bit % 32);
-        }
+        for (const auto& [y, packet] : camera_launch_packets(c, lanes)) rendered_packets.add(y, packet);
         return ms;
     };
     // untimed first: one packet. A kernel's first launch in a process pays the driver's loading of
@@ -1180,7 +1188,7 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
             marking_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
             return std::min(1.0, double(fill.needed_points()) / std::max(1.0, double(stats.shadow_cache_points_to_fill)));
         };
-        std::vector<cl_uint> rendered_packets;  // those the probe rendered per sample into the frame's image
+        RenderedPackets rendered_packets(width, height, lanes);  // those the probe rendered per sample into the frame's image
         VolumeCosts costs = probe_volume_costs(launch, volumes, width, height, fragments, surface_reads,
                                                may_mark && !all_stages ? &mark_points : nullptr,
                                                all_stages ? &stats.shadow_cache_probe_stages : nullptr, frame, rendered_packets);
@@ -1208,12 +1216,9 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
         // per sample: the frame keeps the pixels the probe rendered per sample, as the frame renders
         // them (the same program and image rows; tests/test_shadow_cache.cpp)
         if (!volumes.use) {
-            frame.rendered_packets = host::make_buffer(runtime, CL_MEM_READ_ONLY, rendered_packets.size() * sizeof(cl_uint),
-                                                       rendered_packets.data(), "packets the probe rendered");
-            const std::size_t row_packets = std::size_t((width + lanes - 1) / lanes);
-            for (std::size_t bit = 0; bit < rendered_packets.size() * 32; ++bit)
-                if ((rendered_packets[bit / 32] >> (bit % 32)) & 1u)
-                    stats.shadow_cache_probe_pixels_kept += std::size_t(std::min(lanes, width - int(bit % row_packets) * lanes));
+            frame.rendered_packets = host::make_buffer(runtime, CL_MEM_READ_ONLY, rendered_packets.bits.size() * sizeof(cl_uint),
+                                                       rendered_packets.bits.data(), "packets the probe rendered");
+            stats.shadow_cache_probe_pixels_kept = rendered_packets.pixels;
         }
         // where marking cannot pay, the frame fills every point (teapot_fog's DSM at 256²: a
         // marking pass of 50 ms before a fill of 6 ms, where a fill of all points takes 10–17 ms)
