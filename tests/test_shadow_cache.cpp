@@ -741,31 +741,60 @@ TEST_CASE("shadow cache auto: the marking pass runs where its best case saves at
     // the probe's estimates (fill of every point, cached pass, per-sample pass; ms), measured
     CHECK(visible_fill_worth_marking(3755, 652, 3152));   // the CT's cone at 512²: visible fill 1.5 s of stages against 2.5 s
     CHECK(visible_fill_worth_marking(3454, 245, 1534));   // the MRI's cone at 256²: 0.74 s against 1.33 s
-    CHECK(visible_fill_worth_marking(4600, 120, 1500));   // the MRI's shadow rays at 256² (cached pass ≤ 1/8)
+    CHECK(visible_fill_worth_marking(3269, 225, 1425));   // the MRI's cone at 256², another run
+    CHECK(visible_fill_worth_marking(4600, 120, 1500));   // the MRI's shadow rays at 256² (cached pass ≤ 1/10)
+    CHECK(visible_fill_worth_marking(664, 38, 486));      // the MRI's shadow rays at 128²: marked 8 %, then the cache
+    CHECK(visible_fill_worth_marking(521, 161, 1650));    // the smoke's cone at 256²: marked 62 %, then the cache
     CHECK_FALSE(visible_fill_worth_marking(3385, 200, 890));  // the CT's cone at 256²: per sample 0.65 s, marked 0.93 s
     CHECK_FALSE(visible_fill_worth_marking(300, 200, 2000));  // a fill cheaper than two cached passes
     CHECK_FALSE(visible_fill_worth_marking(800, 60, 180));    // a small frame: the best case barely pays
     CHECK_FALSE(visible_fill_worth_marking(83, 12, 75));      // two_smokes_wall's cone at 128²: marked, then per sample, 1.31×
-    // over random estimates: every case of the rule before (cached pass ≤ 1/8 of the per-sample
-    // pass) still marks, and the added ones, on per-sample passes of at least
-    // kMarkingBestCaseMinMs, save at least the marking pass in their best case
+    CHECK_FALSE(visible_fill_worth_marking(561, 116, 504));   // the head in fog's AO at 128²: marked, then the cache, 1.19–1.32×
+    CHECK_FALSE(visible_fill_worth_marking(588, 54, 443));    // the smoke's cone at 128²: marked and measured, then per sample
+    // over random estimates: the marking pass runs only where its best case pays, and either costs
+    // at most 1/kMarkingCachedShare of the per-sample pass or, on per-sample passes of at least
+    // kMarkingBestCaseMinMs, is saved by that best case; both arms occur
     std::mt19937 rng(29);
     std::uniform_real_distribution<double> log_ms(0.0, 4.0);
-    int added = 0;
+    int first_arm = 0, second_arm_only = 0;
     for (int i = 0; i < 20000; ++i) {
         const double fill = std::pow(10.0, log_ms(rng)), cached = std::pow(10.0, log_ms(rng)), per_sample = std::pow(10.0, log_ms(rng));
         const double best_case = sombra::kShadowCacheAutoMargin * (fill / pipeline::kVisibleFillBound + 2 * cached);
-        const bool before = 2 * cached < fill && 8 * cached <= per_sample && best_case < per_sample;
-        const bool now = visible_fill_worth_marking(fill, cached, per_sample);
-        if (before) REQUIRE(now);
-        if (now && !before) {
-            ++added;
-            REQUIRE(per_sample - best_case >= cached);
-            REQUIRE(per_sample >= pipeline::kMarkingBestCaseMinMs);
-        }
-        if (now) REQUIRE(best_case < per_sample);
+        const bool may_pay = 2 * cached < fill && best_case < per_sample;
+        const bool cheap_pass = pipeline::kMarkingCachedShare * cached <= per_sample;
+        const bool saved = per_sample >= pipeline::kMarkingBestCaseMinMs && per_sample - best_case >= cached;
+        REQUIRE(visible_fill_worth_marking(fill, cached, per_sample) == (may_pay && (cheap_pass || saved)));
+        first_arm += may_pay && cheap_pass;
+        second_arm_only += may_pay && !cheap_pass && saved;
     }
-    CHECK(added > 0);
+    CHECK(first_arm > 0);
+    CHECK(second_arm_only > 0);
+}
+
+TEST_CASE("shadow cache auto: a marked fill is measured where an estimate off by the probe's error would decide otherwise", "[shadow_cache]") {
+    using pipeline::marked_fill_worth_measuring;
+    using pipeline::shadow_cache_pays;
+    // the probe's estimates for the marked points (fill, cached pass, per-sample pass; ms), measured
+    CHECK(marked_fill_worth_measuring(265, 12, 391));    // bounded_smoke's shadow rays at 128²: the fill took 450 ms
+    CHECK(marked_fill_worth_measuring(339, 47, 391));    // the smoke's cone at 128²: does not pay, a third would
+    CHECK(marked_fill_worth_measuring(697, 150, 1034));  // the MRI's cone at 256²: pays, twice would not
+    CHECK_FALSE(marked_fill_worth_measuring(2100, 462, 9940));  // the head in fog's cone at 256²: pays at twice
+    CHECK_FALSE(marked_fill_worth_measuring(3000, 100, 900));   // pays at a third neither
+    // over random estimates: measured exactly where the decision would flip with the fill
+    // kMeasureFillAbove times higher or kMeasureFillBelow times lower
+    std::mt19937 rng(33);
+    std::uniform_real_distribution<double> log_ms(0.0, 4.0);
+    int measured_paying = 0, measured_not_paying = 0;
+    for (int i = 0; i < 20000; ++i) {
+        const double fill = std::pow(10.0, log_ms(rng)), cached = std::pow(10.0, log_ms(rng)), per_sample = std::pow(10.0, log_ms(rng));
+        const bool pays = shadow_cache_pays(fill, cached, per_sample);
+        const bool flips = pays != shadow_cache_pays(pipeline::kMeasureFillAbove * fill, cached, per_sample) ||
+                           pays != shadow_cache_pays(fill / pipeline::kMeasureFillBelow, cached, per_sample);
+        REQUIRE(marked_fill_worth_measuring(fill, cached, per_sample) == flips);
+        if (flips) ++(pays ? measured_paying : measured_not_paying);
+    }
+    CHECK(measured_paying > 0);
+    CHECK(measured_not_paying > 0);
 }
 
 TEST_CASE("shadow cache auto across processes: a run that compiled code on the way is not recorded", "[shadow_cache]") {

@@ -181,23 +181,44 @@ constexpr bool shadow_cache_pays(double fill_ms, double cached_ms, double per_sa
 // visible_fill_worth_marking, and the frame's fill after an unmarked choice ask it).
 constexpr bool marking_may_pay(double fill_ms, double cached_ms) { return 2 * cached_ms < fill_ms; }
 
+// Whether auto measures the visible fill on a part of its points (shadow_cache.cpp
+// measure_marked_fill) before it decides, from the probe's estimate for the marked points: when the
+// estimate does not pay but a kMeasureFillBelow times lower one would (the probe's blocks ran
+// 1.2–4.6× the visible fill's time per point on the CT and the MRI), or when it pays but a
+// kMeasureFillAbove times higher one would not (bounded_smoke's shadow rays at 128²: its marked
+// points, in the smoke, cost 1.7× per point what the probe's blocks do; the estimate 265 ms chose
+// the cache, whose fill took 450 ms, 1.2× the per-sample frame). Where the cache is then read, the
+// measured points are the frame's fill's, so that measuring costs only its few launches; where the
+// estimate was wrong, a fill of the other points is not run.
+constexpr double kMeasureFillBelow = 3, kMeasureFillAbove = 2;
+constexpr bool marked_fill_worth_measuring(double fill_ms, double cached_ms, double per_sample_ms) {
+    return shadow_cache_pays(fill_ms, cached_ms, per_sample_ms) ? !shadow_cache_pays(kMeasureFillAbove * fill_ms, cached_ms, per_sample_ms)
+                                                                : shadow_cache_pays(fill_ms / kMeasureFillBelow, cached_ms, per_sample_ms);
+}
+
 // Whether auto's probe runs the visible fill's marking pass (shadow_cache.cpp; docs/shadows.md
 // "Auto"). The pass costs about a cached camera pass and is wasted when the points it marks then
 // do not pay, so it runs only when the cache would pay at 1/kVisibleFillBound of the probe's fill
 // of every point (the shipped scenes mark 18–62 % of the points, at less per point than the
-// probe's blocks), the cached pass costs under half that fill, and either the pass is at most an
-// eighth of the per-sample pass or, on a per-sample pass of at least kMarkingBestCaseMinMs, that
-// best case saves at least the pass. The second arm: the CT's and the MRI's cone shadows at 512²
-// and 256² (per-sample pass 1.5–3 s, 3–6× the cached one) were left per sample on the fill of
-// every point, 1.3–1.4× the visible fill's frames. Not on shorter frames, whose estimates come
-// from launches of a few milliseconds and spread by ± 40 %, and whose scenes mark more of their
-// points (54–73 %): two_smokes_wall's cone at 128² (per sample 55–75 ms) marked, then stayed per
-// sample, 1.31× (bench/README.md "Every shipped scene").
-constexpr double kVisibleFillBound = 8, kMarkingBestCaseMinMs = 300;
+// probe's blocks), the cached pass costs under half that fill, and either the pass is at most
+// 1/kMarkingCachedShare of the per-sample pass or, on a per-sample pass of at least
+// kMarkingBestCaseMinMs, that best case saves at least the pass. The second arm: the CT's and the
+// MRI's cone shadows at 512² and 256² (per-sample pass 1.4–4.6 s, 3–7× the cached one) were left
+// per sample on the fill of every point, 1.3–1.4× the visible fill's frames. Not on shorter
+// frames, whose estimates come from launches of a few milliseconds and spread by ± 40 %, and
+// whose scenes mark more of their points (48–73 %): two_smokes_wall's cone at 128² (per sample
+// 55–75 ms) marked, then stayed per sample, 1.31×; the head in fog's AO at 128² (per sample
+// estimated at 460–500 ms, 4–5× the cached pass) marked 48 % and then read the cache, 1.19–1.32×
+// the per-sample frame (the floor was 300 ms until 2026-12-07; the second arm's cases that paid
+// had per-sample passes of 1.4 s and more). The first arm at a tenth, not an eighth (until
+// 2026-12-07): the smoke's cone at 128² (cached pass 1/7.3–1/8.7 of the per-sample one) marked
+// 58 % and measured them, 60–70 ms on a 400 ms frame that then evaluated per sample, 1.11–1.26×
+// (bench/README.md "Marking on short frames").
+constexpr double kVisibleFillBound = 8, kMarkingCachedShare = 10, kMarkingBestCaseMinMs = 700;
 constexpr bool visible_fill_worth_marking(double fill_ms, double cached_ms, double per_sample_ms) {
     const double best_case_ms = kShadowCacheAutoMargin * (fill_ms / kVisibleFillBound + 2 * cached_ms);  // marking, fill, cached pass
     return marking_may_pay(fill_ms, cached_ms) && best_case_ms < per_sample_ms &&
-           (8 * cached_ms <= per_sample_ms ||
+           (kMarkingCachedShare * cached_ms <= per_sample_ms ||
             (per_sample_ms >= kMarkingBestCaseMinMs && per_sample_ms - best_case_ms >= cached_ms));
 }
 

@@ -59,12 +59,6 @@ constexpr int kProbeRowsPerLaunch = 16, kProbePacketStride = 4, kProbeLaunches =
 constexpr double kProbeWarmupMs = 10;                        // before its first fill, ≥ 10 ms of untimed fills
 constexpr int kProbeWarmupLaunches = 8;                      // (or 8 launches)
 constexpr double kProbeBudget = 0.05;                        // beyond its first launch, at most 5 % of the cheaper frame
-// A visible fill may cost as little as 1/kVisibleFillBound (preparation.h) of the probe's fill of
-// every point: a quarter of the points (the shipped scenes' marking passes keep 18–62 %) at half
-// the probe's time per point (its blocks ran 1.2–4.6× the visible fill's). When the probe's
-// estimate for the marked points does not pay but a kMeasureFillBelow times lower one would, the
-// fill is measured.
-constexpr double kMeasureFillBelow = 3;
 constexpr std::size_t kRememberedChoices = 4096;            // auto's choices kept per process (the oldest go first)
 
 double triangle_longest_edge(const SurfaceTriangleGpu& t) {
@@ -1202,11 +1196,9 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
             stats.shadow_cache_auto_marked = "after probe";
         }
         if (marked) {
-            // a close call by the probe's estimate (which runs high on visible points): the
-            // visible fill measured on a part of its points decides
-            if ((!shadow_cache_pays(costs.fill_ms, costs.cached_ms, costs.per_sample_ms) &&
-                 shadow_cache_pays(costs.fill_ms / kMeasureFillBelow, costs.cached_ms, costs.per_sample_ms)) ||
-                test_measure) {
+            // a close call by the probe's estimate for the marked points: the visible fill measured
+            // on a part of its points decides
+            if (marked_fill_worth_measuring(costs.fill_ms, costs.cached_ms, costs.per_sample_ms) || test_measure) {
                 const double measured = measure_marked_fill(launch, *cache, volumes, fill, &measured_fill_ms);
                 if (measured >= 0) costs.fill_ms = measured;
                 stats.stage_ms["shadow_cache_measure"] = measured_fill_ms;
