@@ -182,18 +182,17 @@ constexpr bool shadow_cache_pays(double fill_ms, double cached_ms, double per_sa
 constexpr bool marking_may_pay(double fill_ms, double cached_ms) { return 2 * cached_ms < fill_ms; }
 
 // Whether auto measures the visible fill on a part of its points (shadow_cache.cpp
-// measure_marked_fill) before it decides, from the probe's estimate for the marked points: when the
-// estimate does not pay but a kMeasureFillBelow times lower one would (the probe's blocks ran
-// 1.2–4.6× the visible fill's time per point on the CT and the MRI), or when it pays but a
-// kMeasureFillAbove times higher one would not (bounded_smoke's shadow rays at 128²: its marked
-// points, in the smoke, cost 1.7× per point what the probe's blocks do; the estimate 265 ms chose
-// the cache, whose fill took 450 ms, 1.2× the per-sample frame). Where the cache is then read, the
-// measured points are the frame's fill's, so that measuring costs only its few launches; where the
-// estimate was wrong, a fill of the other points is not run.
-constexpr double kMeasureFillBelow = 3, kMeasureFillAbove = 2;
+// measure_marked_fill) before it decides: when the probe's estimate for the marked points does not
+// pay but a kMeasureFillBelow times lower one would (the probe's blocks ran 1.2–4.6× the visible
+// fill's time per point on the CT and the MRI). Not where the estimate pays but a higher one would
+// not (tried 2026-12-07 at twice, bench/README.md "Marking on short frames"): the measurement's
+// bands of 4 rows fill at about half the speed of the frame's fill, so that the MRI's cone at 256²
+// and the CT's at 512², which read the cache either way, came out 1.13× against 1.01–1.07×, while
+// bounded_smoke's shadow rays at 128², which its estimate had sent to the cache (1.22×), paid the
+// marking and the measurement before evaluating per sample (1.24×).
+constexpr double kMeasureFillBelow = 3;
 constexpr bool marked_fill_worth_measuring(double fill_ms, double cached_ms, double per_sample_ms) {
-    return shadow_cache_pays(fill_ms, cached_ms, per_sample_ms) ? !shadow_cache_pays(kMeasureFillAbove * fill_ms, cached_ms, per_sample_ms)
-                                                                : shadow_cache_pays(fill_ms / kMeasureFillBelow, cached_ms, per_sample_ms);
+    return !shadow_cache_pays(fill_ms, cached_ms, per_sample_ms) && shadow_cache_pays(fill_ms / kMeasureFillBelow, cached_ms, per_sample_ms);
 }
 
 // Whether auto's probe runs the visible fill's marking pass (shadow_cache.cpp; docs/shadows.md
