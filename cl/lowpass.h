@@ -237,11 +237,16 @@ static inline float sat_ambient_depth(__global const ulong* sat, __global const 
  * is gone (SOMBRA_OPAQUE_DEPTH). */
 static inline float sat_cone_depth(__global const ulong* sat, __global const SatGridGpu* g, float3 p, float3 towards, float reach) {
     __global const ulong* s = sat + g->data_offset;
-    sat_real3 c, d;
-    for (int a = 0; a < 3; ++a) {
-        ((sat_real*)&c)[a] = dot(g->to_grid[a].xyz, p) + g->to_grid[a].w;
-        ((sat_real*)&d)[a] = dot(g->to_grid[a].xyz, towards) * g->cell_size; /* unit vector in grid axes */
-    }
+    /* whole vectors: written one lane at a time through a pointer (until 2026-12-07), their fourth
+     * (padding) lane kept the stack's garbage, which the vector arithmetic below carries along, and
+     * a subnormal left there by an earlier kernel made PoCL's cone pass 1.4× slower for the rest of
+     * the process (teapot_fog at 128²: 72 → 103 ms after one deep-shadow-map build; bench/README.md
+     * "sombra_bench_frame_sequence"; tests/portability/kernel_rules.sh) */
+    const sat_real3 c = (sat_real3)((sat_real)(dot(g->to_grid[0].xyz, p) + g->to_grid[0].w), (sat_real)(dot(g->to_grid[1].xyz, p) + g->to_grid[1].w),
+                                    (sat_real)(dot(g->to_grid[2].xyz, p) + g->to_grid[2].w));
+    const sat_real3 d = (sat_real3)((sat_real)(dot(g->to_grid[0].xyz, towards) * g->cell_size), /* unit vector in grid axes */
+                                    (sat_real)(dot(g->to_grid[1].xyz, towards) * g->cell_size),
+                                    (sat_real)(dot(g->to_grid[2].xyz, towards) * g->cell_size));
     sat_real3 n = convert_sat_real3(g->dims.xyz);
     /* the grid covers the occupied bricks only: from a point outside it (at distance `outside`), the
      * march first skips the cubes that miss the grid */
