@@ -996,18 +996,16 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
             scouted = costs.per_sample_ms > clear_after[piece] * (costs.fill_ms + costs.cached_ms);
         }
         costs.probe_ms += per_sample_scout + cached_scout;
-        // not decided by the scout, where the frame may mark and marking is worth it at half the
-        // scout's per-sample pass (its packets read that pass 1.2–1.7× high: the head in fog's cone
-        // shadows and the MRI's shadow rays at 256²): the fill every kProbeBlockStride rows, the
+        // not decided by the scout, where the frame may mark and marking is worth it on the scout's
+        // estimates (scout_worth_marking): the fill every kProbeBlockStride rows, the
         // marking pass if the condition still holds, and the scout's decision again, at
         // kProbeScoutClear, on the marked points' fill. Decided so, the probe skips the first
         // launch, 1/64 of the per-sample pass (the head in fog's cone shadows at 256²: 150 ms of a
         // 246 ms probe; bench/README.md "Marking after the scout")
-        if (!scouted && scout_packets > 0 && mark_points && !marked &&
-            visible_fill_worth_marking(costs.fill_ms, costs.cached_ms, costs.per_sample_ms / 2)) {
+        if (!scouted && scout_packets > 0 && mark_points && !marked && scout_worth_marking(costs.fill_ms, costs.cached_ms, costs.per_sample_ms)) {
             costs.fill_ms = fill_blocks(kProbeBlock, kProbeBlockStride, false);
             fine_fill = true;
-            if (visible_fill_worth_marking(costs.fill_ms, costs.cached_ms, costs.per_sample_ms / 2)) {
+            if (scout_worth_marking(costs.fill_ms, costs.cached_ms, costs.per_sample_ms)) {
                 mark();
                 scouted = costs.per_sample_ms > kProbeScoutClear * (costs.fill_ms + costs.cached_ms);
             }
@@ -1025,13 +1023,11 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
             const double first_packets = launch_packets(first);
             if (first_packets > 0) costs.cached_ms = cached_launch * image_packets / first_packets;
             costs.probe_ms += cached_launch;
-            // and, where the frame may mark and the marking condition fails on the coarse fill but
-            // would hold at kProbeCoarseClear times it, the fill every kProbeBlockStride rows: the
-            // coarse blocks ran 1.6–3× low on the MRI's shadow rays at 256² (164–277 ms against a
-            // fill of every point of 257–520 ms), which then filled every point, 1.16× the marked
-            // fill's frame (bench/README.md "A scout's marking condition")
-            if (mark_points && !marked && !fine_fill && !marking_may_pay(costs.fill_ms, costs.cached_ms) &&
-                marking_may_pay(kProbeCoarseClear * costs.fill_ms, costs.cached_ms)) {
+            // and, where the marking condition fails narrowly on the coarse fill (marking_close_call),
+            // the fill every kProbeBlockStride rows: the MRI's shadow rays at 256² (coarse fill
+            // 164–277 ms against 257–520 ms) filled every point, 1.16× the marked fill's frame
+            // (bench/README.md "Marking after the scout")
+            if (mark_points && !marked && !fine_fill && marking_close_call(costs.fill_ms, costs.cached_ms)) {
                 costs.fill_ms = fill_blocks(kProbeBlock, kProbeBlockStride, false);
                 fine_fill = true;
             }
