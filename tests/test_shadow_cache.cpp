@@ -771,29 +771,22 @@ TEST_CASE("shadow cache auto: the marking pass runs where its best case saves at
     CHECK(second_arm_only > 0);
 }
 
-TEST_CASE("shadow cache auto: after the scout, marking is asked of half its per-sample pass, and a narrow miss on the coarse fill is measured again", "[shadow_cache]") {
+TEST_CASE("shadow cache auto: a scout that decided measures the fill again where marking fails narrowly on the coarse fill", "[shadow_cache]") {
     using pipeline::marking_close_call;
-    using pipeline::scout_worth_marking;
-    // the scout's estimates (fill of every point every 32 rows, cached pass, per-sample pass; ms), measured
-    CHECK(scout_worth_marking(4262, 307, 9697));   // the head in fog's cone at 256²: the marked fill paid (scout off 8.1 s)
-    CHECK_FALSE(scout_worth_marking(164, 187, 2077));  // the MRI's shadow rays at 256²: two cached passes cost more than the fill
-    CHECK_FALSE(scout_worth_marking(800, 100, 1200));  // worth it at 1.2 s (first arm), not at half of it
-    CHECK(pipeline::visible_fill_worth_marking(800, 100, 1200));
-    // the coarse fill against two cached passes (the frame marks where the fill costs more)
-    CHECK(marking_close_call(164, 118));           // the MRI's shadow rays at 256²: the fill of every point took 257–520 ms
-    CHECK_FALSE(marking_close_call(600, 118));     // marking may pay already
-    CHECK_FALSE(marking_close_call(12, 50));       // teapot_fog's DSM at 256²: marking 50 ms before a fill of 6 ms
-    // over random estimates: a close call is one where the fill is under two cached passes and
-    // over 2/kCoarseFillLow of one; half the scout's pass never marks where the whole would not
+    // the coarse fill against two cached passes (ms, measured): the frame marks where the fill costs more
+    CHECK(marking_close_call(164, 118));        // the MRI's shadow rays at 256²: the fill of every point took 257–520 ms
+    CHECK_FALSE(marking_close_call(600, 118));  // marking may pay already
+    CHECK_FALSE(marking_close_call(12, 50));    // teapot_fog's DSM at 256²: marking 50 ms before a fill of 6 ms
+    // over random estimates: a close call is one where the fill is at most two cached passes and
+    // more than 2/kCoarseFillLow of one
     std::mt19937 rng(33);
     std::uniform_real_distribution<double> log_ms(0.0, 4.0);
     int close_calls = 0;
     for (int i = 0; i < 20000; ++i) {
-        const double fill = std::pow(10.0, log_ms(rng)), cached = std::pow(10.0, log_ms(rng)), per_sample = std::pow(10.0, log_ms(rng));
+        const double fill = std::pow(10.0, log_ms(rng)), cached = std::pow(10.0, log_ms(rng));
         const bool close = fill <= 2 * cached && pipeline::kCoarseFillLow * fill > 2 * cached;
         REQUIRE(marking_close_call(fill, cached) == close);
         close_calls += close;
-        if (scout_worth_marking(fill, cached, per_sample)) REQUIRE(pipeline::visible_fill_worth_marking(fill, cached, per_sample));
     }
     CHECK(close_calls > 0);
 }

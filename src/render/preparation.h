@@ -221,15 +221,6 @@ constexpr bool visible_fill_worth_marking(double fill_ms, double cached_ms, doub
             (per_sample_ms >= kMarkingBestCaseMinMs && per_sample_ms - best_case_ms >= cached_ms));
 }
 
-// Whether a scout that leaves the choice open runs the marking pass (shadow_cache.cpp "Marking
-// after the scout"): its packets read the per-sample pass 1.2–1.7× high (the head in fog's cone
-// shadows and the MRI's shadow rays at 256²), so the marking condition is asked of half its
-// estimate.
-constexpr double kScoutPerSampleSpread = 2;
-constexpr bool scout_worth_marking(double fill_ms, double cached_ms, double scout_per_sample_ms) {
-    return visible_fill_worth_marking(fill_ms, cached_ms, scout_per_sample_ms / kScoutPerSampleSpread);
-}
-
 // Whether a scout that decided for the cache measures the fill again, every 32 rows, before the
 // frame decides whether to mark: the coarse fill's blocks ran 1.6–3× low on the MRI's shadow rays
 // at 256², so that marking_may_pay failed where marking paid.

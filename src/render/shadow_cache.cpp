@@ -996,33 +996,41 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
             scouted = costs.per_sample_ms > clear_after[piece] * (costs.fill_ms + costs.cached_ms);
         }
         costs.probe_ms += per_sample_scout + cached_scout;
-        // not decided by the scout, where the frame may mark and marking is worth it on the scout's
-        // estimates (scout_worth_marking): the fill every kProbeBlockStride rows, the
-        // marking pass if the condition still holds, and the scout's decision again, at
-        // kProbeScoutClear, on the marked points' fill. Decided so, the probe skips the first
-        // launch, 1/64 of the per-sample pass (the head in fog's cone shadows at 256²: 150 ms of a
-        // 246 ms probe; bench/README.md "Marking after the scout")
-        if (!scouted && scout_packets > 0 && mark_points && !marked && scout_worth_marking(costs.fill_ms, costs.cached_ms, costs.per_sample_ms)) {
-            costs.fill_ms = fill_blocks(kProbeBlock, kProbeBlockStride, false);
-            fine_fill = true;
-            if (scout_worth_marking(costs.fill_ms, costs.cached_ms, costs.per_sample_ms)) {
-                mark();
-                scouted = costs.per_sample_ms > kProbeScoutClear * (costs.fill_ms + costs.cached_ms);
-            }
-        }
-        // decided by the scout: the cached pass again on the first launch's packets, 4 (at 512²
-        // 16) times the scout's first quarter, for the marking condition and the fill after it
-        // (marking_may_pay: 2 × cached pass < fill). A scout's cached launches of a few packets
-        // estimated the pass at 1.7–2.4× (the head in fog's cone shadows at 512²: 3.4 s against
-        // 1.4 s, so the frame filled all points, 4.8 s, not the visible ones, 1.3 + 2.4 s); the
-        // launch costs a 1/64 (at 512² a 1/128) of the cached pass.
-        if (scouted) {
+        // the cached pass on the first launch's packets, 4 (at 512² 16) times the scout's first
+        // quarter (1/64 of the pass; 1/128 at 512²): the scout's launches of a few packets read both
+        // passes high by about the same factor (1.1–3.7×, bench/README.md "Marking after the
+        // scout"), so that before a marking pass the per-sample pass is scaled by what this finds
+        bool cached_remeasured = false;
+        auto remeasure_cached = [&](bool scale_per_sample) {
             CameraGpu first = camera;
             first.first_row = camera.row_stride / 2, first.first_packet = 1;
             const double cached_launch = run_camera_pass(runtime, launch.scene, launch.prepared, launch.options, lanes, first, cached, image, counts);
             const double first_packets = launch_packets(first);
-            if (first_packets > 0) costs.cached_ms = cached_launch * image_packets / first_packets;
             costs.probe_ms += cached_launch;
+            cached_remeasured = true;
+            if (first_packets == 0 || cached_launch <= 0) return;
+            const double cached_ms = cached_launch * image_packets / first_packets;
+            if (scale_per_sample && costs.cached_ms > 0) costs.per_sample_ms *= cached_ms / costs.cached_ms;
+            costs.cached_ms = cached_ms;
+        };
+        // not decided by the scout, where the frame may mark and marking is worth it on the scout's
+        // estimates: the cached pass again (scaling the per-sample pass), the fill every
+        // kProbeBlockStride rows, the marking pass if the condition still holds, and the scout's
+        // decision again, at kProbeScoutClear, on the marked points' fill. Decided so, the probe
+        // skips the first launch, 1/64 of the per-sample pass (the head in fog's cone shadows at
+        // 256²: 150 ms of a 246 ms probe; bench/README.md "Marking after the scout")
+        if (!scouted && scout_packets > 0 && mark_points && !marked &&
+            visible_fill_worth_marking(costs.fill_ms, costs.cached_ms, costs.per_sample_ms)) {
+            remeasure_cached(true);
+            costs.fill_ms = fill_blocks(kProbeBlock, kProbeBlockStride, false);
+            fine_fill = true;
+            if (visible_fill_worth_marking(costs.fill_ms, costs.cached_ms, costs.per_sample_ms)) {
+                mark();
+                scouted = costs.per_sample_ms > kProbeScoutClear * (costs.fill_ms + costs.cached_ms);
+            }
+        }
+        if (scouted) {
+            if (!cached_remeasured) remeasure_cached(false);
             // and, where the marking condition fails narrowly on the coarse fill (marking_close_call),
             // the fill every kProbeBlockStride rows: the MRI's shadow rays at 256² (coarse fill
             // 164–277 ms against 257–520 ms) filled every point, 1.16× the marked fill's frame
