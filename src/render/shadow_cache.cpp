@@ -912,6 +912,10 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
     };
     costs.fill_ms = fill_blocks(kProbeBlock, kProbeCoarseStride, true);
     bool fine_fill = false;  // the fill measured every kProbeBlockStride rows
+    auto measure_fine_fill = [&] {
+        costs.fill_ms = fill_blocks(kProbeBlock, kProbeBlockStride, false);
+        fine_fill = true;
+    };
     double visible_share = 1;  // of the points, those the marking pass found (mark_points)
     bool marked = false;
     auto mark = [&] {
@@ -1022,8 +1026,7 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
         if (!scouted && scout_packets > 0 && mark_points && !marked &&
             visible_fill_worth_marking(costs.fill_ms, costs.cached_ms, costs.per_sample_ms)) {
             remeasure_cached(true);
-            costs.fill_ms = fill_blocks(kProbeBlock, kProbeBlockStride, false);
-            fine_fill = true;
+            measure_fine_fill();
             if (visible_fill_worth_marking(costs.fill_ms, costs.cached_ms, costs.per_sample_ms)) {
                 mark();
                 scouted = costs.per_sample_ms > kProbeScoutClear * (costs.fill_ms + costs.cached_ms);
@@ -1036,8 +1039,7 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
             // 164–277 ms against 257–520 ms) filled every point, 1.16× the marked fill's frame
             // (bench/README.md "Marking after the scout")
             if (mark_points && !marked && !fine_fill && marking_close_call(costs.fill_ms, costs.cached_ms)) {
-                costs.fill_ms = fill_blocks(kProbeBlock, kProbeBlockStride, false);
-                fine_fill = true;
+                measure_fine_fill();
             }
         }
     }
@@ -1066,8 +1068,7 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
         // whatever the budget (decisions on small frames from the coarse fill alone chose the
         // slower mode more often: two_smokes_wall's AO at 128², 1.27 → 1.56×)
         if (!fine_fill) {
-            costs.fill_ms = fill_blocks(kProbeBlock, kProbeBlockStride, false);
-            fine_fill = true;
+            measure_fine_fill();
             if (mark_points && !marked && visible_fill_worth_marking(costs.fill_ms, costs.cached_ms, costs.per_sample_ms)) mark();
             if (decided(kProbeClear) && !all_stages) break;
         }
