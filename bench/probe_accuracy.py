@@ -104,6 +104,30 @@ def tables(records):
     for (camera, fill), logs in sorted(ratio.items()):
         off = sum(abs(x) > math.log(1.35) for x in logs)
         lines.append(f"| {camera} | {fill} | {factor_row(logs)} | {off} |")
+    # per technique: whether a calibration per technique (one factor each) could take out the
+    # estimates' excess, or whether the scenes' spread within a technique is as wide
+    lines += ["", "Per technique (launch 4, fill blocks 2 every 32): estimate ÷ actual, median and the scenes' lowest–highest",
+              "", "| technique | per-sample pass | cached pass | fill of every point | ratio per sample ÷ (fill + cached) | cells |",
+              "|---|---|---|---|---|---|"]
+    for technique in TECHNIQUES:
+        factors = {"per_sample": [], "cached": [], "fill": [], "ratio": []}
+        for r in usable:
+            if r["technique"] != technique:
+                continue
+            by = {(s["quantity"], s["stage"]): s["estimate_ms"] for s in r["probes"][0]}
+            keys = (("per_sample", "launch 4"), ("cached", "launch 4"), ("fill", "blocks 2 every 32"))
+            if not all(by.get(k, 0) > 0 for k in keys):
+                continue
+            per_sample, cached, fill = (by[k] for k in keys)
+            factors["per_sample"].append(per_sample / actual(r, "per_sample"))
+            factors["cached"].append(cached / actual(r, "cached"))
+            factors["fill"].append(fill / actual(r, "fill"))
+            truth = r["off"]["camera_pass"] / (r["all"]["fill"] + r["all"]["camera_pass"])
+            factors["ratio"].append(per_sample / (fill + cached) / truth)
+        if factors["ratio"]:
+            cell = lambda v: f"{statistics.median(v):.2f} ({min(v):.2f}–{max(v):.2f})"
+            lines.append(f"| {technique} | {cell(factors['per_sample'])} | {cell(factors['cached'])} | {cell(factors['fill'])} | "
+                         f"{cell(factors['ratio'])} | {len(factors['ratio'])} |")
     lines += ["", "Choices replayed from these stages: the first camera launch and the coarse fill (blocks 2 every 64) decide",
               "when one side costs 3x the other, else the fill stage below does; the cache when 1.1 x (fill + cached) < per sample,",
               "marking when 2 x cached < fill. The chosen mode's actual stages plus the probe stages' kernel time, against the",
