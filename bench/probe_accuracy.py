@@ -68,6 +68,11 @@ def actual(record, quantity):
     return {"fill": record["all"]["fill"], "cached": record["all"]["camera_pass"], "per_sample": record["off"]["camera_pass"]}[quantity]
 
 
+def actual_ratio(record):
+    """The ratio auto chooses by, per-sample pass ÷ (fill + cached pass), from the frames' own stages."""
+    return record["off"]["camera_pass"] / (record["all"]["fill"] + record["all"]["camera_pass"])
+
+
 def factor_row(logs):
     logs = sorted(logs)
     pick = lambda q: math.exp(logs[min(len(logs) - 1, int(q * len(logs)))])
@@ -90,7 +95,7 @@ def tables(records):
               "", "| camera stage | fill stage | median | 10th–90th percentile | probes | off by more than 1.35× |", "|---|---|---|---|---|---|"]
     ratio = {}
     for r in usable:
-        truth = r["off"]["camera_pass"] / (r["all"]["fill"] + r["all"]["camera_pass"])
+        truth = actual_ratio(r)
         for probe in r["probes"]:
             by = {(s["quantity"], s["stage"]): s["estimate_ms"] for s in probe}
             fills = [stage for quantity, stage in by if quantity == "fill"]
@@ -122,7 +127,7 @@ def tables(records):
             factors["per_sample"].append(per_sample / actual(r, "per_sample"))
             factors["cached"].append(cached / actual(r, "cached"))
             factors["fill"].append(fill / actual(r, "fill"))
-            truth = r["off"]["camera_pass"] / (r["all"]["fill"] + r["all"]["camera_pass"])
+            truth = actual_ratio(r)
             factors["ratio"].append(per_sample / (fill + cached) / truth)
         if factors["ratio"]:
             cell = lambda v: f"{statistics.median(v):.2f} ({min(v):.2f}–{max(v):.2f})"
