@@ -221,6 +221,18 @@ constexpr bool visible_fill_worth_marking(double fill_ms, double cached_ms, doub
             (per_sample_ms >= kMarkingBestCaseMinMs && per_sample_ms - best_case_ms >= cached_ms));
 }
 
+// Whether marking pays on the share of the points estimated before the marking pass
+// (shadow_cache.cpp estimate_marked_share; a negative share: not estimated, marking may pay): the
+// pass (about a cached camera pass) and the fill of that share of the points, then the cached
+// pass, against the per-sample pass. Where it pays only on a per-sample pass above
+// 1/kMarkedShareClear of the scout's estimate, a close call, the per-sample pass is measured
+// again on whole rows first (shadow_cache.cpp probe_volume_costs): the scout's packets read it
+// 1.2–2.3× high where marking lost at 128² (bench/README.md "The marked share, sampled").
+constexpr double kMarkedShareClear = 2;
+constexpr bool marked_share_pays(double share, double fill_ms, double cached_ms, double per_sample_ms) {
+    return share < 0 || shadow_cache_pays(share * fill_ms + cached_ms, cached_ms, per_sample_ms);
+}
+
 // Whether a scout that decided for the cache measures the fill again, every 32 rows, before the
 // frame decides whether to mark: the coarse fill's blocks ran 1.6–3× low on the MRI's shadow rays
 // at 256², so that marking_may_pay failed where marking paid.

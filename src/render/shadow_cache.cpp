@@ -56,6 +56,9 @@ constexpr int kProbeScoutThinning = 4;
 // and renders 16 image rows a launch, every 4th packet of each (the pixels of 4 rows; of images
 // under 256 rows every (4 · 256 / height)th: 1/64 of the image), at most 4 launches
 constexpr int kProbeRowsPerLaunch = 16, kProbePacketStride = 4, kProbeLaunches = 4;
+// where marking is a close call on the marked share (marked_share_pays), the per-sample pass again
+// on whole rows, one in 64 (at most half the image's)
+constexpr int kWholeRowStride = 64;
 constexpr double kProbeWarmupMs = 10;                        // before its first fill, ≥ 10 ms of untimed fills
 constexpr int kProbeWarmupLaunches = 8;                      // (or 8 launches)
 constexpr double kProbeBudget = 0.05;                        // beyond its first launch, at most 5 % of the cheaper frame
@@ -437,8 +440,10 @@ double fill_lattice(const FillLaunch& launch, FillKernels& kernels, std::size_t 
 // The visible fill's first steps: the marking pass (the frame's camera pass, marking the lattice
 // cells its samples read instead of reading them; the surfaces read what the frame's read), then
 // per entry in `entries` the points needed (shadow_cache_need). Returns the points per entry.
+// `rows`: the marking pass over those rows only (a CameraGpu of the frame's with first_row and
+// row_stride; auto's estimate_marked_share), the points counted those not found before.
 std::vector<cl_uint> mark_needed_points(const FillLaunch& launch, ShadowCache& cache, const std::vector<bool>& entries,
-                                        const SurfaceShadowCache* surface_cache, RenderStats& stats) {
+                                        const SurfaceShadowCache* surface_cache, RenderStats& stats, const CameraGpu* rows = nullptr) {
     host::Runtime& runtime = launch.runtime;
     runtime.queue().enqueueFillBuffer(cache.marks, cl_uint(0), 0, cache.mark_words * sizeof(cl_uint));
     CameraPassReads marking;
@@ -448,7 +453,7 @@ std::vector<cl_uint> mark_needed_points(const FillLaunch& launch, ShadowCache& c
     const std::size_t pixels = std::size_t(launch.width) * std::size_t(launch.height);
     cl::Buffer image = host::make_buffer(runtime, CL_MEM_WRITE_ONLY, pixels * sizeof(cl_float4), nullptr, "marking pass image");
     cl::Buffer counts = host::make_buffer(runtime, CL_MEM_WRITE_ONLY, pixels * sizeof(cl_uint), nullptr, "marking pass samples");
-    const CameraGpu camera = frame_camera(launch.scene, launch.options, launch.width, launch.height);
+    const CameraGpu camera = rows ? *rows : frame_camera(launch.scene, launch.options, launch.width, launch.height);
     double ms = host::in_stage(runtime.progress(), "shadow cache marking", 1, [&] {
         return run_camera_pass(runtime, launch.scene, launch.prepared, launch.options, launch.lanes, camera, marking, image, counts);
     });
@@ -483,9 +488,9 @@ struct VolumeFill {
 };
 
 // Makes the lattices (new ones when the layout changed), empties the stale entries and, with
-// `visible`, marks what the frame reads of them.
+// `visible`, marks what the frame reads of them (or `marking_rows` reads: mark_needed_points).
 VolumeFill prepare_volume_fill(const FillLaunch& launch, ShadowCache& cache, const VolumePlan& plan, bool visible,
-                               const SurfaceShadowCache* surface_cache, RenderStats& stats) {
+                               const SurfaceShadowCache* surface_cache, RenderStats& stats, const CameraGpu* marking_rows = nullptr) {
     host::Runtime& runtime = launch.runtime;
     if (!plan.same_layout) {  // other volumes or lights, or a light lattice's size: new lattices
         ShadowCache fresh;
@@ -554,11 +559,48 @@ VolumeFill prepare_volume_fill(const FillLaunch& launch, ShadowCache& cache, con
         if (marked[e]) cache.filled_view[e] = view;
     }
     if (std::count(marked.begin(), marked.end(), true) > 0) {
-        fill.needed = mark_needed_points(launch, cache, marked, surface_cache, stats);
+        fill.needed = mark_needed_points(launch, cache, marked, surface_cache, stats, marking_rows);
         stats.shadow_cache_visible_fill = true;
         stats.shadow_cache_points_marked = fill.needed_points();
     }
     return fill;
+}
+
+// Auto's estimate of the share of the stale entries' points that the frame's marking pass would
+// find, before it decides to run that pass: the pass costs about a cached camera pass, which the
+// frame wastes when the points it finds then cost more to fill than evaluating per sample saves
+// (the smoke's cone at 128²: 58 % of the points; the MRI's shadow rays, where marking pays: 8 %).
+// The marking pass runs over one row of every kShareRowStride (its rows one apart, from the
+// middle of each stride), then over the next row of each: the first finds n₁ points a row, the
+// second n₂ more, the points a row shares with its neighbour (a lattice cell spans about 1–2
+// image rows at 128²). The frame's rows find about n₁ + (kShareRowStride − 1) n₂ a stride
+// (bench/README.md "The marked share, sampled": 0.82–1.10 × the marking pass's count on the
+// four scenes whose marking decided the 128² misses). Returns the share (−1 on images under 4
+// strides of rows: not estimated); *ms: the passes' kernel time. The frame's marking pass then
+// starts afresh (prepare_volume_fill empties the stale entries' masks).
+constexpr int kShareRowStride = 32;
+double estimate_marked_share(const FillLaunch& launch, ShadowCache& cache, const VolumePlan& plan, const SurfaceShadowCache* surface_cache,
+                             double points_to_fill, double* ms) {
+    *ms = 0;
+    const int height = launch.height, stride = std::min(kShareRowStride, height / 4);
+    if (stride < 2 || points_to_fill <= 0) return -1;
+    RenderStats scratch;
+    CameraGpu rows = frame_camera(launch.scene, launch.options, launch.width, height);
+    rows.row_stride = cl_uint(stride), rows.first_row = cl_uint(stride / 2 - 1);
+    const VolumeFill first = prepare_volume_fill(launch, cache, plan, true, surface_cache, scratch, &rows);
+    *ms += scratch.stage_ms["shadow_cache_mark"];
+    std::vector<bool> marked(first.mode.size(), false);
+    for (std::size_t e = 0; e < marked.size(); ++e) marked[e] = first.mode[e] == FillMode::Marked;
+    if (std::count(marked.begin(), marked.end(), true) == 0) return -1;
+    const int first_rows = (height - int(rows.first_row) + stride - 1) / stride;
+    rows.first_row += 1;
+    const int next_rows = (height - int(rows.first_row) + stride - 1) / stride;
+    const std::vector<cl_uint> next = mark_needed_points(launch, cache, marked, surface_cache, scratch, &rows);
+    *ms += scratch.stage_ms["shadow_cache_mark"];
+    const double per_first_row = double(first.needed_points()) / std::max(first_rows, 1);
+    const double per_next_row = double(std::accumulate(next.begin(), next.end(), 0ull)) / std::max(next_rows, 1);
+    const double points = double(height) / stride * (per_first_row + (stride - 1) * per_next_row);
+    return std::clamp(points / points_to_fill, 0.0, 1.0);
 }
 
 // Auto's measurement of a visible fill after its marking pass: the probe's blocks of rows cost
@@ -841,6 +883,7 @@ namespace {
 // of the image), which a frame then evaluated per sample keeps (FrameImage).
 struct VolumeCosts {
     double fill_ms = 0, per_sample_ms = 0, cached_ms = 0, probe_ms = 0;
+    double marked_share = -1;  // estimate_marked_share's, where the probe ran it
 };
 
 // `all_stages` (SOMBRA_AUTO_PROBE_ALL): every stage runs whatever the earlier ones found, each
@@ -854,8 +897,8 @@ struct VolumeCosts {
 // between the per-sample pass and the fill of every point, which the frame never runs).
 VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan, int width, int height,
                                const surfaces::ViewFragments* fragments, const SurfaceShadowCache* surface_cache,
-                               const std::function<double()>* mark_points, std::vector<RenderStats::ProbeStage>* all_stages,
-                               const FrameImage& frame, RenderedPackets& rendered_packets) {
+                               const std::function<double()>* mark_points, const std::function<double(double*)>* estimate_share,
+                               std::vector<RenderStats::ProbeStage>* all_stages, const FrameImage& frame, RenderedPackets& rendered_packets) {
     host::Runtime& runtime = launch.runtime;
     // the probe's short launches must not make the frame's long ones run unbanded (tiled_launch.cpp)
     const double last_launch_ms = runtime.progress().last_launch_ms;
@@ -953,6 +996,52 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
         for (const auto& [y, packet] : camera_launch_packets(c, lanes)) rendered_packets.add(y, packet);
         return ms;
     };
+    // the per-sample pass again, on whole rows (one of every kWholeRowStride, the frame's pixels,
+    // kept), at their time per sample times the samples of the image, from every pixel rendered per
+    // sample so far: at 128² the scout's packets read it 1.2–2.3× high where marking lost, whole
+    // rows 0.97–1.17× (bench/README.md "The marked share, sampled"); a few rows alone miss a
+    // small object's samples
+    auto per_sample_on_whole_rows = [&] {
+        CameraGpu rows = camera;
+        rows.row_stride = cl_uint(std::clamp(height / 2, 1, kWholeRowStride)), rows.first_row = rows.row_stride / 2;
+        rows.packet_stride = 1, rows.first_packet = 0;
+        const double rows_ms = run_per_sample(rows);
+        costs.probe_ms += rows_ms;
+        std::vector<cl_uint> counts_read(std::size_t(width) * std::size_t(height));
+        runtime.queue().enqueueReadBuffer(frame.sample_counts, CL_TRUE, 0, counts_read.size() * sizeof(cl_uint), counts_read.data());
+        auto samples_in = [&](int y, int packet) {
+            double n = 0;
+            for (int x = packet * lanes; x < std::min(width, (packet + 1) * lanes); ++x) n += counts_read[std::size_t(y) * std::size_t(width) + std::size_t(x)];
+            return n;
+        };
+        double rows_samples = 0, rendered_samples = 0, rendered_pixels = 0;
+        for (const auto& [y, packet] : camera_launch_packets(rows, lanes)) rows_samples += samples_in(y, packet);
+        for (int y = 0; y < height; ++y)
+            for (int packet = 0; packet < row_packets; ++packet) {
+                const std::size_t bit = std::size_t(y) * std::size_t(row_packets) + std::size_t(packet);
+                if (!((rendered_packets.bits[bit / 32] >> (bit % 32)) & 1u)) continue;
+                rendered_samples += samples_in(y, packet);
+                rendered_pixels += std::min(lanes, width - packet * lanes);
+            }
+        if (rows_samples > 0 && rendered_pixels > 0)
+            costs.per_sample_ms = rows_ms / rows_samples * rendered_samples / rendered_pixels * double(width) * double(height);
+    };
+    // whether marking pays on the marked share estimated from sampled rows (marked_share_pays; once
+    // a frame), where `close_call_rows`: on a close call, the per-sample pass measured on whole rows
+    auto marking_pays_on_share = [&](bool close_call_rows) {
+        if (!estimate_share) return true;
+        if (costs.marked_share == -1) {
+            double ms = 0;
+            costs.marked_share = (*estimate_share)(&ms);
+            if (costs.marked_share < 0) costs.marked_share = -2;  // not estimated: asked once
+            costs.probe_ms += ms;
+        }
+        const double share = costs.marked_share;
+        if (!marked_share_pays(share, costs.fill_ms, costs.cached_ms, costs.per_sample_ms)) return false;
+        if (!close_call_rows || marked_share_pays(share, costs.fill_ms, costs.cached_ms, costs.per_sample_ms / kMarkedShareClear)) return true;
+        per_sample_on_whole_rows();
+        return marked_share_pays(share, costs.fill_ms, costs.cached_ms, costs.per_sample_ms);
+    };
     // untimed first: one packet. A kernel's first launch in a process pays the driver's loading of
     // its code (PoCL: 1–2.5 ms), a large share of a launch of a 100–300 ms frame's 1/64
     // (two_smokes_wall's shadow rays at 256²: 3.8–5.0 ms against 2.5 ms after it); both kinds of
@@ -1027,7 +1116,7 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
             visible_fill_worth_marking(costs.fill_ms, costs.cached_ms, costs.per_sample_ms)) {
             remeasure_cached(true);
             measure_fine_fill();
-            if (visible_fill_worth_marking(costs.fill_ms, costs.cached_ms, costs.per_sample_ms)) {
+            if (visible_fill_worth_marking(costs.fill_ms, costs.cached_ms, costs.per_sample_ms) && marking_pays_on_share(true)) {
                 mark();
                 scouted = costs.per_sample_ms > kProbeScoutClear * (costs.fill_ms + costs.cached_ms);
             }
@@ -1069,7 +1158,9 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
         // slower mode more often: two_smokes_wall's AO at 128², 1.27 → 1.56×)
         if (!fine_fill) {
             measure_fine_fill();
-            if (mark_points && !marked && visible_fill_worth_marking(costs.fill_ms, costs.cached_ms, costs.per_sample_ms)) mark();
+            if (mark_points && !marked && visible_fill_worth_marking(costs.fill_ms, costs.cached_ms, costs.per_sample_ms) &&
+                marking_pays_on_share(false))
+                mark();
             if (decided(kProbeClear) && !all_stages) break;
         }
         if (launches_run >= kProbeLaunches) break;
@@ -1196,6 +1287,13 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
     const SurfaceShadowCache* surface_reads = surfaces.use ? &cache->surfaces : nullptr;
     VolumeFill fill;
     double ms = 0;
+    // the lattices, once made (auto's estimate_marked_share), are not made again
+    bool layout_made = false;
+    auto plan_now = [&] {
+        VolumePlan plan = volumes;
+        plan.same_layout = volumes.same_layout || layout_made;
+        return plan;
+    };
     if (surfaces.use) ms += fill_surface_entries(launch, cache->surfaces, surfaces, lights, stats);
     if (measure) {  // a probe's passes read the surface part as the frame will
         const auto probe_start = std::chrono::steady_clock::now();
@@ -1206,23 +1304,31 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
         // (measure_marked_fill)
         bool marked = false;
         double marking_ms = 0, measured_fill_ms = 0;
+        const std::function<double(double*)> estimate_share = [&](double* share_ms) {
+            const double share = estimate_marked_share(launch, *cache, plan_now(), surface_reads, double(stats.shadow_cache_points_to_fill), share_ms);
+            layout_made = true;
+            return share;
+        };
         const std::function<double()> mark_points = [&] {
             const auto start = std::chrono::steady_clock::now();
             marked = true;
-            fill = prepare_volume_fill(launch, *cache, volumes, true, surface_reads, stats);
+            fill = prepare_volume_fill(launch, *cache, plan_now(), true, surface_reads, stats);
             marking_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
             return std::min(1.0, double(fill.needed_points()) / std::max(1.0, double(stats.shadow_cache_points_to_fill)));
         };
         RenderedPackets rendered_packets(width, height, lanes);  // those the probe rendered per sample into the frame's image
         VolumeCosts costs = probe_volume_costs(launch, volumes, width, height, fragments, surface_reads,
-                                               may_mark && !all_stages ? &mark_points : nullptr,
+                                               may_mark && !all_stages ? &mark_points : nullptr, may_mark && !all_stages ? &estimate_share : nullptr,
                                                all_stages ? &stats.shadow_cache_probe_stages : nullptr, frame, rendered_packets);
         const auto probe_end = std::chrono::steady_clock::now();
         const double marking_in_probe_ms = marking_ms;
         // tests/test_shadow_cache.cpp: mark, measure and read the cache whatever the probe found
         const bool test_measure = std::getenv("SOMBRA_TEST_MEASURE_FILL") != nullptr;
         if (marked) stats.shadow_cache_auto_marked = "in probe";
-        if (may_mark && !marked && (visible_fill_worth_marking(costs.fill_ms, costs.cached_ms, costs.per_sample_ms) || test_measure)) {
+        if (may_mark && !marked &&
+            ((visible_fill_worth_marking(costs.fill_ms, costs.cached_ms, costs.per_sample_ms) &&
+              marked_share_pays(costs.marked_share, costs.fill_ms, costs.cached_ms, costs.per_sample_ms)) ||
+             test_measure)) {
             costs.fill_ms *= mark_points();
             stats.shadow_cache_auto_marked = "after probe";
         }
@@ -1273,7 +1379,7 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
         remember(VolumeCosts());
     }
     if (volumes.use) {
-        if (!fill.prepared) fill = prepare_volume_fill(launch, *cache, volumes, mark_for_fill, surface_reads, stats);
+        if (!fill.prepared) fill = prepare_volume_fill(launch, *cache, plan_now(), mark_for_fill, surface_reads, stats);
         ms += fill_volume_entries(launch, *cache, volumes, fill, stats);
     }
     if (ms > 0 || stats.shadow_cache_entries_built + stats.shadow_cache_surface_entries_built > 0) stats.stage_ms["shadow_cache"] = ms;
