@@ -268,6 +268,9 @@ struct RenderStats {
     int shadow_cache_light_lattices = 0;
     double shadow_cache_probe_ms = 0, shadow_cache_estimated_fill_ms = 0, shadow_cache_estimated_cached_ms = 0,
            shadow_cache_estimated_per_sample_ms = 0;
+    // the share of the points to fill that auto estimated a marking pass would find, from marking
+    // passes over sampled rows, before it decided whether to run that pass (−1: not estimated)
+    double shadow_cache_estimated_marked_share = -1;
     // the pixels auto's probe rendered per sample that a frame then evaluating per sample kept
     // (the camera pass rendered the others)
     unsigned long long shadow_cache_probe_pixels_kept = 0;

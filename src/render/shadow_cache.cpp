@@ -57,8 +57,8 @@ constexpr int kProbeScoutThinning = 4;
 // under 256 rows every (4 · 256 / height)th: 1/64 of the image), at most 4 launches
 constexpr int kProbeRowsPerLaunch = 16, kProbePacketStride = 4, kProbeLaunches = 4;
 // where marking is a close call on the marked share (marked_share_pays), the per-sample pass again
-// on whole rows, one in 64 (at most half the image's)
-constexpr int kWholeRowStride = 64;
+// on a band of whole rows in the image's middle, one in 64 of its rows
+constexpr int kWholeRowBand = 64;
 constexpr double kProbeWarmupMs = 10;                        // before its first fill, ≥ 10 ms of untimed fills
 constexpr int kProbeWarmupLaunches = 8;                      // (or 8 launches)
 constexpr double kProbeBudget = 0.05;                        // beyond its first launch, at most 5 % of the cheaper frame
@@ -966,8 +966,6 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
         visible_share = (*mark_points)();
         costs.fill_ms *= visible_share;
     };
-    // tests/test_shadow_cache.cpp: marks here, before the camera launches, whatever they find
-    if (mark_points && std::getenv("SOMBRA_TEST_MARK_IN_PROBE")) mark();
     const int lanes = launch.lanes, row_packets = (width + lanes - 1) / lanes;
     CameraGpu camera = probe_launch_camera(frame_camera(launch.scene, launch.options, width, height), lanes);
     const double image_packets = double(row_packets) * height;
@@ -996,16 +994,27 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
         for (const auto& [y, packet] : camera_launch_packets(c, lanes)) rendered_packets.add(y, packet);
         return ms;
     };
-    // the per-sample pass again, on whole rows (one of every kWholeRowStride, the frame's pixels,
-    // kept), at their time per sample times the samples of the image, from every pixel rendered per
-    // sample so far: at 128² the scout's packets read it 1.2–2.3× high where marking lost, whole
-    // rows 0.97–1.17× (bench/README.md "The marked share, sampled"); a few rows alone miss a
-    // small object's samples
+    // the per-sample pass again, on a band of whole rows in the image's middle (1/kWholeRowBand of
+    // its rows, a launch each; the frame's pixels, kept): their time per sample times the image's
+    // samples as the scout's packets spread over it found them. The scout's own time per sample
+    // runs high on its scattered packets (at 128² 1.2–2.3× where marking lost), the band's less
+    // (0.9–1.3×; rows spread over the image, without their neighbours, 1.0–1.7×: bench/README.md
+    // "The marked share, sampled"), and its rows alone would miss a small object's samples. The
+    // launches below, whose per-sample pass runs 1.1–1.5× high at 128² (bench/README.md "Where
+    // the first runs still miss"), are then left out
+    bool per_sample_on_rows = false;
+    std::vector<CameraGpu> scout_launches;  // (their samples spread over the image)
     auto per_sample_on_whole_rows = [&] {
-        CameraGpu rows = camera;
-        rows.row_stride = cl_uint(std::clamp(height / 2, 1, kWholeRowStride)), rows.first_row = rows.row_stride / 2;
-        rows.packet_stride = 1, rows.first_packet = 0;
-        const double rows_ms = run_per_sample(rows);
+        std::vector<CameraGpu> launches;  // a row each
+        const int band = std::max(1, height / kWholeRowBand);
+        for (int j = 0; j < band; ++j) {
+            CameraGpu row = camera;
+            row.row_stride = cl_uint(height), row.first_row = cl_uint(std::clamp(height / 2 - band / 2 + j, 0, height - 1));
+            row.packet_stride = 1, row.first_packet = 0;
+            launches.push_back(row);
+        }
+        double rows_ms = 0;
+        for (const CameraGpu& c : launches) rows_ms += run_per_sample(c);
         costs.probe_ms += rows_ms;
         std::vector<cl_uint> counts_read(std::size_t(width) * std::size_t(height));
         runtime.queue().enqueueReadBuffer(frame.sample_counts, CL_TRUE, 0, counts_read.size() * sizeof(cl_uint), counts_read.data());
@@ -1015,16 +1024,17 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
             return n;
         };
         double rows_samples = 0, rendered_samples = 0, rendered_pixels = 0;
-        for (const auto& [y, packet] : camera_launch_packets(rows, lanes)) rows_samples += samples_in(y, packet);
-        for (int y = 0; y < height; ++y)
-            for (int packet = 0; packet < row_packets; ++packet) {
-                const std::size_t bit = std::size_t(y) * std::size_t(row_packets) + std::size_t(packet);
-                if (!((rendered_packets.bits[bit / 32] >> (bit % 32)) & 1u)) continue;
+        for (const CameraGpu& c : launches)
+            for (const auto& [y, packet] : camera_launch_packets(c, lanes)) rows_samples += samples_in(y, packet);
+        for (const CameraGpu& c : scout_launches.empty() ? launches : scout_launches)
+            for (const auto& [y, packet] : camera_launch_packets(c, lanes)) {
                 rendered_samples += samples_in(y, packet);
                 rendered_pixels += std::min(lanes, width - packet * lanes);
             }
-        if (rows_samples > 0 && rendered_pixels > 0)
+        if (rows_samples > 0 && rendered_pixels > 0) {
             costs.per_sample_ms = rows_ms / rows_samples * rendered_samples / rendered_pixels * double(width) * double(height);
+            per_sample_on_rows = true;
+        }
     };
     // whether marking pays on the marked share estimated from sampled rows (marked_share_pays; once
     // a frame), where `close_call_rows`: on a close call, the per-sample pass measured on whole rows
@@ -1042,6 +1052,13 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
         per_sample_on_whole_rows();
         return marked_share_pays(share, costs.fill_ms, costs.cached_ms, costs.per_sample_ms);
     };
+    // tests/test_shadow_cache.cpp: estimates the marked share and the per-sample pass on whole rows
+    // here, and marks here, before the other camera launches, whatever they find
+    if (estimate_share && std::getenv("SOMBRA_TEST_ESTIMATE_SHARE")) {
+        marking_pays_on_share(false);
+        per_sample_on_whole_rows();
+    }
+    if (mark_points && std::getenv("SOMBRA_TEST_MARK_IN_PROBE")) mark();
     // untimed first: one packet. A kernel's first launch in a process pays the driver's loading of
     // its code (PoCL: 1–2.5 ms), a large share of a launch of a 100–300 ms frame's 1/64
     // (two_smokes_wall's shadow rays at 256²: 3.8–5.0 ms against 2.5 ms after it); both kinds of
@@ -1076,6 +1093,7 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
             scout.packet_stride = cl_uint(scout_stride), scout.first_packet = cl_uint(quarter_order[piece]);
             if (scout.first_row >= cl_uint(height)) continue;  // images of a few rows (row_stride 1)
             per_sample_scout += run_per_sample(scout);
+            scout_launches.push_back(scout);
             cached_scout += run_camera_pass(runtime, launch.scene, launch.prepared, launch.options, lanes, scout, cached, image, counts);
             scout_packets += launch_packets(scout);
             if (scout_packets == 0) continue;
@@ -1134,7 +1152,7 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
     }
     std::vector<bool> done(camera.row_stride, false);
     int launches_run = 0;
-    for (unsigned k = 1; !scouted && k <= 4 * kProbeLaunches && packets_done < image_packets; ++k) {
+    for (unsigned k = 1; !scouted && !per_sample_on_rows && k <= 4 * kProbeLaunches && packets_done < image_packets; ++k) {
         double fraction = 0;  // van der Corput: k's bits mirrored behind the binary point
         for (unsigned bits = k, weight = 2; bits; bits >>= 1, weight *= 2) fraction += double(bits & 1u) / weight;
         const cl_uint first = std::min(camera.row_stride - 1, cl_uint(fraction * camera.row_stride));
@@ -1180,6 +1198,7 @@ void report_auto_costs(const VolumeCosts& costs, RenderStats& stats) {
     stats.shadow_cache_estimated_fill_ms = costs.fill_ms;
     stats.shadow_cache_estimated_cached_ms = costs.cached_ms;
     stats.shadow_cache_estimated_per_sample_ms = costs.per_sample_ms;
+    stats.shadow_cache_estimated_marked_share = costs.marked_share < 0 ? -1 : costs.marked_share;
 }
 
 // Auto's choices, by everything the frame's image depends on (the_choice_key): the same frame
