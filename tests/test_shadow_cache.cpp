@@ -282,6 +282,10 @@ TEST_CASE("shadow cache visible fill: the image of a fill of every point and ano
             CHECK(masks.filled == cover);
             CHECK(masks.need == cover);
             CHECK(count_bits(cover) == first.stats.shadow_cache_points_marked);
+            // and counted on the host (auto's estimate of the marked share)
+            std::size_t corners = 0;
+            for (const ShadowCacheGpu& c : cache.layout) corners += pipeline::marked_corner_points(masks.marks, c);
+            CHECK(corners == first.stats.shadow_cache_points_marked);
             const RenderResult again = render(visible, scene, o);  // the same view reads only what it filled
             CHECK(again.stats.stage_ms.count("shadow_cache") == 0);
             CHECK_FALSE(again.stats.shadow_cache_visible_fill);

@@ -255,6 +255,11 @@ constexpr bool surface_shadow_cache_pays(double points_to_fill, double fragment_
 // Points of a cache lattice (dims.x · dims.y · dims.z).
 std::size_t lattice_points(const ShadowCacheGpu& c);
 
+// The points of lattice `c` that are corners of a cell marked in `marks` (a whole marks buffer,
+// ShadowCacheGpu.mark_offset): what render.cl's shadow_cache_need covers, counted on the host
+// (auto's estimate of the marked share, shadow_cache.cpp estimate_marked_share).
+std::size_t marked_corner_points(const std::vector<cl_uint>& marks, const ShadowCacheGpu& c);
+
 constexpr std::size_t kShadowCachePoints = std::size_t(1) << 23;  // a volume lattice's points, per volume and light (32 MiB)
 
 // A volume lattice's voxel → lattice map (ShadowCacheGpu.voxel_to_lattice: diag(1 / spacing)).

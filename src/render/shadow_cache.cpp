@@ -413,6 +413,31 @@ unsigned long long mask_points_in_rows(const std::vector<cl_uint>& words, const 
     return points;
 }
 
+}  // namespace
+
+std::size_t marked_corner_points(const std::vector<cl_uint>& marks, const ShadowCacheGpu& c) {
+    std::size_t points = 0;
+    const std::size_t dims_y = std::size_t(c.dims.s[1]), rows = dims_y * std::size_t(c.dims.s[2]), row_words = c.mark_row_words;
+    for (std::size_t row = 0; row < rows; ++row) {
+        const bool y_above = row % dims_y > 0, z_above = row >= dims_y;
+        const std::size_t neighbours[4] = {row, y_above ? row - 1 : row, z_above ? row - dims_y : row, y_above && z_above ? row - 1 - dims_y : row};
+        for (std::size_t w = 0; w < row_words; ++w) {
+            cl_uint here = 0, before = 0;
+            for (std::size_t r : neighbours) {
+                const cl_uint* words = &marks[c.mark_offset + r * row_words];
+                here |= words[w];
+                if (w > 0) before |= words[w - 1];
+            }
+            const unsigned in_word = unsigned(std::min<long>(32, long(c.dims.s[0]) - 32 * long(w)));
+            const cl_uint cover = (here | (here << 1) | (before >> 31)) & (in_word >= 32 ? 0xffffffffu : (1u << in_word) - 1u);
+            points += std::size_t(__builtin_popcount(cover));
+        }
+    }
+    return points;
+}
+
+namespace {
+
 // shadow_cache_fill's arguments for entry e of `table` into `values`, by the launch's technique,
 // for the points `mode` and `mask` select.
 void bind_fill(const FillLaunch& launch, cl::Kernel& kernel, std::size_t e, const cl::Buffer& table,
@@ -437,15 +462,12 @@ double fill_lattice(const FillLaunch& launch, FillKernels& kernels, std::size_t 
     return host::run_packets(launch.runtime, kernel, c.dims.s[0], r.count, launch.lanes, 1, r.first);
 }
 
-// The visible fill's first steps: the marking pass (the frame's camera pass, marking the lattice
-// cells its samples read instead of reading them; the surfaces read what the frame's read), then
-// per entry in `entries` the points needed (shadow_cache_need). Returns the points per entry.
-// `rows`: the marking pass over those rows only (a CameraGpu of the frame's with first_row and
-// row_stride; auto's estimate_marked_share), the points counted those not found before.
-std::vector<cl_uint> mark_needed_points(const FillLaunch& launch, ShadowCache& cache, const std::vector<bool>& entries,
-                                        const SurfaceShadowCache* surface_cache, RenderStats& stats, const CameraGpu* rows = nullptr) {
+// The marking pass over the rows of `camera` (the frame's CameraGpu, or one of its rows' launches:
+// first_row, row_stride): the camera pass, marking the lattice cells its samples read in
+// cache.marks (added to the marks there) instead of reading them; the surfaces read what the
+// frame's read. Returns its kernel time.
+double run_marking_pass(const FillLaunch& launch, ShadowCache& cache, const SurfaceShadowCache* surface_cache, const CameraGpu& camera) {
     host::Runtime& runtime = launch.runtime;
-    runtime.queue().enqueueFillBuffer(cache.marks, cl_uint(0), 0, cache.mark_words * sizeof(cl_uint));
     CameraPassReads marking;
     marking.fragments = launch.fragments;
     marking.surface_cache = surface_cache;
@@ -453,10 +475,18 @@ std::vector<cl_uint> mark_needed_points(const FillLaunch& launch, ShadowCache& c
     const std::size_t pixels = std::size_t(launch.width) * std::size_t(launch.height);
     cl::Buffer image = host::make_buffer(runtime, CL_MEM_WRITE_ONLY, pixels * sizeof(cl_float4), nullptr, "marking pass image");
     cl::Buffer counts = host::make_buffer(runtime, CL_MEM_WRITE_ONLY, pixels * sizeof(cl_uint), nullptr, "marking pass samples");
-    const CameraGpu camera = rows ? *rows : frame_camera(launch.scene, launch.options, launch.width, launch.height);
-    double ms = host::in_stage(runtime.progress(), "shadow cache marking", 1, [&] {
+    return host::in_stage(runtime.progress(), "shadow cache marking", 1, [&] {
         return run_camera_pass(runtime, launch.scene, launch.prepared, launch.options, launch.lanes, camera, marking, image, counts);
     });
+}
+
+// The visible fill's first steps: the marking pass over the frame, then per entry in `entries`
+// the points needed (shadow_cache_need). Returns the points per entry.
+std::vector<cl_uint> mark_needed_points(const FillLaunch& launch, ShadowCache& cache, const std::vector<bool>& entries,
+                                        const SurfaceShadowCache* surface_cache, RenderStats& stats) {
+    host::Runtime& runtime = launch.runtime;
+    runtime.queue().enqueueFillBuffer(cache.marks, cl_uint(0), 0, cache.mark_words * sizeof(cl_uint));
+    double ms = run_marking_pass(launch, cache, surface_cache, frame_camera(launch.scene, launch.options, launch.width, launch.height));
     std::vector<cl_uint> needed(cache.layout.size(), 0);
     cl::Kernel kernel(launch.program, "shadow_cache_need");
     for (std::size_t e = 0; e < cache.layout.size(); ++e) {
@@ -488,9 +518,9 @@ struct VolumeFill {
 };
 
 // Makes the lattices (new ones when the layout changed), empties the stale entries and, with
-// `visible`, marks what the frame reads of them (or `marking_rows` reads: mark_needed_points).
+// `visible`, marks what the frame reads of them.
 VolumeFill prepare_volume_fill(const FillLaunch& launch, ShadowCache& cache, const VolumePlan& plan, bool visible,
-                               const SurfaceShadowCache* surface_cache, RenderStats& stats, const CameraGpu* marking_rows = nullptr) {
+                               const SurfaceShadowCache* surface_cache, RenderStats& stats) {
     host::Runtime& runtime = launch.runtime;
     if (!plan.same_layout) {  // other volumes or lights, or a light lattice's size: new lattices
         ShadowCache fresh;
@@ -559,7 +589,7 @@ VolumeFill prepare_volume_fill(const FillLaunch& launch, ShadowCache& cache, con
         if (marked[e]) cache.filled_view[e] = view;
     }
     if (std::count(marked.begin(), marked.end(), true) > 0) {
-        fill.needed = mark_needed_points(launch, cache, marked, surface_cache, stats, marking_rows);
+        fill.needed = mark_needed_points(launch, cache, marked, surface_cache, stats);
         stats.shadow_cache_visible_fill = true;
         stats.shadow_cache_points_marked = fill.needed_points();
     }
@@ -570,35 +600,44 @@ VolumeFill prepare_volume_fill(const FillLaunch& launch, ShadowCache& cache, con
 // find, before it decides to run that pass: the pass costs about a cached camera pass, which the
 // frame wastes when the points it finds then cost more to fill than evaluating per sample saves
 // (the smoke's cone at 128²: 58 % of the points; the MRI's shadow rays, where marking pays: 8 %).
-// The marking pass runs over one row of every kShareRowStride (its rows one apart, from the
-// middle of each stride), then over the next row of each: the first finds n₁ points a row, the
-// second n₂ more, the points a row shares with its neighbour (a lattice cell spans about 1–2
-// image rows at 128²). The frame's rows find about n₁ + (kShareRowStride − 1) n₂ a stride
-// (bench/README.md "The marked share, sampled": 0.82–1.10 × the marking pass's count on the
-// four scenes whose marking decided the 128² misses). Returns the share (−1 on images under 4
-// strides of rows: not estimated); *ms: the passes' kernel time. The frame's marking pass then
-// starts afresh (prepare_volume_fill empties the stale entries' masks).
+// The marking pass runs over one row of every kShareRowStride (from the middle of each stride),
+// then over the next row of each: the first finds n₁ points a row, the second n₂ more (the points
+// a row shares with its neighbour: a lattice cell spans about 1–2 image rows at 128²), counted on
+// the host (marked_corner_points; the need step over a whole lattice took 6–10 ms, the two passes
+// 1–1.3 ms each). The frame's rows find about n₁ + (kShareRowStride − 1) n₂ a stride (bench/
+// README.md "The marked share, sampled": 0.82–1.09× the marking pass's count on the four scenes
+// whose marking decided the 128² misses; 1.6× on the tests' coarse lattice, whose cells span
+// several rows). Makes the lattices (prepare_volume_fill, unmarked); leaves its marks, which the
+// frame's marking pass clears. Returns the share (−1 on images under 4 strides of rows: not
+// estimated); *ms: the passes' kernel time.
 constexpr int kShareRowStride = 32;
 double estimate_marked_share(const FillLaunch& launch, ShadowCache& cache, const VolumePlan& plan, const SurfaceShadowCache* surface_cache,
                              double points_to_fill, double* ms) {
     *ms = 0;
     const int height = launch.height, stride = std::min(kShareRowStride, height / 4);
-    if (stride < 2 || points_to_fill <= 0) return -1;
+    if (stride < 2 || points_to_fill <= 0 || std::count(plan.stale.begin(), plan.stale.end(), true) == 0) return -1;
     RenderStats scratch;
+    prepare_volume_fill(launch, cache, plan, false, surface_cache, scratch);
+    host::Runtime& runtime = launch.runtime;
+    runtime.queue().enqueueFillBuffer(cache.marks, cl_uint(0), 0, cache.mark_words * sizeof(cl_uint));
+    std::vector<cl_uint> marks(cache.mark_words);
+    auto points_marked = [&] {
+        runtime.queue().enqueueReadBuffer(cache.marks, CL_TRUE, 0, marks.size() * sizeof(cl_uint), marks.data());
+        double points = 0;
+        for (std::size_t e = 0; e < plan.layout.size(); ++e)
+            if (plan.stale[e]) points += double(marked_corner_points(marks, plan.layout[e]));
+        return points;
+    };
     CameraGpu rows = frame_camera(launch.scene, launch.options, launch.width, height);
     rows.row_stride = cl_uint(stride), rows.first_row = cl_uint(stride / 2 - 1);
-    const VolumeFill first = prepare_volume_fill(launch, cache, plan, true, surface_cache, scratch, &rows);
-    *ms += scratch.stage_ms["shadow_cache_mark"];
-    std::vector<bool> marked(first.mode.size(), false);
-    for (std::size_t e = 0; e < marked.size(); ++e) marked[e] = first.mode[e] == FillMode::Marked;
-    if (std::count(marked.begin(), marked.end(), true) == 0) return -1;
     const int first_rows = (height - int(rows.first_row) + stride - 1) / stride;
+    *ms += run_marking_pass(launch, cache, surface_cache, rows);
+    const double first = points_marked();
     rows.first_row += 1;
     const int next_rows = (height - int(rows.first_row) + stride - 1) / stride;
-    const std::vector<cl_uint> next = mark_needed_points(launch, cache, marked, surface_cache, scratch, &rows);
-    *ms += scratch.stage_ms["shadow_cache_mark"];
-    const double per_first_row = double(first.needed_points()) / std::max(first_rows, 1);
-    const double per_next_row = double(std::accumulate(next.begin(), next.end(), 0ull)) / std::max(next_rows, 1);
+    *ms += run_marking_pass(launch, cache, surface_cache, rows);
+    const double both = points_marked();
+    const double per_first_row = first / std::max(first_rows, 1), per_next_row = (both - first) / std::max(next_rows, 1);
     const double points = double(height) / stride * (per_first_row + (stride - 1) * per_next_row);
     return std::clamp(points / points_to_fill, 0.0, 1.0);
 }
