@@ -1078,7 +1078,8 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
     // whether marking pays on the marked share estimated from sampled rows (marked_share_pays; once
     // a frame), where `close_call_rows`: on a close call, the per-sample pass measured on whole rows
     auto marking_pays_on_share = [&](bool close_call_rows) {
-        if (!estimate_share) return true;
+        // (not where marking pays with every point marked: the estimate could not change that)
+        if (!estimate_share || marked_share_pays(1, costs.fill_ms, costs.cached_ms, costs.per_sample_ms)) return true;
         if (costs.marked_share == -1) {
             double ms = 0;
             costs.marked_share = (*estimate_share)(&ms);
