@@ -741,7 +741,7 @@ TEST_CASE("shadow cache auto: a marked share estimated from sampled rows leaves 
                 CHECK(r.stats.shadow_cache_points_marked == forced.stats.shadow_cache_points_marked);
                 CHECK(volume_cache_values(probed) == volume_cache_values(plain));
                 // the estimate against the share marked, within 2× (the shipped scenes' at 128²:
-                // 0.82–1.10×; this scene's coarse lattice, whose cells span several image rows, at
+                // 0.74–1.09×; this scene's coarse lattice, whose cells span several image rows, at
                 // 160²: 1.6×, bench/README.md "The marked share, sampled")
                 const double marked = double(forced.stats.shadow_cache_points_marked) / double(forced.stats.shadow_cache_points_to_fill);
                 INFO("estimated share " << share << ", marked " << marked);

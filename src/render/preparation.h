@@ -227,7 +227,7 @@ constexpr bool visible_fill_worth_marking(double fill_ms, double cached_ms, doub
 // pass, against the per-sample pass. Where it pays only on a per-sample pass above
 // 1/kMarkedShareClear of the scout's estimate, a close call, the per-sample pass is measured
 // again on whole rows first (shadow_cache.cpp probe_volume_costs): the scout's packets read it
-// 1.2–2.3× high where marking lost at 128² (bench/README.md "The marked share, sampled").
+// 1.4–2.4× high where marking lost at 128² (bench/README.md "The marked share, sampled").
 constexpr double kMarkedShareClear = 2;
 constexpr bool marked_share_pays(double share, double fill_ms, double cached_ms, double per_sample_ms) {
     return share < 0 || shadow_cache_pays(share * fill_ms + cached_ms, cached_ms, per_sample_ms);

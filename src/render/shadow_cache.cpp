@@ -605,9 +605,8 @@ VolumeFill prepare_volume_fill(const FillLaunch& launch, ShadowCache& cache, con
 // a row shares with its neighbour: a lattice cell spans about 1–2 image rows at 128²), counted on
 // the host (marked_corner_points; the need step over a whole lattice took 6–10 ms, the two passes
 // 1–1.3 ms each). The frame's rows find about n₁ + (kShareRowStride − 1) n₂ a stride (bench/
-// README.md "The marked share, sampled": 0.82–1.09× the marking pass's count on the four scenes
-// whose marking decided the 128² misses; 1.6× on the tests' coarse lattice, whose cells span
-// several rows). Makes the lattices (prepare_volume_fill, unmarked); leaves its marks, which the
+// README.md "The marked share, sampled": 0.74–1.09× the marking pass's count on six shipped
+// cells at 128²; 1.6× on the tests' coarse lattice, whose cells span several rows). Makes the lattices (prepare_volume_fill, unmarked); leaves its marks, which the
 // frame's marking pass clears. Returns the share (−1 on images under 4 strides of rows: not
 // estimated); *ms: the passes' kernel time.
 constexpr int kShareRowStride = 32;
@@ -1036,8 +1035,8 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
     // the per-sample pass again, on a band of whole rows in the image's middle (1/kWholeRowBand of
     // its rows, a launch each; the frame's pixels, kept): their time per sample times the image's
     // samples as the scout's packets spread over it found them. The scout's own time per sample
-    // runs high on its scattered packets (at 128² 1.2–2.3× where marking lost), the band's less
-    // (0.9–1.3×; rows spread over the image, without their neighbours, 1.0–1.7×: bench/README.md
+    // runs high on its scattered packets (at 128² 1.4–2.4× where marking lost), the band's less
+    // (0.9–1.3×; rows spread over the image, without their neighbours, 1.0–1.5×: bench/README.md
     // "The marked share, sampled"), and its rows alone would miss a small object's samples. The
     // launches below, whose per-sample pass runs 1.1–1.5× high at 128² (bench/README.md "Where
     // the first runs still miss"), are then left out
