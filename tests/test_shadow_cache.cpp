@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
+#include <initializer_list>
 #include <fstream>
 #include <map>
 #include <optional>
@@ -248,6 +249,30 @@ std::size_t count_bits(const std::vector<cl_uint>& words) {
     std::size_t n = 0;
     for (cl_uint w : words) n += std::size_t(__builtin_popcount(w));
     return n;
+}
+
+// render() with auto's test switches (SOMBRA_TEST_…) set for that frame only
+RenderResult render_switched(Context& context, const Scene& scene, const RenderOptions& o, std::initializer_list<const char*> switches) {
+    for (const char* name : switches) ::setenv(name, "1", 1);
+    RenderResult r = render(context, scene, o);
+    for (const char* name : switches) ::unsetenv(name);
+    return r;
+}
+
+// Auto's frame `r`, rendered on `probed`, against the mode it chose forced on a fresh Context:
+// the same image; where it `marked` and read the cache, the same points marked and filled with
+// the same values. Returns the forced frame.
+RenderResult check_as_chosen_mode(const RenderResult& r, Context& probed, const Scene& scene, RenderOptions o, bool marked) {
+    Context plain(test::device_selector());
+    o.shadow_cache = r.stats.shadow_cache_used ? ShadowCacheMode::On : ShadowCacheMode::Off;
+    RenderResult forced = render(plain, scene, o);
+    CHECK(test::compare(r.image, forced.image).max_abs == 0.0);
+    if (r.stats.shadow_cache_used && marked) {
+        CHECK(r.stats.shadow_cache_visible_fill);
+        CHECK(r.stats.shadow_cache_points_marked == forced.stats.shadow_cache_points_marked);
+        CHECK(volume_cache_values(probed) == volume_cache_values(plain));
+    }
+    return forced;
 }
 
 }  // namespace
@@ -673,25 +698,16 @@ TEST_CASE("shadow cache auto: a marking pass inside the probe leaves the frame t
             for (bool read_cache : {false, true}) {
                 INFO("read whatever found: " << read_cache);
                 forget_shadow_cache_choices();
-                Context probed(test::device_selector()), plain(test::device_selector());
+                Context probed(test::device_selector());
                 RenderOptions o = cache_options(technique, ShadowCacheMode::Auto);
                 o.width = o.height = size;
-                ::setenv("SOMBRA_TEST_MARK_IN_PROBE", "1", 1);
-                if (read_cache) ::setenv("SOMBRA_TEST_MEASURE_FILL", "1", 1);
-                const RenderResult r = render(probed, scene, o);
-                ::unsetenv("SOMBRA_TEST_MARK_IN_PROBE");
-                ::unsetenv("SOMBRA_TEST_MEASURE_FILL");
+                const RenderResult r = read_cache ? render_switched(probed, scene, o, {"SOMBRA_TEST_MARK_IN_PROBE", "SOMBRA_TEST_MEASURE_FILL"})
+                                                  : render_switched(probed, scene, o, {"SOMBRA_TEST_MARK_IN_PROBE"});
                 CHECK(r.stats.shadow_cache_auto_marked == "in probe");
                 CHECK(r.stats.shadow_cache_probe_ms > 0);
                 CHECK(r.stats.shadow_cache_estimated_fill_ms > 0);
                 if (read_cache) REQUIRE(r.stats.shadow_cache_used);
-                o.shadow_cache = r.stats.shadow_cache_used ? ShadowCacheMode::On : ShadowCacheMode::Off;
-                const RenderResult forced = render(plain, scene, o);
-                CHECK(test::compare(r.image, forced.image).max_abs == 0.0);
-                if (!r.stats.shadow_cache_used) continue;
-                CHECK(r.stats.shadow_cache_visible_fill);
-                CHECK(r.stats.shadow_cache_points_marked == forced.stats.shadow_cache_points_marked);
-                CHECK(volume_cache_values(probed) == volume_cache_values(plain));
+                check_as_chosen_mode(r, probed, scene, o, true);
             }
         }
     }
@@ -719,27 +735,21 @@ TEST_CASE("shadow cache auto: a marked share estimated from sampled rows leaves 
             for (bool read_cache : {false, true}) {
                 INFO("marked and read whatever found: " << read_cache);
                 forget_shadow_cache_choices();
-                Context probed(test::device_selector()), plain(test::device_selector());
+                Context probed(test::device_selector());
                 RenderOptions o = cache_options(technique, ShadowCacheMode::Auto);
                 o.width = o.height = size;
-                ::setenv("SOMBRA_TEST_ESTIMATE_SHARE", "1", 1);
-                if (read_cache) ::setenv("SOMBRA_TEST_MARK_IN_PROBE", "1", 1), ::setenv("SOMBRA_TEST_MEASURE_FILL", "1", 1);
-                const RenderResult r = render(probed, scene, o);
-                ::unsetenv("SOMBRA_TEST_ESTIMATE_SHARE");
-                ::unsetenv("SOMBRA_TEST_MARK_IN_PROBE");
-                ::unsetenv("SOMBRA_TEST_MEASURE_FILL");
+                const RenderResult r =
+                    read_cache ? render_switched(probed, scene, o, {"SOMBRA_TEST_ESTIMATE_SHARE", "SOMBRA_TEST_MARK_IN_PROBE", "SOMBRA_TEST_MEASURE_FILL"})
+                               : render_switched(probed, scene, o, {"SOMBRA_TEST_ESTIMATE_SHARE"});
                 const double share = r.stats.shadow_cache_estimated_marked_share;
                 CHECK(share > 0);
                 CHECK(share <= 1);
                 CHECK(r.stats.shadow_cache_estimated_per_sample_ms > 0);
                 if (read_cache) REQUIRE(r.stats.shadow_cache_used);
-                o.shadow_cache = r.stats.shadow_cache_used ? ShadowCacheMode::On : ShadowCacheMode::Off;
-                const RenderResult forced = render(plain, scene, o);
-                CHECK(test::compare(r.image, forced.image).max_abs == 0.0);  // the whole rows kept are the frame's pixels
+                // the whole rows kept are the frame's pixels; where it marked, the frame's marking pass
+                // started afresh: the same points, filled with the same values
+                const RenderResult forced = check_as_chosen_mode(r, probed, scene, o, read_cache);
                 if (!read_cache) continue;
-                // the frame's marking pass starts afresh: the same points, filled with the same values
-                CHECK(r.stats.shadow_cache_points_marked == forced.stats.shadow_cache_points_marked);
-                CHECK(volume_cache_values(probed) == volume_cache_values(plain));
                 // the estimate against the share marked, within 2× (the shipped scenes' at 128²:
                 // 0.74–1.09×; this scene's coarse lattice, whose cells span several image rows, at
                 // 160²: 1.6×, bench/README.md "The marked share, sampled")

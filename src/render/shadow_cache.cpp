@@ -921,7 +921,7 @@ namespace {
 // of the image), which a frame then evaluated per sample keeps (FrameImage).
 struct VolumeCosts {
     double fill_ms = 0, per_sample_ms = 0, cached_ms = 0, probe_ms = 0;
-    double marked_share = -1;  // estimate_marked_share's, where the probe ran it
+    double marked_share = -1;  // estimate_marked_share's, where the probe ran it (−1: not estimated)
 };
 
 // `all_stages` (SOMBRA_AUTO_PROBE_ALL): every stage runs whatever the earlier ones found, each
@@ -1076,14 +1076,15 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
     };
     // whether marking pays on the marked share estimated from sampled rows (marked_share_pays; once
     // a frame), where `close_call_rows`: on a close call, the per-sample pass measured on whole rows
+    bool share_asked = false;
     auto marking_pays_on_share = [&](bool close_call_rows) {
         // (not where marking pays with every point marked: the estimate could not change that)
         if (!estimate_share || marked_share_pays(1, costs.fill_ms, costs.cached_ms, costs.per_sample_ms)) return true;
-        if (costs.marked_share == -1) {
+        if (!share_asked) {
             double ms = 0;
             costs.marked_share = (*estimate_share)(&ms);
-            if (costs.marked_share < 0) costs.marked_share = -2;  // not estimated: asked once
             costs.probe_ms += ms;
+            share_asked = true;
         }
         const double share = costs.marked_share;
         if (!marked_share_pays(share, costs.fill_ms, costs.cached_ms, costs.per_sample_ms)) return false;
@@ -1237,7 +1238,7 @@ void report_auto_costs(const VolumeCosts& costs, RenderStats& stats) {
     stats.shadow_cache_estimated_fill_ms = costs.fill_ms;
     stats.shadow_cache_estimated_cached_ms = costs.cached_ms;
     stats.shadow_cache_estimated_per_sample_ms = costs.per_sample_ms;
-    stats.shadow_cache_estimated_marked_share = costs.marked_share < 0 ? -1 : costs.marked_share;
+    stats.shadow_cache_estimated_marked_share = costs.marked_share;
 }
 
 // Auto's choices, by everything the frame's image depends on (the_choice_key): the same frame
