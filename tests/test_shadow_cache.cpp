@@ -730,7 +730,7 @@ TEST_CASE("shadow cache auto: a marked share estimated from sampled rows leaves 
     const Scene scene = test::overlapping_scene();
     for (ShadowTechnique technique : shadowing_techniques()) {
         INFO(shadow_technique_name(technique));
-        for (int size : {40, 160}) {
+        for (int size : {5, 40, 160}) {  // (5²: too few rows to estimate; the marking pass then makes the lattices)
             INFO("size " << size);
             for (bool read_cache : {false, true}) {
                 INFO("marked and read whatever found: " << read_cache);
@@ -742,8 +742,8 @@ TEST_CASE("shadow cache auto: a marked share estimated from sampled rows leaves 
                     read_cache ? render_switched(probed, scene, o, {"SOMBRA_TEST_ESTIMATE_SHARE", "SOMBRA_TEST_MARK_IN_PROBE", "SOMBRA_TEST_MEASURE_FILL"})
                                : render_switched(probed, scene, o, {"SOMBRA_TEST_ESTIMATE_SHARE"});
                 const double share = r.stats.shadow_cache_estimated_marked_share;
-                CHECK(share > 0);
-                CHECK(share <= 1);
+                if (size == 5) CHECK(share == -1);
+                else CHECK((share > 0 && share <= 1));
                 CHECK(r.stats.shadow_cache_estimated_per_sample_ms > 0);
                 if (read_cache) REQUIRE(r.stats.shadow_cache_used);
                 // the whole rows kept are the frame's pixels; where it marked, the frame's marking pass

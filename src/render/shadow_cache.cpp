@@ -606,9 +606,10 @@ VolumeFill prepare_volume_fill(const FillLaunch& launch, ShadowCache& cache, con
 // the host (marked_corner_points; the need step over a whole lattice took 6–10 ms, the two passes
 // 1–1.3 ms each). The frame's rows find about n₁ + (kShareRowStride − 1) n₂ a stride (bench/
 // README.md "The marked share, sampled": 0.74–1.09× the marking pass's count on six shipped
-// cells at 128²; 1.6× on the tests' coarse lattice, whose cells span several rows). Makes the lattices (prepare_volume_fill, unmarked); leaves its marks, which the
-// frame's marking pass clears. Returns the share (−1 on images under 4 strides of rows: not
-// estimated); *ms: the passes' kernel time.
+// cells at 128²; 1.6× on the tests' coarse lattice, whose cells span several rows).
+// Makes the lattices (prepare_volume_fill, unmarked); leaves its marks, which the frame's marking
+// pass clears. Returns the share, or −1 where it makes nothing (images under 4
+// strides of rows, no stale entry); *ms: the passes' kernel time.
 constexpr int kShareRowStride = 32;
 double estimate_marked_share(const FillLaunch& launch, ShadowCache& cache, const VolumePlan& plan, const SurfaceShadowCache* surface_cache,
                              double points_to_fill, double* ms) {
@@ -1365,7 +1366,7 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
         double marking_ms = 0, measured_fill_ms = 0;
         const std::function<double(double*)> estimate_share = [&](double* share_ms) {
             const double share = estimate_marked_share(launch, *cache, plan_now(), surface_reads, double(stats.shadow_cache_points_to_fill), share_ms);
-            layout_made = true;
+            if (share >= 0) layout_made = true;  // (not estimated: nothing made)
             return share;
         };
         const std::function<double()> mark_points = [&] {
