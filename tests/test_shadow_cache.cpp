@@ -307,10 +307,12 @@ TEST_CASE("shadow cache visible fill: the image of a fill of every point and ano
             CHECK(masks.filled == cover);
             CHECK(masks.need == cover);
             CHECK(count_bits(cover) == first.stats.shadow_cache_points_marked);
-            // and counted on the host (auto's estimate of the marked share)
+            // and counted and set on the host (auto's estimates of the marked share and fill)
             std::size_t corners = 0;
-            for (const ShadowCacheGpu& c : cache.layout) corners += pipeline::marked_corner_points(masks.marks, c);
+            std::vector<cl_uint> host_cover(masks.marks.size(), 0);
+            for (const ShadowCacheGpu& c : cache.layout) corners += pipeline::marked_corner_points(masks.marks, c, &host_cover);
             CHECK(corners == first.stats.shadow_cache_points_marked);
+            CHECK(host_cover == masks.need);
             const RenderResult again = render(visible, scene, o);  // the same view reads only what it filled
             CHECK(again.stats.stage_ms.count("shadow_cache") == 0);
             CHECK_FALSE(again.stats.shadow_cache_visible_fill);
@@ -536,6 +538,73 @@ TEST_CASE("shadow cache auto: a light lattice's probe takes blocks of rows along
     }
 }
 
+TEST_CASE("shadow cache auto: a probe lattice's marks for a marked fill are the frame lattices' marks at its points", "[shadow_cache]") {
+    // volume lattices (spacing in voxels) and light lattices (index units), big, small, thin
+    const int dims[][3] = {{112, 112, 112}, {64, 1, 40}, {20, 3, 100}, {48, 48, 48}, {300, 130, 60}, {40, 32, 32}, {6, 50, 70}, {17, 3, 9}};
+    std::mt19937 random(29);
+    for (int lanes : {8, 16}) {
+        std::vector<ShadowCacheGpu> layout;
+        cl_uint offset = 0, words = 0;
+        for (std::size_t i = 0; i < std::size(dims); ++i) {
+            const bool columns = i >= 4;
+            ShadowCacheGpu c{};
+            for (int a = 0; a < 3; ++a) c.dims.s[a] = dims[i][a], c.spacing.s[a] = columns ? 1.f : 1.25f + 0.5f * float(a);
+            c.column_axes = cl_int4{{0, 1, 2, columns ? 1 : 0}};
+            c.row_block = c.row_block_stride = 1;
+            c.offset = offset, offset += cl_uint(pipeline::lattice_points(c));
+            c.mark_row_words = cl_uint((c.dims.s[0] + 31) / 32), c.mark_offset = words;
+            words += c.mark_row_words * cl_uint(c.dims.s[1] * c.dims.s[2]);
+            layout.push_back(c);
+        }
+        // the frame's marks: a random tenth of the points, and one entry left out
+        std::vector<cl_uint> need(words, 0);
+        std::bernoulli_distribution marked(0.1);
+        for (cl_uint& w : need)
+            for (int bit = 0; bit < 32; ++bit) w |= marked(random) ? 1u << bit : 0u;
+        std::vector<bool> entries(layout.size(), true);
+        entries[2] = false;
+        for (auto [block, stride] : {std::pair{2, 64}, std::pair{2, 32}, std::pair{4, 32}}) {
+            std::vector<ShadowCacheGpu> small = pipeline::probe_lattices(layout, block, stride, lanes);
+            const std::vector<cl_uint> marks = pipeline::probe_block_marks(small, layout, need, entries, lanes);
+            cl_uint next_word = 0;
+            std::size_t set = 0, checked = 0;
+            for (std::size_t e = 0; e < small.size(); ++e) {
+                const ShadowCacheGpu &c = small[e], &full = layout[e];
+                const bool columns = c.column_axes.s[3] != 0;
+                INFO(lanes << " lanes, block " << block << " every " << stride << ", entry " << e);
+                CHECK(c.mark_offset == next_word);  // rows start on a word, entries one after the other
+                CHECK(c.mark_row_words == cl_uint((c.dims.s[0] + 31) / 32));
+                next_word += c.mark_row_words * cl_uint(c.dims.s[1] * c.dims.s[2]);
+                for (int z = 0; z < c.dims.s[2]; ++z)
+                    for (int y = 0; y < c.dims.s[1]; ++y)
+                        for (int x = 0; x < c.dims.s[0]; ++x) {
+                            // where render.cl's fills put the point: lattice_voxel along y (and a volume
+                            // lattice's z), spread packets along a light lattice's x
+                            const float packet_columns = c.block_origin.s[3] > 0 ? c.block_origin.s[3] : float(lanes);
+                            const int fx = columns ? int(float(x / lanes) * packet_columns + c.block_origin.s[0]) + x % lanes : x;
+                            const int fy = int(std::lround(lattice_voxel_reference(c, unsigned(y), c.spacing.s[1], c.block_origin.s[1]) / full.spacing.s[1]));
+                            const int fz = columns ? z : int(std::lround(lattice_voxel_reference(c, unsigned(z), c.spacing.s[2], c.block_origin.s[2]) / full.spacing.s[2]));
+                            const std::array<int, 3> f = pipeline::probe_point_in_lattice(c, full, x, y, z, lanes);
+                            REQUIRE(f == std::array<int, 3>{fx, fy, fz});
+                            const std::size_t full_row = std::size_t(fy) + std::size_t(full.dims.s[1]) * std::size_t(fz);
+                            const bool frame_marked = entries[e] && (need[full.mark_offset + full_row * full.mark_row_words + std::size_t(fx) / 32] >> (fx % 32) & 1u);
+                            const std::size_t row = std::size_t(y) + std::size_t(c.dims.s[1]) * std::size_t(z);
+                            const bool probe_marked = marks[c.mark_offset + row * c.mark_row_words + std::size_t(x) / 32] >> (x % 32) & 1u;
+                            REQUIRE(probe_marked == frame_marked);
+                            set += probe_marked, ++checked;
+                        }
+                // and nothing past a row's points
+                for (std::size_t row = 0; row < std::size_t(c.dims.s[1] * c.dims.s[2]); ++row)
+                    for (int x = c.dims.s[0]; x < int(c.mark_row_words) * 32; ++x)
+                        CHECK_FALSE(marks[c.mark_offset + row * c.mark_row_words + std::size_t(x) / 32] >> (x % 32) & 1u);
+            }
+            CHECK(marks.size() == next_word);
+            CHECK(double(set) > 0.05 * double(checked));  // about the tenth marked (less the entry left out)
+            CHECK(double(set) < 0.15 * double(checked));
+        }
+    }
+}
+
 TEST_CASE("shadow cache auto: the probe's one launch over all entries fills each as its own launch does", "[shadow_cache]") {
     // two volumes × two lights: four entries in one launch (render.cl fill_entry: entry from the
     // launch's third index, light = entry mod lights); volume lattices (DSM, low-pass) and light
@@ -744,6 +813,9 @@ TEST_CASE("shadow cache auto: a marked share estimated from sampled rows leaves 
                 const double share = r.stats.shadow_cache_estimated_marked_share;
                 if (size == 5) CHECK(share == -1);
                 else CHECK((share > 0 && share <= 1));
+                // and the sampled rows' points filled on the probe's blocks, for the fill of those the frame needs
+                if (size == 5) CHECK(r.stats.shadow_cache_estimated_marked_fill_ms == -1);
+                if (size == 160) CHECK(r.stats.shadow_cache_estimated_marked_fill_ms > 0);
                 CHECK(r.stats.shadow_cache_estimated_per_sample_ms > 0);
                 if (read_cache) REQUIRE(r.stats.shadow_cache_used);
                 // the whole rows kept are the frame's pixels; where it marked, the frame's marking pass

@@ -271,6 +271,9 @@ struct RenderStats {
     // the share of the points to fill that auto estimated a marking pass would find, from marking
     // passes over sampled rows, before it decided whether to run that pass (−1: not estimated)
     double shadow_cache_estimated_marked_share = -1;
+    // and the fill of those points, from the sampled rows' points filled on the probe's blocks
+    // (−1: not estimated)
+    double shadow_cache_estimated_marked_fill_ms = -1;
     // the pixels auto's probe rendered per sample that a frame then evaluating per sample kept
     // (the camera pass rendered the others)
     unsigned long long shadow_cache_probe_pixels_kept = 0;

@@ -258,7 +258,8 @@ std::size_t lattice_points(const ShadowCacheGpu& c);
 // The points of lattice `c` that are corners of a cell marked in `marks` (a whole marks buffer,
 // ShadowCacheGpu.mark_offset): what render.cl's shadow_cache_need covers, counted on the host
 // (auto's estimate of the marked share, shadow_cache.cpp estimate_marked_share).
-std::size_t marked_corner_points(const std::vector<cl_uint>& marks, const ShadowCacheGpu& c);
+// With `cover_words` (a whole buffer's size), those points' bits are written there.
+std::size_t marked_corner_points(const std::vector<cl_uint>& marks, const ShadowCacheGpu& c, std::vector<cl_uint>* cover_words = nullptr);
 
 constexpr std::size_t kShadowCachePoints = std::size_t(1) << 23;  // a volume lattice's points, per volume and light (32 MiB)
 
@@ -281,6 +282,18 @@ std::array<double, 3> lattice_point_voxel(const ShadowCacheGpu& c, double x, dou
 // about (block / stride)² of its points; on a small lattice closer, until 4 blocks lie along each
 // axis, within 4 × that share (ShadowCacheGpu.row_block, row_block_stride, block_origin).
 std::vector<ShadowCacheGpu> probe_lattices(const std::vector<ShadowCacheGpu>& layout, int block, int stride, int lanes);
+
+// The point of full lattice `full` (volume or light lattice) at which point (x, y, z) of its probe
+// lattice `small` (probe_lattices) lies: {x, y, z} indices, as render.cl's fills place the points
+// (lattice_voxel, ShadowCacheGpu.block_origin).
+std::array<int, 3> probe_point_in_lattice(const ShadowCacheGpu& small, const ShadowCacheGpu& full, int x, int y, int z, int lanes);
+
+// The probe lattices' masks for a fill of the points a frame needs (shadow_cache.cpp
+// probe_volume_costs, after a marking pass): a point of small lattice e is set where its point in
+// layout[e] (probe_point_in_lattice) is set in `need` (a whole need buffer, ShadowCacheGpu.mark_offset);
+// entries not in `entries` are left empty. Sets the small lattices' mark_offset and mark_row_words.
+std::vector<cl_uint> probe_block_marks(std::vector<ShadowCacheGpu>& small, const std::vector<ShadowCacheGpu>& layout,
+                                       const std::vector<cl_uint>& need, const std::vector<bool>& entries, int lanes);
 
 // Auto's probe camera launches (shadow_cache.cpp probe_volume_costs) over `frame`'s image of
 // `lanes`-pixel packets: kProbeRowsPerLaunch rows spread over the image, row_stride apart, every

@@ -61,6 +61,7 @@ constexpr int kProbeRowsPerLaunch = 16, kProbePacketStride = 4, kProbeLaunches =
 constexpr int kWholeRowBand = 64;
 constexpr double kProbeWarmupMs = 10;                        // before its first fill, ≥ 10 ms of untimed fills
 constexpr int kProbeWarmupLaunches = 8;                      // (or 8 launches)
+constexpr double kBlockMarkedMin = 64;                       // a marked fill's blocks: points per marked point below that
 constexpr double kProbeBudget = 0.05;                        // beyond its first launch, at most 5 % of the cheaper frame
 constexpr std::size_t kRememberedChoices = 4096;            // auto's choices kept per process (the oldest go first)
 
@@ -415,7 +416,7 @@ unsigned long long mask_points_in_rows(const std::vector<cl_uint>& words, const 
 
 }  // namespace
 
-std::size_t marked_corner_points(const std::vector<cl_uint>& marks, const ShadowCacheGpu& c) {
+std::size_t marked_corner_points(const std::vector<cl_uint>& marks, const ShadowCacheGpu& c, std::vector<cl_uint>* cover_words) {
     std::size_t points = 0;
     const std::size_t dims_y = std::size_t(c.dims.s[1]), rows = dims_y * std::size_t(c.dims.s[2]), row_words = c.mark_row_words;
     for (std::size_t row = 0; row < rows; ++row) {
@@ -431,6 +432,7 @@ std::size_t marked_corner_points(const std::vector<cl_uint>& marks, const Shadow
             const unsigned in_word = unsigned(std::min<long>(32, long(c.dims.s[0]) - 32 * long(w)));
             const cl_uint cover = (here | (here << 1) | (before >> 31)) & (in_word >= 32 ? 0xffffffffu : (1u << in_word) - 1u);
             points += std::size_t(__builtin_popcount(cover));
+            if (cover_words) (*cover_words)[c.mark_offset + row * row_words + w] = cover;
         }
     }
     return points;
@@ -608,24 +610,34 @@ VolumeFill prepare_volume_fill(const FillLaunch& launch, ShadowCache& cache, con
 // README.md "The marked share, sampled": 0.74–1.09× the marking pass's count on six shipped
 // cells at 128²; 1.6× on the tests' coarse lattice, whose cells span several rows).
 // Makes the lattices (prepare_volume_fill, unmarked); leaves its marks, which the frame's marking
-// pass clears. Returns the share, or −1 where it makes nothing (images under 4
-// strides of rows, no stale entry); *ms: the passes' kernel time.
+// pass clears. Returns the share (−1 where it makes nothing: images under 4 strides of rows, no
+// stale entry), and the points the sampled rows need (the need step's cover of their marks, a
+// whole need buffer: auto's probe fills them on its blocks) with their count; *ms: the passes'
+// kernel time.
 constexpr int kShareRowStride = 32;
-double estimate_marked_share(const FillLaunch& launch, ShadowCache& cache, const VolumePlan& plan, const SurfaceShadowCache* surface_cache,
-                             double points_to_fill, double* ms) {
+struct SampledMarks {
+    double share = -1;
+    double sampled_points = 0, estimated_points = 0;  // the sampled rows' points, the frame's estimated
+    std::vector<cl_uint> cover;
+};
+
+SampledMarks estimate_marked_share(const FillLaunch& launch, ShadowCache& cache, const VolumePlan& plan,
+                                   const SurfaceShadowCache* surface_cache, double points_to_fill, double* ms) {
     *ms = 0;
     const int height = launch.height, stride = std::min(kShareRowStride, height / 4);
-    if (stride < 2 || points_to_fill <= 0 || std::count(plan.stale.begin(), plan.stale.end(), true) == 0) return -1;
+    if (stride < 2 || points_to_fill <= 0 || std::count(plan.stale.begin(), plan.stale.end(), true) == 0) return {};
     RenderStats scratch;
     prepare_volume_fill(launch, cache, plan, false, surface_cache, scratch);
     host::Runtime& runtime = launch.runtime;
     runtime.queue().enqueueFillBuffer(cache.marks, cl_uint(0), 0, cache.mark_words * sizeof(cl_uint));
     std::vector<cl_uint> marks(cache.mark_words);
+    SampledMarks sampled;
+    sampled.cover.assign(cache.mark_words, 0);
     auto points_marked = [&] {
         runtime.queue().enqueueReadBuffer(cache.marks, CL_TRUE, 0, marks.size() * sizeof(cl_uint), marks.data());
         double points = 0;
         for (std::size_t e = 0; e < plan.layout.size(); ++e)
-            if (plan.stale[e]) points += double(marked_corner_points(marks, plan.layout[e]));
+            if (plan.stale[e]) points += double(marked_corner_points(marks, plan.layout[e], &sampled.cover));
         return points;
     };
     CameraGpu rows = frame_camera(launch.scene, launch.options, launch.width, height);
@@ -638,8 +650,10 @@ double estimate_marked_share(const FillLaunch& launch, ShadowCache& cache, const
     *ms += run_marking_pass(launch, cache, surface_cache, rows);
     const double both = points_marked();
     const double per_first_row = first / std::max(first_rows, 1), per_next_row = (both - first) / std::max(next_rows, 1);
-    const double points = double(height) / stride * (per_first_row + (stride - 1) * per_next_row);
-    return std::clamp(points / points_to_fill, 0.0, 1.0);
+    sampled.estimated_points = double(height) / stride * (per_first_row + (stride - 1) * per_next_row);
+    sampled.sampled_points = both;
+    sampled.share = std::clamp(sampled.estimated_points / points_to_fill, 0.0, 1.0);
+    return sampled;
 }
 
 // Auto's measurement of a visible fill after its marking pass: the probe's blocks of rows cost
@@ -781,10 +795,11 @@ struct KindFill {
 
 // Auto's probe fill: the small lattices of all entries of `table` (probe_lattices), each kind
 // (volume, light lattices) in one launch as deep as its entries (render.cl fill_entry), into
-// `values`. One launch per entry ran 2–8 work-groups at a time and kept the second core idle
+// `values`, of the points `mode` and `mask` select. One launch per entry ran 2–8 work-groups at a time and kept the second core idle
 // (bench/README.md "Where a first run's extra time goes").
 std::vector<KindFill> fill_small_lattices(const FillLaunch& launch, FillKernels& kernels, const std::vector<ShadowCacheGpu>& small,
-                                          const cl::Buffer& table, const cl::Buffer& values) {
+                                          const cl::Buffer& table, const cl::Buffer& values, FillMode mode = FillMode::All,
+                                          const cl::Buffer* mask = nullptr) {
     std::vector<KindFill> fills;
     for (const bool columns : {false, true}) {
         std::size_t first = small.size(), last = 0;  // the kind's entries lie in first … last
@@ -796,7 +811,7 @@ std::vector<KindFill> fill_small_lattices(const FillLaunch& launch, FillKernels&
         }
         if (first > last) continue;
         cl::Kernel& kernel = kernels.of(small[first]);
-        bind_fill(launch, kernel, first, table, values);
+        bind_fill(launch, kernel, first, table, values, mode, mask);
         cl::Event event = host::enqueue_packets(launch.runtime, kernel, width, rows, launch.lanes, int(last - first + 1));
         event.wait();
         fills.push_back({columns, host::Runtime::event_ms(event)});
@@ -867,6 +882,45 @@ std::vector<ShadowCacheGpu> probe_lattices(const std::vector<ShadowCacheGpu>& la
     return small;
 }
 
+std::array<int, 3> probe_point_in_lattice(const ShadowCacheGpu& small, const ShadowCacheGpu& full, int x, int y, int z, int lanes) {
+    // across a light lattice's columns: every k-th packet, block_origin.w columns apart
+    const int full_x = small.block_origin.s[3] > 0 ? int(small.block_origin.s[0]) + (x / lanes) * int(small.block_origin.s[3]) + x % lanes : x;
+    // along y (and a volume lattice's z): render.cl lattice_voxel, in the full lattice's rows
+    auto full_row = [&](int a, int k) {
+        const int block = int(small.row_block);
+        const double spacing = small.spacing.s[a];
+        const double voxel = double(k / block) * spacing + double(k % block) * (spacing / double(small.row_block_stride)) + small.block_origin.s[a];
+        return int(std::lround((voxel - full.block_origin.s[a]) / full.spacing.s[a]));
+    };
+    return {full_x, full_row(1, y), small.column_axes.s[3] ? z : full_row(2, z)};
+}
+
+std::vector<cl_uint> probe_block_marks(std::vector<ShadowCacheGpu>& small, const std::vector<ShadowCacheGpu>& layout,
+                                       const std::vector<cl_uint>& need, const std::vector<bool>& entries, int lanes) {
+    std::size_t words = 0;
+    for (ShadowCacheGpu& c : small) {
+        c.mark_row_words = cl_uint((c.dims.s[0] + 31) / 32);
+        c.mark_offset = cl_uint(words);
+        words += mask_words(c);
+    }
+    std::vector<cl_uint> marks(words, 0);
+    for (std::size_t e = 0; e < small.size() && e < layout.size(); ++e) {
+        if (e >= entries.size() || !entries[e]) continue;
+        const ShadowCacheGpu &c = small[e], &full = layout[e];
+        for (int z = 0; z < c.dims.s[2]; ++z)
+            for (int y = 0; y < c.dims.s[1]; ++y)
+                for (int x = 0; x < c.dims.s[0]; ++x) {
+                    const std::array<int, 3> f = probe_point_in_lattice(c, full, x, y, z, lanes);
+                    if (f[0] < 0 || f[1] < 0 || f[2] < 0 || f[0] >= full.dims.s[0] || f[1] >= full.dims.s[1] || f[2] >= full.dims.s[2]) continue;
+                    const std::size_t full_row = std::size_t(f[1]) + std::size_t(full.dims.s[1]) * std::size_t(f[2]);
+                    if (!(need[full.mark_offset + full_row * full.mark_row_words + std::size_t(f[0]) / 32] >> (f[0] % 32) & 1u)) continue;
+                    const std::size_t row = std::size_t(y) + std::size_t(c.dims.s[1]) * std::size_t(z);
+                    marks[c.mark_offset + row * c.mark_row_words + std::size_t(x) / 32] |= 1u << (x % 32);
+                }
+    }
+    return marks;
+}
+
 CameraGpu probe_launch_camera(CameraGpu frame, int lanes) {
     const int width = int(frame.width), height = std::max(1, int(frame.height));
     const int row_packets = std::max(1, (width + lanes - 1) / lanes);
@@ -923,6 +977,8 @@ namespace {
 struct VolumeCosts {
     double fill_ms = 0, per_sample_ms = 0, cached_ms = 0, probe_ms = 0;
     double marked_share = -1;  // estimate_marked_share's, where the probe ran it (−1: not estimated)
+    double marked_fill_ms = -1;  // the estimated share's fill, on the probe's blocks (−1: not estimated)
+    bool marked_after_probe = false;  // its marking pass ran after its camera launches (else in them, if at all)
 };
 
 // `all_stages` (SOMBRA_AUTO_PROBE_ALL): every stage runs whatever the earlier ones found, each
@@ -936,7 +992,8 @@ struct VolumeCosts {
 // between the per-sample pass and the fill of every point, which the frame never runs).
 VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan, int width, int height,
                                const surfaces::ViewFragments* fragments, const SurfaceShadowCache* surface_cache,
-                               const std::function<double()>* mark_points, const std::function<double(double*)>* estimate_share,
+                               const std::function<double(std::vector<cl_uint>*)>* mark_points,
+                               const std::function<SampledMarks(double*)>* estimate_share,
                                std::vector<RenderStats::ProbeStage>* all_stages, const FrameImage& frame, RenderedPackets& rendered_packets) {
     host::Runtime& runtime = launch.runtime;
     // the probe's short launches must not make the frame's long ones run unbanded (tiled_launch.cpp)
@@ -949,6 +1006,22 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
     cl::Buffer values, table;
     double warm_ms = 0;
     double last_fill_probe_ms = 0, last_fill_probe_share = 0;  // the last fill probe's time and (block/stride)²
+    // a fill probe's launches' time scaled to the stale entries' points (per kind, by their share
+    // of the kind's small lattices' points)
+    auto scaled_to_stale = [&](const std::vector<KindFill>& kinds, const std::vector<ShadowCacheGpu>& small, double* kernel_ms) {
+        double fill_ms = 0;
+        for (const KindFill& kind : kinds) {
+            *kernel_ms += kind.ms;
+            double small_points = 0, stale_points = 0;
+            for (std::size_t e = 0; e < small.size(); ++e) {
+                if ((small[e].column_axes.s[3] != 0) != kind.columns) continue;
+                small_points += double(lattice_points(small[e]));
+                if (plan.stale[e]) stale_points += double(lattice_points(plan.layout[e]));
+            }
+            fill_ms += kind.ms * stale_points / std::max(small_points, 1.0);
+        }
+        return fill_ms;
+    };
     auto fill_blocks = [&](int block, int stride, bool warm_up) {
         const std::vector<ShadowCacheGpu> small = probe_lattices(plan.layout, block, stride, launch.lanes);
         const std::size_t total = small.back().offset + lattice_points(small.back());
@@ -968,16 +1041,7 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
             costs.probe_ms += warm_ms;
         }
         double probe_ms = 0;
-        for (const KindFill& kind : fill_small_lattices(launch, kernels, small, table, values)) {
-            probe_ms += kind.ms;
-            double small_points = 0, stale_points = 0;
-            for (std::size_t e = 0; e < small.size(); ++e) {
-                if ((small[e].column_axes.s[3] != 0) != kind.columns) continue;
-                small_points += double(lattice_points(small[e]));
-                if (plan.stale[e]) stale_points += double(lattice_points(plan.layout[e]));
-            }
-            fill_ms += kind.ms * stale_points / std::max(small_points, 1.0);
-        }
+        fill_ms = scaled_to_stale(fill_small_lattices(launch, kernels, small, table, values), small, &probe_ms);
         costs.probe_ms += probe_ms;
         if (all_stages) all_stages->push_back({"fill", "blocks " + std::to_string(block) + " every " + std::to_string(stride), probe_ms, fill_ms});
         last_fill_probe_ms = probe_ms, last_fill_probe_share = double(block * block) / (double(stride) * stride);
@@ -998,12 +1062,72 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
         costs.fill_ms = fill_blocks(kProbeBlock, kProbeBlockStride, false);
         fine_fill = true;
     };
-    double visible_share = 1;  // of the points, those the marking pass found (mark_points)
+    // The fill of the points a frame's marking pass would find, before it runs (marking_pays_on_share):
+    // the points the share estimate's sampled rows need (SampledMarks.cover) filled on the close
+    // call's probe lattices (4 × 4 blocks every 32 rows, 1/64 of the points; probe_block_marks).
+    // Not the share of the points times the fill of every point: the marked points' shadow rays
+    // are not the average point's. A light lattice's column is marched from its first readable
+    // point to its last needed one, so that the default scene's shadow rays at 128² filled 5.5 % of
+    // the points in 0.46 of the time of every point's fill (the share's estimate: 46 ms against
+    // 355 ms); bounded_smoke's marked 20 % (the smoke the camera sees, deep in it from the light)
+    // took 0.39 of it, and marking lost (bench/README.md "The marked points' fill, sampled"). A
+    // volume lattice's points each cost a shadow ray: the blocks' time per needed point (where they
+    // hold kBlockMarkedMin), times the points. A light lattice's march is about as long for the
+    // sampled rows as for all rows (each row's rays cross most of the lit columns): the blocks'
+    // time, scaled to the lattices' points.
+    struct MarkedFill {
+        double volume_ms_per_point = -1;  // (−1: too few points in the blocks)
+        double light_ms = 0;
+        double volume_points = 0;  // the volume lattices' points set in the estimate's marks
+        double ms(double points) const { return volume_ms_per_point * points + light_ms; }
+    };
+    auto volume_points_set = [&](const std::vector<cl_uint>& words) {
+        double n = 0;
+        for (std::size_t e = 0; e < plan.layout.size(); ++e) {
+            const ShadowCacheGpu& c = plan.layout[e];
+            if (c.column_axes.s[3] || !plan.stale[e]) continue;
+            for (std::size_t w = c.mark_offset; w < c.mark_offset + mask_words(c); ++w) n += double(__builtin_popcount(words[w]));
+        }
+        return n;
+    };
+    auto fill_marked_blocks = [&](const std::vector<cl_uint>& marked) {
+        std::vector<ShadowCacheGpu> small = probe_lattices(plan.layout, kProbeCloseCallBlock, kProbeBlockStride, launch.lanes);
+        const std::vector<cl_uint> marks = probe_block_marks(small, plan.layout, marked, plan.stale, launch.lanes);
+        const cl::Buffer marked_table = host::make_buffer(runtime, CL_MEM_READ_ONLY, small.size() * sizeof(ShadowCacheGpu), small.data(),
+                                                          "shadow cache probe table (marked)");
+        const cl::Buffer mask = host::make_buffer(runtime, CL_MEM_READ_ONLY, std::max<std::size_t>(marks.size(), 1) * sizeof(cl_uint),
+                                                  marks.empty() ? nullptr : marks.data(), "shadow cache probe marks");
+        const std::size_t points = small.back().offset + lattice_points(small.back());
+        const cl::Buffer marked_values = host::make_buffer(runtime, CL_MEM_READ_WRITE, points * sizeof(float), nullptr, "shadow cache probe (marked)");
+        FillKernels kernels{launch.program, {}, {}};
+        MarkedFill fill;
+        fill.volume_points = volume_points_set(marked);
+        fill.volume_ms_per_point = 0;  // (no volume lattice's points set: none to fill)
+        double block_points = 0;  // the volume lattices' blocks' points set
+        for (std::size_t e = 0; e < small.size(); ++e)
+            if (!small[e].column_axes.s[3] && plan.stale[e])
+                for (std::size_t w = small[e].mark_offset; w < small[e].mark_offset + mask_words(small[e]); ++w) block_points += double(__builtin_popcount(marks[w]));
+        double probe_ms = 0;
+        for (const KindFill& kind : fill_small_lattices(launch, kernels, small, marked_table, marked_values, FillMode::Marked, &mask)) {
+            if (!kind.columns) fill.volume_ms_per_point = block_points >= kBlockMarkedMin ? kind.ms / block_points : fill.volume_points > 0 ? -1 : 0;
+            else fill.light_ms = scaled_to_stale({kind}, small, &probe_ms);
+            if (!kind.columns) probe_ms += kind.ms;
+        }
+        costs.probe_ms += probe_ms;
+        if (all_stages) all_stages->push_back({"fill", "sampled rows' marked points", probe_ms, fill.ms(fill.volume_points)});
+        return fill;
+    };
+    std::optional<MarkedFill> marked_fill;  // from the share estimate's sampled rows, where it ran
     bool marked = false;
+    double marked_ratio = 1;  // once marked, the fill estimate's share of every point's
     auto mark = [&] {
         marked = true;
-        visible_share = (*mark_points)();
-        costs.fill_ms *= visible_share;
+        std::vector<cl_uint> need;
+        const double share = (*mark_points)(&need), every_point_ms = costs.fill_ms;
+        // the estimate's time per point for the points the pass found, else their share
+        if (marked_fill) costs.fill_ms = marked_fill->ms(volume_points_set(need));
+        else costs.fill_ms *= share;
+        marked_ratio = costs.fill_ms / std::max(every_point_ms, 1e-9);
     };
     const int lanes = launch.lanes, row_packets = (width + lanes - 1) / lanes;
     CameraGpu camera = probe_launch_camera(frame_camera(launch.scene, launch.options, width, height), lanes);
@@ -1078,16 +1202,29 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
     // whether marking pays on the marked share estimated from sampled rows (marked_share_pays; once
     // a frame), where `close_call_rows`: on a close call, the per-sample pass measured on whole rows
     bool share_asked = false;
+    // the marked points' fill as a share of every point's: estimated on the blocks, else the marked share
+    auto marking_share = [&] {
+        return costs.marked_fill_ms >= 0 ? std::min(1.0, costs.marked_fill_ms / std::max(costs.fill_ms, 1e-9)) : costs.marked_share;
+    };
     auto marking_pays_on_share = [&](bool close_call_rows) {
         // (not where marking pays with every point marked: the estimate could not change that)
         if (!estimate_share || marked_share_pays(1, costs.fill_ms, costs.cached_ms, costs.per_sample_ms)) return true;
         if (!share_asked) {
             double ms = 0;
-            costs.marked_share = (*estimate_share)(&ms);
+            const SampledMarks sampled = (*estimate_share)(&ms);
+            costs.marked_share = sampled.share;
             costs.probe_ms += ms;
             share_asked = true;
+            if (sampled.share >= 0 && sampled.sampled_points > 0) {
+                marked_fill = fill_marked_blocks(sampled.cover);
+                if (marked_fill->volume_ms_per_point < 0) marked_fill.reset();  // (too few in the blocks: the share decides)
+            }
+            if (marked_fill) {
+                const double frame_volume_points = marked_fill->volume_points * sampled.estimated_points / sampled.sampled_points;
+                costs.marked_fill_ms = marked_fill->ms(frame_volume_points);
+            }
         }
-        const double share = costs.marked_share;
+        const double share = marking_share();
         if (!marked_share_pays(share, costs.fill_ms, costs.cached_ms, costs.per_sample_ms)) return false;
         if (!close_call_rows || marked_share_pays(share, costs.fill_ms, costs.cached_ms, costs.per_sample_ms / kMarkedShareClear)) return true;
         per_sample_on_whole_rows();
@@ -1225,10 +1362,18 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
         if (launches_run >= kProbeLaunches) break;
     }
     // a close call: the fill again on 1/64 of the rows (4 × 4 blocks: single estimates from the
-    // 1/256's few blocks spread by ± 40 %), when it fits the budget
-    if (all_stages || (!decided(kProbeClear) && within_budget(fill_probe_ms(kProbeCloseCallBlock, kProbeBlockStride))))
-        costs.fill_ms = visible_share * fill_blocks(kProbeCloseCallBlock, kProbeBlockStride, false);
+    // 1/256's few blocks spread by ± 40 %), when it fits the budget (once marked, the marked
+    // points' fill was measured on those blocks)
+    if (all_stages || (!decided(kProbeClear) && within_budget(fill_probe_ms(kProbeCloseCallBlock, kProbeBlockStride)))) {
+        costs.fill_ms = marked_ratio * fill_blocks(kProbeCloseCallBlock, kProbeBlockStride, false);
+    }
     if (all_stages) fill_blocks(4, 64, false), fill_blocks(8, 64, false);
+    // marking after the probe, where its estimates (and the share estimated before it) say it pays
+    if (mark_points && !marked && visible_fill_worth_marking(costs.fill_ms, costs.cached_ms, costs.per_sample_ms) &&
+        marked_share_pays(marking_share(), costs.fill_ms, costs.cached_ms, costs.per_sample_ms)) {
+        mark();
+        costs.marked_after_probe = true;
+    }
     costs.probe_ms += per_sample_sum + cached_sum;
     runtime.progress().last_launch_ms = last_launch_ms;
     return costs;
@@ -1240,6 +1385,7 @@ void report_auto_costs(const VolumeCosts& costs, RenderStats& stats) {
     stats.shadow_cache_estimated_cached_ms = costs.cached_ms;
     stats.shadow_cache_estimated_per_sample_ms = costs.per_sample_ms;
     stats.shadow_cache_estimated_marked_share = costs.marked_share;
+    stats.shadow_cache_estimated_marked_fill_ms = costs.marked_fill_ms;
 }
 
 // Auto's choices, by everything the frame's image depends on (the_choice_key): the same frame
@@ -1364,16 +1510,21 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
         // (measure_marked_fill)
         bool marked = false;
         double marking_ms = 0, measured_fill_ms = 0;
-        const std::function<double(double*)> estimate_share = [&](double* share_ms) {
-            const double share = estimate_marked_share(launch, *cache, plan_now(), surface_reads, double(stats.shadow_cache_points_to_fill), share_ms);
-            if (share >= 0) layout_made = true;  // (not estimated: nothing made)
-            return share;
+        const std::function<SampledMarks(double*)> estimate_share = [&](double* share_ms) {
+            SampledMarks sampled = estimate_marked_share(launch, *cache, plan_now(), surface_reads, double(stats.shadow_cache_points_to_fill), share_ms);
+            if (sampled.share >= 0) layout_made = true;  // (not estimated: nothing made)
+            return sampled;
         };
-        const std::function<double()> mark_points = [&] {
+        // (the need buffer into *need_words, where asked)
+        const std::function<double(std::vector<cl_uint>*)> mark_points = [&](std::vector<cl_uint>* need_words) {
             const auto start = std::chrono::steady_clock::now();
             marked = true;
             fill = prepare_volume_fill(launch, *cache, plan_now(), true, surface_reads, stats);
             marking_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+            if (need_words) {
+                need_words->resize(cache->mark_words);
+                runtime.queue().enqueueReadBuffer(cache->need, CL_TRUE, 0, need_words->size() * sizeof(cl_uint), need_words->data());
+            }
             return std::min(1.0, double(fill.needed_points()) / std::max(1.0, double(stats.shadow_cache_points_to_fill)));
         };
         RenderedPackets rendered_packets(width, height, lanes);  // those the probe rendered per sample into the frame's image
@@ -1384,12 +1535,9 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
         const double marking_in_probe_ms = marking_ms;
         // tests/test_shadow_cache.cpp: mark, measure and read the cache whatever the probe found
         const bool test_measure = std::getenv("SOMBRA_TEST_MEASURE_FILL") != nullptr;
-        if (marked) stats.shadow_cache_auto_marked = "in probe";
-        if (may_mark && !marked &&
-            ((visible_fill_worth_marking(costs.fill_ms, costs.cached_ms, costs.per_sample_ms) &&
-              marked_share_pays(costs.marked_share, costs.fill_ms, costs.cached_ms, costs.per_sample_ms)) ||
-             test_measure)) {
-            costs.fill_ms *= mark_points();
+        if (marked) stats.shadow_cache_auto_marked = costs.marked_after_probe ? "after probe" : "in probe";
+        if (may_mark && !marked && test_measure) {
+            costs.fill_ms *= mark_points(nullptr);
             stats.shadow_cache_auto_marked = "after probe";
         }
         if (marked) {
