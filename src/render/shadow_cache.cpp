@@ -61,7 +61,6 @@ constexpr int kProbeRowsPerLaunch = 16, kProbePacketStride = 4, kProbeLaunches =
 constexpr int kWholeRowBand = 64;
 constexpr double kProbeWarmupMs = 10;                        // before its first fill, ≥ 10 ms of untimed fills
 constexpr int kProbeWarmupLaunches = 8;                      // (or 8 launches)
-constexpr double kBlockMarkedMin = 64;                       // a marked fill's blocks: points per marked point below that
 constexpr double kProbeBudget = 0.05;                        // beyond its first launch, at most 5 % of the cheaper frame
 constexpr std::size_t kRememberedChoices = 4096;            // auto's choices kept per process (the oldest go first)
 
@@ -617,7 +616,7 @@ VolumeFill prepare_volume_fill(const FillLaunch& launch, ShadowCache& cache, con
 constexpr int kShareRowStride = 32;
 struct SampledMarks {
     double share = -1;
-    double sampled_points = 0, estimated_points = 0;  // the sampled rows' points, the frame's estimated
+    double sampled_points = 0;  // the points the sampled rows need, set in `cover`
     std::vector<cl_uint> cover;
 };
 
@@ -650,9 +649,9 @@ SampledMarks estimate_marked_share(const FillLaunch& launch, ShadowCache& cache,
     *ms += run_marking_pass(launch, cache, surface_cache, rows);
     const double both = points_marked();
     const double per_first_row = first / std::max(first_rows, 1), per_next_row = (both - first) / std::max(next_rows, 1);
-    sampled.estimated_points = double(height) / stride * (per_first_row + (stride - 1) * per_next_row);
+    const double points = double(height) / stride * (per_first_row + (stride - 1) * per_next_row);
     sampled.sampled_points = both;
-    sampled.share = std::clamp(sampled.estimated_points / points_to_fill, 0.0, 1.0);
+    sampled.share = std::clamp(points / points_to_fill, 0.0, 1.0);
     return sampled;
 }
 
@@ -992,7 +991,7 @@ struct VolumeCosts {
 // between the per-sample pass and the fill of every point, which the frame never runs).
 VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan, int width, int height,
                                const surfaces::ViewFragments* fragments, const SurfaceShadowCache* surface_cache,
-                               const std::function<double(std::vector<cl_uint>*)>* mark_points,
+                               const std::function<double()>* mark_points,
                                const std::function<SampledMarks(double*)>* estimate_share,
                                std::vector<RenderStats::ProbeStage>* all_stages, const FrameImage& frame, RenderedPackets& rendered_packets) {
     host::Runtime& runtime = launch.runtime;
@@ -1062,35 +1061,21 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
         costs.fill_ms = fill_blocks(kProbeBlock, kProbeBlockStride, false);
         fine_fill = true;
     };
-    // The fill of the points a frame's marking pass would find, before it runs (marking_pays_on_share):
-    // the points the share estimate's sampled rows need (SampledMarks.cover) filled on the close
-    // call's probe lattices (4 × 4 blocks every 32 rows, 1/64 of the points; probe_block_marks).
-    // Not the share of the points times the fill of every point: the marked points' shadow rays
-    // are not the average point's. A light lattice's column is marched from its first readable
-    // point to its last needed one, so that the default scene's shadow rays at 128² filled 5.5 % of
-    // the points in 0.46 of the time of every point's fill (the share's estimate: 46 ms against
-    // 355 ms); bounded_smoke's marked 20 % (the smoke the camera sees, deep in it from the light)
-    // took 0.39 of it, and marking lost (bench/README.md "The marked points' fill, sampled"). A
-    // volume lattice's points each cost a shadow ray: the blocks' time per needed point (where they
-    // hold kBlockMarkedMin), times the points. A light lattice's march is about as long for the
-    // sampled rows as for all rows (each row's rays cross most of the lit columns): the blocks'
-    // time, scaled to the lattices' points.
-    struct MarkedFill {
-        double volume_ms_per_point = -1;  // (−1: too few points in the blocks)
-        double light_ms = 0;
-        double volume_points = 0;  // the volume lattices' points set in the estimate's marks
-        double ms(double points) const { return volume_ms_per_point * points + light_ms; }
-    };
-    auto volume_points_set = [&](const std::vector<cl_uint>& words) {
-        double n = 0;
-        for (std::size_t e = 0; e < plan.layout.size(); ++e) {
-            const ShadowCacheGpu& c = plan.layout[e];
-            if (c.column_axes.s[3] || !plan.stale[e]) continue;
-            for (std::size_t w = c.mark_offset; w < c.mark_offset + mask_words(c); ++w) n += double(__builtin_popcount(words[w]));
-        }
-        return n;
-    };
-    auto fill_marked_blocks = [&](const std::vector<cl_uint>& marked) {
+    // The fill of the points a frame's marking pass would find, before it runs (marking_pays_on_share),
+    // where every stale entry is a light lattice: the points the share estimate's sampled rows need
+    // (SampledMarks.cover) filled on the close call's probe lattices (4 × 4 blocks every 32 rows,
+    // 1/64 of the points; probe_block_marks), scaled to the lattices' points. Not the marked
+    // share of every point's fill: a light lattice's column is marched from its first readable
+    // point to its last needed one, so that the default scene's shadow rays at 128² filled 5.5 %
+    // of the points in 0.46 of the time of every point's fill (the share's estimate: 46 ms
+    // against 355 ms; the sampled rows': 164 ms, their march is shorter than all rows'; the MRI's:
+    // 51, 131 and 151 ms; bench/README.md "The marked points' fill, sampled"). Not on volume
+    // lattices, whose packets evaluate a shadow ray a lane: the sampled rows' points, a few a
+    // packet, cost several times a frame's marked points each (bounded_smoke's shadow rays at
+    // 256², estimated at 1.6× their fill, chose per sample at 2.4× the cache's frame).
+    auto fill_marked_blocks = [&](const std::vector<cl_uint>& marked) -> std::optional<double> {
+        for (std::size_t e = 0; e < plan.layout.size(); ++e)
+            if (plan.stale[e] && !plan.layout[e].column_axes.s[3]) return std::nullopt;
         std::vector<ShadowCacheGpu> small = probe_lattices(plan.layout, kProbeCloseCallBlock, kProbeBlockStride, launch.lanes);
         const std::vector<cl_uint> marks = probe_block_marks(small, plan.layout, marked, plan.stale, launch.lanes);
         const cl::Buffer marked_table = host::make_buffer(runtime, CL_MEM_READ_ONLY, small.size() * sizeof(ShadowCacheGpu), small.data(),
@@ -1100,33 +1085,20 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
         const std::size_t points = small.back().offset + lattice_points(small.back());
         const cl::Buffer marked_values = host::make_buffer(runtime, CL_MEM_READ_WRITE, points * sizeof(float), nullptr, "shadow cache probe (marked)");
         FillKernels kernels{launch.program, {}, {}};
-        MarkedFill fill;
-        fill.volume_points = volume_points_set(marked);
-        fill.volume_ms_per_point = 0;  // (no volume lattice's points set: none to fill)
-        double block_points = 0;  // the volume lattices' blocks' points set
-        for (std::size_t e = 0; e < small.size(); ++e)
-            if (!small[e].column_axes.s[3] && plan.stale[e])
-                for (std::size_t w = small[e].mark_offset; w < small[e].mark_offset + mask_words(small[e]); ++w) block_points += double(__builtin_popcount(marks[w]));
         double probe_ms = 0;
-        for (const KindFill& kind : fill_small_lattices(launch, kernels, small, marked_table, marked_values, FillMode::Marked, &mask)) {
-            if (!kind.columns) fill.volume_ms_per_point = block_points >= kBlockMarkedMin ? kind.ms / block_points : fill.volume_points > 0 ? -1 : 0;
-            else fill.light_ms = scaled_to_stale({kind}, small, &probe_ms);
-            if (!kind.columns) probe_ms += kind.ms;
-        }
+        const double fill_ms =
+            scaled_to_stale(fill_small_lattices(launch, kernels, small, marked_table, marked_values, FillMode::Marked, &mask), small, &probe_ms);
         costs.probe_ms += probe_ms;
-        if (all_stages) all_stages->push_back({"fill", "sampled rows' marked points", probe_ms, fill.ms(fill.volume_points)});
-        return fill;
+        if (all_stages) all_stages->push_back({"fill", "sampled rows' marked points", probe_ms, fill_ms});
+        return fill_ms;
     };
-    std::optional<MarkedFill> marked_fill;  // from the share estimate's sampled rows, where it ran
     bool marked = false;
     double marked_ratio = 1;  // once marked, the fill estimate's share of every point's
     auto mark = [&] {
         marked = true;
-        std::vector<cl_uint> need;
-        const double share = (*mark_points)(&need), every_point_ms = costs.fill_ms;
-        // the estimate's time per point for the points the pass found, else their share
-        if (marked_fill) costs.fill_ms = marked_fill->ms(volume_points_set(need));
-        else costs.fill_ms *= share;
+        const double share = (*mark_points)(), every_point_ms = costs.fill_ms;
+        // the sampled rows' marked fill, else the share of every point's
+        costs.fill_ms = costs.marked_fill_ms >= 0 ? costs.marked_fill_ms : costs.fill_ms * share;
         marked_ratio = costs.fill_ms / std::max(every_point_ms, 1e-9);
     };
     const int lanes = launch.lanes, row_packets = (width + lanes - 1) / lanes;
@@ -1215,14 +1187,7 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
             costs.marked_share = sampled.share;
             costs.probe_ms += ms;
             share_asked = true;
-            if (sampled.share >= 0 && sampled.sampled_points > 0) {
-                marked_fill = fill_marked_blocks(sampled.cover);
-                if (marked_fill->volume_ms_per_point < 0) marked_fill.reset();  // (too few in the blocks: the share decides)
-            }
-            if (marked_fill) {
-                const double frame_volume_points = marked_fill->volume_points * sampled.estimated_points / sampled.sampled_points;
-                costs.marked_fill_ms = marked_fill->ms(frame_volume_points);
-            }
+            if (sampled.share >= 0 && sampled.sampled_points > 0) costs.marked_fill_ms = fill_marked_blocks(sampled.cover).value_or(-1);
         }
         const double share = marking_share();
         if (!marked_share_pays(share, costs.fill_ms, costs.cached_ms, costs.per_sample_ms)) return false;
@@ -1515,16 +1480,11 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
             if (sampled.share >= 0) layout_made = true;  // (not estimated: nothing made)
             return sampled;
         };
-        // (the need buffer into *need_words, where asked)
-        const std::function<double(std::vector<cl_uint>*)> mark_points = [&](std::vector<cl_uint>* need_words) {
+        const std::function<double()> mark_points = [&] {
             const auto start = std::chrono::steady_clock::now();
             marked = true;
             fill = prepare_volume_fill(launch, *cache, plan_now(), true, surface_reads, stats);
             marking_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-            if (need_words) {
-                need_words->resize(cache->mark_words);
-                runtime.queue().enqueueReadBuffer(cache->need, CL_TRUE, 0, need_words->size() * sizeof(cl_uint), need_words->data());
-            }
             return std::min(1.0, double(fill.needed_points()) / std::max(1.0, double(stats.shadow_cache_points_to_fill)));
         };
         RenderedPackets rendered_packets(width, height, lanes);  // those the probe rendered per sample into the frame's image
@@ -1537,7 +1497,7 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
         const bool test_measure = std::getenv("SOMBRA_TEST_MEASURE_FILL") != nullptr;
         if (marked) stats.shadow_cache_auto_marked = costs.marked_after_probe ? "after probe" : "in probe";
         if (may_mark && !marked && test_measure) {
-            costs.fill_ms *= mark_points(nullptr);
+            costs.fill_ms *= mark_points();
             stats.shadow_cache_auto_marked = "after probe";
         }
         if (marked) {
