@@ -906,16 +906,24 @@ std::vector<cl_uint> probe_block_marks(std::vector<ShadowCacheGpu>& small, const
     for (std::size_t e = 0; e < small.size() && e < layout.size(); ++e) {
         if (e >= entries.size() || !entries[e]) continue;
         const ShadowCacheGpu &c = small[e], &full = layout[e];
+        // each index's along its own axis (probe_point_in_lattice maps the axes apart; −1: outside)
+        std::array<std::vector<int>, 3> to_full;
+        for (int a = 0; a < 3; ++a)
+            for (int k = 0; k < c.dims.s[a]; ++k) {
+                const int f = probe_point_in_lattice(c, full, a == 0 ? k : 0, a == 1 ? k : 0, a == 2 ? k : 0, lanes)[std::size_t(a)];
+                to_full[std::size_t(a)].push_back(f >= 0 && f < full.dims.s[a] ? f : -1);
+            }
         for (int z = 0; z < c.dims.s[2]; ++z)
-            for (int y = 0; y < c.dims.s[1]; ++y)
+            for (int y = 0; y < c.dims.s[1]; ++y) {
+                const int fy = to_full[1][std::size_t(y)], fz = to_full[2][std::size_t(z)];
+                if (fy < 0 || fz < 0) continue;
+                const cl_uint* full_row = &need[full.mark_offset + (std::size_t(fy) + std::size_t(full.dims.s[1]) * std::size_t(fz)) * full.mark_row_words];
+                cl_uint* row = &marks[c.mark_offset + (std::size_t(y) + std::size_t(c.dims.s[1]) * std::size_t(z)) * c.mark_row_words];
                 for (int x = 0; x < c.dims.s[0]; ++x) {
-                    const std::array<int, 3> f = probe_point_in_lattice(c, full, x, y, z, lanes);
-                    if (f[0] < 0 || f[1] < 0 || f[2] < 0 || f[0] >= full.dims.s[0] || f[1] >= full.dims.s[1] || f[2] >= full.dims.s[2]) continue;
-                    const std::size_t full_row = std::size_t(f[1]) + std::size_t(full.dims.s[1]) * std::size_t(f[2]);
-                    if (!(need[full.mark_offset + full_row * full.mark_row_words + std::size_t(f[0]) / 32] >> (f[0] % 32) & 1u)) continue;
-                    const std::size_t row = std::size_t(y) + std::size_t(c.dims.s[1]) * std::size_t(z);
-                    marks[c.mark_offset + row * c.mark_row_words + std::size_t(x) / 32] |= 1u << (x % 32);
+                    const int fx = to_full[0][std::size_t(x)];
+                    if (fx >= 0 && (full_row[fx / 32] >> (fx % 32) & 1u)) row[x / 32] |= 1u << (x % 32);
                 }
+            }
     }
     return marks;
 }
