@@ -288,12 +288,13 @@ std::vector<ShadowCacheGpu> probe_lattices(const std::vector<ShadowCacheGpu>& la
 // (lattice_voxel, ShadowCacheGpu.block_origin).
 std::array<int, 3> probe_point_in_lattice(const ShadowCacheGpu& small, const ShadowCacheGpu& full, int x, int y, int z, int lanes);
 
-// The probe lattices' masks for a fill of the points a frame needs (shadow_cache.cpp
-// probe_volume_costs, after a marking pass): a point of small lattice e is set where its point in
-// layout[e] (probe_point_in_lattice) is set in `need` (a whole need buffer, ShadowCacheGpu.mark_offset);
-// entries not in `entries` are left empty. Sets the small lattices' mark_offset and mark_row_words.
+// The probe lattices' masks for a marked fill of the points `frame_marks` sets (a whole mask buffer of
+// the frame's lattices, ShadowCacheGpu.mark_offset; shadow_cache.cpp probe_volume_costs: the points
+// the share estimate's sampled rows need): a point of small lattice e is set where its point in
+// layout[e] (probe_point_in_lattice) is set; entries not in `entries` are left empty. Sets the
+// small lattices' mark_offset and mark_row_words.
 std::vector<cl_uint> probe_block_marks(std::vector<ShadowCacheGpu>& small, const std::vector<ShadowCacheGpu>& layout,
-                                       const std::vector<cl_uint>& need, const std::vector<bool>& entries, int lanes);
+                                       const std::vector<cl_uint>& frame_marks, const std::vector<bool>& entries, int lanes);
 
 // Auto's probe camera launches (shadow_cache.cpp probe_volume_costs) over `frame`'s image of
 // `lanes`-pixel packets: kProbeRowsPerLaunch rows spread over the image, row_stride apart, every

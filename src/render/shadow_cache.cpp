@@ -895,7 +895,7 @@ std::array<int, 3> probe_point_in_lattice(const ShadowCacheGpu& small, const Sha
 }
 
 std::vector<cl_uint> probe_block_marks(std::vector<ShadowCacheGpu>& small, const std::vector<ShadowCacheGpu>& layout,
-                                       const std::vector<cl_uint>& need, const std::vector<bool>& entries, int lanes) {
+                                       const std::vector<cl_uint>& frame_marks, const std::vector<bool>& entries, int lanes) {
     std::size_t words = 0;
     for (ShadowCacheGpu& c : small) {
         c.mark_row_words = cl_uint((c.dims.s[0] + 31) / 32);
@@ -917,7 +917,7 @@ std::vector<cl_uint> probe_block_marks(std::vector<ShadowCacheGpu>& small, const
             for (int y = 0; y < c.dims.s[1]; ++y) {
                 const int fy = to_full[1][std::size_t(y)], fz = to_full[2][std::size_t(z)];
                 if (fy < 0 || fz < 0) continue;
-                const cl_uint* full_row = &need[full.mark_offset + (std::size_t(fy) + std::size_t(full.dims.s[1]) * std::size_t(fz)) * full.mark_row_words];
+                const cl_uint* full_row = &frame_marks[full.mark_offset + (std::size_t(fy) + std::size_t(full.dims.s[1]) * std::size_t(fz)) * full.mark_row_words];
                 cl_uint* row = &marks[c.mark_offset + (std::size_t(y) + std::size_t(c.dims.s[1]) * std::size_t(z)) * c.mark_row_words];
                 for (int x = 0; x < c.dims.s[0]; ++x) {
                     const int fx = to_full[0][std::size_t(x)];
@@ -1335,11 +1335,10 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
         if (launches_run >= kProbeLaunches) break;
     }
     // a close call: the fill again on 1/64 of the rows (4 × 4 blocks: single estimates from the
-    // 1/256's few blocks spread by ± 40 %), when it fits the budget (once marked, the marked
-    // points' fill was measured on those blocks)
-    if (all_stages || (!decided(kProbeClear) && within_budget(fill_probe_ms(kProbeCloseCallBlock, kProbeBlockStride)))) {
+    // 1/256's few blocks spread by ± 40 %), when it fits the budget (once marked, at the marked
+    // fill's share of every point's that the marking found)
+    if (all_stages || (!decided(kProbeClear) && within_budget(fill_probe_ms(kProbeCloseCallBlock, kProbeBlockStride))))
         costs.fill_ms = marked_ratio * fill_blocks(kProbeCloseCallBlock, kProbeBlockStride, false);
-    }
     if (all_stages) fill_blocks(4, 64, false), fill_blocks(8, 64, false);
     // marking after the probe, where its estimates (and the share estimated before it) say it pays
     if (mark_points && !marked && visible_fill_worth_marking(costs.fill_ms, costs.cached_ms, costs.per_sample_ms) &&
