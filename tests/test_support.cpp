@@ -6,6 +6,8 @@
 #include <filesystem>
 #include <sys/wait.h>
 #include <sstream>
+#include <stdexcept>
+#include <system_error>
 #include <fstream>
 #include <unistd.h>
 
@@ -150,13 +152,24 @@ Scene overlapping_scene() {
     return s;
 }
 
+// A folder named by mkdtemp, not by the process id: a folder left behind by an earlier process
+// with the same id (ids are reused, across CI's test runs too) once handed a program-cache test
+// that earlier process's cache. Removed with its contents when the process exits.
 std::string temp_dir() {
-    static std::string dir = [] {
-        auto p = std::filesystem::temp_directory_path() / ("sombra-test-" + std::to_string(getpid()));
-        std::filesystem::create_directories(p);
-        return p.string();
-    }();
-    return dir;
+    struct OwnedFolder {
+        std::string path;
+        OwnedFolder() {
+            std::string pattern = (std::filesystem::temp_directory_path() / "sombra-test-XXXXXX").string();
+            if (!mkdtemp(pattern.data())) throw std::runtime_error("test: cannot create a folder from " + pattern);
+            path = pattern;
+        }
+        ~OwnedFolder() {
+            std::error_code ignored;
+            std::filesystem::remove_all(path, ignored);
+        }
+    };
+    static OwnedFolder folder;
+    return folder.path;
 }
 
 std::string data_path(const std::string& relative) { return std::string(SOMBRA_DATA_DIR) + "/" + relative; }

@@ -33,7 +33,7 @@ Camera mesh_camera();  // looks at the origin from about 1.9 away; a unit-size m
 std::shared_ptr<const Volume> constant_volume(std::array<int, 3> dims, float value);  // every voxel `value`
 TransferFunction constant_tf(float alpha);  // the same opacity α for every value
 
-std::string temp_dir();  // fresh folder under /tmp for this process
+std::string temp_dir();  // a fresh folder under /tmp of this process alone, removed when it exits
 
 // The message of the sombra::Error `f` throws; a Catch2 failure when it throws nothing or
 // anything else.
