@@ -59,6 +59,7 @@ constexpr int kProbeRowsPerLaunch = 16, kProbePacketStride = 4, kProbeLaunches =
 // where marking is a close call on the marked share (marked_share_pays), the per-sample pass again
 // on a band of whole rows in the image's middle, one in 64 of its rows
 constexpr int kWholeRowBand = 64;
+constexpr double kProbeBandClear = 1.25;  // a close call closer than this measures the per-sample pass on the band
 constexpr double kProbeWarmupMs = 10;                        // before its first fill, ≥ 10 ms of untimed fills
 constexpr int kProbeWarmupLaunches = 8;                      // (or 8 launches)
 constexpr double kProbeBudget = 0.05;                        // beyond its first launch, at most 5 % of the cheaper frame
@@ -1340,6 +1341,14 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
     if (all_stages || (!decided(kProbeClear) && within_budget(fill_probe_ms(kProbeCloseCallBlock, kProbeBlockStride))))
         costs.fill_ms = marked_ratio * fill_blocks(kProbeCloseCallBlock, kProbeBlockStride, false);
     if (all_stages) fill_blocks(4, 64, false), fill_blocks(8, 64, false);
+    // a close call within kProbeBandClear: the per-sample pass again on the band of whole rows
+    // (its pixels kept when the frame evaluates per sample), unless a close call on the marked
+    // share measured it. The launches' per-sample estimate runs 1.1–1.5× high at 128², the band's
+    // 0.9–1.3×: teapot_fog's low-pass at 128², per sample estimated at 45–48 ms against a 33 ms
+    // pass, chose the cache's 36–40 ms (bench/README.md "The per-sample band on every close call").
+    // Not held to the probe's budget: the band is 1/64 of the per-sample pass, under 2 % of either
+    // frame so close, and kept where the frame evaluates per sample
+    if (!all_stages && !per_sample_on_rows && !decided(kProbeBandClear)) per_sample_on_whole_rows();
     // marking after the probe, where its estimates (and the share estimated before it) say it pays
     if (mark_points && !marked && visible_fill_worth_marking(costs.fill_ms, costs.cached_ms, costs.per_sample_ms) &&
         marked_share_pays(marking_share(), costs.fill_ms, costs.cached_ms, costs.per_sample_ms)) {
