@@ -839,6 +839,27 @@ TEST_CASE("shadow cache auto: a marked share estimated from sampled rows leaves 
     }
 }
 
+TEST_CASE("shadow cache auto: a close call's band of whole rows at the probe's end keeps the frame's pixels", "[shadow_cache]") {
+    // SOMBRA_TEST_CLOSE_CALL_BAND: the probe measures the per-sample pass again on the band of
+    // whole rows (1/64 of the rows, at least one) after its launches, as on a close call within
+    // kProbeBandClear; a frame then evaluated per sample keeps those pixels
+    const Scene scene = test::overlapping_scene();
+    for (ShadowTechnique technique : shadowing_techniques()) {
+        INFO(shadow_technique_name(technique));
+        for (int size : {40, 160}) {
+            INFO("size " << size);
+            forget_shadow_cache_choices();
+            Context probed(test::device_selector());
+            RenderOptions o = cache_options(technique, ShadowCacheMode::Auto);
+            o.width = o.height = size;
+            const RenderResult r = render_switched(probed, scene, o, {"SOMBRA_TEST_CLOSE_CALL_BAND"});
+            CHECK(r.stats.shadow_cache_estimated_per_sample_ms > 0);
+            if (!r.stats.shadow_cache_used) CHECK(r.stats.shadow_cache_probe_pixels_kept >= std::size_t(size) * std::size_t(std::max(1, size / 64)));
+            check_as_chosen_mode(r, probed, scene, o, false);
+        }
+    }
+}
+
 TEST_CASE("shadow cache auto: marking runs where the estimated marked share's fill, the marking and the cached pass pay", "[shadow_cache]") {
     using pipeline::marked_share_pays;
     // (share, fill of every point, cached pass, per-sample pass; ms): the 128² cells whose marking
