@@ -1348,10 +1348,11 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
     // 0.9–1.3×: teapot_fog's low-pass at 128², per sample estimated at 45–48 ms against a 33 ms
     // pass, chose the cache's 36–40 ms (bench/README.md "The per-sample band on every close call").
     // Not held to the probe's budget: the band is 1/64 of the per-sample pass, under 2 % of either
-    // frame so close, and kept where the frame evaluates per sample
+    // frame so close, and kept where the frame evaluates per sample.
+    //
     // The band's rows can miss what the launches' rows found (the steaming cups' shadow rays at
     // 256²: 11–14 ms per sample on the band against a 93–99 ms pass, which the launches read at
-    // about 95 ms): its estimate is taken only within kProbeBandAgrees of theirs.
+    // about 95 ms), so its estimate is taken only within kProbeBandAgrees of theirs.
     // (tests/test_shadow_cache.cpp: SOMBRA_TEST_CLOSE_CALL_BAND takes every frame for a close call)
     const bool close_call = !decided(kProbeBandClear) || std::getenv("SOMBRA_TEST_CLOSE_CALL_BAND");
     if (!all_stages && !per_sample_on_rows && close_call) {
