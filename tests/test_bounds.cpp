@@ -250,3 +250,42 @@ TEST_CASE("bounds: scene JSON reads a bound mesh, and missing, malformed or open
                           Catch::Contains("ok.json: volumes[0].bounds: polyhedral bounds are not supported by --shadows"));
     }
 }
+
+TEST_CASE("bounds: auto estimates the marked fill of shadow rays on volume lattices from the per-sample pass, per camera sample",
+          "[bounds][shadow_cache]") {
+    // shadow rays across a polyhedral bound fill volume lattices, each point's ray marched whole:
+    // the probe that marked takes the marked points ÷ the frame's camera samples (as the marking
+    // pass counted them) times the per-sample pass's shadow time (shadow_cache.cpp)
+    auto frame = [](const Scene& s, ShadowTechnique technique) {
+        forget_shadow_cache_choices();
+        Context context(test::device_selector());
+        RenderOptions o;
+        o.shadows = technique;
+        o.shadow_cache = ShadowCacheMode::Auto;
+        o.width = o.height = 64;
+        ::setenv("SOMBRA_TEST_MARK_IN_PROBE", "1", 1);  // (the tests run without auto's history: tests/main.cpp)
+        RenderResult r = render(context, s, o);
+        ::unsetenv("SOMBRA_TEST_MARK_IN_PROBE");
+        return r;
+    };
+    const RenderResult rays = frame(bounded_scene(true), ShadowTechnique::Rays);
+    const RenderStats& s = rays.stats;
+    REQUIRE(s.shadow_cache_auto_marked == "in probe");
+    REQUIRE(s.shadow_cache_light_lattices == 0);
+    REQUIRE(s.samples > 0);
+    REQUIRE(s.shadow_cache_points_marked > 0);
+    CHECK(s.shadow_cache_estimated_marked_points_per_sample ==
+          Approx(double(s.shadow_cache_points_marked) / double(s.samples)).epsilon(1e-6));
+    if (!s.stage_ms.count("shadow_cache_measure"))  // (a measured fill replaces the estimate)
+        CHECK(s.shadow_cache_estimated_fill_ms ==
+              Approx(std::max(0.0, s.shadow_cache_estimated_per_sample_ms - s.shadow_cache_estimated_cached_ms) *
+                     s.shadow_cache_estimated_marked_points_per_sample).epsilon(1e-9));
+    // not where the rays fill light lattices (no bound), nor for a technique that does not march
+    // each point's path
+    const RenderResult unbounded = frame(bounded_scene(false), ShadowTechnique::Rays);
+    CHECK(unbounded.stats.shadow_cache_light_lattices > 0);
+    CHECK(unbounded.stats.shadow_cache_estimated_marked_points_per_sample == -1);
+    const RenderResult dsm = frame(bounded_scene(true), ShadowTechnique::Dsm);
+    CHECK(dsm.stats.shadow_cache_auto_marked == "in probe");
+    CHECK(dsm.stats.shadow_cache_estimated_marked_points_per_sample == -1);
+}

@@ -272,8 +272,13 @@ struct RenderStats {
     // passes over sampled rows, before it decided whether to run that pass (−1: not estimated)
     double shadow_cache_estimated_marked_share = -1;
     // and the fill of those points, from the sampled rows' points filled on the probe's blocks
-    // (−1: not estimated)
+    // (light lattices) or from the per-sample pass (a technique that marches each point's path to
+    // the light, on volume lattices) (−1: not estimated)
     double shadow_cache_estimated_marked_fill_ms = -1;
+    // on such volume lattices, the marked points ÷ the frame's camera samples by which auto
+    // estimated their fill: of the marking pass, else estimated from the sampled rows (−1: not
+    // estimated)
+    double shadow_cache_estimated_marked_points_per_sample = -1;
     // the pixels auto's probe rendered per sample that a frame then evaluating per sample kept
     // (the camera pass rendered the others)
     unsigned long long shadow_cache_probe_pixels_kept = 0;

@@ -294,7 +294,8 @@ std::string RenderStats::to_json() const {
                                          {"estimated_cached_camera_pass_ms", shadow_cache_estimated_cached_ms},
                                          {"estimated_per_sample_camera_pass_ms", shadow_cache_estimated_per_sample_ms},
                                          {"estimated_marked_share", shadow_cache_estimated_marked_share},
-                                         {"estimated_marked_fill_ms", shadow_cache_estimated_marked_fill_ms}};
+                                         {"estimated_marked_fill_ms", shadow_cache_estimated_marked_fill_ms},
+                                         {"estimated_marked_points_per_sample", shadow_cache_estimated_marked_points_per_sample}};
         for (const ProbeStage& stage : shadow_cache_probe_stages)
             j["shadow_cache"]["auto"]["stages"].push_back(
                 {{"quantity", stage.quantity}, {"stage", stage.stage}, {"ms", stage.ms}, {"estimate_ms", stage.estimate_ms}});

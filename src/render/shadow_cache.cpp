@@ -279,6 +279,7 @@ struct VolumePlan {
     std::vector<std::string> keys;
     std::vector<bool> stale;
     bool same_layout = false, use = false;
+    double points_to_fill = 0;  // the stale entries' points near possibly visible bricks (the marked share's whole)
 };
 
 // The lattice points to fill (near possibly visible bricks: the fill skips the others; stats);
@@ -311,6 +312,7 @@ VolumePlan plan_volume_entries(host::Runtime& runtime, const Scene& scene, const
         for (std::size_t m = 0; m < lights; ++m)
             if (plan.stale[i * lights + m]) to_fill += visible * double(lattice_points(plan.layout[i * lights + m]));
     }
+    plan.points_to_fill = to_fill;
     stats.shadow_cache_points_to_fill = static_cast<unsigned long long>(to_fill);
     stats.shadow_cache_light_lattices = int(std::count_if(plan.layout.begin(), plan.layout.end(), [](const ShadowCacheGpu& c) { return c.column_axes.s[3] != 0; }));
     plan.use = options.shadow_cache == ShadowCacheMode::On || to_fill == 0;
@@ -468,8 +470,9 @@ double fill_lattice(const FillLaunch& launch, FillKernels& kernels, std::size_t 
 // The marking pass over the rows of `camera` (the frame's CameraGpu, or one of its rows' launches:
 // first_row, row_stride): the camera pass, marking the lattice cells its samples read in
 // cache.marks (added to the marks there) instead of reading them; the surfaces read what the
-// frame's read. Returns its kernel time.
-double run_marking_pass(const FillLaunch& launch, ShadowCache& cache, const SurfaceShadowCache* surface_cache, const CameraGpu& camera) {
+// frame's read. Returns its kernel time; *samples (if given): the camera samples of its rows.
+double run_marking_pass(const FillLaunch& launch, ShadowCache& cache, const SurfaceShadowCache* surface_cache, const CameraGpu& camera,
+                        double* samples = nullptr) {
     host::Runtime& runtime = launch.runtime;
     CameraPassReads marking;
     marking.fragments = launch.fragments;
@@ -478,18 +481,29 @@ double run_marking_pass(const FillLaunch& launch, ShadowCache& cache, const Surf
     const std::size_t pixels = std::size_t(launch.width) * std::size_t(launch.height);
     cl::Buffer image = host::make_buffer(runtime, CL_MEM_WRITE_ONLY, pixels * sizeof(cl_float4), nullptr, "marking pass image");
     cl::Buffer counts = host::make_buffer(runtime, CL_MEM_WRITE_ONLY, pixels * sizeof(cl_uint), nullptr, "marking pass samples");
-    return host::in_stage(runtime.progress(), "shadow cache marking", 1, [&] {
+    const double ms = host::in_stage(runtime.progress(), "shadow cache marking", 1, [&] {
         return run_camera_pass(runtime, launch.scene, launch.prepared, launch.options, launch.lanes, camera, marking, image, counts);
     });
+    if (samples) {  // its rows, one after another (render.cl render_camera)
+        const cl_uint stride = std::max(camera.row_stride, cl_uint(1));
+        const std::size_t rows = camera.first_row < camera.height ? (camera.height - camera.first_row + stride - 1) / stride : 0;
+        std::vector<cl_uint> counts_read(rows * std::size_t(launch.width));
+        if (!counts_read.empty())
+            runtime.queue().enqueueReadBuffer(counts, CL_TRUE, 0, counts_read.size() * sizeof(cl_uint), counts_read.data());
+        *samples = std::accumulate(counts_read.begin(), counts_read.end(), 0.0);
+    }
+    return ms;
 }
 
 // The visible fill's first steps: the marking pass over the frame, then per entry in `entries`
-// the points needed (shadow_cache_need). Returns the points per entry.
+// the points needed (shadow_cache_need). Returns the points per entry; *image_samples: the frame's
+// camera samples.
 std::vector<cl_uint> mark_needed_points(const FillLaunch& launch, ShadowCache& cache, const std::vector<bool>& entries,
-                                        const SurfaceShadowCache* surface_cache, RenderStats& stats) {
+                                        const SurfaceShadowCache* surface_cache, RenderStats& stats, double* image_samples) {
     host::Runtime& runtime = launch.runtime;
     runtime.queue().enqueueFillBuffer(cache.marks, cl_uint(0), 0, cache.mark_words * sizeof(cl_uint));
-    double ms = run_marking_pass(launch, cache, surface_cache, frame_camera(launch.scene, launch.options, launch.width, launch.height));
+    double ms = run_marking_pass(launch, cache, surface_cache, frame_camera(launch.scene, launch.options, launch.width, launch.height),
+                                 image_samples);
     std::vector<cl_uint> needed(cache.layout.size(), 0);
     cl::Kernel kernel(launch.program, "shadow_cache_need");
     for (std::size_t e = 0; e < cache.layout.size(); ++e) {
@@ -517,6 +531,7 @@ struct VolumeFill {
     std::vector<std::optional<FillMode>> mode;
     std::vector<cl_uint> needed;
     std::vector<std::vector<RowRange>> done;  // per entry, in order: rows auto's measurement filled (measure_marked_fill)
+    double image_samples = 0;  // the frame's camera samples, as the marking pass counted them
     unsigned long long needed_points() const { return std::accumulate(needed.begin(), needed.end(), 0ull); }
 };
 
@@ -592,7 +607,7 @@ VolumeFill prepare_volume_fill(const FillLaunch& launch, ShadowCache& cache, con
         if (marked[e]) cache.filled_view[e] = view;
     }
     if (std::count(marked.begin(), marked.end(), true) > 0) {
-        fill.needed = mark_needed_points(launch, cache, marked, surface_cache, stats);
+        fill.needed = mark_needed_points(launch, cache, marked, surface_cache, stats, &fill.image_samples);
         stats.shadow_cache_visible_fill = true;
         stats.shadow_cache_points_marked = fill.needed_points();
     }
@@ -613,13 +628,14 @@ VolumeFill prepare_volume_fill(const FillLaunch& launch, ShadowCache& cache, con
 // Makes the lattices (prepare_volume_fill, unmarked); leaves its marks, which the frame's marking
 // pass clears. Returns the share (−1 where it makes nothing: images under 4 strides of rows, no
 // stale entry), and the points the sampled rows need (the need step's cover of their marks, a
-// whole need buffer: auto's probe fills them on its blocks) with their count; *ms: the passes'
-// kernel time.
+// whole need buffer: auto's probe fills them on its blocks) with their count, and the image's
+// camera samples (its rows' count, scaled to the image's rows); *ms: the passes' kernel time.
 constexpr int kShareRowStride = 32;
 struct SampledMarks {
     double share = -1;
     double sampled_points = 0;  // the points the sampled rows need, set in `cover`
     std::vector<cl_uint> cover;
+    double image_samples = 0;  // the frame's camera samples, estimated from the sampled rows'
 };
 
 SampledMarks estimate_marked_share(const FillLaunch& launch, ShadowCache& cache, const VolumePlan& plan,
@@ -644,12 +660,14 @@ SampledMarks estimate_marked_share(const FillLaunch& launch, ShadowCache& cache,
     CameraGpu rows = frame_camera(launch.scene, launch.options, launch.width, height);
     rows.row_stride = cl_uint(stride), rows.first_row = cl_uint(stride / 2 - 1);
     const int first_rows = (height - int(rows.first_row) + stride - 1) / stride;
-    *ms += run_marking_pass(launch, cache, surface_cache, rows);
+    double first_samples = 0, next_samples = 0;
+    *ms += run_marking_pass(launch, cache, surface_cache, rows, &first_samples);
     const double first = points_marked();
     rows.first_row += 1;
     const int next_rows = (height - int(rows.first_row) + stride - 1) / stride;
-    *ms += run_marking_pass(launch, cache, surface_cache, rows);
+    *ms += run_marking_pass(launch, cache, surface_cache, rows, &next_samples);
     const double both = points_marked();
+    sampled.image_samples = (first_samples + next_samples) / double(std::max(first_rows + next_rows, 1)) * double(height);
     const double per_first_row = first / std::max(first_rows, 1), per_next_row = (both - first) / std::max(next_rows, 1);
     const double points = double(height) / stride * (per_first_row + (stride - 1) * per_next_row);
     sampled.sampled_points = both;
@@ -987,6 +1005,7 @@ struct VolumeCosts {
     double fill_ms = 0, per_sample_ms = 0, cached_ms = 0, probe_ms = 0;
     double marked_share = -1;  // estimate_marked_share's, where the probe ran it (−1: not estimated)
     double marked_fill_ms = -1;  // the estimated share's fill, on the probe's blocks (−1: not estimated)
+    double marked_points_per_sample = -1;  // where each point's path is marched: the marked points ÷ the image's samples
     bool marked_after_probe = false;  // its marking pass ran after its camera launches (else in them, if at all)
 };
 
@@ -1001,7 +1020,7 @@ struct VolumeCosts {
 // between the per-sample pass and the fill of every point, which the frame never runs).
 VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan, int width, int height,
                                const surfaces::ViewFragments* fragments, const SurfaceShadowCache* surface_cache,
-                               const std::function<double()>* mark_points,
+                               const std::function<double(double*)>* mark_points,
                                const std::function<SampledMarks(double*)>* estimate_share,
                                std::vector<RenderStats::ProbeStage>* all_stages, const FrameImage& frame, RenderedPackets& rendered_packets) {
     host::Runtime& runtime = launch.runtime;
@@ -1102,18 +1121,38 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
         if (all_stages) all_stages->push_back({"fill", "sampled rows' marked points", probe_ms, fill_ms});
         return fill_ms;
     };
+    const int lanes = launch.lanes, row_packets = (width + lanes - 1) / lanes;
+    CameraGpu camera = probe_launch_camera(frame_camera(launch.scene, launch.options, width, height), lanes);
+    const double image_packets = double(row_packets) * height;
+    // A technique that marches each point's own path to the light, on volume lattices (one that
+    // fills light columns, on volumes with polyhedral bounds: cache_layout): a marked point lies
+    // where the camera's samples do, in the medium, and its path costs what theirs do, while the
+    // lattice's average point, mostly in empty space, costs far less. bounded_smoke's shadow rays:
+    // marked points cost 1.8–2.0× the average point (128², 256²), 0.9–1.1× a camera sample's
+    // shadow ray (the per-sample pass less the cached one, per sample). So their fill is the
+    // per-sample pass's shadow time times the marked points ÷ the image's samples (these counted
+    // on the packets the probe rendered per sample), from its latest estimate. Elsewhere a point's
+    // fill costs 0.6–1.0× the average point (cone, low-pass, AO, shadow maps; bench/README.md
+    // "Marked points on marched paths").
+    bool path_marched = launch.prepared.technique.fills_light_columns(launch.options);
+    for (std::size_t e = 0; e < plan.layout.size(); ++e)
+        if (plan.stale[e] && plan.layout[e].column_axes.s[3]) path_marched = false;
+    // the marked points' fill where paths are marched, from the marked points ÷ the image's samples
+    // (once set) and the per-sample pass's latest estimate
+    auto path_fill_ms = [&] { return std::max(0.0, costs.per_sample_ms - costs.cached_ms) * costs.marked_points_per_sample; };
     bool marked = false;
     double marked_ratio = 1;  // once marked, the fill estimate's share of every point's
     auto mark = [&] {
         marked = true;
-        const double share = (*mark_points)(), every_point_ms = costs.fill_ms;
-        // the sampled rows' marked fill, else the share of every point's
-        costs.fill_ms = costs.marked_fill_ms >= 0 ? costs.marked_fill_ms : costs.fill_ms * share;
+        double image_samples = 0;
+        const double share = (*mark_points)(&image_samples), every_point_ms = costs.fill_ms;
+        if (path_marched && image_samples > 0) costs.marked_points_per_sample = share * plan.points_to_fill / image_samples;
+        const double path_ms = path_marched && image_samples > 0 ? path_fill_ms() : -1;
+        // where paths are marched, at the per-sample pass's time; else the sampled rows' marked
+        // fill, else the share of every point's
+        costs.fill_ms = path_ms >= 0 ? path_ms : costs.marked_fill_ms >= 0 ? costs.marked_fill_ms : costs.fill_ms * share;
         marked_ratio = costs.fill_ms / std::max(every_point_ms, 1e-9);
     };
-    const int lanes = launch.lanes, row_packets = (width + lanes - 1) / lanes;
-    CameraGpu camera = probe_launch_camera(frame_camera(launch.scene, launch.options, width, height), lanes);
-    const double image_packets = double(row_packets) * height;
     CameraPassReads per_sample, cached;
     per_sample.image_rows = true;  // the frame's pixels, kept when it then evaluates per sample (FrameImage)
     per_sample.fragments = cached.fragments = fragments;
@@ -1197,7 +1236,14 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
             costs.marked_share = sampled.share;
             costs.probe_ms += ms;
             share_asked = true;
-            if (sampled.share >= 0 && sampled.sampled_points > 0) costs.marked_fill_ms = fill_marked_blocks(sampled.cover).value_or(-1);
+            if (sampled.share >= 0 && sampled.sampled_points > 0)
+            {
+                if (!path_marched) costs.marked_fill_ms = fill_marked_blocks(sampled.cover).value_or(-1);
+                else if (sampled.image_samples > 0) {
+                    costs.marked_points_per_sample = sampled.share * plan.points_to_fill / sampled.image_samples;
+                    costs.marked_fill_ms = path_fill_ms();
+                }
+            }
         }
         const double share = marking_share();
         if (!marked_share_pays(share, costs.fill_ms, costs.cached_ms, costs.per_sample_ms)) return false;
@@ -1361,6 +1407,8 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
         if (costs.per_sample_ms < launches_ms / kProbeBandAgrees || costs.per_sample_ms > launches_ms * kProbeBandAgrees)
             costs.per_sample_ms = launches_ms;
     }
+    // (marked where paths are marched: the fill at the per-sample pass's latest estimate)
+    if (marked && path_marched && costs.marked_points_per_sample >= 0) costs.fill_ms = path_fill_ms();
     // marking after the probe, where its estimates (and the share estimated before it) say it pays
     if (mark_points && !marked && visible_fill_worth_marking(costs.fill_ms, costs.cached_ms, costs.per_sample_ms) &&
         marked_share_pays(marking_share(), costs.fill_ms, costs.cached_ms, costs.per_sample_ms)) {
@@ -1379,6 +1427,7 @@ void report_auto_costs(const VolumeCosts& costs, RenderStats& stats) {
     stats.shadow_cache_estimated_per_sample_ms = costs.per_sample_ms;
     stats.shadow_cache_estimated_marked_share = costs.marked_share;
     stats.shadow_cache_estimated_marked_fill_ms = costs.marked_fill_ms;
+    stats.shadow_cache_estimated_marked_points_per_sample = costs.marked_points_per_sample;
 }
 
 // Auto's choices, by everything the frame's image depends on (the_choice_key): the same frame
@@ -1508,11 +1557,12 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
             if (sampled.share >= 0) layout_made = true;  // (not estimated: nothing made)
             return sampled;
         };
-        const std::function<double()> mark_points = [&] {
+        const std::function<double(double*)> mark_points = [&](double* image_samples) {
             const auto start = std::chrono::steady_clock::now();
             marked = true;
             fill = prepare_volume_fill(launch, *cache, plan_now(), true, surface_reads, stats);
             marking_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+            *image_samples = fill.image_samples;
             return std::min(1.0, double(fill.needed_points()) / std::max(1.0, double(stats.shadow_cache_points_to_fill)));
         };
         RenderedPackets rendered_packets(width, height, lanes);  // those the probe rendered per sample into the frame's image
@@ -1525,7 +1575,8 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
         const bool test_measure = std::getenv("SOMBRA_TEST_MEASURE_FILL") != nullptr;
         if (marked) stats.shadow_cache_auto_marked = costs.marked_after_probe ? "after probe" : "in probe";
         if (may_mark && !marked && test_measure) {
-            costs.fill_ms *= mark_points();
+            double image_samples = 0;
+            costs.fill_ms *= mark_points(&image_samples);
             stats.shadow_cache_auto_marked = "after probe";
         }
         if (marked) {
