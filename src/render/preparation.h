@@ -81,6 +81,9 @@ struct ShadowCache {
     std::vector<ShadowCacheGpu> layout;
     std::vector<std::string> keys;  // per entry; empty: not filled
     cl::Buffer values, table;
+    // `values` made and not yet set: set to 1 before the first fill (shadow_cache.cpp define_values;
+    // a frame that then evaluates per sample never touches its pages)
+    bool values_undefined = false;
     // the visible fill (ShadowCacheFill::Visible): bit masks over the lattice points
     // (ShadowCacheGpu.mark_offset) — the cells the marking pass marked, the points filled so far
     // under the entry's key, the points this frame fills — and the count of the last; per entry,

@@ -535,6 +535,14 @@ struct VolumeFill {
     unsigned long long needed_points() const { return std::accumulate(needed.begin(), needed.end(), 0ull); }
 };
 
+// Sets a cache's values, made and not yet set (ShadowCache.values_undefined), to 1.
+void define_values(host::Runtime& runtime, ShadowCache& cache) {
+    if (!cache.values_undefined) return;
+    const ShadowCacheGpu& last = cache.layout.back();
+    runtime.queue().enqueueFillBuffer(cache.values, 1.0f, 0, (last.offset + lattice_points(last)) * sizeof(float));
+    cache.values_undefined = false;
+}
+
 // Makes the lattices (new ones when the layout changed), empties the stale entries and, with
 // `visible`, marks what the frame reads of them.
 VolumeFill prepare_volume_fill(const FillLaunch& launch, ShadowCache& cache, const VolumePlan& plan, bool visible,
@@ -564,7 +572,12 @@ VolumeFill prepare_volume_fill(const FillLaunch& launch, ShadowCache& cache, con
         cache.filled = host::make_buffer(runtime, CL_MEM_READ_WRITE, mask_bytes, nullptr, "shadow cache filled points");
         cache.need = host::make_buffer(runtime, CL_MEM_READ_WRITE, mask_bytes, nullptr, "shadow cache points to fill");
         cache.need_count = host::make_buffer(runtime, CL_MEM_READ_WRITE, sizeof(cl_uint), nullptr, "shadow cache points to fill count");
-        runtime.queue().enqueueFillBuffer(cache.values, 1.0f, 0, total * sizeof(float));  // never read unfilled; defined anyway
+        // never read unfilled; defined anyway, before the first fill (define_values): the 5 ms of
+        // setting bounded_smoke's 11 MB went to waste where auto's share estimate made the
+        // lattices and the frame then evaluated per sample (bench/README.md "Marked points on
+        // marched paths"); at once where kept entries are copied in
+        cache.values_undefined = true;
+        if (keeps) define_values(runtime, cache);
         cache.bytes = total * sizeof(float) + 3 * mask_bytes;
         // the kept entries' values and filled points, copied over
         for (std::size_t e = 0; e < plan.layout.size() && keeps; ++e) {
@@ -694,6 +707,7 @@ double measure_marked_fill(const FillLaunch& launch, ShadowCache& cache, const V
     // its short launches must not make the frame's fill run unbanded, as the probe's (tiled_launch.cpp)
     const double last_launch_ms = runtime.progress().last_launch_ms;
     FillKernels kernels{launch.program, {}, {}};
+    define_values(runtime, cache);
     fill.done.assign(plan.layout.size(), {});
     const std::size_t entries = std::size_t(std::count_if(fill.mode.begin(), fill.mode.end(), [](const auto& m) { return m == FillMode::Marked; }));
     const int bands_per_entry = std::clamp(kMeasuredMaxLaunches / int(std::max<std::size_t>(entries, 1)), 1, kMeasuredBands);
@@ -741,6 +755,7 @@ double fill_volume_entries(const FillLaunch& launch, ShadowCache& cache, const V
     stats.shadow_cache_entries_reused += int(plan.layout.size() - stale_entries);
     double ms = 0;
     FillKernels kernels{launch.program, {}, {}};
+    define_values(runtime, cache);
     const std::size_t entries = std::size_t(std::count_if(fill.mode.begin(), fill.mode.end(), [](const auto& m) { return m.has_value(); }));
     host::ProgressStage stage(runtime.progress(), "shadow cache", double(entries));
     for (std::size_t e = 0; e < plan.layout.size(); ++e) {
@@ -1335,7 +1350,12 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
             measure_fine_fill();
             if (visible_fill_worth_marking(costs.fill_ms, costs.cached_ms, costs.per_sample_ms) && marking_pays_on_share(true)) {
                 mark();
-                scouted = costs.per_sample_ms > kProbeScoutClear * (costs.fill_ms + costs.cached_ms);
+                // where paths are marched, the fill's estimate moves with the per-sample pass's
+                // (path_fill_ms), so that a scout reading that pass high reads both high: the
+                // launches' kProbeClear (bounded_smoke's shadow rays at 256², 2.7×: at 3× the
+                // launches ran, 18 ms more probe, 1.02 → 1.12×)
+                const double clear = path_marched && costs.marked_points_per_sample >= 0 ? kProbeClear : kProbeScoutClear;
+                scouted = costs.per_sample_ms > clear * (costs.fill_ms + costs.cached_ms);
             }
         }
         if (scouted) {
