@@ -1019,7 +1019,7 @@ namespace {
 struct VolumeCosts {
     double fill_ms = 0, per_sample_ms = 0, cached_ms = 0, probe_ms = 0;
     double marked_share = -1;  // estimate_marked_share's, where the probe ran it (−1: not estimated)
-    double marked_fill_ms = -1;  // the estimated share's fill, on the probe's blocks (−1: not estimated)
+    double marked_fill_ms = -1;  // the estimated share's fill: on the probe's blocks, or where paths are marched from the per-sample pass (−1: not estimated)
     double marked_points_per_sample = -1;  // where each point's path is marched: the marked points ÷ the image's samples
     bool marked_after_probe = false;  // its marking pass ran after its camera launches (else in them, if at all)
 };
@@ -1145,8 +1145,9 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
     // lattice's average point, mostly in empty space, costs far less. bounded_smoke's shadow rays:
     // marked points cost 1.8–2.0× the average point (128², 256²), 0.9–1.1× a camera sample's
     // shadow ray (the per-sample pass less the cached one, per sample). So their fill is the
-    // per-sample pass's shadow time times the marked points ÷ the image's samples (these counted
-    // on the packets the probe rendered per sample), from its latest estimate. Elsewhere a point's
+    // per-sample pass's shadow time times the marked points ÷ the image's samples (both counted by
+    // the marking passes: the share estimate's sampled rows, then the frame's), at the per-sample
+    // pass's latest estimate. Elsewhere a point's
     // fill costs 0.6–1.0× the average point (cone, low-pass, AO, shadow maps; bench/README.md
     // "Marked points on marched paths").
     bool path_marched = launch.prepared.technique.fills_light_columns(launch.options);
@@ -1251,13 +1252,11 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
             costs.marked_share = sampled.share;
             costs.probe_ms += ms;
             share_asked = true;
-            if (sampled.share >= 0 && sampled.sampled_points > 0)
-            {
-                if (!path_marched) costs.marked_fill_ms = fill_marked_blocks(sampled.cover).value_or(-1);
-                else if (sampled.image_samples > 0) {
-                    costs.marked_points_per_sample = sampled.share * plan.points_to_fill / sampled.image_samples;
-                    costs.marked_fill_ms = path_fill_ms();
-                }
+            if (sampled.share >= 0 && sampled.sampled_points > 0 && !path_marched)
+                costs.marked_fill_ms = fill_marked_blocks(sampled.cover).value_or(-1);
+            if (sampled.share >= 0 && sampled.sampled_points > 0 && path_marched && sampled.image_samples > 0) {
+                costs.marked_points_per_sample = sampled.share * plan.points_to_fill / sampled.image_samples;
+                costs.marked_fill_ms = path_fill_ms();
             }
         }
         const double share = marking_share();
