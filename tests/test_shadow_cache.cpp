@@ -251,6 +251,22 @@ std::size_t count_bits(const std::vector<cl_uint>& words) {
     return n;
 }
 
+// `check(o)` for every shadowing technique at each of `sizes`: o is cache_options(technique, Auto)
+// at size × size, auto's remembered choices forgotten before each
+template <typename Check>
+void for_each_auto_frame(std::initializer_list<int> sizes, Check check) {
+    for (ShadowTechnique technique : shadowing_techniques()) {
+        INFO(shadow_technique_name(technique));
+        for (int size : sizes) {
+            INFO("size " << size);
+            forget_shadow_cache_choices();
+            RenderOptions o = cache_options(technique, ShadowCacheMode::Auto);
+            o.width = o.height = size;
+            check(o);
+        }
+    }
+}
+
 // render() with auto's test switches (SOMBRA_TEST_…) set for that frame only
 RenderResult render_switched(Context& context, const Scene& scene, const RenderOptions& o, std::initializer_list<const char*> switches) {
     for (const char* name : switches) ::setenv(name, "1", 1);
@@ -726,33 +742,24 @@ TEST_CASE("shadow cache auto: a measured visible fill fills its bands of rows, t
     // SOMBRA_TEST_MEASURE_FILL: auto marks, measures bands of rows of the points needed
     // (measure_marked_fill) and reads the cache whatever its probe found
     const Scene scene = test::overlapping_scene();
-    for (ShadowTechnique technique : shadowing_techniques()) {
-        INFO(shadow_technique_name(technique));
-        for (int size : {40, 160}) {
-            INFO("size " << size);
-            forget_shadow_cache_choices();
-            Context measured(test::device_selector()), plain(test::device_selector());
-            RenderOptions o = cache_options(technique, ShadowCacheMode::Auto);
-            o.width = o.height = size;
-            ::setenv("SOMBRA_TEST_MEASURE_FILL", "1", 1);
-            const RenderResult r = render(measured, scene, o);
-            ::unsetenv("SOMBRA_TEST_MEASURE_FILL");
-            REQUIRE(r.stats.shadow_cache_used);
-            CHECK(r.stats.shadow_cache_visible_fill);
-            REQUIRE(r.stats.stage_ms.count("shadow_cache_measure") == 1);
-            CHECK(r.stats.stage_ms.at("shadow_cache_measure") > 0);
-            CHECK(r.stats.shadow_cache_estimated_fill_ms > 0);
-            o.shadow_cache = ShadowCacheMode::On;
-            const RenderResult on = render(plain, scene, o);
-            CHECK(on.stats.stage_ms.count("shadow_cache_measure") == 0);
-            CHECK(r.stats.shadow_cache_points_marked == on.stats.shadow_cache_points_marked);
-            CHECK(test::compare(r.image, on.image).max_abs == 0.0);
-            // the same points filled with the same values, none twice or left out
-            const std::vector<float> whole = volume_cache_values(plain);
-            CHECK(volume_cache_values(measured) == whole);
-            CHECK(std::count_if(whole.begin(), whole.end(), [](float v) { return v < 1.0f; }) > 0);  // something was shadowed
-        }
-    }
+    for_each_auto_frame({40, 160}, [&](RenderOptions o) {
+        Context measured(test::device_selector()), plain(test::device_selector());
+        const RenderResult r = render_switched(measured, scene, o, {"SOMBRA_TEST_MEASURE_FILL"});
+        REQUIRE(r.stats.shadow_cache_used);
+        CHECK(r.stats.shadow_cache_visible_fill);
+        REQUIRE(r.stats.stage_ms.count("shadow_cache_measure") == 1);
+        CHECK(r.stats.stage_ms.at("shadow_cache_measure") > 0);
+        CHECK(r.stats.shadow_cache_estimated_fill_ms > 0);
+        o.shadow_cache = ShadowCacheMode::On;
+        const RenderResult on = render(plain, scene, o);
+        CHECK(on.stats.stage_ms.count("shadow_cache_measure") == 0);
+        CHECK(r.stats.shadow_cache_points_marked == on.stats.shadow_cache_points_marked);
+        CHECK(test::compare(r.image, on.image).max_abs == 0.0);
+        // the same points filled with the same values, none twice or left out
+        const std::vector<float> whole = volume_cache_values(plain);
+        CHECK(volume_cache_values(measured) == whole);
+        CHECK(std::count_if(whole.begin(), whole.end(), [](float v) { return v < 1.0f; }) > 0);  // something was shadowed
+    });
 }
 
 TEST_CASE("shadow cache auto: a marking pass inside the probe leaves the frame the chosen mode's, and its fill the marked points", "[shadow_cache]") {
@@ -844,20 +851,14 @@ TEST_CASE("shadow cache auto: a close call's band of whole rows at the probe's e
     // whole rows (1/64 of the rows, at least one) after its launches, as on a close call within
     // kProbeBandClear; a frame then evaluated per sample keeps those pixels
     const Scene scene = test::overlapping_scene();
-    for (ShadowTechnique technique : shadowing_techniques()) {
-        INFO(shadow_technique_name(technique));
-        for (int size : {40, 160}) {
-            INFO("size " << size);
-            forget_shadow_cache_choices();
-            Context probed(test::device_selector());
-            RenderOptions o = cache_options(technique, ShadowCacheMode::Auto);
-            o.width = o.height = size;
-            const RenderResult r = render_switched(probed, scene, o, {"SOMBRA_TEST_CLOSE_CALL_BAND"});
-            CHECK(r.stats.shadow_cache_estimated_per_sample_ms > 0);
-            if (!r.stats.shadow_cache_used) CHECK(r.stats.shadow_cache_probe_pixels_kept >= std::size_t(size) * std::size_t(std::max(1, size / 64)));
-            check_as_chosen_mode(r, probed, scene, o, false);
-        }
-    }
+    for_each_auto_frame({40, 160}, [&](const RenderOptions& o) {
+        Context probed(test::device_selector());
+        const RenderResult r = render_switched(probed, scene, o, {"SOMBRA_TEST_CLOSE_CALL_BAND"});
+        CHECK(r.stats.shadow_cache_estimated_per_sample_ms > 0);
+        const std::size_t size = std::size_t(o.width);
+        if (!r.stats.shadow_cache_used) CHECK(r.stats.shadow_cache_probe_pixels_kept >= size * std::size_t(std::max<std::size_t>(1, size / 64)));
+        check_as_chosen_mode(r, probed, scene, o, false);
+    });
 }
 
 TEST_CASE("shadow cache auto: marking runs where the estimated marked share's fill, the marking and the cached pass pay", "[shadow_cache]") {

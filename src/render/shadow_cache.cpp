@@ -1027,12 +1027,13 @@ struct VolumeCosts {
 // `all_stages` (SOMBRA_AUTO_PROBE_ALL): every stage runs whatever the earlier ones found, each
 // reported there, and two more fills, in blocks of 4 and 8 rows every 64 (bench/probe_accuracy.py).
 // `mark_points` (where the frame may mark the points it reads, --shadow-cache-fill visible): the
-// marking pass, returning the share of the points it found. The probe runs it once, after its
-// first launch and fill every 32 rows, when visible_fill_worth_marking holds, and goes on with the
-// fill's estimates scaled by that share: its decision and budget then weigh the frame the cache
-// would take (the MRI's cone shadows at 512²: every point's fill estimated at 3 s, the marked
-// points' at 0.7 s; three more launches and a close call's fill, 160 ms of probe, had decided
-// between the per-sample pass and the fill of every point, which the frame never runs).
+// marking pass, returning the share of the points it found (and, given a pointer, the camera
+// samples it counted). The probe runs it once, after its first launch and fill every 32 rows,
+// when visible_fill_worth_marking holds, and goes on with the fill's estimates scaled by that
+// share: its decision and budget then weigh the frame the cache would take (the MRI's cone
+// shadows at 512²: every point's fill estimated at 3 s, the marked points' at 0.7 s; three more
+// launches and a close call's fill, 160 ms of probe, had decided between the per-sample pass and
+// the fill of every point, which the frame never runs).
 VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan, int width, int height,
                                const surfaces::ViewFragments* fragments, const SurfaceShadowCache* surface_cache,
                                const std::function<double(double*)>* mark_points,
@@ -1136,9 +1137,6 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
         if (all_stages) all_stages->push_back({"fill", "sampled rows' marked points", probe_ms, fill_ms});
         return fill_ms;
     };
-    const int lanes = launch.lanes, row_packets = (width + lanes - 1) / lanes;
-    CameraGpu camera = probe_launch_camera(frame_camera(launch.scene, launch.options, width, height), lanes);
-    const double image_packets = double(row_packets) * height;
     // A technique that marches each point's own path to the light, on volume lattices (one that
     // fills light columns, on volumes with polyhedral bounds: cache_layout): a marked point lies
     // where the camera's samples do, in the medium, and its path costs what theirs do, while the
@@ -1153,8 +1151,15 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
     bool path_marched = launch.prepared.technique.fills_light_columns(launch.options);
     for (std::size_t e = 0; e < plan.layout.size(); ++e)
         if (plan.stale[e] && plan.layout[e].column_axes.s[3]) path_marched = false;
-    // the marked points' fill where paths are marched, from the marked points ÷ the image's samples
-    // (once set) and the per-sample pass's latest estimate
+    // where paths are marched, the marked points ÷ the image's samples, from `share` of the points
+    // to fill and the `samples` a marking pass counted; whether it was set
+    auto count_path = [&](double share, double samples) {
+        if (!path_marched || samples <= 0) return false;
+        costs.marked_points_per_sample = share * plan.points_to_fill / samples;
+        return true;
+    };
+    // the marked points' fill where paths are marched (once counted), at the per-sample pass's
+    // latest estimate
     auto path_fill_ms = [&] { return std::max(0.0, costs.per_sample_ms - costs.cached_ms) * costs.marked_points_per_sample; };
     bool marked = false;
     double marked_ratio = 1;  // once marked, the fill estimate's share of every point's
@@ -1162,13 +1167,15 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
         marked = true;
         double image_samples = 0;
         const double share = (*mark_points)(&image_samples), every_point_ms = costs.fill_ms;
-        if (path_marched && image_samples > 0) costs.marked_points_per_sample = share * plan.points_to_fill / image_samples;
-        const double path_ms = path_marched && image_samples > 0 ? path_fill_ms() : -1;
+        const double path_ms = count_path(share, image_samples) ? path_fill_ms() : -1;
         // where paths are marched, at the per-sample pass's time; else the sampled rows' marked
         // fill, else the share of every point's
         costs.fill_ms = path_ms >= 0 ? path_ms : costs.marked_fill_ms >= 0 ? costs.marked_fill_ms : costs.fill_ms * share;
         marked_ratio = costs.fill_ms / std::max(every_point_ms, 1e-9);
     };
+    const int lanes = launch.lanes, row_packets = (width + lanes - 1) / lanes;
+    CameraGpu camera = probe_launch_camera(frame_camera(launch.scene, launch.options, width, height), lanes);
+    const double image_packets = double(row_packets) * height;
     CameraPassReads per_sample, cached;
     per_sample.image_rows = true;  // the frame's pixels, kept when it then evaluates per sample (FrameImage)
     per_sample.fragments = cached.fragments = fragments;
@@ -1254,10 +1261,8 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
             share_asked = true;
             if (sampled.share >= 0 && sampled.sampled_points > 0 && !path_marched)
                 costs.marked_fill_ms = fill_marked_blocks(sampled.cover).value_or(-1);
-            if (sampled.share >= 0 && sampled.sampled_points > 0 && path_marched && sampled.image_samples > 0) {
-                costs.marked_points_per_sample = sampled.share * plan.points_to_fill / sampled.image_samples;
+            if (sampled.share >= 0 && sampled.sampled_points > 0 && count_path(sampled.share, sampled.image_samples))
                 costs.marked_fill_ms = path_fill_ms();
-            }
         }
         const double share = marking_share();
         if (!marked_share_pays(share, costs.fill_ms, costs.cached_ms, costs.per_sample_ms)) return false;
@@ -1581,7 +1586,7 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
             marked = true;
             fill = prepare_volume_fill(launch, *cache, plan_now(), true, surface_reads, stats);
             marking_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-            *image_samples = fill.image_samples;
+            if (image_samples) *image_samples = fill.image_samples;
             return std::min(1.0, double(fill.needed_points()) / std::max(1.0, double(stats.shadow_cache_points_to_fill)));
         };
         RenderedPackets rendered_packets(width, height, lanes);  // those the probe rendered per sample into the frame's image
@@ -1594,8 +1599,7 @@ const ShadowCache* shadow_cache_for_frame(Context& context, const Scene& scene, 
         const bool test_measure = std::getenv("SOMBRA_TEST_MEASURE_FILL") != nullptr;
         if (marked) stats.shadow_cache_auto_marked = costs.marked_after_probe ? "after probe" : "in probe";
         if (may_mark && !marked && test_measure) {
-            double image_samples = 0;
-            costs.fill_ms *= mark_points(&image_samples);
+            costs.fill_ms *= mark_points(nullptr);
             stats.shadow_cache_auto_marked = "after probe";
         }
         if (marked) {
