@@ -61,6 +61,10 @@ constexpr int kProbeRowsPerLaunch = 16, kProbePacketStride = 4, kProbeLaunches =
 constexpr int kWholeRowBand = 64;
 constexpr double kProbeBandClear = 1.25;  // a close call closer than this measures the per-sample pass on the band
 constexpr double kProbeBandAgrees = 1.6;  // whose estimate replaces the launches' within this factor of theirs
+// its rows run while they fit the larger of the probe's budget and this many times the band's
+// share of the per-sample pass (two_smokes_wall's cone at 256²: the middle rows, in both smokes,
+// cost 6.5× the average row, 11 ms on a 101 ms frame; bench/README.md "The band's allowance")
+constexpr double kProbeBandOverrun = 2;
 constexpr double kProbeWarmupMs = 10;                        // before its first fill, ≥ 10 ms of untimed fills
 constexpr int kProbeWarmupLaunches = 8;                      // (or 8 launches)
 constexpr double kProbeBudget = 0.05;                        // beyond its first launch, at most 5 % of the cheaper frame
@@ -1220,8 +1224,17 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
             row.packet_stride = 1, row.first_packet = 0;
             launches.push_back(row);
         }
+        // a row at a time, while the next one, at their average so far, fits the band's allowance
+        const double cheaper = std::min(costs.per_sample_ms, costs.fill_ms + costs.cached_ms);
+        const double allowance = std::max(kProbeBudget * cheaper, kProbeBandOverrun * costs.per_sample_ms / kWholeRowBand);
         double rows_ms = 0;
-        for (const CameraGpu& c : launches) rows_ms += run_per_sample(c);
+        std::size_t rows_run = 0;
+        for (const CameraGpu& c : launches) {
+            if (rows_run > 0 && rows_ms * double(rows_run + 1) / double(rows_run) > allowance) break;
+            rows_ms += run_per_sample(c);
+            ++rows_run;
+        }
+        launches.resize(rows_run);
         costs.probe_ms += rows_ms;
         std::vector<cl_uint> counts_read(std::size_t(width) * std::size_t(height));
         runtime.queue().enqueueReadBuffer(frame.sample_counts, CL_TRUE, 0, counts_read.size() * sizeof(cl_uint), counts_read.data());
@@ -1417,8 +1430,10 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
     // share measured it. The launches' per-sample estimate runs 1.1–1.5× high at 128², the band's
     // 0.9–1.3×: teapot_fog's low-pass at 128², per sample estimated at 45–48 ms against a 33 ms
     // pass, chose the cache's 36–40 ms (bench/README.md "The per-sample band on every close call").
-    // Not held to the probe's budget: the band is 1/64 of the per-sample pass, under 2 % of either
-    // frame so close, and kept where the frame evaluates per sample.
+    // Not held to the probe's budget alone: the band is 1/64 of the per-sample pass, under 2 % of
+    // either frame so close, and kept where the frame evaluates per sample; but rows in the densest
+    // part of the image cost several times that, so it stops at twice its share
+    // (kProbeBandOverrun).
     //
     // The band's rows can miss what the launches' rows found (the steaming cups' shadow rays at
     // 256²: 11–14 ms per sample on the band against a 93–99 ms pass, which the launches read at
