@@ -1194,9 +1194,9 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
     // the probe's further steps must cost little against the frame either way would cost: a close
     // call is one where either choice costs about the same, so probing it long costs more than a
     // wrong choice (bench/README.md "sombra_bench_cache_auto")
+    auto cheaper_frame_ms = [&] { return std::min(costs.per_sample_ms, costs.fill_ms + costs.cached_ms); };
     auto within_budget = [&](double step_ms) {
-        const double cheaper = std::min(costs.per_sample_ms, costs.fill_ms + costs.cached_ms);
-        return costs.probe_ms + per_sample_sum + cached_sum + step_ms <= kProbeBudget * cheaper;
+        return costs.probe_ms + per_sample_sum + cached_sum + step_ms <= kProbeBudget * cheaper_frame_ms();
     };
     auto launch_packets = [&](const CameraGpu& c) { return double(camera_launch_packets(c, lanes).size()); };
     // a per-sample launch into the frame's image rows, its packets noted
@@ -1225,8 +1225,7 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
             launches.push_back(row);
         }
         // a row at a time, while the next one, at their average so far, fits the band's allowance
-        const double cheaper = std::min(costs.per_sample_ms, costs.fill_ms + costs.cached_ms);
-        const double allowance = std::max(kProbeBudget * cheaper, kProbeBandOverrun * costs.per_sample_ms / kWholeRowBand);
+        const double allowance = std::max(kProbeBudget * cheaper_frame_ms(), kProbeBandOverrun * costs.per_sample_ms / kWholeRowBand);
         double rows_ms = 0;
         std::size_t rows_run = 0;
         for (const CameraGpu& c : launches) {
@@ -1272,10 +1271,10 @@ VolumeCosts probe_volume_costs(const FillLaunch& launch, const VolumePlan& plan,
             costs.marked_share = sampled.share;
             costs.probe_ms += ms;
             share_asked = true;
-            if (sampled.share >= 0 && sampled.sampled_points > 0 && !path_marched)
-                costs.marked_fill_ms = fill_marked_blocks(sampled.cover).value_or(-1);
-            if (sampled.share >= 0 && sampled.sampled_points > 0 && count_path(sampled.share, sampled.image_samples))
-                costs.marked_fill_ms = path_fill_ms();
+            if (sampled.share >= 0 && sampled.sampled_points > 0) {
+                if (!path_marched) costs.marked_fill_ms = fill_marked_blocks(sampled.cover).value_or(-1);
+                else if (count_path(sampled.share, sampled.image_samples)) costs.marked_fill_ms = path_fill_ms();
+            }
         }
         const double share = marking_share();
         if (!marked_share_pays(share, costs.fill_ms, costs.cached_ms, costs.per_sample_ms)) return false;
